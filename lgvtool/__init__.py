@@ -1,0 +1,15 @@
+"""lgvtool: log, replay and evaluate the localization of laser-guided vehicles.
+
+The package is split along the data flow:
+
+- :mod:`lgvtool.wire` byte protocols (NAV200 telegrams, the MCU frame), pure;
+- :mod:`lgvtool.log` the MCAP log contract: topics, schemas, writer, reader, salvage;
+- :mod:`lgvtool.devices` serial/TCP links and the recorder;
+- :mod:`lgvtool.sim` the simulator and device emulators;
+- :mod:`lgvtool.importers` real datasets into the log contract;
+- :mod:`lgvtool.localize` estimators and the replay driver, pure;
+- :mod:`lgvtool.evaluate` reference circle, laps, metrics, tables, plots;
+- :mod:`lgvtool.fleet` sweeps over many logs on Dask.
+"""
+
+__version__ = "0.1.0"

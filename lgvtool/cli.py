@@ -1,0 +1,139 @@
+"""The ``lgvtool`` command line.
+
+Each command lives in its own module under :mod:`lgvtool.commands` and is imported only when it
+runs, so ``lgvtool --help`` and ``lgvtool --version`` never load numpy, pandas or plotly.
+
+Exit codes: 0 success, 1 a checked threshold failed, 2 bad input or usage, 130 interrupted.
+Errors are one line on stderr; set ``LGVTOOL_DEBUG=1`` to see the traceback of an internal error.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+from typing import Any
+
+import click
+
+from lgvtool import __version__
+
+#: command name -> (module, attribute, one-line help shown by ``lgvtool --help``)
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "info": ("lgvtool.commands.info", "info", "Summarise a log: topics, rates, gaps, metadata."),
+    "simulate": (
+        "lgvtool.commands.simulate",
+        "simulate",
+        "Simulate a scenario into a log, or serve it as emulated devices.",
+    ),
+    "record": (
+        "lgvtool.commands.record",
+        "record",
+        "Record the MCU and the NAV200 into a crash-safe log.",
+    ),
+    "recover": (
+        "lgvtool.commands.recover",
+        "recover",
+        "Rebuild a complete, indexed log from a broken one.",
+    ),
+    "decode": (
+        "lgvtool.commands.decode",
+        "decode",
+        "Re-decode the raw device traffic of a log into fresh channels.",
+    ),
+    "import": ("lgvtool.commands.importer", "import_", "Import a dataset into the log format."),
+    "replay": (
+        "lgvtool.commands.replay",
+        "replay",
+        "Run estimators over a log and write their estimates into a new log.",
+    ),
+    "evaluate": (
+        "lgvtool.commands.evaluate",
+        "evaluate",
+        "Table 1, error metrics, plots and report for one or more logs.",
+    ),
+    "sweep": (
+        "lgvtool.commands.sweep",
+        "sweep",
+        "Parameter sweeps over many logs and seeds on a Dask cluster.",
+    ),
+    "config": (
+        "lgvtool.commands.config",
+        "config",
+        "Print or check a vehicle/reflector/filter configuration file.",
+    ),
+}
+
+
+class LazyGroup(click.Group):
+    """A click group that imports a command's module only when that command is used."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        spec = COMMANDS.get(cmd_name)
+        if spec is None:
+            return None
+        module = importlib.import_module(spec[0])
+        command = getattr(module, spec[1])
+        assert isinstance(command, click.Command)
+        return command
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = [(name, COMMANDS[name][2]) for name in self.list_commands(ctx)]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="lgvtool")
+def cli() -> None:
+    """lgvtool: how well does a laser-guided vehicle know where it is?
+
+    Record the MCU (encoders, gyro) and the SICK NAV200 into MCAP logs, replay them through the
+    paper's particle filter and baselines, and evaluate the accuracy against the kinematic
+    reference circle or ground truth.
+    """
+
+
+def _fail(message: str, code: int) -> None:
+    click.echo(f"lgvtool: error: {message}", err=True)
+    sys.exit(code)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the command line; map every failure to one line on stderr and an exit code."""
+    from lgvtool.errors import LgvError
+
+    try:
+        cli.main(args=argv, prog_name="lgvtool", standalone_mode=False)
+    except click.exceptions.Abort:
+        _fail("interrupted", 130)
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+    except click.ClickException as exc:
+        _fail(_click_message(exc), exc.exit_code)
+    except LgvError as exc:
+        _fail(str(exc), exc.exit_code)
+    except KeyboardInterrupt:
+        _fail("interrupted", 130)
+    except BrokenPipeError:
+        sys.exit(0)
+    except (FileNotFoundError, IsADirectoryError, PermissionError, NotADirectoryError) as exc:
+        _fail(f"{exc.strerror}: {exc.filename}", 2)
+    except OSError as exc:
+        _fail(str(exc), 2)
+    except Exception as exc:  # noqa: BLE001 - last resort: one line, never a traceback
+        if os.environ.get("LGVTOOL_DEBUG"):
+            raise
+        _fail(f"internal error: {type(exc).__name__}: {exc} (set LGVTOOL_DEBUG=1 for details)", 3)
+
+
+def _click_message(exc: click.ClickException) -> str:
+    """Flatten a click usage error to one line, naming the command."""
+    message = exc.format_message().replace("\n", " ")
+    ctx: Any = getattr(exc, "ctx", None)
+    if ctx is not None and getattr(ctx, "command_path", None):
+        return f"{ctx.command_path}: {message}"
+    return message

@@ -1,0 +1,350 @@
+"""Vehicle geometry, reflector map and run settings: TOML in, typed objects out.
+
+Units inside lgvtool are SI (m, rad, s). The TOML file uses the same units except where a key
+says otherwise (``*_deg``). Defaults come from the paper's experiment (see ``docs/config.md``).
+
+Example::
+
+    [vehicle]
+    h = 1.20                 # m, target rotation centre O to drive wheel contact
+    track = 0.60             # m, between the two encoder wheels
+    wheel_radius_left = 0.075
+    wheel_radius_right = 0.075
+    encoder_ppr = 1000       # pulses per revolution
+    gyro_range_dps = 360.0   # deg/s, full scale
+    nav_x = 1.00             # m, NAV200 head position in the vehicle frame (forward)
+    nav_y = 0.0              # m (left)
+
+    [area]                   # the work area, m (particle filters initialise over it)
+    x_min = 0.0
+    x_max = 25.0
+    y_min = 0.0
+    y_max = 20.0
+
+    [reference]
+    steering_angle_deg = 60.0   # used when a log has no steering angle
+
+    [[reflectors]]
+    id = 1
+    x = 0.05
+    y = 1.79
+    radius = 0.05
+
+    [estimators.pf]          # passed to the estimator, checked there
+    particles = 300
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from lgvtool.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """Geometry of the forklift LGV (domain.md section 1). Lengths in m, angles in rad."""
+
+    h: float = 1.20
+    """Distance from the target rotation centre O to the drive wheel contact point, m."""
+    track: float = 0.60
+    """Track ``l`` between the two encoder (auxiliary) wheels, m."""
+    wheel_radius_left: float = 0.075
+    """Left encoder wheel radius, m."""
+    wheel_radius_right: float = 0.075
+    """Right encoder wheel radius, m."""
+    encoder_ppr: int = 1000
+    """Encoder pulses per wheel revolution (LIB-49B: 1000)."""
+    gyro_range_dps: float = 360.0
+    """Gyro full scale, deg/s (my-Gyro-300 SPI: +-360)."""
+    nav_x: float = 1.00
+    """NAV200 head position in the vehicle frame, forward of O, m (d_x)."""
+    nav_y: float = 0.0
+    """NAV200 head position in the vehicle frame, left of O, m (d_y)."""
+    nav_height: float = 1.9
+    """NAV200 head height above the floor, m (not used in 2-D)."""
+
+    def circle_radius(self, steering_angle: float) -> float:
+        """Radius of the circle that O drives at a fixed steering angle, m: R = h / tan(delta)."""
+        t = math.tan(steering_angle)
+        if abs(t) < 1e-12:
+            return math.inf
+        return self.h / abs(t)
+
+    def metres_per_count(self) -> tuple[float, float]:
+        """Travel of the (left, right) encoder wheel per count, m."""
+        k = 2.0 * math.pi / self.encoder_ppr
+        return k * self.wheel_radius_left, k * self.wheel_radius_right
+
+
+@dataclass(frozen=True)
+class Reflector:
+    """A reflector (or landmark) at a known position in the map frame."""
+
+    id: int
+    x: float
+    """X of the centre, m."""
+    y: float
+    """Y of the centre, m."""
+    radius: float = 0.05
+    """Radius, m (the paper's cylinders are 10 cm in diameter)."""
+    layer: int = 0
+    """NAV200 layer."""
+
+
+@dataclass(frozen=True)
+class Area:
+    """An axis-aligned rectangle in the map frame, m."""
+
+    x_min: float = 0.0
+    x_max: float = 25.0
+    y_min: float = 0.0
+    y_max: float = 20.0
+
+    @property
+    def width(self) -> float:
+        """Extent along x, m."""
+        return self.x_max - self.x_min
+
+    @property
+    def height(self) -> float:
+        """Extent along y, m."""
+        return self.y_max - self.y_min
+
+
+@dataclass(frozen=True)
+class Reference:
+    """What the evaluation compares against when the log does not say."""
+
+    steering_angle_deg: float | None = 60.0
+    """Nominal steering angle of a circle drive, deg; None: take it from the log only."""
+
+
+@dataclass(frozen=True)
+class Config:
+    """The effective configuration of a run."""
+
+    vehicle: Vehicle = field(default_factory=Vehicle)
+    area: Area = field(default_factory=Area)
+    reference: Reference = field(default_factory=Reference)
+    reflectors: tuple[Reflector, ...] = ()
+    estimators: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    simulator: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A plain dict (TOML/JSON-ready) of every setting."""
+        return {
+            "vehicle": asdict(self.vehicle),
+            "area": asdict(self.area),
+            "reference": {k: v for k, v in asdict(self.reference).items() if v is not None},
+            "reflectors": [asdict(r) for r in self.reflectors],
+            "estimators": {k: dict(v) for k, v in self.estimators.items()},
+            "simulator": dict(self.simulator),
+        }
+
+
+def paper_hall_reflectors(area: Area | None = None, count: int = 20) -> tuple[Reflector, ...]:
+    """The paper's hall: ``count`` 10 cm cylinders on the walls of a 25 m x 20 m room.
+
+    Reflectors stand 5 cm off the walls (their centres), spread evenly along the perimeter
+    with a half-spacing offset so none sits in a corner. Ids run 1..count counter-clockwise from
+    the south-west corner.
+    """
+    a = area or Area()
+    inset = 0.05
+    x0, x1, y0, y1 = a.x_min + inset, a.x_max - inset, a.y_min + inset, a.y_max - inset
+    w, h = x1 - x0, y1 - y0
+    perimeter = 2 * (w + h)
+    out = []
+    for i in range(count):
+        s = (i + 0.5) * perimeter / count
+        if s < w:
+            x, y = x0 + s, y0
+        elif s < w + h:
+            x, y = x1, y0 + (s - w)
+        elif s < 2 * w + h:
+            x, y = x1 - (s - w - h), y1
+        else:
+            x, y = x0, y1 - (s - 2 * w - h)
+        out.append(Reflector(id=i + 1, x=round(x, 4), y=round(y, 4), radius=0.05, layer=0))
+    return tuple(out)
+
+
+def default_config() -> Config:
+    """Defaults from domain.md: the paper's vehicle, hall and reflector layout."""
+    area = Area()
+    return Config(area=area, reflectors=paper_hall_reflectors(area))
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def _check_section(name: str, table: Any, cls: type) -> dict[str, Any]:
+    if not isinstance(table, dict):
+        raise ConfigError(f"[{name}] must be a table")
+    known = {f.name: f for f in fields(cls)}
+    out: dict[str, Any] = {}
+    for key, value in table.items():
+        if key not in known:
+            raise ConfigError(f"unknown key '{key}' in [{name}] (known: {', '.join(known)})")
+        out[key] = _coerce(f"{name}.{key}", value, known[key].type)
+    return out
+
+
+def _coerce(where: str, value: Any, type_name: Any) -> Any:
+    t = str(type_name)
+    if value is None:
+        if "None" in t:
+            return None
+        raise ConfigError(f"missing value for {where}")
+    if t.startswith("int"):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{where} must be an integer, got {value!r}")
+        return value
+    if t.startswith("float"):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"{where} must be a number, got {value!r}")
+        if not math.isfinite(float(value)):
+            raise ConfigError(f"{where} must be finite, got {value!r}")
+        return float(value)
+    return value
+
+
+_POSITIVE_VEHICLE = ("h", "track", "wheel_radius_left", "wheel_radius_right", "encoder_ppr",
+                     "gyro_range_dps")
+
+
+def _validate(cfg: Config) -> Config:
+    v = cfg.vehicle
+    for key in _POSITIVE_VEHICLE:
+        if getattr(v, key) <= 0:
+            raise ConfigError(f"vehicle.{key} must be positive, got {getattr(v, key)}")
+    if v.nav_height < 0:
+        raise ConfigError(f"vehicle.nav_height must not be negative, got {v.nav_height}")
+    a = cfg.area
+    if not (a.x_max > a.x_min and a.y_max > a.y_min):
+        raise ConfigError("area: x_max must exceed x_min and y_max must exceed y_min")
+    d = cfg.reference.steering_angle_deg
+    if d is not None and not (0.0 < abs(d) < 90.0):
+        raise ConfigError(f"reference.steering_angle_deg must be in (0, 90) in magnitude, got {d}")
+    seen: set[int] = set()
+    for r in cfg.reflectors:
+        if r.id in seen:
+            raise ConfigError(f"reflector map has duplicate id {r.id}")
+        seen.add(r.id)
+        if r.radius < 0:
+            raise ConfigError(f"reflector {r.id}: radius must not be negative, got {r.radius}")
+    return cfg
+
+
+def config_from_dict(data: Mapping[str, Any], base: Config | None = None) -> Config:
+    """Build a validated :class:`Config` from parsed TOML, starting from ``base`` (defaults)."""
+    cfg = base or default_config()
+    known = {"vehicle", "area", "reference", "reflectors", "estimators", "simulator"}
+    for key in data:
+        if key not in known:
+            raise ConfigError(f"unknown section '{key}' (known: {', '.join(sorted(known))})")
+    if "vehicle" in data:
+        cfg = replace(cfg, vehicle=replace(cfg.vehicle, **_check_section("vehicle", data["vehicle"], Vehicle)))
+    if "area" in data:
+        cfg = replace(cfg, area=replace(cfg.area, **_check_section("area", data["area"], Area)))
+    if "reference" in data:
+        cfg = replace(cfg, reference=replace(cfg.reference, **_check_section("reference", data["reference"], Reference)))
+    if "reflectors" in data:
+        items = data["reflectors"]
+        if not isinstance(items, list):
+            raise ConfigError("reflectors must be an array of tables ([[reflectors]])")
+        refl = []
+        for i, item in enumerate(items):
+            where = f"reflectors[{i}]"
+            d = _check_section(where, item, Reflector)
+            for req in ("id", "x", "y"):
+                if req not in d:
+                    raise ConfigError(f"missing value for {where}.{req}")
+            refl.append(Reflector(**d))
+        cfg = replace(cfg, reflectors=tuple(refl))
+    for section in ("estimators", "simulator"):
+        if section in data:
+            if not isinstance(data[section], dict):
+                raise ConfigError(f"[{section}] must be a table")
+            cfg = replace(cfg, **{section: dict(data[section])})
+    return _validate(cfg)
+
+
+def load_config(path: str | Path | None) -> Config:
+    """Load a TOML configuration over the defaults; ``None`` gives the defaults."""
+    if path is None:
+        return default_config()
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(f"configuration file not found: {p}")
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: malformed TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{p}: not a text file") from None
+    try:
+        return config_from_dict(data)
+    except ConfigError as exc:
+        raise ConfigError(f"{p}: {exc}") from None
+
+
+def parse_set_options(items: tuple[str, ...] | list[str]) -> dict[str, Any]:
+    """Parse ``--set key=value`` options; values are read as TOML scalars (numbers, booleans,
+    quoted strings), falling back to a bare string."""
+    out: dict[str, Any] = {}
+    for item in items:
+        if "=" not in item:
+            raise ConfigError(f"--set expects key=value, got '{item}'")
+        key, raw = item.split("=", 1)
+        key = key.strip()
+        if not key:
+            raise ConfigError(f"--set expects key=value, got '{item}'")
+        try:
+            out[key] = tomllib.loads(f"v = {raw.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key] = raw.strip()
+    return out
+
+
+def to_toml(data: Mapping[str, Any]) -> str:
+    """Write a config dict (as :meth:`Config.to_dict` gives) as TOML."""
+    lines: list[str] = []
+
+    def scalar(v: Any) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, int | float):
+            return repr(v)
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, list | tuple):
+            return "[" + ", ".join(scalar(x) for x in v) + "]"
+        raise TypeError(f"cannot write {type(v).__name__} as TOML")
+
+    def table(prefix: str, d: Mapping[str, Any]) -> None:
+        plain = {k: v for k, v in d.items() if not isinstance(v, dict) and v is not None}
+        nested = {k: v for k, v in d.items() if isinstance(v, dict)}
+        if plain or not nested:
+            lines.append(f"[{prefix}]")
+            lines.extend(f"{k} = {scalar(v)}" for k, v in plain.items())
+            lines.append("")
+        for k, v in nested.items():
+            table(f"{prefix}.{k}", v)
+
+    for key, value in data.items():
+        if key == "reflectors":
+            for r in value:
+                lines.append("[[reflectors]]")
+                lines.extend(f"{k} = {scalar(v)}" for k, v in r.items())
+                lines.append("")
+        elif isinstance(value, dict):
+            if value:
+                table(key, value)
+    return "\n".join(lines)

@@ -1,0 +1,73 @@
+"""Turn decoded messages into pandas DataFrames with SI-unit columns.
+
+Every table has ``t``, the log time (host receive time) in s since the Unix epoch, and, where
+the message has a ``timestamp``, ``stamp`` in s. Other columns per schema are listed in
+``docs/log-format.md``.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+from collections.abc import Iterable
+from typing import Any
+
+import pandas as pd
+
+from lgvtool.log.messages import yaw_from_quaternion
+from lgvtool.log.reader import LogMessage
+
+
+def _stamp_s(d: dict[str, Any]) -> float:
+    ts = d.get("timestamp")
+    return ts["sec"] + ts["nsec"] * 1e-9 if ts else math.nan
+
+
+def _pose_row(t: float, d: dict[str, Any]) -> dict[str, Any]:
+    p = d["pose"]
+    return {"t": t, "stamp": _stamp_s(d), "x": p["position"]["x"], "y": p["position"]["y"],
+            "z": p["position"].get("z", 0.0), "heading": yaw_from_quaternion(p["orientation"])}
+
+
+def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:
+    """Flatten messages of one schema into a DataFrame (see the module docstring)."""
+    rows: list[dict[str, Any]] = []
+    for m in messages:
+        t = m.log_time_ns * 1e-9
+        d = m.data
+        if schema == "foxglove.PoseInFrame":
+            rows.append(_pose_row(t, d))
+        elif schema == "foxglove.PosesInFrame":
+            for i, p in enumerate(d["poses"]):
+                rows.append(_pose_row(t, {"timestamp": d["timestamp"], "pose": p}) | {"index": i})
+        elif schema == "lgvtool.ReflectorScan":
+            base = {"t": t, "stamp": _stamp_s(d), "scan_period": d["scan_period"]}
+            for o in d["observations"]:
+                rows.append(base | {"range": o["range"], "bearing": o["bearing"],
+                                    "time_in_scan": o["time_in_scan"], "id": o["id"]})
+        elif schema == "lgvtool.ReflectorMap":
+            for r in d["reflectors"]:
+                rows.append({"t": t, "stamp": _stamp_s(d)} | r)
+        elif schema == "lgvtool.RawBytes":
+            data = base64.b64decode(d["data"])
+            rows.append({"t": t, "stamp": _stamp_s(d), "device": d["device"],
+                         "direction": d["direction"], "size": len(data), "data": data})
+        elif schema == "lgvtool.McuFrame":
+            row = {"t": t, "stamp": _stamp_s(d)}
+            row.update({k: v for k, v in d.items() if k != "timestamp"})
+            row["mcu_time"] = row.pop("mcu_time_ms") * 1e-3
+            row["gyro_scale"] = math.radians(row["gyro_scale"])
+            rows.append(row)
+        else:
+            row = {"t": t, "stamp": _stamp_s(d)}
+            for k, v in d.items():
+                if k == "timestamp":
+                    continue
+                row[k] = v
+            rows.append(row)
+    columns = {
+        "foxglove.PoseInFrame": ["t", "stamp", "x", "y", "z", "heading"],
+        "lgvtool.ReflectorScan": ["t", "stamp", "scan_period", "range", "bearing",
+                                  "time_in_scan", "id"],
+    }.get(schema)
+    return pd.DataFrame(rows, columns=columns) if columns and not rows else pd.DataFrame(rows)

@@ -1,0 +1,86 @@
+"""The facts ``lgvtool info`` shows about a log, as a JSON-able dict with stable keys."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Any
+
+from lgvtool.log.reader import LogReader
+
+
+def _iso(ns: int) -> str:
+    return datetime.fromtimestamp(ns / 1e9, UTC).isoformat(timespec="milliseconds").replace(
+        "+00:00", "Z")
+
+
+def describe(reader: LogReader) -> dict[str, Any]:
+    """Stable-key summary of a log (documented in docs/log-format.md, ``info --json``)."""
+    topics = reader.topics()
+    start = min((i.start_ns for i in topics.values()), default=None)
+    end = max((i.end_ns for i in topics.values()), default=None)
+    meta = reader.metadata.get("lgvtool", {})
+    return {
+        "file": str(reader.path),
+        "size_bytes": reader.size,
+        "complete": reader.complete,
+        "salvaged": not reader.complete,
+        "warnings": list(reader.warnings),
+        "format_version": meta.get("format_version"),
+        "tool_version": meta.get("tool_version"),
+        "source": meta.get("source"),
+        "start_time_s": None if start is None else start / 1e9,
+        "end_time_s": None if end is None else end / 1e9,
+        "duration_s": 0.0 if start is None or end is None else (end - start) / 1e9,
+        "message_count": sum(i.count for i in topics.values()),
+        "topics": {
+            name: {
+                "schema": i.schema,
+                "count": i.count,
+                "rate_hz": round(i.rate_hz, 4),
+                "first_time_s": i.start_ns / 1e9,
+                "last_time_s": i.end_ns / 1e9,
+                "max_gap_s": i.max_gap_ns / 1e9,
+            }
+            for name, i in topics.items()
+        },
+        "metadata": reader.metadata,
+    }
+
+
+def _short(value: Any, width: int = 60) -> str:
+    text = value if isinstance(value, str) else repr(value)
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def format_text(d: dict[str, Any]) -> str:
+    """The summary as a terminal table."""
+    lines = [
+        f"file:      {d['file']} ({d['size_bytes']} bytes, "
+        + ("complete" if d["complete"] else "SALVAGED: incomplete file") + ")",
+        f"format:    {d['format_version']} (written by lgvtool {d['tool_version']}, "
+        f"{d['source'] or 'unknown source'})",
+    ]
+    if d["start_time_s"] is not None:
+        lines.append(f"time:      {_iso(int(d['start_time_s'] * 1e9))} .. "
+                     f"{_iso(int(d['end_time_s'] * 1e9))} ({d['duration_s']:.3f} s)")
+    lines.append(f"messages:  {d['message_count']}")
+    lines.append("")
+    rows = [("topic", "schema", "count", "rate Hz", "first s", "last s", "max gap s")]
+    t0 = d["start_time_s"] or 0.0
+    for name, i in d["topics"].items():
+        rows.append((name, i["schema"], str(i["count"]), f"{i['rate_hz']:.2f}",
+                     f"{i['first_time_s'] - t0:.3f}", f"{i['last_time_s'] - t0:.3f}",
+                     f"{i['max_gap_s']:.3f}"))
+    widths = [max(len(r[c]) for r in rows) for c in range(len(rows[0]))]
+    for k, r in enumerate(rows):
+        lines.append("  ".join(v.ljust(w) if c < 2 else v.rjust(w)
+                               for c, (v, w) in enumerate(zip(r, widths, strict=True))))
+        if k == 0:
+            lines.append("  ".join("-" * w for w in widths))
+    lines.append("")
+    lines.append("metadata:")
+    for name, record in d["metadata"].items():
+        lines.append(f"  {name}:")
+        for key, value in record.items():
+            lines.append(f"    {key}: {_short(value)}")
+    return "\n".join(lines)

@@ -1,0 +1,287 @@
+"""Read lgvtool logs: typed messages in log-time order, metadata, per-topic DataFrames.
+
+A log that was cut off mid-write (crash, power loss, full disk) has no summary or footer. The
+reader then walks the file record by record up to the cut, keeps every complete message before
+it, and says so in :attr:`LogReader.warnings`; :attr:`LogReader.complete` is False.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings as _warnings
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+from mcap.reader import SeekingReader
+from mcap.records import Channel, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+
+from lgvtool.config import Config, Reflector, config_from_dict, default_config
+from lgvtool.errors import ConfigError, LogFormatError
+from lgvtool.log import topics as T
+from lgvtool.log.writer import FORMAT_VERSION
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+MAGIC = b"\x89MCAP0\r\n"
+
+
+class LogMessage(NamedTuple):
+    """One decoded message: topic, host receive time (ns since the Unix epoch), and its dict."""
+
+    topic: str
+    log_time_ns: int
+    data: dict[str, Any]
+
+
+class RawMessage(NamedTuple):
+    """One message as stored: topic, schema name, times in ns, JSON bytes."""
+
+    topic: str
+    schema: str
+    log_time_ns: int
+    publish_time_ns: int
+    data: bytes
+
+
+@dataclass(frozen=True)
+class TopicInfo:
+    """What a log holds on one topic. Times in ns since the Unix epoch."""
+
+    schema: str
+    count: int
+    start_ns: int
+    end_ns: int
+    max_gap_ns: int
+
+    @property
+    def duration_s(self) -> float:
+        """Span between the first and last message, s."""
+        return (self.end_ns - self.start_ns) / 1e9
+
+    @property
+    def rate_hz(self) -> float:
+        """Mean message rate, Hz (0 with fewer than two messages)."""
+        return (self.count - 1) / self.duration_s if self.count > 1 and self.duration_s > 0 else 0.0
+
+
+class LogWarning(UserWarning):
+    """Issued when a log is opened that is incomplete or not written by lgvtool."""
+
+
+def _major(version: str) -> int:
+    try:
+        return int(str(version).split(".")[0])
+    except ValueError:
+        return -1
+
+
+class LogReader:
+    """Open an lgvtool log (MCAP) for reading.
+
+    :param path: the log file.
+    :raises LogFormatError: not a file, empty, not MCAP, a foreign MCAP without lgvtool
+        topics, or written with a newer major ``format_version``.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        if not self.path.exists():
+            raise LogFormatError(f"{self.path}: no such file")
+        if not self.path.is_file():
+            raise LogFormatError(f"{self.path}: not a file")
+        size = self.path.stat().st_size
+        if size == 0:
+            raise LogFormatError(f"{self.path}: empty file")
+        with open(self.path, "rb") as f:
+            head = f.read(len(MAGIC))
+        if head != MAGIC:
+            raise LogFormatError(f"{self.path}: not an MCAP file")
+        self.size = size
+        self.warnings: list[str] = []
+        self._schemas: dict[int, Schema] = {}
+        self._channels: dict[int, Channel] = {}
+        self._metadata: list[Metadata] = []
+        self._salvaged: list[Message] | None = None
+        self.salvaged_bytes = size
+        self.complete = self._open_indexed()
+        if not self.complete:
+            self._salvage()
+        self.metadata: dict[str, dict[str, Any]] = {}
+        for rec in self._metadata:
+            self.metadata[rec.name] = {k: _decode_value(v) for k, v in rec.metadata.items()}
+        self._check_contract()
+        self._topic_info: dict[str, TopicInfo] | None = None
+        for w in self.warnings:
+            _warnings.warn(w, LogWarning, stacklevel=2)
+
+    # ------------------------------------------------------------------ opening
+    def _open_indexed(self) -> bool:
+        try:
+            with open(self.path, "rb") as f:
+                reader = SeekingReader(f)
+                summary = reader.get_summary()
+                if summary is None:
+                    return False
+                self._schemas = dict(summary.schemas)
+                self._channels = dict(summary.channels)
+                self._metadata = list(reader.iter_metadata())
+                self._chunk_count = len(summary.chunk_indexes)
+            return True
+        except Exception:  # noqa: BLE001 - any failure here means: no usable summary
+            self._schemas, self._channels, self._metadata = {}, {}, []
+            return False
+
+    def _salvage(self) -> None:
+        msgs: list[Message] = []
+        good_end = len(MAGIC)
+        with open(self.path, "rb") as f:
+            stream = StreamReader(f, skip_magic=False, record_size_limit=self.size)
+            try:
+                for rec in stream.records:
+                    if isinstance(rec, Message):
+                        msgs.append(rec)
+                    elif isinstance(rec, Schema):
+                        self._schemas[rec.id] = rec
+                    elif isinstance(rec, Channel):
+                        self._channels[rec.id] = rec
+                    elif isinstance(rec, Metadata):
+                        self._metadata.append(rec)
+                    good_end = f.tell()
+            except Exception:  # noqa: BLE001 - the cut: keep everything before it
+                pass
+        msgs.sort(key=lambda m: m.log_time)
+        self._salvaged = [m for m in msgs if m.channel_id in self._channels]
+        self.salvaged_bytes = good_end
+        last = self._salvaged[-1].log_time / 1e9 if self._salvaged else None
+        where = f", last message at {last:.3f} s" if last is not None else ""
+        self.warnings.append(
+            f"{self.path}: incomplete log (no summary; cut off after {good_end} of {self.size} "
+            f"bytes): salvaged {len(self._salvaged)} complete messages{where}"
+        )
+
+    def _check_contract(self) -> None:
+        info = self.metadata.get("lgvtool")
+        known = any(T.schema_for_topic(c.topic) for c in self._channels.values())
+        if info is None:
+            if not known:
+                raise LogFormatError(f"{self.path}: an MCAP file, but not an lgvtool log "
+                                     "(no lgvtool metadata and no lgvtool topics)")
+            self.warnings.append(f"{self.path}: no lgvtool metadata; reading its lgvtool topics")
+            return
+        version = str(info.get("format_version", "0"))
+        if _major(version) > _major(FORMAT_VERSION):
+            raise LogFormatError(
+                f"{self.path}: log format {version} is newer than this lgvtool reads "
+                f"({FORMAT_VERSION}); upgrade lgvtool")
+        if _major(version) < 0:
+            raise LogFormatError(f"{self.path}: unreadable format_version {version!r}")
+
+    # ------------------------------------------------------------------ messages
+    def _topic_filter(self, topics: Iterable[str] | None) -> set[str] | None:
+        return None if topics is None else set(topics)
+
+    def raw_messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
+        """Every stored message (or those of ``topics``) in log-time order, undecoded."""
+        wanted = self._topic_filter(topics)
+        schemas = {sid: s.name for sid, s in self._schemas.items()}
+        if self._salvaged is not None:
+            for m in self._salvaged:
+                ch = self._channels[m.channel_id]
+                if wanted is None or ch.topic in wanted:
+                    yield RawMessage(ch.topic, schemas.get(ch.schema_id, ""), m.log_time,
+                                     m.publish_time, m.data)
+            return
+        if wanted is not None and not wanted & {c.topic for c in self._channels.values()}:
+            return
+        with open(self.path, "rb") as f:
+            reader = SeekingReader(f)
+            for schema, channel, m in reader.iter_messages(
+                    topics=None if wanted is None else sorted(wanted), log_time_order=True):
+                yield RawMessage(channel.topic, schema.name if schema else "", m.log_time,
+                                 m.publish_time, m.data)
+
+    def messages(self, topics: Iterable[str] | None = None) -> Iterator[LogMessage]:
+        """Every message (or those of ``topics``) in log-time order, decoded to dicts."""
+        loads = json.loads
+        for m in self.raw_messages(topics):
+            yield LogMessage(m.topic, m.log_time_ns, loads(m.data))
+
+    def topic_names(self) -> list[str]:
+        """Topics that have a channel in the log, sorted."""
+        return sorted({c.topic for c in self._channels.values()})
+
+    def topics(self) -> dict[str, TopicInfo]:
+        """Per topic: schema, count, first and last time, largest gap (reads every message)."""
+        if self._topic_info is None:
+            schema_of = {c.topic: self._schemas[c.schema_id].name if c.schema_id in self._schemas
+                         else "" for c in self._channels.values()}
+            acc: dict[str, list[int]] = {}
+            for m in self.raw_messages():
+                a = acc.get(m.topic)
+                if a is None:
+                    acc[m.topic] = [1, m.log_time_ns, m.log_time_ns, 0]
+                else:
+                    gap = m.log_time_ns - a[2]
+                    a[0] += 1
+                    a[2] = m.log_time_ns
+                    if gap > a[3]:
+                        a[3] = gap
+            self._topic_info = {
+                t: TopicInfo(schema_of.get(t, ""), a[0], a[1], a[2], a[3])
+                for t, a in sorted(acc.items())
+            }
+        return self._topic_info
+
+    def has_topic(self, topic: str) -> bool:
+        """Whether the log has a channel for ``topic`` (it may hold no messages)."""
+        return any(c.topic == topic for c in self._channels.values())
+
+    def dataframe(self, topic: str) -> pd.DataFrame:
+        """One table of ``topic`` with SI-unit columns; ``t`` is the log time in s."""
+        from lgvtool.log.frames import to_dataframe
+
+        schema = next((self._schemas[c.schema_id].name for c in self._channels.values()
+                       if c.topic == topic and c.schema_id in self._schemas),
+                      T.schema_for_topic(topic) or "")
+        return to_dataframe(schema, self.messages([topic]))
+
+    # ------------------------------------------------------------------ run facts
+    def config(self) -> Config:
+        """The configuration stored in the log (record 'config'), else the defaults with the
+        log's reflector map."""
+        stored = self.metadata.get("config")
+        if stored:
+            try:
+                cfg = config_from_dict(stored)
+            except ConfigError as exc:
+                raise LogFormatError(f"{self.path}: stored configuration is invalid: {exc}") from None
+        else:
+            cfg = default_config()
+        refl = self._map_from_topic()
+        if refl:
+            from dataclasses import replace
+
+            cfg = replace(cfg, reflectors=refl)
+        return cfg
+
+    def _map_from_topic(self) -> tuple[Reflector, ...]:
+        from lgvtool.log.messages import reflectors_from_message
+
+        for m in self.messages([T.MAP]):
+            return reflectors_from_message(m.data)
+        return ()
+
+    def reflector_map(self) -> tuple[Reflector, ...]:
+        """The reflector map: /map/reflectors if logged, else the stored configuration's."""
+        return self._map_from_topic() or self.config().reflectors
+
+
+def _decode_value(value: str) -> Any:
+    try:
+        return json.loads(value)
+    except (json.JSONDecodeError, ValueError):
+        return value

@@ -1,0 +1,207 @@
+"""Write lgvtool logs: MCAP, JSON messages, schemas embedded, chunks closed every second.
+
+Crash safety: a chunk is compressed and written as soon as the messages in it span
+``chunk_seconds`` of log time (or :meth:`LogWriter.maybe_flush` finds it that old by the
+wall clock), so a process killed mid-run loses at most about that much. ``fsync=True`` also
+asks the OS to put each chunk on disk, for power loss.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+import sys
+import time
+from collections.abc import Iterable, Mapping
+from datetime import UTC, datetime
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any
+
+from mcap.writer import CompressionType, Writer
+
+from lgvtool import __version__
+from lgvtool.config import Config, Reflector
+from lgvtool.errors import InputError
+from lgvtool.log import messages, topics
+from lgvtool.log.schemas import schema_bytes
+
+FORMAT_VERSION = "1.0"
+"""Version of the log contract written. A reader refuses a newer major version."""
+
+PROFILE = "lgvtool"
+"""MCAP header profile of lgvtool logs."""
+
+_COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
+
+
+def _dumps(data: Any) -> bytes:
+    return json.dumps(data, separators=(",", ":"), allow_nan=False).encode()
+
+
+class LogWriter:
+    """Write one lgvtool log. Use as a context manager; the file is finished on exit.
+
+    Each schema and channel is registered on first use; topics outside the log contract are
+    refused (see :mod:`lgvtool.log.topics`).
+
+    :param path: file to create (or a binary stream).
+    :param chunk_seconds: close a chunk once it spans this much log time, s; None: by size only.
+    :param chunk_bytes: close a chunk once it holds this many uncompressed bytes.
+    :param compression: 'zstd', 'lz4' or 'none'.
+    :param fsync: fsync the file after each chunk (recorders: survive power loss).
+    :param source: what wrote the log ('simulate', 'record', 'replay', ...), kept in metadata.
+    :param command: the command line, kept in metadata (default: this process's argv).
+    """
+
+    def __init__(
+        self,
+        path: str | Path | IO[bytes],
+        *,
+        chunk_seconds: float | None = 1.0,
+        chunk_bytes: int = 4 * 1024 * 1024,
+        compression: str = "zstd",
+        fsync: bool = False,
+        source: str = "",
+        command: str | None = None,
+    ) -> None:
+        if compression not in _COMPRESSION:
+            raise InputError(f"unknown compression {compression!r} (zstd, lz4, none)")
+        if isinstance(path, str | Path):
+            self.path: Path | None = Path(path)
+            self._stream: IO[bytes] = open(self.path, "wb")  # noqa: SIM115 - closed in close()
+            self._owns_stream = True
+        else:
+            self.path = None
+            self._stream = path
+            self._owns_stream = False
+        self._writer = Writer(self._stream, chunk_size=chunk_bytes, compression=_COMPRESSION[compression])
+        self._writer.start(profile=PROFILE, library=f"lgvtool/{__version__}")
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, int] = {}
+        self._chunk_ns = None if chunk_seconds is None else int(chunk_seconds * 1e9)
+        self._chunk_first_ns: int | None = None
+        self._chunk_wall = time.monotonic()
+        self._fsync = fsync
+        self._closed = False
+        self.message_count = 0
+        self.add_metadata("lgvtool", {
+            "format_version": FORMAT_VERSION,
+            "tool_version": __version__,
+            "source": source,
+            "command": command if command is not None else " ".join(
+                [Path(sys.argv[0]).name, *sys.argv[1:]]),
+            "created_utc": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        })
+
+    # ------------------------------------------------------------------ registration
+    def _schema_id(self, name: str) -> int:
+        sid = self._schemas.get(name)
+        if sid is None:
+            sid = self._writer.register_schema(name=name, encoding="jsonschema", data=schema_bytes(name))
+            self._schemas[name] = sid
+        return sid
+
+    def channel_id(self, topic: str, schema: str | None = None) -> int:
+        """The channel id of ``topic``, registering its schema and channel on first use."""
+        cid = self._channels.get(topic)
+        if cid is None:
+            name = schema or topics.schema_for_topic(topic)
+            if name is None:
+                raise ValueError(f"topic {topic!r} is not part of the lgvtool log contract")
+            cid = self._writer.register_channel(topic=topic, message_encoding="json",
+                                                schema_id=self._schema_id(name))
+            self._channels[topic] = cid
+        return cid
+
+    # ------------------------------------------------------------------ messages
+    def write(self, topic: str, message: Mapping[str, Any], log_time_ns: int,
+              publish_time_ns: int | None = None) -> None:
+        """Write one message dict (laid out as the topic's schema) at ``log_time_ns``."""
+        self.write_encoded(topic, _dumps(message), log_time_ns, publish_time_ns)
+
+    def write_encoded(self, topic: str, data: bytes, log_time_ns: int,
+                      publish_time_ns: int | None = None) -> None:
+        """Write one message that is already JSON-encoded (e.g. copied from another log)."""
+        cid = self.channel_id(topic)
+        t = int(log_time_ns)
+        self._writer.add_message(channel_id=cid, log_time=t, data=data,
+                                 publish_time=t if publish_time_ns is None else int(publish_time_ns))
+        self.message_count += 1
+        if self._chunk_ns is not None:
+            if self._chunk_first_ns is None:
+                self._chunk_first_ns = t
+            elif t - self._chunk_first_ns >= self._chunk_ns:
+                self.flush()
+
+    def write_raw(self, device: str, direction: str, data: bytes, log_time_ns: int) -> None:
+        """Log bytes exactly as received from (rx) or sent to (tx) ``device``."""
+        self.write(topics.raw_topic(device, direction), {
+            "timestamp": messages.stamp(log_time_ns), "device": device, "direction": direction,
+            "data": base64.b64encode(bytes(data)).decode("ascii"),
+        }, log_time_ns)
+
+    def write_diagnostic(self, source: str, kind: str, message: str, log_time_ns: int, *,
+                         level: int = 3, count: int = 1,
+                         details: Mapping[str, Any] | None = None) -> None:
+        """Log a structured event on /diagnostics and its foxglove.Log mirror."""
+        diag = messages.diagnostic_message(log_time_ns, source, kind, message, level=level,
+                                           count=count, details=details)
+        self.write(topics.DIAGNOSTICS, diag, log_time_ns)
+        self.write(topics.DIAGNOSTICS_LOG, messages.log_message_of(diag), log_time_ns)
+
+    def write_map(self, reflectors: Iterable[Reflector], log_time_ns: int) -> None:
+        """Log the reflector map on /map/reflectors and as a scene on /map/scene."""
+        refl = tuple(reflectors)
+        self.write(topics.MAP, messages.reflector_map_message(log_time_ns, refl), log_time_ns)
+        self.write(topics.MAP_SCENE, messages.map_scene_message(log_time_ns, refl), log_time_ns)
+
+    # ------------------------------------------------------------------ metadata
+    def add_metadata(self, name: str, data: Mapping[str, Any]) -> None:
+        """Write a metadata record; each value is stored JSON-encoded (a string in quotes)."""
+        self._writer.add_metadata(name, {
+            str(k): json.dumps(v, separators=(",", ":")) for k, v in data.items()
+        })
+
+    def write_config(self, config: Config) -> None:
+        """Store the effective configuration (record 'config') and the vehicle geometry."""
+        d = config.to_dict()
+        self.add_metadata("config", d)
+
+    # ------------------------------------------------------------------ chunking
+    def maybe_flush(self, now_ns: int | None = None) -> None:
+        """Close the chunk in progress if it is older than ``chunk_seconds`` by the wall clock
+        (call this periodically while a device is silent)."""
+        if self._chunk_ns is None or self._chunk_first_ns is None:
+            return
+        if (time.monotonic() - self._chunk_wall) * 1e9 >= self._chunk_ns:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the chunk in progress to the file now."""
+        self._writer.flush()
+        if self._fsync and self._owns_stream:
+            os.fsync(self._stream.fileno())
+        self._chunk_first_ns = None
+        self._chunk_wall = time.monotonic()
+
+    # ------------------------------------------------------------------ lifecycle
+    def close(self) -> None:
+        """Finish the file: last chunk, summary, indexes, footer."""
+        if self._closed:
+            return
+        self._closed = True
+        self._writer.finish()
+        if self._owns_stream:
+            self._stream.flush()
+            if self._fsync:
+                os.fsync(self._stream.fileno())
+            self._stream.close()
+
+    def __enter__(self) -> LogWriter:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
