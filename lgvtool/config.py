@@ -250,11 +250,13 @@ def config_from_dict(data: Mapping[str, Any], base: Config | None = None) -> Con
         if key not in known:
             raise ConfigError(f"unknown section '{key}' (known: {', '.join(sorted(known))})")
     if "vehicle" in data:
-        cfg = replace(cfg, vehicle=replace(cfg.vehicle, **_check_section("vehicle", data["vehicle"], Vehicle)))
+        vehicle = _check_section("vehicle", data["vehicle"], Vehicle)
+        cfg = replace(cfg, vehicle=replace(cfg.vehicle, **vehicle))
     if "area" in data:
         cfg = replace(cfg, area=replace(cfg.area, **_check_section("area", data["area"], Area)))
     if "reference" in data:
-        cfg = replace(cfg, reference=replace(cfg.reference, **_check_section("reference", data["reference"], Reference)))
+        reference = _check_section("reference", data["reference"], Reference)
+        cfg = replace(cfg, reference=replace(cfg.reference, **reference))
     if "reflectors" in data:
         items = data["reflectors"]
         if not isinstance(items, list):
@@ -269,10 +271,12 @@ def config_from_dict(data: Mapping[str, Any], base: Config | None = None) -> Con
             refl.append(Reflector(**d))
         cfg = replace(cfg, reflectors=tuple(refl))
     for section in ("estimators", "simulator"):
-        if section in data:
-            if not isinstance(data[section], dict):
-                raise ConfigError(f"[{section}] must be a table")
-            cfg = replace(cfg, **{section: dict(data[section])})
+        if section in data and not isinstance(data[section], dict):
+            raise ConfigError(f"[{section}] must be a table")
+    if "estimators" in data:
+        cfg = replace(cfg, estimators=dict(data["estimators"]))
+    if "simulator" in data:
+        cfg = replace(cfg, simulator=dict(data["simulator"]))
     return _validate(cfg)
 
 
@@ -344,7 +348,6 @@ def to_toml(data: Mapping[str, Any]) -> str:
                 lines.append("[[reflectors]]")
                 lines.extend(f"{k} = {scalar(v)}" for k, v in r.items())
                 lines.append("")
-        elif isinstance(value, dict):
-            if value:
-                table(key, value)
+        elif isinstance(value, dict) and value:
+            table(key, value)
     return "\n".join(lines)

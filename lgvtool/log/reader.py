@@ -131,7 +131,7 @@ class LogReader:
                 self._metadata = list(reader.iter_metadata())
                 self._chunk_count = len(summary.chunk_indexes)
             return True
-        except Exception:  # noqa: BLE001 - any failure here means: no usable summary
+        except Exception:
             self._schemas, self._channels, self._metadata = {}, {}, []
             return False
 
@@ -151,7 +151,7 @@ class LogReader:
                     elif isinstance(rec, Metadata):
                         self._metadata.append(rec)
                     good_end = f.tell()
-            except Exception:  # noqa: BLE001 - the cut: keep everything before it
+            except Exception:
                 pass
         msgs.sort(key=lambda m: m.log_time)
         self._salvaged = [m for m in msgs if m.channel_id in self._channels]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,7 +39,9 @@ def recover(src: str | Path, dst: str | Path) -> RecoveryReport:
     src, dst = Path(src), Path(dst)
     if src.resolve() == dst.resolve():
         raise InputError("recover: the output must be a different file from the input")
-    reader = LogReader(src)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        reader = LogReader(src)
     counts: dict[str, int] = {}
     first = last = None
     n = 0
