@@ -124,7 +124,7 @@ def main(argv: list[str] | None = None) -> None:
         _fail(f"{exc.strerror}: {exc.filename}", 2)
     except OSError as exc:
         _fail(str(exc), 2)
-    except Exception as exc:  # noqa: BLE001 - last resort: one line, never a traceback
+    except Exception as exc:
         if os.environ.get("LGVTOOL_DEBUG"):
             raise
         _fail(f"internal error: {type(exc).__name__}: {exc} (set LGVTOOL_DEBUG=1 for details)", 3)

@@ -14,13 +14,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+import orjson
 from mcap.reader import SeekingReader
-from mcap.records import Channel, Message, Metadata, Schema
+from mcap.records import Channel, ChunkIndex, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 
 from lgvtool.config import Config, Reflector, config_from_dict, default_config
 from lgvtool.errors import ConfigError, LogFormatError
 from lgvtool.log import topics as T
+from lgvtool.log.mcapio import iter_indexed
 from lgvtool.log.writer import FORMAT_VERSION
 
 if TYPE_CHECKING:
@@ -106,6 +108,8 @@ class LogReader:
         self._channels: dict[int, Channel] = {}
         self._metadata: list[Metadata] = []
         self._salvaged: list[Message] | None = None
+        self._chunk_indexes: list[ChunkIndex] = []
+        self._counts: dict[int, int] = {}
         self.salvaged_bytes = size
         self.complete = self._open_indexed()
         if not self.complete:
@@ -129,7 +133,9 @@ class LogReader:
                 self._schemas = dict(summary.schemas)
                 self._channels = dict(summary.channels)
                 self._metadata = list(reader.iter_metadata())
-                self._chunk_count = len(summary.chunk_indexes)
+                self._chunk_indexes = list(summary.chunk_indexes)
+                if summary.statistics is not None:
+                    self._counts = dict(summary.statistics.channel_message_counts)
             return True
         except Exception:
             self._schemas, self._channels, self._metadata = {}, {}, []
@@ -195,18 +201,34 @@ class LogReader:
                     yield RawMessage(ch.topic, schemas.get(ch.schema_id, ""), m.log_time,
                                      m.publish_time, m.data)
             return
-        if wanted is not None and not wanted & {c.topic for c in self._channels.values()}:
+        ids = None if wanted is None else {cid for cid, c in self._channels.items()
+                                           if c.topic in wanted}
+        if ids is not None and not ids:
             return
+        topic_of = {cid: (c.topic, schemas.get(c.schema_id, "")) for cid, c in self._channels.items()}
         with open(self.path, "rb") as f:
-            reader = SeekingReader(f)
-            for schema, channel, m in reader.iter_messages(
-                    topics=None if wanted is None else sorted(wanted), log_time_order=True):
-                yield RawMessage(channel.topic, schema.name if schema else "", m.log_time,
-                                 m.publish_time, m.data)
+            for log_time, cid, pub, data in iter_indexed(f, self._chunk_indexes, ids):
+                topic, schema = topic_of[cid]
+                yield RawMessage(topic, schema, log_time, pub, data)
+
+    def verbatim_plan(self, skip_topics: frozenset[str] = frozenset()) -> tuple[
+            dict[int, tuple[str, str, bytes]], dict[int, tuple[str, str, int]],
+            list[ChunkIndex], dict[int, int]] | None:
+        """What a writer needs to copy this log's chunks byte for byte: schemas and channels by
+        id, chunk indexes and per-channel counts; None when that is not possible (salvaged
+        file, no statistics, or a topic to skip)."""
+        if not self.complete or (not self._counts and self._chunk_indexes):
+            return None
+        if any(c.topic in skip_topics for c in self._channels.values()):
+            return None
+        schemas = {sid: (s.name, s.encoding, s.data) for sid, s in self._schemas.items()}
+        channels = {cid: (c.topic, c.message_encoding, c.schema_id)
+                    for cid, c in self._channels.items()}
+        return schemas, channels, list(self._chunk_indexes), dict(self._counts)
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[LogMessage]:
         """Every message (or those of ``topics``) in log-time order, decoded to dicts."""
-        loads = json.loads
+        loads = orjson.loads
         for m in self.raw_messages(topics):
             yield LogMessage(m.topic, m.log_time_ns, loads(m.data))
 

@@ -17,15 +17,19 @@ from collections.abc import Iterable, Mapping
 from datetime import UTC, datetime
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
-from mcap.writer import CompressionType, Writer
+import orjson
 
 from lgvtool import __version__
 from lgvtool.config import Config, Reflector
 from lgvtool.errors import InputError
 from lgvtool.log import messages, topics
+from lgvtool.log.mcapio import McapWriter
 from lgvtool.log.schemas import schema_bytes
+
+if TYPE_CHECKING:
+    from lgvtool.log.reader import LogReader
 
 FORMAT_VERSION = "1.0"
 """Version of the log contract written. A reader refuses a newer major version."""
@@ -33,11 +37,11 @@ FORMAT_VERSION = "1.0"
 PROFILE = "lgvtool"
 """MCAP header profile of lgvtool logs."""
 
-_COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}
+_COMPRESSION = ("zstd", "lz4", "none")
 
 
 def _dumps(data: Any) -> bytes:
-    return json.dumps(data, separators=(",", ":"), allow_nan=False).encode()
+    return orjson.dumps(data)
 
 
 class LogWriter:
@@ -76,8 +80,8 @@ class LogWriter:
             self.path = None
             self._stream = path
             self._owns_stream = False
-        self._writer = Writer(self._stream, chunk_size=chunk_bytes, compression=_COMPRESSION[compression])
-        self._writer.start(profile=PROFILE, library=f"lgvtool/{__version__}")
+        self._writer = McapWriter(self._stream, compression=compression, chunk_bytes=chunk_bytes,
+                                  profile=PROFILE, library=f"lgvtool/{__version__}")
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._chunk_ns = None if chunk_seconds is None else int(chunk_seconds * 1e9)
@@ -99,7 +103,7 @@ class LogWriter:
     def _schema_id(self, name: str) -> int:
         sid = self._schemas.get(name)
         if sid is None:
-            sid = self._writer.register_schema(name=name, encoding="jsonschema", data=schema_bytes(name))
+            sid = self._writer.add_schema(name, "jsonschema", schema_bytes(name))
             self._schemas[name] = sid
         return sid
 
@@ -110,8 +114,7 @@ class LogWriter:
             name = schema or topics.schema_for_topic(topic)
             if name is None:
                 raise ValueError(f"topic {topic!r} is not part of the lgvtool log contract")
-            cid = self._writer.register_channel(topic=topic, message_encoding="json",
-                                                schema_id=self._schema_id(name))
+            cid = self._writer.add_channel(topic, "json", self._schema_id(name))
             self._channels[topic] = cid
         return cid
 
@@ -126,8 +129,7 @@ class LogWriter:
         """Write one message that is already JSON-encoded (e.g. copied from another log)."""
         cid = self.channel_id(topic)
         t = int(log_time_ns)
-        self._writer.add_message(channel_id=cid, log_time=t, data=data,
-                                 publish_time=t if publish_time_ns is None else int(publish_time_ns))
+        self._writer.add_message(cid, t, data, t if publish_time_ns is None else int(publish_time_ns))
         self.message_count += 1
         if self._chunk_ns is not None:
             if self._chunk_first_ns is None:
@@ -163,6 +165,43 @@ class LogWriter:
         self._writer.add_metadata(name, {
             str(k): json.dumps(v, separators=(",", ":")) for k, v in data.items()
         })
+        self._chunk_first_ns = None
+
+    def copy_from(self, reader: LogReader, *, skip_topics: frozenset[str] = frozenset(),
+                  metadata: bool = True) -> int:
+        """Copy every message of ``reader`` (except ``skip_topics``) into this log, and its
+        metadata records other than 'lgvtool'. Returns the number of messages copied.
+
+        A complete input copied into a fresh writer has its chunks copied verbatim (no decoding);
+        otherwise messages are copied one by one.
+        """
+        if metadata:
+            for name, record in reader.metadata.items():
+                if name != "lgvtool":
+                    self.add_metadata(name, record)
+        plan = reader.verbatim_plan(skip_topics)
+        if plan is not None and not self._channels and not self._schemas:
+            schemas, channels, chunk_indexes, counts = plan
+            for sid, (name, encoding, data) in schemas.items():
+                self._writer.add_schema(name, encoding, data, schema_id=sid)
+                self._schemas[name] = sid
+            for cid, (topic, encoding, sid) in channels.items():
+                self._writer.add_channel(topic, encoding, sid, channel_id=cid)
+                self._channels[topic] = cid
+            with open(reader.path, "rb") as source:
+                self._writer.copy_chunks(source, chunk_indexes, counts)
+            n = sum(counts.values())
+            self.message_count += n
+            return n
+        n = 0
+        for m in reader.raw_messages():
+            if m.topic in skip_topics:
+                continue
+            if m.schema:
+                self.channel_id(m.topic, m.schema)
+            self.write_encoded(m.topic, m.data, m.log_time_ns, m.publish_time_ns)
+            n += 1
+        return n
 
     def write_config(self, config: Config) -> None:
         """Store the effective configuration (record 'config') and the vehicle geometry."""
@@ -180,7 +219,8 @@ class LogWriter:
 
     def flush(self) -> None:
         """Write the chunk in progress to the file now."""
-        self._writer.flush()
+        self._writer.close_chunk()
+        self._stream.flush()
         if self._fsync and self._owns_stream:
             os.fsync(self._stream.fileno())
         self._chunk_first_ns = None

@@ -1,0 +1,88 @@
+"""The lean MCAP layer: files are standard MCAP; verbatim copies; time order across chunks."""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+from mcap.reader import make_reader
+
+from lgvtool.log import LogReader, LogWriter, topics
+from lgvtool.log.messages import pose_in_frame, stamp
+
+T0 = 1_700_000_000_000_000_000
+
+
+def _write(path: Path, n: int = 2000, chunk_bytes: int = 8192) -> None:
+    with LogWriter(path, chunk_seconds=None, chunk_bytes=chunk_bytes) as w:
+        for i in range(n):
+            ns = T0 + i * 10_000_000
+            w.write(topics.TRUTH, pose_in_frame(ns, i * 0.001, 0.0, 0.0), ns)
+            if i % 5 == 0:
+                w.write(topics.ODOM, {"timestamp": stamp(ns), "v": 0.1, "omega": 0.01}, ns + 1)
+
+
+def test_files_read_by_the_reference_mcap_reader(tmp_path: Path) -> None:
+    path = tmp_path / "a.mcap"
+    _write(path)
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics is not None
+        assert summary.statistics.message_count == 2400
+        assert len(summary.chunk_indexes) > 10
+        msgs = list(reader.iter_messages(log_time_order=True))
+        assert len(msgs) == 2400
+        names = {r.name for r in reader.iter_metadata()}
+        assert "lgvtool" in names
+    ours = [(m.topic, m.log_time_ns, m.data) for m in LogReader(path).raw_messages()]
+    ref = [(c.topic, m.log_time, m.data) for _, c, m in msgs]
+    assert ours == ref
+
+
+def test_verbatim_copy_equals_source_plus_new_messages(tmp_path: Path) -> None:
+    src = tmp_path / "src.mcap"
+    _write(src)
+    out = tmp_path / "out.mcap"
+    reader = LogReader(src)
+    with LogWriter(out, chunk_seconds=None) as w:
+        assert w.copy_from(reader) == 2400
+        for i in range(0, 2000, 7):  # new messages interleave in time with the copied ones
+            ns = T0 + i * 10_000_000 + 5
+            w.write(topics.estimate_pose("pf"), pose_in_frame(ns, 1.0, 2.0, 0.0), ns)
+    copied = LogReader(out)
+    assert copied.complete
+    got = list(copied.raw_messages())
+    assert [m.log_time_ns for m in got] == sorted(m.log_time_ns for m in got)
+    assert [m for m in got if m.topic != topics.estimate_pose("pf")] == list(reader.raw_messages())
+    assert sum(1 for m in got if m.topic == topics.estimate_pose("pf")) == len(range(0, 2000, 7))
+    with open(out, "rb") as f:
+        ref = list(make_reader(f).iter_messages(log_time_order=True))
+    assert len(ref) == len(got)
+    assert copied.topics()[topics.TRUTH].count == 2000
+
+
+def test_copy_with_skipped_topic_falls_back_to_message_copy(tmp_path: Path) -> None:
+    src = tmp_path / "src.mcap"
+    _write(src, n=300)
+    out = tmp_path / "out.mcap"
+    with LogWriter(out) as w:
+        n = w.copy_from(LogReader(src), skip_topics=frozenset({topics.ODOM}))
+    assert n == 300
+    assert LogReader(out).topic_names() == [topics.TRUTH]
+
+
+def test_messages_written_out_of_order_come_back_sorted(tmp_path: Path) -> None:
+    path = tmp_path / "shuffled.mcap"
+    times = [T0 + i * 1000 for i in range(3000)]
+    rng = random.Random(4)
+    shuffled = times[:]
+    # local disorder, as threads of a recorder produce
+    for i in range(0, len(shuffled) - 5, 5):
+        block = shuffled[i : i + 5]
+        rng.shuffle(block)
+        shuffled[i : i + 5] = block
+    with LogWriter(path, chunk_seconds=None, chunk_bytes=4096) as w:
+        for ns in shuffled:
+            w.write(topics.ODOM, {"timestamp": stamp(ns), "v": 0.0, "omega": 0.0}, ns)
+    assert [m.log_time_ns for m in LogReader(path).raw_messages()] == times
