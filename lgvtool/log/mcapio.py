@@ -177,7 +177,7 @@ class McapWriter:
         self._emit(chunk_record)
         mi_start = self._pos
         offsets: dict[int, int] = {}
-        parts = []
+        parts: list[bytes] = []
         for cid, entries in c.index.items():
             offsets[cid] = self._pos + sum(len(p) for p in parts)
             body = b"".join(_U64.pack(t) + _U64.pack(o) for t, o in entries)
