@@ -1,0 +1,67 @@
+"""The simulator: ground truth, sensor models, faults, scenarios, and the log they make.
+
+Modules, one purpose each:
+
+- :mod:`~lgvtool.sim.kinematics`: the tricycle model, integrated as exact arcs;
+- :mod:`~lgvtool.sim.routes`, :mod:`~lgvtool.sim.scenarios`: routes, speed profiles and the
+  scenario catalogue;
+- :mod:`~lgvtool.sim.mcu_model`, :mod:`~lgvtool.sim.mcu_link`: encoders, gyro, drive unit,
+  MCU clock and its serial link;
+- :mod:`~lgvtool.sim.nav_model`: the NAV200 head (one instant per reflector) and its pose fit;
+  :mod:`~lgvtool.sim.nav_device`: its replies to host requests;
+  :mod:`~lgvtool.sim.nav_link`: the host polling it;
+- :mod:`~lgvtool.sim.links`: serial timing and read chunking;
+  :mod:`~lgvtool.sim.faults`: landmarks, occlusions and injected faults;
+- :mod:`~lgvtool.sim.settings`: every setting and ``--set`` overrides;
+- :mod:`~lgvtool.sim.run`: resolve settings and run; :mod:`~lgvtool.sim.events`: the run as a
+  time-ordered device-side event stream (for emulators); :mod:`~lgvtool.sim.logfile`: the run
+  as a log.
+
+Typical use::
+
+    from lgvtool.sim import simulate, write_log
+    sim = simulate("paper-circle", seed=1, overrides={"nav.skew": False})
+    write_log(sim, "run.mcap")
+    for event in sim.events():   # TruthSample, McuSend, NavScan, NavSolution in time order
+        ...
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS: dict[str, str] = {
+    "McuSend": "lgvtool.sim.events",
+    "NavScan": "lgvtool.sim.events",
+    "NavSolution": "lgvtool.sim.events",
+    "Observation": "lgvtool.sim.events",
+    "TruthSample": "lgvtool.sim.events",
+    "LogSummary": "lgvtool.sim.logfile",
+    "write_log": "lgvtool.sim.logfile",
+    "Nav200Device": "lgvtool.sim.nav_device",
+    "Setup": "lgvtool.sim.run",
+    "Simulation": "lgvtool.sim.run",
+    "resolve": "lgvtool.sim.run",
+    "run": "lgvtool.sim.run",
+    "simulate": "lgvtool.sim.run",
+    "SCENARIOS": "lgvtool.sim.scenarios",
+    "Scenario": "lgvtool.sim.scenarios",
+    "get_scenario": "lgvtool.sim.scenarios",
+    "SimSettings": "lgvtool.sim.settings",
+    "apply_overrides": "lgvtool.sim.settings",
+}
+"""Public name -> module; imported on first use so that importing a subpackage stays light."""
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'lgvtool.sim' has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_EXPORTS])

@@ -1,0 +1,111 @@
+"""``lgvtool simulate serve``: a virtual NAV200 and a virtual MCU for ``lgvtool record``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+_PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) or 'none'."
+
+
+@click.command()
+@click.argument("log", required=False, type=click.Path(dir_okay=False, exists=True))
+@click.option("--scenario", "-s", metavar="NAME",
+              help="Simulate this scenario and serve it (default when no LOG: paper-circle).")
+@click.option("--seed", type=int, help="Seed of the scenario and of injected garbage.")
+@click.option("--duration", type=click.FloatRange(min=0, min_open=True), metavar="S",
+              help="Length of the simulated run, s.")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False), metavar="FILE",
+              help="Vehicle, reflector map and [simulator] settings (TOML) of the scenario.")
+@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
+              help="Override a simulator setting (repeatable), as for 'lgvtool simulate'.")
+@click.option("--speed", type=click.FloatRange(min=0, min_open=True), default=1.0,
+              show_default=True, metavar="N", help="Play N times faster than real time.")
+@click.option("--nav", "nav", default="pty", show_default=True, metavar="PORT",
+              help=f"Where the virtual NAV200 listens: {_PORT_HELP}")
+@click.option("--mcu", "mcu", default="pty", show_default=True, metavar="PORT",
+              help=f"Where the virtual MCU streams: {_PORT_HELP}")
+@click.option("--pty-dir", type=click.Path(file_okay=False, exists=True), metavar="DIR",
+              help="Put the pseudo-terminal links here (default: a new temporary folder).")
+@click.option("--fault", "faults", multiple=True, metavar="SPEC",
+              help="Inject a fault at a run time, s (repeatable): drop:DEVICE:AT:SECONDS, "
+                   "silent:DEVICE:AT:SECONDS, garbage:DEVICE:AT:BYTES, reset:nav200:AT; "
+                   "DEVICE is nav200, mcu or all.")
+@click.option("--transcript", type=click.Path(dir_okay=False), metavar="FILE",
+              help="Write every byte the devices send and receive as JSON lines.")
+@click.option("--loop", is_flag=True, help="Play the run over and over.")
+@click.option("--start-now", is_flag=True,
+              help="Start the run's clock at once instead of when the clients have connected.")
+@click.option("--exit-after", type=click.FloatRange(min=0), metavar="S",
+              help="Exit S seconds (wall clock) after the run has been played "
+                   "(default: serve until Ctrl-C).")
+@click.pass_context
+def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int | None,
+          duration: float | None, config_path: str | None, sets: tuple[str, ...],
+          speed: float, nav: str, mcu: str, pty_dir: str | None, faults: tuple[str, ...],
+          transcript: str | None, loop: bool, start_now: bool,
+          exit_after: float | None) -> None:
+    """Serve a run as devices for 'lgvtool record': a virtual NAV200 that answers the host
+    protocol (modes, identity, the map upload, error replies to requests in the wrong mode)
+    and a virtual MCU that streams its frames, over pseudo-terminals or TCP.
+
+    Plays LOG (its /mcu/rx bytes and /nav/pose poses), or simulates --scenario. Prints one
+    line per device, 'nav200: URL' and 'mcu: URL', to pass to 'lgvtool record --nav URL
+    --mcu URL'. Times of --fault and --duration are run time, s. See docs/recording.md.
+    """
+    import signal
+
+    from lgvtool.errors import InputError
+
+    group: dict[str, Any] = ctx.obj if isinstance(ctx.obj, dict) else {}
+    scenario = scenario or group.get("scenario")
+    seed = seed if seed is not None else int(group.get("seed") or 0)
+    duration = duration if duration is not None else group.get("duration")
+    config_path = config_path or group.get("config")
+    sets = sets or tuple(group.get("sets") or ())
+    if log is not None and scenario is not None:
+        raise InputError("serve: give a LOG or --scenario, not both")
+    playback = _playback(log, scenario or "paper-circle", seed, duration, config_path, sets)
+
+    from lgvtool.sim.emulate.server import EmulatorServer, parse_fault
+
+    fault_list = [parse_fault(f) for f in faults]
+    server = EmulatorServer(playback, nav=None if nav == "none" else nav,
+                            mcu=None if mcu == "none" else mcu, link_dir=pty_dir, speed=speed,
+                            faults=fault_list, wait=not start_now, loop=loop,
+                            transcript=transcript, seed=seed)
+    try:
+        for name, ep in server.endpoints.items():
+            click.echo(f"{name}: {ep.url}")
+        for name, ep in server.endpoints.items():
+            click.echo(f"  {name} is {ep.describe()}")
+        start = "now" if start_now else "when the recorder connects"
+        click.echo(f"serving {playback.source}: {playback.duration:.1f} s at {speed:g}x, "
+                   f"starting {start}{', looping' if loop else ''}; Ctrl-C to stop")
+        old = {sig: signal.signal(sig, lambda *_: server.request_stop())
+               for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            server.run(until=exit_after)
+        finally:
+            for sig, handler in old.items():
+                signal.signal(sig, handler)
+        status = server.status()
+        parts = [f"{n}: sent {status[n]['sent_bytes']} B, received {status[n]['received_bytes']}"
+                 f" B, {status[n]['connections']} connection(s)" for n in server.endpoints]
+        click.echo("; ".join(parts) + f"; {status['faults']} fault(s) injected")
+    finally:
+        server.close()
+
+
+def _playback(log: str | None, scenario: str, seed: int, duration: float | None,
+              config_path: str | None, sets: tuple[str, ...]) -> Any:
+    from lgvtool.sim.emulate.playback import playback_from_log, playback_from_scenario
+
+    if log is not None:
+        return playback_from_log(log)
+    from lgvtool.config import load_config, parse_set_options
+
+    return playback_from_scenario(scenario, seed=seed, duration=duration,
+                                  config=load_config(config_path),
+                                  overrides=parse_set_options(sets))

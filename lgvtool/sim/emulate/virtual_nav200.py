@@ -1,0 +1,254 @@
+"""A virtual NAV200 that answers the host protocol with the modes of the real device.
+
+It starts in standby, as a NAV200 does after power-up. Mode changes (SA, PA, PN, UA, DA, MA)
+are accepted in any mode; every other command only in its own mode, otherwise the reply is an
+error telegram ('E', F1 = 1 user software, F2 = the group of the present mode, F3 = 3 wrong
+command). The stored reflector map answers SR and the upload loop (UA, then UR until an end
+marker with number 0xFF; one more UR gets 'E' with F3 = 10, all reflectors transferred), and
+can be changed with SC, SI, SD and the download (DA, DR). Pose requests (PP, Pv, Pw, PV) are
+answered with the newest solution of the played run; the speed inputs are kept in
+:attr:`VirtualNav200.speed_inputs`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from lgvtool.config import Reflector
+from lgvtool.sim.emulate.playback import Playback
+from lgvtool.wire import nav200 as proto
+
+__all__ = ["MODE_GROUP", "SERIAL_NUMBER", "VERSION", "VirtualNav200"]
+
+#: Software version the virtual device reports (SV).
+VERSION = (2, 4, 1)
+#: Serial number the virtual device reports (SS).
+SERIAL_NUMBER = 20417
+#: F2 error group of each mode.
+MODE_GROUP = {"standby": 2, "download": 4, "upload": 5, "mapping": 6, "positioning": 7}
+#: Mode each command letter belongs to (mode changes are handled apart).
+_MODE_OF = {"S": "standby", "R": "standby", "M": "mapping", "P": "positioning",
+            "U": "upload", "D": "download"}
+_MODE_CHANGE = {"SA": "standby", "PA": "positioning", "PN": "positioning", "UA": "upload",
+                "DA": "download", "MA": "mapping"}
+_POSE = frozenset({"PP", "Pv", "Pw", "PV"})
+_ECHO = frozenset({"SU", "PL", "PM", "PC"})
+#: F3 details.
+_NOT_AVAILABLE, _WRONG_NUMBER, _ALL_TRANSFERRED, _WRONG_RADII = 4, 5, 10, 13
+#: Reflector number of the upload end marker.
+END_NUMBER = 0xFF
+
+
+@dataclass
+class _State:
+    mode: str = "standby"
+    upload_cursor: int = 0
+    upload_done: bool = False
+    sliding_mean: int = 1
+    action_radii_mm: tuple[int, int] = (1000, 30000)
+    nearest: int = 0
+    layer: int = 0
+    radius: dict[int, int] = field(default_factory=dict)
+    download: list[proto.ReflectorPosition] = field(default_factory=list)
+
+
+class VirtualNav200:
+    """The device side of a NAV200 link, driven by a :class:`Playback`.
+
+    :param playback: the run whose pose solutions and map the device reports.
+    """
+
+    def __init__(self, playback: Playback) -> None:
+        self.playback = playback
+        self._decoder = proto.Nav200RequestDecoder()
+        self._state = _State()
+        self.store: dict[tuple[int, int], tuple[int, int]] = {}
+        for r in playback.reflectors:
+            if 0 <= r.id < END_NUMBER and 0 <= r.layer <= 255:
+                self.store[(r.layer, r.id)] = (round(r.x * 1000), round(r.y * 1000))
+        #: (t, code) of every request decoded
+        self.requests: list[tuple[float, str]] = []
+        #: (t, code, payload) of every pose request that carried speed input
+        self.speed_inputs: list[tuple[float, str, proto.Payload]] = []
+        #: error replies sent
+        self.errors_sent = 0
+        self._handlers: dict[str, Callable[[proto.Request], bytes]] = {
+            "SV": self._version, "ST": self._version_text, "SS": self._serial,
+            "SR": self._read_reflector, "SC": self._change_reflector,
+            "SI": self._insert_reflector, "SD": self._delete_reflector,
+            "RG": self._get_radius, "RS": self._set_radius, "MS": self._map, "MM": self._map,
+            "MN": self._map, "MR": self._mapped_reflector, "PO": self._action_radii,
+            "UR": self._upload_next, "DR": self._download,
+        }
+
+    @property
+    def mode(self) -> str:
+        """The present mode: standby, positioning, upload, download or mapping."""
+        return self._state.mode
+
+    def reset(self) -> None:
+        """Power cycle: back to standby with the settings forgotten (the map is kept)."""
+        self._state = _State(radius=self._state.radius)
+        self._decoder = proto.Nav200RequestDecoder()
+
+    def feed(self, data: bytes, t: float) -> list[bytes]:
+        """Bytes from the host at ``t`` s in, reply telegrams out (garbage is ignored)."""
+        return [self.answer(req, t) for req in self._decoder.feed(data)]
+
+    # ------------------------------------------------------------------ replies
+    def _error(self, request: proto.Request, detail: int, group: int | None = None) -> bytes:
+        self.errors_sent += 1
+        return proto.build_error_reply(request, proto.CLASS_USER_SOFTWARE,
+                                       MODE_GROUP[self._state.mode] if group is None else group,
+                                       detail)
+
+    def answer(self, request: proto.Request, t: float) -> bytes:
+        """The reply to one decoded request received at ``t`` s."""
+        code = request.code
+        self.requests.append((t, code))
+        st = self._state
+        if code in _MODE_CHANGE:
+            st.mode = _MODE_CHANGE[code]
+            if code == "PN":
+                assert isinstance(request.payload, proto.Count)
+                st.sliding_mean = request.payload.n
+            if code == "UA":
+                st.upload_cursor, st.upload_done = 0, False
+            if code == "DA":
+                st.download = []
+            return proto.build_ack_reply(request)
+        if _MODE_OF.get(code[0]) != st.mode:
+            return self._error(request, proto.DETAIL_WRONG_COMMAND)
+        if code in _POSE:
+            if code != "PP":
+                self.speed_inputs.append((t, code, request.payload))
+            return self._pose(t)
+        if code in _ECHO:
+            return proto.build_echo_reply(request)
+        handler = self._handlers.get(code)
+        if handler is None:
+            return self._error(request, 2)  # not implemented
+        return handler(request)
+
+    def _pose(self, t: float) -> bytes:
+        fix = self.playback.pose_at(t)
+        if fix is None or not fix.valid:
+            used = 0 if fix is None else min(fix.reflectors_used, 255)
+            return proto.build_no_position_reply(proto.NO_POSITION, used)
+        return proto.build_pose_reply(fix.x, fix.y, fix.heading, min(fix.quality, 0xFD),
+                                      min(fix.reflectors_used, 255))
+
+    def _layer_numbers(self, layer: int) -> list[int]:
+        return sorted(n for (lay, n) in self.store if lay == layer)
+
+    def _rp_reply(self, code: str, layer: int, number: int) -> bytes:
+        x, y = self.store[(layer, number)]
+        return proto.Reply(code, proto.ReflectorPosition(layer, number, x, y)).encode()
+
+    def _version(self, request: proto.Request) -> bytes:
+        return proto.build_version_reply(*VERSION)
+
+    def _version_text(self, request: proto.Request) -> bytes:
+        return proto.build_version_text_reply("NAV200 V{}.{}.{} (virtual)".format(*VERSION))
+
+    def _serial(self, request: proto.Request) -> bytes:
+        return proto.build_serial_reply(SERIAL_NUMBER)
+
+    def _read_reflector(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.ReflectorAddress)
+        if (p.layer, p.number) not in self.store:
+            return self._error(request, _NOT_AVAILABLE, group=3)
+        return self._rp_reply("SR", p.layer, p.number)
+
+    def _change_reflector(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.ReflectorPosition)
+        if (p.layer, p.number) not in self.store:
+            return self._error(request, _NOT_AVAILABLE, group=3)
+        self.store[(p.layer, p.number)] = (p.x_mm, p.y_mm)
+        return proto.build_echo_reply(request)
+
+    def _insert_reflector(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.ReflectorPosition)
+        if p.number >= END_NUMBER:
+            return self._error(request, _WRONG_NUMBER, group=3)
+        self.store[(p.layer, p.number)] = (p.x_mm, p.y_mm)
+        return proto.build_echo_reply(request)
+
+    def _delete_reflector(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.ReflectorAddress)
+        if (p.layer, p.number) not in self.store:
+            return self._error(request, _NOT_AVAILABLE, group=3)
+        reply = self._rp_reply("SD", p.layer, p.number)
+        del self.store[(p.layer, p.number)]
+        return reply
+
+    def _get_radius(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.Layer)
+        return proto.build_radius_reply(p.layer, self._state.radius.get(p.layer, 45))
+
+    def _set_radius(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.ReflectorRadius)
+        self._state.radius[p.layer] = p.radius
+        return proto.build_radius_reply(p.layer, p.radius)
+
+    def _map(self, request: proto.Request) -> bytes:
+        layer = getattr(request.payload, "layer", 0)
+        return proto.build_mapping_reply(layer, min(len(self._layer_numbers(layer)), 255))
+
+    def _mapped_reflector(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.ReflectorAddress)
+        numbers = self._layer_numbers(p.layer)
+        if p.number >= len(numbers):
+            return self._error(request, _WRONG_NUMBER)
+        x, y = self.store[(p.layer, numbers[p.number])]
+        return proto.Reply("MR", proto.ReflectorPosition(p.layer, p.number, x, y)).encode()
+
+    def _action_radii(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.ActionRadii)
+        if not 0 <= p.r_min_mm < p.r_max_mm:
+            return self._error(request, _WRONG_RADII)
+        self._state.action_radii_mm = (p.r_min_mm, p.r_max_mm)
+        return proto.build_echo_reply(request)
+
+    def _upload_next(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.Layer)
+        st = self._state
+        numbers = self._layer_numbers(p.layer)
+        if st.upload_done:
+            return self._error(request, _ALL_TRANSFERRED)
+        if st.upload_cursor >= len(numbers):
+            st.upload_done = True
+            return proto.build_upload_reply(p.layer, END_NUMBER, 0.0, 0.0)
+        number = numbers[st.upload_cursor]
+        st.upload_cursor += 1
+        return self._rp_reply("UR", p.layer, number)
+
+    def _download(self, request: proto.Request) -> bytes:
+        p = request.payload
+        assert isinstance(p, proto.ReflectorPosition)
+        st = self._state
+        if p.number == END_NUMBER:
+            for layer in {r.layer for r in st.download}:
+                for key in [k for k in self.store if k[0] == layer]:
+                    del self.store[key]
+            for r in st.download:
+                self.store[(r.layer, r.number)] = (r.x_mm, r.y_mm)
+            st.download = []
+        else:
+            st.download.append(p)
+        return proto.build_download_reply(p.layer, p.number)
+
+    def reflectors(self) -> tuple[Reflector, ...]:
+        """The stored map as reflectors (m)."""
+        return tuple(Reflector(id=n, x=x / 1000.0, y=y / 1000.0, layer=lay)
+                     for (lay, n), (x, y) in sorted(self.store.items()))

@@ -1,0 +1,134 @@
+"""A simulation as one time-ordered stream of device-side events.
+
+This is what a device emulator plays in real time, and what the log writer consumes along
+with the host side (:mod:`lgvtool.sim.logfile`): the true pose of O, each MCU frame when the MCU
+sends it (and the bytes the link delivers), each completed revolution of the NAV200 head with
+its reflector observations, and each pose solution from the moment the device can report it.
+Times are simulation seconds (0 = start of the run).
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from lgvtool.sim.run import Simulation
+
+
+@dataclass(frozen=True, slots=True)
+class TruthSample:
+    """True pose of O at ``t``: x, y in m, heading in rad (wrapped to [-pi, pi))."""
+
+    t: float
+    x: float
+    y: float
+    heading: float
+
+
+@dataclass(frozen=True, slots=True)
+class McuSend:
+    """The MCU starts sending frame ``seq`` at ``t``; ``delivered`` is what the link passes on
+    (None when lost, different from ``data`` when corrupted)."""
+
+    t: float
+    seq: int
+    data: bytes
+    delivered: bytes | None
+
+
+@dataclass(frozen=True, slots=True)
+class Observation:
+    """One reflector measured during a revolution: range m, bearing rad in the head frame,
+    time after the revolution start s, map id (-1: not a map reflector)."""
+
+    range: float
+    bearing: float
+    time_in_scan: float
+    id: int
+
+
+@dataclass(frozen=True, slots=True)
+class NavScan:
+    """A completed revolution of the head: it ended at ``t`` and started at ``start``."""
+
+    t: float
+    start: float
+    period: float
+    observations: tuple[Observation, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class NavSolution:
+    """The device's pose of its head from revolution ``index``, reportable from ``t`` on."""
+
+    t: float
+    index: int
+    x: float
+    y: float
+    heading: float
+    quality: int
+    reflectors_used: int
+    valid: bool
+
+
+Event = TruthSample | McuSend | NavScan | NavSolution
+
+
+def truth_samples(sim: Simulation, rate_hz: float) -> Iterator[TruthSample]:
+    """The true pose of O every 1/``rate_hz`` s from 0 to the end of the run."""
+    n = int(np.floor(sim.duration * rate_hz + 1e-9)) + 1
+    t = np.arange(n, dtype=np.float64) / rate_hz
+    x, y, th = sim.truth.pose_at(t)
+    th = (th + np.pi) % (2 * np.pi) - np.pi
+    for i in range(n):
+        yield TruthSample(float(t[i]), float(x[i]), float(y[i]), float(th[i]))
+
+
+def mcu_sends(sim: Simulation) -> Iterator[McuSend]:
+    """Every MCU frame at the time the MCU sends it."""
+    out = sim.mcu
+    for i in range(len(out)):
+        yield McuSend(float(out.t[i]), out.frames[i].seq, out.data[i],
+                      sim.mcu_traffic.delivered[i])
+
+
+def nav_scans(sim: Simulation) -> Iterator[NavScan]:
+    """Every revolution at its end, with the reflectors the head detected in it, in the order
+    it measured them."""
+    sc = sim.scans
+    ids = sim.landmarks.ids.tolist()
+    order = np.argsort(np.where(sc.seen, sc.time_in_scan, np.inf), axis=1, kind="stable")
+    counts = sc.seen.sum(axis=1).tolist()
+    ranges = np.take_along_axis(sc.range, order, axis=1).tolist()
+    bearings = np.take_along_axis(sc.bearing, order, axis=1).tolist()
+    times = np.take_along_axis(sc.time_in_scan, order, axis=1).tolist()
+    cols = order.tolist()
+    starts = sc.start.tolist()
+    for k in range(len(sc)):
+        obs = tuple(Observation(ranges[k][i], bearings[k][i], times[k][i], ids[cols[k][i]])
+                    for i in range(counts[k]))
+        yield NavScan(starts[k] + sc.period, starts[k], sc.period, obs)
+
+
+def nav_solutions(sim: Simulation) -> Iterator[NavSolution]:
+    """Every pose solution at the time it becomes reportable."""
+    s = sim.solutions
+    for k in range(len(s.available)):
+        yield NavSolution(float(s.available[k]), k, float(s.x[k]), float(s.y[k]),
+                          float(s.heading[k]), int(s.quality[k]), int(s.used[k]),
+                          bool(s.valid[k]))
+
+
+def stream(sim: Simulation, truth_rate_hz: float | None = None) -> Iterator[Event]:
+    """All device-side events of ``sim`` in time order (ties: truth, MCU, scans, solutions).
+
+    ``truth_rate_hz`` defaults to the run's ``sim.truth_rate_hz``.
+    """
+    rate = truth_rate_hz if truth_rate_hz is not None else sim.settings.sim.truth_rate_hz
+    sources = (truth_samples(sim, rate), mcu_sends(sim), nav_scans(sim), nav_solutions(sim))
+    return heapq.merge(*sources, key=lambda e: e.t)

@@ -1,0 +1,242 @@
+"""The NAV200 as a physical device: a rotating head that measures reflectors one by one, and a
+pose solver that treats one revolution's measurements as if they were simultaneous.
+
+Per revolution (scan) k, starting at ``t_k`` with the head at ``scan_start`` in the vehicle
+frame and turning at ``Omega = 2 pi f`` relative to the vehicle, the beam passes reflector i
+when the head angle equals the reflector's bearing in the head frame. Both move (the vehicle
+drives and turns during the 125 ms), so the instant is found by fixed-point iteration on
+
+    t_ki = t_k + wrap_2pi(s (alpha_i(t_ki) - scan_start)) / Omega,
+
+where ``alpha_i(t)`` is the bearing of reflector i seen from the head at time t and ``s`` is
++1 for a counter-clockwise head. Range and bearing are those of that instant plus noise.
+The device then matches each observation to its stored map and solves the head pose
+(x, y, heading) by weighted Gauss-Newton least squares over all observations of the scan, with
+no motion compensation: this is where the error while turning comes from (``docs/simulator.md``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lgvtool.config import Vehicle
+from lgvtool.sim.faults import Landmarks, Occlusions
+from lgvtool.sim.kinematics import FloatArray, Trajectory
+from lgvtool.sim.settings import NavSettings
+
+NO_POSITION = 0xFF
+"""Quality byte of a scan without a valid position."""
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_pi(a: FloatArray) -> FloatArray:
+    """Angles wrapped into [-pi, pi), rad."""
+    return (a + math.pi) % TWO_PI - math.pi
+
+
+@dataclass(frozen=True)
+class Scans:
+    """The observations of every revolution, as padded arrays of shape (scans, landmarks).
+
+    Entry [k, j] is landmark j in scan k; ``seen`` says whether the head detected it.
+    """
+
+    start: FloatArray
+    """Start of each revolution, s."""
+    period: float
+    """Duration of one revolution, s."""
+    seen: NDArray[np.bool_]
+    time_in_scan: FloatArray
+    """Measurement instant after the scan start, s."""
+    range: FloatArray
+    """Measured range to the landmark centre, m."""
+    bearing: FloatArray
+    """Measured bearing in the head frame, CCW from the head's x axis, rad in [-pi, pi)."""
+    landmark: NDArray[np.intp]
+    """Landmark index of each column (the same for every scan)."""
+    matched: NDArray[np.intp]
+    """Index of the stored reflector the device matched, -1 when unmatched or not seen."""
+    hidden: NDArray[np.bool_]
+    """In range but hidden by an occlusion stretch."""
+
+    def __len__(self) -> int:
+        return len(self.start)
+
+
+@dataclass(frozen=True)
+class Solutions:
+    """The device's pose solution of every revolution (the head's pose)."""
+
+    available: FloatArray
+    """Time from which the solution can be reported, s."""
+    x: FloatArray
+    y: FloatArray
+    heading: FloatArray
+    """Head heading, rad in [-pi, pi)."""
+    used: NDArray[np.int64]
+    """Matched reflectors used in the fit."""
+    valid: NDArray[np.bool_]
+    quality: NDArray[np.int64]
+    """Quality byte: 0..100, or 0xFF without a valid position."""
+    rms: FloatArray
+    """RMS position residual of the fit, m (NaN without a valid position)."""
+    false_used: NDArray[np.bool_]
+    """The fit used the shiny false reflector."""
+
+
+def scan_starts(duration: float, nav: NavSettings, phase: float) -> FloatArray:
+    """Start times of every complete revolution within [0, duration], s; ``phase`` in [0, 1)."""
+    period = 1.0 / nav.rotation_hz
+    first = phase * period
+    n = max(0, math.floor((duration - first) / period))
+    return first + period * np.arange(n, dtype=np.float64)
+
+
+def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmarks,
+            occl: Occlusions, noise: bool, false_detection: float,
+            rng: np.random.Generator) -> Scans:
+    """Simulate every revolution of the head over ``traj`` (see the module docstring).
+
+    ``false_detection`` is the probability that the head sees a false landmark in a scan
+    (a fault, so it holds with the noise off too).
+
+    Random draws (phase, detection, range and bearing noise) are always made, scaled by zero
+    when ``noise`` is off, so that switching a mechanism off leaves the other draws unchanged.
+    """
+    period = 1.0 / nav.rotation_hz
+    omega_head = TWO_PI * nav.rotation_hz
+    sign = -1.0 if nav.clockwise else 1.0
+    start_angle = math.radians(nav.scan_start_deg)
+    starts = scan_starts(traj.t[-1], nav, float(rng.random()))
+    s, m = len(starts), len(marks)
+    lx, ly = marks.x[None, :], marks.y[None, :]
+
+    def bearing_at(times: FloatArray) -> tuple[FloatArray, FloatArray]:
+        hx, hy, hth = traj.point_at(times, vehicle.nav_x, vehicle.nav_y)
+        dx, dy = lx - hx, ly - hy
+        return np.hypot(dx, dy), np.arctan2(dy, dx) - hth
+
+    t0 = np.broadcast_to(starts[:, None], (s, m))
+    if nav.skew:
+        t = t0 + 0.5 * period
+        for _ in range(4):
+            _, alpha = bearing_at(t)
+            t = t0 + (sign * (alpha - start_angle)) % TWO_PI / omega_head
+    else:
+        t = t0 + 0.5 * period
+    true_range, alpha = bearing_at(t)
+    u_detect = rng.random((s, m))
+    n_range = rng.standard_normal((s, m))
+    n_bearing = rng.standard_normal((s, m))
+    scale = 1.0 if noise else 0.0
+    meas_range = true_range + scale * nav.sigma_range_mm * 1e-3 * n_range
+    meas_bearing = wrap_pi(alpha + scale * math.radians(nav.sigma_bearing_deg) * n_bearing)
+    landmark = np.broadcast_to(np.arange(m)[None, :], (s, m))
+    in_range = (true_range >= nav.range_min) & (true_range <= nav.range_max)
+    hidden = in_range & occl.hidden(landmark, t)
+    p_real = nav.detection_probability if noise else 1.0
+    p_detect = np.where(marks.is_false, false_detection, p_real)[None, :]
+    detected = u_detect < p_detect
+    seen = in_range & ~hidden & detected
+    matched = _match(traj, vehicle, nav, marks, t, meas_range, meas_bearing, seen)
+    return Scans(start=starts, period=period, seen=seen, time_in_scan=t - t0,
+                 range=meas_range, bearing=meas_bearing, landmark=np.arange(m),
+                 matched=matched, hidden=hidden)
+
+
+def _match(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmarks,
+           t: FloatArray, meas_range: FloatArray, meas_bearing: FloatArray,
+           seen: NDArray[np.bool_]) -> NDArray[np.intp]:
+    """The device's data association: each observation, placed in the map with the head pose
+    at its instant (a device that tracks its motion predicts it well), goes to the nearest
+    stored reflector within ``nav.gate``; when two observations claim one reflector in a scan,
+    the closer keeps it (a shiny object steals a reflector's match only when that reflector is
+    missed or hidden, or when the object lies closer to where the reflector is expected)."""
+    hx, hy, hth = traj.point_at(t, vehicle.nav_x, vehicle.nav_y)
+    ox = hx + meas_range * np.cos(hth + meas_bearing)
+    oy = hy + meas_range * np.sin(hth + meas_bearing)
+    real = np.nonzero(~marks.is_false)[0]
+    dist = np.full(ox.shape, np.inf)
+    nearest = np.zeros(ox.shape, dtype=np.intp)
+    for j in real:  # running nearest stored reflector, memory of one (scans, landmarks) array
+        d = np.hypot(ox - marks.map_x[j], oy - marks.map_y[j])
+        closer = d < dist
+        dist = np.where(closer, d, dist)
+        nearest = np.where(closer, j, nearest)
+    ok = seen & (dist <= nav.gate)
+    matched = np.where(ok, nearest, -1)
+    rows, cols = np.nonzero(ok)
+    order = np.lexsort((dist[rows, cols], matched[rows, cols], rows))
+    rows, cols = rows[order], cols[order]
+    target = matched[rows, cols]
+    repeat = np.zeros(len(rows), dtype=bool)
+    repeat[1:] = (rows[1:] == rows[:-1]) & (target[1:] == target[:-1])
+    matched[rows[repeat], cols[repeat]] = -1
+    return matched
+
+
+def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
+          marks: Landmarks) -> Solutions:
+    """Weighted Gauss-Newton fit of the head pose for every scan at once, from the matched
+    observations and the stored map, as if all were measured at one instant.
+
+    Like the NAV200's PC setting, only the ``nav.max_reflectors`` nearest matched reflectors
+    (by measured range) are used; 0 uses all.
+
+    Starts from the true head pose at mid-scan (the device's tracked estimate) and iterates
+    ``nav.solver_iterations`` times. A scan is valid with at least ``nav.min_reflectors``
+    matched reflectors. Quality falls linearly from 100 to 0 as the RMS position residual
+    grows to ``nav.quality_rms_mm``.
+    """
+    use = scans.matched >= 0
+    if nav.max_reflectors > 0:
+        ranked = np.argsort(np.where(use, scans.range, np.inf), axis=1, kind="stable")
+        rank = np.empty_like(ranked)
+        np.put_along_axis(rank, ranked, np.arange(ranked.shape[1])[None, :], axis=1)
+        use = use & (rank < nav.max_reflectors)
+    idx = np.where(use, scans.matched, 0)
+    mx = np.where(use, marks.map_x[idx], 0.0)
+    my = np.where(use, marks.map_y[idx], 0.0)
+    n_used = use.sum(axis=1)
+    valid = n_used >= nav.min_reflectors
+    mid = scans.start + 0.5 * scans.period
+    x, y, th = traj.point_at(mid, vehicle.nav_x, vehicle.nav_y)
+    x, y, th = x.copy(), y.copy(), th.copy()
+    wr = 1.0 / (nav.solver_sigma_range_mm * 1e-3) ** 2
+    wb = 1.0 / math.radians(nav.solver_sigma_bearing_deg) ** 2
+    w = use.astype(np.float64)
+    eye = np.eye(3)[None, :, :]
+    for _ in range(nav.solver_iterations):
+        dx, dy = mx - x[:, None], my - y[:, None]
+        q = np.where(use, dx * dx + dy * dy, 1.0)
+        r = np.sqrt(q)
+        res_r = np.where(use, scans.range - r, 0.0)
+        res_b = np.where(use, wrap_pi(scans.bearing - (np.arctan2(dy, dx) - th[:, None])), 0.0)
+        jr = np.stack([-dx / r, -dy / r, np.zeros_like(r)], axis=-1)
+        jb = np.stack([dy / q, -dx / q, -np.ones_like(r)], axis=-1)
+        wr_j = (w * wr)[:, :, None]
+        wb_j = (w * wb)[:, :, None]
+        h = (np.einsum("sji,sjk->sik", jr * wr_j, jr) + np.einsum("sji,sjk->sik", jb * wb_j, jb))
+        g = (np.einsum("sji,sj->si", jr * wr_j, res_r) + np.einsum("sji,sj->si", jb * wb_j, res_b))
+        h = np.where(valid[:, None, None], h, eye)
+        g = np.where(valid[:, None], g, 0.0)
+        step = np.linalg.solve(h, g[:, :, None])[:, :, 0]
+        x, y, th = x + step[:, 0], y + step[:, 1], th + step[:, 2]
+    dx, dy = mx - x[:, None], my - y[:, None]
+    r = np.hypot(dx, dy)
+    res_r = np.where(use, scans.range - r, 0.0)
+    res_b = np.where(use, wrap_pi(scans.bearing - (np.arctan2(dy, dx) - th[:, None])), 0.0)
+    sq = res_r ** 2 + (r * res_b) ** 2
+    rms = np.sqrt(sq.sum(axis=1) / np.maximum(n_used, 1))
+    quality = np.clip(np.round(100.0 * (1.0 - rms / (nav.quality_rms_mm * 1e-3))), 0, 100)
+    quality = np.where(valid, quality, NO_POSITION).astype(np.int64)
+    false_used = (use & marks.is_false[None, :]).any(axis=1) & valid
+    return Solutions(available=scans.start + scans.period + nav.latency_s,
+                     x=x, y=y, heading=wrap_pi(th), used=n_used.astype(np.int64),
+                     valid=valid, quality=quality, rms=np.where(valid, rms, np.nan),
+                     false_used=false_used)

@@ -1,0 +1,259 @@
+"""The scenario catalogue: what the vehicle drives, and the settings each scenario presets.
+
+A scenario turns its parameters (``scenario.*`` settings, SI unless the key says ``_deg``)
+and an optional duration into a :class:`Plan`: the start pose of O and the drive commands on
+the integration grid. Faults and device settings that a scenario implies are *presets*,
+applied before the user's own ``--config`` and ``--set`` values.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from lgvtool.config import Vehicle
+from lgvtool.errors import ConfigError, InputError
+from lgvtool.sim.kinematics import Controls
+from lgvtool.sim.routes import Leg, lay_out, sample, straight, turn
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Start pose of O and drive commands of a scenario."""
+
+    x0: float
+    """Start x of O, m."""
+    y0: float
+    """Start y of O, m."""
+    heading0: float
+    """Start heading, rad."""
+    controls: Controls
+    reference: dict[str, float] = field(default_factory=dict)
+    """What the scenario promises, for evaluation: e.g. circle centre and radius, m."""
+
+
+Builder = Callable[[Mapping[str, Any], Vehicle, float | None, float], Plan]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A named scenario: its description, default parameters, presets and builder."""
+
+    name: str
+    description: str
+    defaults: Mapping[str, float]
+    build: Builder
+    presets: Mapping[str, Any] = field(default_factory=dict)
+
+    def parameters(self, overrides: Mapping[str, Any]) -> dict[str, float]:
+        """Defaults updated with ``overrides``; ConfigError for an unknown or non-numeric key."""
+        out = dict(self.defaults)
+        for key, value in overrides.items():
+            if key not in out:
+                raise ConfigError(f"unknown setting 'scenario.{key}' for scenario {self.name} "
+                                  f"(known: {', '.join(sorted(out))})")
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ConfigError(f"scenario.{key} must be a number, got {value!r}")
+            if not math.isfinite(float(value)):
+                raise ConfigError(f"scenario.{key} must be finite, got {value!r}")
+            out[key] = float(value)
+        return out
+
+
+# --------------------------------------------------------------------------- circle
+
+CIRCLE_DEFAULTS: dict[str, float] = {
+    "speed": 0.36,            # drive wheel speed v_d, m/s (paper: 36 cm/s)
+    "steering_deg": 60.0,     # steering angle, deg (paper: 60)
+    "rotations": 8.0,         # full rotations (paper: 8); ignored when --duration is given
+    "standstill_s": 5.0,      # standstill at the start, s
+    "leadout_s": 3.0,         # standstill at the end, s
+    "accel": 0.3,             # drive wheel acceleration, m/s^2
+    "centre_x": 11.0,         # circle centre, m
+    "centre_y": 9.0,          # circle centre, m
+    "start_heading_deg": 0.0, # heading at the start, deg
+}
+
+
+def _positive(params: Mapping[str, float], *keys: str) -> None:
+    for key in keys:
+        if params[key] <= 0:
+            raise ConfigError(f"scenario.{key} must be positive, got {params[key]}")
+
+
+def build_circle(params: Mapping[str, Any], vehicle: Vehicle, duration: float | None,
+                 rate_hz: float) -> Plan:
+    """The paper's experiment: steer to a fixed angle at standstill, drive circles, stop."""
+    _positive(params, "speed", "accel", "rotations")
+    delta = math.radians(params["steering_deg"])
+    if not 0.0 < abs(delta) < math.pi / 2:
+        raise ConfigError("scenario.steering_deg must be in (0, 90) in magnitude")
+    if params["standstill_s"] < 0 or params["leadout_s"] < 0:
+        raise ConfigError("scenario.standstill_s and scenario.leadout_s must not be negative")
+    speed, accel = params["speed"], params["accel"]
+    lead_in, lead_out = params["standstill_s"], params["leadout_s"]
+    if duration is None:
+        travel = 2.0 * math.pi * params["rotations"] * vehicle.h / math.sin(abs(delta))
+    else:
+        moving = duration - lead_in - lead_out
+        if moving <= 0:
+            raise InputError(f"--duration {duration:g} s leaves no time to drive after the "
+                             f"{lead_in:g} s standstill and {lead_out:g} s lead-out")
+        if moving >= 2 * speed / accel:
+            travel = speed * (moving - speed / accel)
+        else:
+            travel = accel * (moving / 2) ** 2
+    profile = lay_out([straight(travel, speed, steering=delta)], accel, start_time=lead_in)
+    total = duration if duration is not None else profile.end_time + lead_out
+    controls = sample(profile, total, rate_hz)
+    radius = vehicle.circle_radius(delta)
+    th0 = math.radians(params["start_heading_deg"])
+    side = 1.0 if delta > 0 else -1.0  # centre to the left of O for a left turn
+    cx, cy = params["centre_x"], params["centre_y"]
+    x0 = cx + side * radius * math.sin(th0)
+    y0 = cy - side * radius * math.cos(th0)
+    return Plan(x0=x0, y0=y0, heading0=th0, controls=controls,
+                reference={"centre_x": cx, "centre_y": cy, "radius": radius,
+                           "steering_angle": delta, "drive_speed": speed,
+                           "moving_from_s": lead_in, "moving_until_s": profile.end_time})
+
+
+# --------------------------------------------------------------------------- warehouse
+
+WAREHOUSE_DEFAULTS: dict[str, float] = {
+    "speed": 0.8,              # drive wheel speed on straights, m/s
+    "turn_speed": 0.4,         # drive wheel speed in turns, m/s
+    "reverse_speed": 0.3,      # drive wheel speed when reversing, m/s
+    "accel": 0.3,              # drive wheel acceleration, m/s^2
+    "steering_deg": 60.0,      # steering angle held in a turn, deg
+    "steering_rate_deg_per_m": 60.0,  # steering change per metre of drive wheel travel
+    "length_a": 10.0,          # long straights, m
+    "length_b": 6.0,           # short straights (the second one holds the stop), m
+    "reverse_length": 2.0,     # reverse leg after the stop, m
+    "pick_dwell_s": 3.0,       # standstill at the stop (load handling), s
+    "laps": 2.0,               # laps of the route; ignored when --duration is given
+    "standstill_s": 5.0,       # standstill at the start, s
+    "leadout_s": 3.0,          # standstill at the end, s
+    "start_x": 6.0,            # start of O, m
+    "start_y": 4.0,            # start of O, m
+    "start_heading_deg": 0.0,  # start heading, deg
+}
+
+
+def _warehouse_lap(params: Mapping[str, float], vehicle: Vehicle) -> list[Leg]:
+    """One lap: a rectangle of long and short straights joined by left 90-degree turns; on the
+    first short side the vehicle stops, reverses out and drives on."""
+    speed, tspeed, rspeed = params["speed"], params["turn_speed"], params["reverse_speed"]
+    delta = math.radians(params["steering_deg"])
+    per_m = math.radians(params["steering_rate_deg_per_m"])
+    quarter = turn(math.pi / 2, delta, per_m, vehicle.h, tspeed)
+    a, b, rev = params["length_a"], params["length_b"], params["reverse_length"]
+    half = b / 2
+    return [
+        straight(a, speed),
+        quarter,
+        straight(half, speed, dwell=params["pick_dwell_s"]),
+        straight(rev, rspeed, direction=-1, dwell=1.0),
+        straight(rev, rspeed),
+        straight(b - half, speed),
+        quarter,
+        straight(a, speed),
+        quarter,
+        straight(b, speed),
+        quarter,
+    ]
+
+
+def build_warehouse(params: Mapping[str, Any], vehicle: Vehicle, duration: float | None,
+                    rate_hz: float) -> Plan:
+    """Laps of a warehouse route: straights, 90-degree turns, a stop and a reverse leg."""
+    _positive(params, "speed", "turn_speed", "reverse_speed", "accel", "steering_rate_deg_per_m",
+              "length_a", "length_b", "reverse_length", "laps")
+    delta = math.radians(params["steering_deg"])
+    if not 0.0 < delta < math.pi / 2:
+        raise ConfigError("scenario.steering_deg must be in (0, 90)")
+    if params["pick_dwell_s"] <= 0:
+        raise ConfigError("scenario.pick_dwell_s must be positive")
+    try:
+        lap = _warehouse_lap(params, vehicle)
+    except ValueError as exc:
+        raise ConfigError(f"scenario: {exc}") from None
+    lead_in, lead_out = params["standstill_s"], params["leadout_s"]
+    accel = params["accel"]
+    if duration is None:
+        laps = max(1, round(params["laps"]))
+    else:
+        moving = duration - lead_in - lead_out
+        one = lay_out(lap, accel, resolution=0.01).end_time
+        laps = max(1, math.floor(moving / one)) if moving > 0 else 1
+    profile = lay_out(lap * laps, accel, start_time=lead_in)
+    total = duration if duration is not None else profile.end_time + lead_out
+    controls = sample(profile, total, rate_hz)
+    return Plan(x0=params["start_x"], y0=params["start_y"],
+                heading0=math.radians(params["start_heading_deg"]), controls=controls,
+                reference={"laps": float(laps), "moving_from_s": lead_in,
+                           "moving_until_s": profile.end_time})
+
+
+# --------------------------------------------------------------------------- catalogue
+
+DEGRADED_PRESETS: dict[str, Any] = {
+    "faults.mcu_drop_rate": 0.02,
+    "faults.mcu_corrupt_rate": 0.02,
+    "faults.nav_request_drop_rate": 0.02,
+    "faults.nav_reply_drop_rate": 0.02,
+    "faults.nav_corrupt_rate": 0.03,
+    "faults.nav_invalid_rate": 0.03,
+    "faults.occlusion_fraction": 0.15,
+    "faults.occlusion_mean_s": 6.0,
+    "faults.false_reflector": True,
+}
+"""Fault settings of the ``degraded`` scenario."""
+
+SCENARIOS: dict[str, Scenario] = {
+    "paper-circle": Scenario(
+        name="paper-circle",
+        description=("The paper's experiment: 25 m x 20 m hall with 20 wall reflectors, drive "
+                     "wheel at 36 cm/s, steering fixed at 60 deg, eight full rotations of O on "
+                     "a circle of radius h/tan(60 deg), after a 5 s standstill, then a 3 s "
+                     "lead-out."),
+        defaults=CIRCLE_DEFAULTS,
+        build=build_circle,
+    ),
+    "warehouse": Scenario(
+        name="warehouse",
+        description=("Two laps of a 10 m x 6 m rectangular route at 0.8 m/s with left "
+                     "90-degree turns at 0.4 m/s; on each lap a 3 s stop, a 2 m reverse leg "
+                     "and back."),
+        defaults=WAREHOUSE_DEFAULTS,
+        build=build_warehouse,
+    ),
+    "fast": Scenario(
+        name="fast",
+        description="paper-circle at twice the speed: drive wheel at 72 cm/s.",
+        defaults={**CIRCLE_DEFAULTS, "speed": 0.72},
+        build=build_circle,
+    ),
+    "degraded": Scenario(
+        name="degraded",
+        description=("paper-circle over bad links and a cluttered hall: 2 % of MCU frames "
+                     "dropped and 2 % corrupted, 2 % of NAV requests and 2 % of replies lost, "
+                     "3 % of replies corrupted, 3 % 'no valid position', every reflector hidden "
+                     "15 % of the time in ~6 s stretches, and a shiny object beside reflector "
+                     "3 that the head takes for a reflector."),
+        defaults=CIRCLE_DEFAULTS,
+        build=build_circle,
+        presets=DEGRADED_PRESETS,
+    ),
+}
+"""Every scenario by name."""
+
+
+def get_scenario(name: str) -> Scenario:
+    """The scenario called ``name``; InputError naming the known ones otherwise."""
+    try:
+        return SCENARIOS[name]
+    except KeyError:
+        raise InputError(f"unknown scenario '{name}' (known: {', '.join(SCENARIOS)})") from None

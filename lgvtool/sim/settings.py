@@ -1,0 +1,342 @@
+"""Every setting of the simulator, grouped by what it models, with ``--set`` overrides.
+
+Keys are ``section.name``: ``sim.*`` (run), ``mcu.*`` (encoders, gyro, MCU link),
+``nav.*`` (NAV200 head, solver, serial link), ``faults.*`` (injected faults) and ``scenario.*``
+(parameters of the chosen scenario, see :mod:`lgvtool.sim.scenarios`). ``vehicle.*`` keys
+belong to :class:`lgvtool.config.Vehicle` and are applied to the configuration instead.
+
+Values are SI (m, s, rad) unless the key says otherwise (``*_deg``, ``*_dps``, ``*_ppm``,
+``*_mm``). All defaults are documented in ``docs/simulator.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields, replace
+from typing import Any
+
+from lgvtool.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How the simulation is run and time-stamped."""
+
+    rate_hz: float = 200.0
+    """Integration rate of the ground truth, Hz (at least 200)."""
+    truth_rate_hz: float = 20.0
+    """Rate of the logged ground truth /truth/pose, Hz."""
+    start_epoch_s: int = 1_704_067_200
+    """Host time of simulation time 0, whole s since the Unix epoch (2024-01-01T00:00:00Z)."""
+    noise: bool = True
+    """Master switch: false turns off every random error (NAV, MCU, timing jitter)."""
+
+
+@dataclass(frozen=True)
+class McuSettings:
+    """Encoders, gyro, drive unit and the MCU serial link."""
+
+    period_s: float = 0.100
+    """Frame period of the MCU by its own clock, s."""
+    baud: int = 115_200
+    """Serial speed of the MCU link (8N1, 10 bits per byte), baud."""
+    clock_drift_ppm: float = 25.0
+    """MCU crystal error: its clock runs fast by this much, parts per million."""
+    clock_offset_ms: int = 123_456
+    """MCU clock reading at simulation time 0, ms."""
+    send_jitter_s: float = 0.0005
+    """Standard deviation of the MCU's send instant around its schedule, s."""
+    host_latency_s: float = 0.001
+    """Delay from the last byte on the wire to the host's read returning it (before jitter), s."""
+    host_jitter_s: float = 0.002
+    """Extra read delay, uniform in [0, host_jitter_s], s."""
+    split_probability: float = 0.3
+    """Probability that a frame reaches the host in two reads instead of one."""
+    noise: bool = True
+    """False turns off slip, gyro white noise and bias walk, steering and speed noise and the
+    timing jitter (calibration errors and the constant gyro bias stay)."""
+    wheel_radius_error_left: float = 0.002
+    """True left wheel radius is nominal x (1 + this): a calibration error, dimensionless."""
+    wheel_radius_error_right: float = -0.0015
+    """True right wheel radius is nominal x (1 + this), dimensionless."""
+    slip_sigma: float = 0.0015
+    """Wheel slip: random walk of the counted travel, m per sqrt(m) travelled."""
+    gyro_bias_dps: float = 0.05
+    """Constant gyro bias, deg/s."""
+    gyro_bias_walk_dps: float = 0.002
+    """Gyro bias random walk, deg/s per sqrt(s)."""
+    gyro_noise_dps: float = 0.03
+    """White noise on each frame's gyro rate (mean over the frame period), deg/s."""
+    gyro_scale_error: float = 0.003
+    """Gyro scale factor error, dimensionless."""
+    steering_noise_deg: float = 0.05
+    """Noise of the reported steering angle, deg."""
+    speed_noise: float = 0.003
+    """Noise of the reported drive wheel speed, m/s."""
+    gyro_scale_udeg_s: int = 10_986
+    """Gyro quantisation step, micro-deg/s per count (360/32768 deg/s: +-360 deg/s in int16)."""
+
+
+@dataclass(frozen=True)
+class NavSettings:
+    """The NAV200: rotating head, reflector measurements, pose solver and serial link."""
+
+    rotation_hz: float = 8.0
+    """Head revolutions per second relative to the vehicle, Hz."""
+    clockwise: bool = False
+    """Direction of the head's rotation; false: counter-clockwise seen from above."""
+    scan_start_deg: float = 90.0
+    """Head angle in the vehicle frame at which a revolution (scan) starts and the device closes
+    its data set, deg (undocumented for the NAV200; see docs/simulator.md)."""
+    skew: bool = True
+    """Each reflector is measured at its own instant of the revolution; false: all at once
+    (mid-revolution), i.e. an ideal motion-compensated device."""
+    range_min: float = 0.5
+    """Closest measurable reflector (centre), m."""
+    range_max: float = 28.0
+    """Farthest measurable reflector (centre), m."""
+    noise: bool = True
+    """False turns off range and bearing noise, missed detections and the poll and read jitter."""
+    sigma_range_mm: float = 12.0
+    """Range noise, standard deviation, mm."""
+    sigma_bearing_deg: float = 0.05
+    """Bearing noise, standard deviation, deg."""
+    detection_probability: float = 0.97
+    """Probability that a visible reflector is detected in a revolution."""
+    solver_sigma_range_mm: float = 12.0
+    """Range standard deviation the device assumes when weighting its fit, mm."""
+    solver_sigma_bearing_deg: float = 0.05
+    """Bearing standard deviation the device assumes when weighting its fit, deg."""
+    solver_iterations: int = 6
+    """Gauss-Newton iterations per revolution."""
+    gate: float = 0.4
+    """An observation is matched to the nearest stored reflector within this distance, m."""
+    min_reflectors: int = 3
+    """Fewest matched reflectors for a valid position."""
+    max_reflectors: int = 8
+    """The device fits only this many nearest matched reflectors (NAV200 PC command); 0: all."""
+    """Fewest matched reflectors for a valid position."""
+    quality_rms_mm: float = 250.0
+    """Quality falls from 100 to 0 as the fit's RMS range residual grows to this, mm."""
+    latency_s: float = 0.040
+    """Time from the end of a revolution until its pose can be reported, s."""
+    reply_delay_s: float = 0.005
+    """Time from the end of a request to the first reply byte, s."""
+    poll_period_s: float = 0.450
+    """Host poll period of the PP request, s."""
+    poll_start_s: float = 0.5
+    """Time of the first poll, s."""
+    poll_jitter_s: float = 0.002
+    """Host scheduling jitter of each poll, uniform in [0, poll_jitter_s], s."""
+    baud: int = 19_200
+    """Serial speed (8E1, 11 bits per byte), baud."""
+    host_latency_s: float = 0.001
+    """Delay from the last byte on the wire to the host's read returning it (before jitter), s."""
+    host_jitter_s: float = 0.002
+    """Extra read delay, uniform in [0, host_jitter_s], s."""
+    split_probability: float = 0.3
+    """Probability that a reply reaches the host in two reads instead of one."""
+    map_sigma_mm: float = 0.0
+    """Survey error of the device's stored reflector map (per reflector, per axis), mm."""
+
+
+@dataclass(frozen=True)
+class FaultSettings:
+    """Faults injected on purpose (all off by default; the ``degraded`` scenario sets them)."""
+
+    mcu_drop_rate: float = 0.0
+    """Fraction of MCU frames lost on the link."""
+    mcu_corrupt_rate: float = 0.0
+    """Fraction of MCU frames with one bit flipped after the header (CRC fails)."""
+    nav_request_drop_rate: float = 0.0
+    """Fraction of PP requests that never reach the device (no reply)."""
+    nav_reply_drop_rate: float = 0.0
+    """Fraction of PP replies lost on the link."""
+    nav_corrupt_rate: float = 0.0
+    """Fraction of PP replies with one bit flipped in the data (BCC fails)."""
+    nav_invalid_rate: float = 0.0
+    """Fraction of PP replies in which the device reports no valid position (quality 0xFF)."""
+    occlusion_fraction: float = 0.0
+    """Fraction of the time each reflector is hidden (pallets, people), dimensionless."""
+    occlusion_mean_s: float = 6.0
+    """Mean length of one occlusion stretch, s."""
+    false_reflector: bool = False
+    """Place a shiny object that the head takes for a reflector."""
+    false_x: float = math.nan
+    """Position of the shiny object, m; NaN: beside the reflector ``false_near_id``."""
+    false_y: float = math.nan
+    """Position of the shiny object, m; NaN: beside the reflector ``false_near_id``."""
+    false_near_id: int = 3
+    """Reflector beside which the shiny object stands (when false_x/false_y are NaN)."""
+    false_offset: float = 0.3
+    """Distance of the shiny object from that reflector, along the wall, m."""
+    false_detection_probability: float = 0.6
+    """Probability that the head sees the shiny object in a revolution."""
+
+
+SECTIONS: dict[str, type] = {
+    "sim": RunSettings,
+    "mcu": McuSettings,
+    "nav": NavSettings,
+    "faults": FaultSettings,
+}
+"""Section name -> settings class (``scenario`` and ``vehicle`` are handled apart)."""
+
+
+@dataclass(frozen=True)
+class SimSettings:
+    """All simulator settings of one run."""
+
+    sim: RunSettings = field(default_factory=RunSettings)
+    mcu: McuSettings = field(default_factory=McuSettings)
+    nav: NavSettings = field(default_factory=NavSettings)
+    faults: FaultSettings = field(default_factory=FaultSettings)
+    scenario: Mapping[str, Any] = field(default_factory=dict)
+    """Parameters of the scenario (validated by the scenario)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every setting as a nested JSON-able dict (NaN written as None)."""
+        out: dict[str, Any] = {}
+        for name in SECTIONS:
+            out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()}
+        out["scenario"] = {k: _jsonable(v) for k, v in self.scenario.items()}
+        return out
+
+    @property
+    def mcu_noise(self) -> bool:
+        """True when MCU noise is on (both the master switch and mcu.noise)."""
+        return self.sim.noise and self.mcu.noise
+
+    @property
+    def nav_noise(self) -> bool:
+        """True when NAV noise is on (both the master switch and nav.noise)."""
+        return self.sim.noise and self.nav.noise
+
+
+def _jsonable(v: Any) -> Any:
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def _coerce(key: str, value: Any, kind: type) -> Any:
+    if kind is bool:
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, str) and value.lower() in ("true", "false"):
+            return value.lower() == "true"
+        raise ConfigError(f"{key} must be true or false, got {value!r}")
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{key} must be an integer, got {value!r}")
+        return value
+    if kind is float:
+        if value is None or (isinstance(value, str) and value.lower() == "nan"):
+            return math.nan
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"{key} must be a number, got {value!r}")
+        return float(value)
+    if kind is str:
+        return str(value)
+    raise ConfigError(f"{key}: unsupported setting type")
+
+
+def _field_types(cls: type) -> dict[str, type]:
+    names = {"bool": bool, "int": int, "float": float, "str": str}
+    return {f.name: names[str(f.type)] for f in fields(cls)}
+
+
+def apply_overrides(settings: SimSettings, overrides: Mapping[str, Any]) -> SimSettings:
+    """Apply ``{"section.key": value}`` overrides (``scenario.*`` unchecked here).
+
+    Raises ConfigError for an unknown section or key or a value of the wrong type.
+    """
+    grouped: dict[str, dict[str, Any]] = {}
+    scenario = dict(settings.scenario)
+    for full_key, value in overrides.items():
+        section, _, key = full_key.partition(".")
+        if not key:
+            raise ConfigError(f"setting '{full_key}' must be section.key "
+                              f"(sections: {', '.join([*SECTIONS, 'scenario', 'vehicle'])})")
+        if section == "scenario":
+            scenario[key] = value
+            continue
+        cls = SECTIONS.get(section)
+        if cls is None:
+            raise ConfigError(f"unknown setting section '{section}' in '{full_key}' "
+                              f"(sections: {', '.join([*SECTIONS, 'scenario', 'vehicle'])})")
+        types = _field_types(cls)
+        if key not in types:
+            raise ConfigError(f"unknown setting '{full_key}' (known in {section}: "
+                              f"{', '.join(types)})")
+        grouped.setdefault(section, {})[key] = _coerce(full_key, value, types[key])
+    out = replace(settings, scenario=scenario)
+    for section, values in grouped.items():
+        out = replace(out, **{section: replace(getattr(out, section), **values)})
+    return validate(out)
+
+
+def flatten(table: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Flatten a nested table (e.g. a TOML ``[simulator]`` section) to ``section.key`` keys."""
+    out: dict[str, Any] = {}
+    for k, v in table.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, Mapping):
+            out.update(flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def validate(s: SimSettings) -> SimSettings:
+    """Check ranges; raise ConfigError naming the first bad setting."""
+    checks: list[tuple[bool, str]] = [
+        (s.sim.rate_hz >= 200.0, "sim.rate_hz must be at least 200"),
+        (s.sim.truth_rate_hz > 0 and s.sim.truth_rate_hz <= s.sim.rate_hz,
+         "sim.truth_rate_hz must be positive and at most sim.rate_hz"),
+        (s.sim.start_epoch_s >= 0, "sim.start_epoch_s must not be negative"),
+        (s.mcu.period_s > 0.005, "mcu.period_s must exceed 0.005"),
+        (s.mcu.baud > 0 and s.nav.baud > 0, "baud rates must be positive"),
+        (s.nav.rotation_hz > 0.5, "nav.rotation_hz must exceed 0.5"),
+        (0 < s.nav.range_min < s.nav.range_max, "nav.range_min must be in (0, nav.range_max)"),
+        (s.nav.poll_period_s > 0.05, "nav.poll_period_s must exceed 0.05"),
+        (s.nav.min_reflectors >= 2, "nav.min_reflectors must be at least 2"),
+        (s.nav.max_reflectors == 0 or s.nav.max_reflectors >= s.nav.min_reflectors,
+         "nav.max_reflectors must be 0 (all) or at least nav.min_reflectors"),
+        (s.nav.solver_iterations >= 1, "nav.solver_iterations must be at least 1"),
+        (s.nav.solver_sigma_range_mm > 0 and s.nav.solver_sigma_bearing_deg > 0,
+         "nav.solver_sigma_* must be positive"),
+        (s.nav.gate > 0, "nav.gate must be positive"),
+        (s.nav.quality_rms_mm > 0, "nav.quality_rms_mm must be positive"),
+        (0 < s.mcu.gyro_scale_udeg_s <= 0xFFFF, "mcu.gyro_scale_udeg_s must be in 1..65535"),
+        (s.faults.occlusion_mean_s > 0, "faults.occlusion_mean_s must be positive"),
+        (0 <= s.faults.occlusion_fraction < 1, "faults.occlusion_fraction must be in [0, 1)"),
+    ]
+    for ok, message in checks:
+        if not ok:
+            raise ConfigError(message)
+    nonneg = {
+        "mcu": ("send_jitter_s", "host_latency_s", "host_jitter_s", "slip_sigma",
+                "gyro_bias_walk_dps", "gyro_noise_dps", "steering_noise_deg", "speed_noise"),
+        "nav": ("sigma_range_mm", "sigma_bearing_deg", "latency_s", "reply_delay_s",
+                "poll_start_s", "poll_jitter_s", "host_latency_s", "host_jitter_s",
+                "map_sigma_mm"),
+    }
+    for section, keys in nonneg.items():
+        for key in keys:
+            if getattr(getattr(s, section), key) < 0:
+                raise ConfigError(f"{section}.{key} must not be negative")
+    probabilities = {
+        "mcu": ("split_probability",),
+        "nav": ("detection_probability", "split_probability"),
+        "faults": ("mcu_drop_rate", "mcu_corrupt_rate", "nav_request_drop_rate",
+                   "nav_reply_drop_rate", "nav_corrupt_rate", "nav_invalid_rate",
+                   "false_detection_probability"),
+    }
+    for section, keys in probabilities.items():
+        for key in keys:
+            p = getattr(getattr(s, section), key)
+            if not 0.0 <= p <= 1.0:
+                raise ConfigError(f"{section}.{key} must be in [0, 1], got {p}")
+    return s

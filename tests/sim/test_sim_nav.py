@@ -1,0 +1,135 @@
+"""The NAV200 model: truth at standstill, skew while turning, the wire, the reflector scans."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from lgvtool.log import LogReader, topics
+from lgvtool.log.messages import from_stamp
+from lgvtool.sim.nav_device import Nav200Device
+from lgvtool.wire import nav200 as proto
+
+QUIET = {"sim.noise": False}
+"""Every random error off."""
+
+
+def _poses(path):
+    reader = LogReader(path)
+    meta = reader.metadata["simulator"]
+    start = int(meta["start_epoch_s"]) * 1_000_000_000
+    rows = [m.data for m in reader.messages([topics.NAV_POSE])]
+    t = np.array([(from_stamp(d["timestamp"]) - start) / 1e9 for d in rows])
+    return meta, rows, t
+
+
+def _radial_error_at_o(sim, rows, t, keep):
+    v = sim.config.vehicle
+    ref = sim.plan.reference
+    x = np.array([d["x"] for d in rows])[keep]
+    y = np.array([d["y"] for d in rows])[keep]
+    th = np.array([d["heading"] for d in rows])[keep]
+    ox = x - v.nav_x * np.cos(th) + v.nav_y * np.sin(th)
+    oy = y - v.nav_x * np.sin(th) - v.nav_y * np.cos(th)
+    return np.hypot(ox - ref["centre_x"], oy - ref["centre_y"]) - ref["radius"]
+
+
+def test_without_noise_the_nav_pose_is_the_truth_at_standstill(sim_cache, log_cache) -> None:
+    sim = sim_cache("paper-circle", **QUIET)
+    meta, rows, t = _poses(log_cache("paper-circle", **QUIET))
+    still = (t > 1.0) & (t < meta["reference"]["moving_from_s"])
+    assert still.sum() >= 5
+    hx, hy, hth = sim.truth.point_at(t[still], sim.config.vehicle.nav_x,
+                                     sim.config.vehicle.nav_y)
+    x = np.array([d["x"] for d in rows])[still]
+    y = np.array([d["y"] for d in rows])[still]
+    th = np.array([d["heading"] for d in rows])[still]
+    assert np.max(np.abs(x - hx)) <= 0.0005 + 1e-9  # whole mm on the wire
+    assert np.max(np.abs(y - hy)) <= 0.0005 + 1e-9
+    assert np.max(np.abs((th - hth + math.pi) % (2 * math.pi) - math.pi)) <= math.pi / 32768
+    assert all(d["valid"] and d["reflectors_used"] == 8 for d in np.array(rows)[still])
+
+
+def _moving_error(sim_cache, log_cache, scenario, **overrides):
+    sim = sim_cache(scenario, **overrides)
+    meta, rows, t = _poses(log_cache(scenario, **overrides))
+    ref = meta["reference"]
+    keep = (t > ref["moving_from_s"] + 3) & (t < ref["moving_until_s"] - 3)
+    return _radial_error_at_o(sim, rows, t, keep)
+
+
+def test_without_noise_the_nav_pose_is_skewed_while_turning_and_more_so_faster(
+        sim_cache, log_cache) -> None:
+    slow = _moving_error(sim_cache, log_cache, "paper-circle", **QUIET)
+    fast = _moving_error(sim_cache, log_cache, "fast", **QUIET)
+    compensated = _moving_error(sim_cache, log_cache, "paper-circle",
+                                **{**QUIET, "nav.skew": False})
+    assert np.max(np.abs(compensated)) < 0.002  # only mm quantisation left
+    assert abs(np.mean(slow)) > 0.02  # tens of mm, as a bias
+    assert abs(np.mean(slow)) > 3 * np.std(slow)
+    assert abs(np.mean(fast)) > 1.6 * abs(np.mean(slow))
+
+
+def test_defaults_are_in_the_papers_regime(sim_cache, log_cache) -> None:
+    err = _moving_error(sim_cache, log_cache, "paper-circle") * 1000.0
+    rmse = float(np.sqrt(np.mean(err ** 2)))
+    assert 20.0 < rmse < 120.0
+    assert np.mean(err) ** 2 > np.var(err)  # mostly a bias
+
+
+def test_each_reflector_is_measured_at_its_own_instant(sim_cache) -> None:
+    sim = sim_cache("paper-circle", **QUIET)
+    sc = sim.scans
+    assert sc.period == pytest.approx(1 / 8.0)
+    k = len(sc) // 2
+    seen = sc.seen[k]
+    times = sc.time_in_scan[k, seen]
+    assert np.all((times >= 0) & (times < sc.period))
+    assert len(np.unique(np.round(times, 6))) == seen.sum()
+    # the head turns counter-clockwise from the scan start at 90 deg: time follows the bearing
+    u = (sc.bearing[k, seen] - math.radians(90.0)) % (2 * math.pi)
+    order = np.argsort(times)
+    assert np.all(np.diff(u[order]) > 0)
+
+
+def test_reflector_scans_are_logged_with_ids_and_times(log_cache) -> None:
+    reader = LogReader(log_cache("paper-circle"))
+    scans = [m for m in reader.messages([topics.NAV_REFLECTORS])]
+    assert len(scans) > 8 * 190
+    obs = scans[len(scans) // 2].data["observations"]
+    assert {o["id"] for o in obs} <= set(range(1, 21))
+    assert [o["time_in_scan"] for o in obs] == sorted(o["time_in_scan"] for o in obs)
+    assert all(0.5 <= o["range"] <= 28.0 for o in obs)
+    for m in scans[:50]:
+        assert m.log_time_ns > from_stamp(m.data["timestamp"])  # logged after the revolution
+
+
+def test_polls_every_450_ms_and_replies_after_the_request(log_cache) -> None:
+    reader = LogReader(log_cache("paper-circle"))
+    tx = [m for m in reader.messages([topics.NAV_TX])]
+    gaps = np.diff([m.log_time_ns for m in tx]) / 1e9
+    assert np.all(np.abs(gaps - 0.45) < 0.003)
+    assert {m.data["data"] for m in tx} == {"AgVQUAc="}  # 02 05 50 50 07
+    poses = [m for m in reader.messages([topics.NAV_POSE])]
+    assert len(poses) == len(tx)
+    lag = (np.array([m.log_time_ns for m in poses]) - np.array([m.log_time_ns for m in tx])) / 1e9
+    # 5 + 17 bytes at 19200 baud 8E1, 5 ms reply delay, up to 3 ms host read
+    assert np.all((lag > 0.017) & (lag < 0.025))
+
+
+def test_device_answers_requests_as_an_emulator_would(sim_cache) -> None:
+    sim = sim_cache("paper-circle")
+    device = Nav200Device(sim.solutions, sim.config.reflectors)
+    assert device.latest(0.0) == -1
+    reply = proto.decode_reply(proto.parse_telegram(device.answer(proto.request_pose(), 0.0)))
+    assert reply.payload.quality == 0xFF
+    t = 50.0
+    reply = proto.decode_reply(proto.parse_telegram(device.answer(proto.request_pose(), t)))
+    i = device.latest(t)
+    assert sim.solutions.available[i] <= t < sim.solutions.available[i + 1]
+    assert reply.payload.x == pytest.approx(sim.solutions.x[i], abs=5e-4)
+    ack = proto.decode_reply(proto.parse_telegram(
+        device.answer(proto.request_positioning_mode(), t)))
+    assert ack.code == "PA"
