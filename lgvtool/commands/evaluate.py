@@ -1,0 +1,255 @@
+"""``lgvtool evaluate``: Table 1, error metrics, plots and the report for one or more logs.
+
+Also the Python entry point :func:`evaluate_log` (notebooks, the fleet engine): read a log,
+take its estimates or run the estimators, and evaluate them with :mod:`lgvtool.evaluate`.
+Heavy imports stay inside the functions so that ``lgvtool --help`` stays instant.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import click
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from lgvtool.config import Config
+    from lgvtool.evaluate.evaluation import EvaluationResult
+    from lgvtool.log import LogReader
+
+def _pose_frame(reader: LogReader, topic: str) -> pd.DataFrame:
+    df = reader.dataframe(topic)
+    if df.empty:
+        return df
+    return df[["t", "x", "y", "heading"]]
+
+
+def _estimates_from_log(
+    reader: LogReader, names: Sequence[str] | None
+) -> dict[str, pd.DataFrame] | None:
+    from lgvtool.errors import InputError
+    from lgvtool.log import topics
+
+    present = topics.estimator_names(reader.topic_names())
+    if not present:
+        return None
+    if names:
+        missing = [n for n in names if n not in present]
+        if missing:
+            raise InputError(f"{reader.path}: no estimates of {', '.join(missing)} in the log "
+                             f"(it holds {', '.join(present)}); run lgvtool replay first")
+        present = list(names)
+    return {n: _pose_frame(reader, topics.estimate_pose(n)) for n in present}
+
+
+def _run_estimators(
+    reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
+    settings: Mapping[str, Any] | None, warnings: list[str],
+) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
+    from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
+
+    chosen = list(names) if names else list(DEFAULT_ESTIMATORS)
+    out = run_replay(reader, chosen, config=cfg, seed=seed, settings=dict(settings or {}))
+    for name, reason in (getattr(out, "skipped", None) or {}).items():
+        warnings.append(f"estimator '{name}' left out: {reason}")
+    return dict(out.trajectories), dict(out.settings)
+
+
+def evaluate_log(
+    path_or_reader: str | Path | LogReader,
+    *,
+    estimators: Sequence[str] | None = None,
+    config: Config | None = None,
+    seed: int = 0,
+    settings: Mapping[str, Any] | None = None,
+    shared_centre: bool = False,
+    free_radius: bool = False,
+    lap_source: str | None = None,
+) -> EvaluationResult:
+    """Evaluate one log.
+
+    The log's ``/estimate/<name>/pose`` channels are scored if it has any (``estimators``
+    picks among them); otherwise the estimators (default: ``DEFAULT_ESTIMATORS`` of
+    :mod:`lgvtool.localize`) are run with ``run_replay`` using ``seed`` and ``settings``.
+    ``config`` overrides the configuration stored in the log. The steering angle of the
+    reference circle is the median logged steering angle (MCU frames), else
+    ``config.reference.steering_angle_deg``. Raises :class:`~lgvtool.errors.InputError` (or a
+    subclass) for a log that cannot be evaluated.
+    """
+    from lgvtool.evaluate.evaluation import evaluate_trajectories
+    from lgvtool.evaluate.reference import steering_from_frames
+    from lgvtool.log import LogReader, topics
+
+    reader = (path_or_reader if isinstance(path_or_reader, LogReader)
+              else LogReader(path_or_reader))
+    cfg = config if config is not None else reader.config()
+    warnings: list[str] = list(reader.warnings)
+    trajs = _estimates_from_log(reader, estimators)
+    source = "log"
+    used: dict[str, Any] = {}
+    if trajs is None:
+        trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings)
+        source = "replay"
+    truth = _pose_frame(reader, topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
+    if truth is not None and truth.empty:
+        truth = None
+    steering = None
+    steering_source = "none"
+    if reader.has_topic(topics.MCU_FRAME):
+        steering = steering_from_frames(reader.dataframe(topics.MCU_FRAME))
+        steering_source = "log" if steering is not None else "none"
+    if steering is None and cfg.reference.steering_angle_deg is not None:
+        steering = math.radians(cfg.reference.steering_angle_deg)
+        steering_source = "config"
+    result = evaluate_trajectories(
+        trajs, truth=truth, steering_angle=steering, steering_source=steering_source,
+        h=cfg.vehicle.h, shared_centre=shared_centre, free_radius=free_radius,
+        name=Path(str(reader.path)).stem, reflectors=reader.reflector_map() or cfg.reflectors,
+        lap_source=lap_source,
+    )
+    result.path = str(reader.path)
+    result.source = source
+    result.settings = used
+    result.warnings[:0] = warnings
+    return result
+
+
+def _split_names(values: Sequence[str]) -> list[str]:
+    return [n.strip() for v in values for n in v.split(",") if n.strip()]
+
+
+@click.command()
+@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=str))
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=str),
+              metavar="OUTDIR",
+              help="Write table1.{md,csv,tex,json} and report.html (and PNGs) into OUTDIR.")
+@click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME",
+              help="Estimator to score or run (repeatable or comma-separated); default: the "
+                   "log's estimates, else laser, deadreckoning, ekf, pf-paper, pf.")
+@click.option("--json", "as_json", is_flag=True, help="Print the JSON document (same as "
+              "--format json).")
+@click.option("--format", "fmt", type=click.Choice(["text", "md", "csv", "tex", "json"]),
+              default="text", show_default=True, help="Format of the terminal output.")
+@click.option("--max", "maxima", multiple=True, metavar="KEY=VALUE",
+              help="Fail (exit 1) if a figure exceeds VALUE, e.g. pf.circle.rmse_mm=25.")
+@click.option("--min", "minima", multiple=True, metavar="KEY=VALUE",
+              help="Fail (exit 1) if a figure is below VALUE, e.g. rotations.complete=8.")
+@click.option("--baseline", type=click.Path(dir_okay=False, path_type=str),
+              help="A previous table1.json: fail (exit 1) if an error figure got worse.")
+@click.option("--tolerance", default="0%", show_default=True, metavar="P",
+              help="Allowed worsening against --baseline, percent (e.g. 10%).")
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Seed of the estimators when evaluate runs them.")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
+              help="Configuration TOML instead of the one stored in the log.")
+@click.option("--shared-centre", is_flag=True,
+              help="Fit one circle centre to all estimators instead of one each.")
+@click.option("--free-radius", is_flag=True,
+              help="Fit the radius too (geometric fit) instead of R = h / tan(delta).")
+@click.option("--png", is_flag=True, help="Also write every figure as PNG into OUTDIR "
+              "(needs the optional kaleido package).")
+def evaluate(
+    logs: tuple[str, ...], outdir: str | None, estimators: tuple[str, ...], as_json: bool,
+    fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
+    tolerance: str, seed: int, config_path: str | None, shared_centre: bool,
+    free_radius: bool, png: bool,
+) -> None:
+    """Evaluate the localization in LOG... against the kinematic reference circle (R = h /
+    tan(delta), centre fitted by least squares) and, where the log has it, ground truth.
+
+    Prints Table 1 (RMSE in mm and variance in mm^2 of the signed radial error per complete
+    rotation, one column pair per estimator) and a summary (bias, max |error|, improvement over
+    laser in %, true position error in mm and heading RMSE in degrees). Estimates come from the
+    log's /estimate/<name>/pose channels, else evaluate runs the estimators itself.
+
+    Exit 0 success, 1 a --max/--min/--baseline check failed, 2 bad input.
+    """
+    import json
+    import warnings as pywarnings
+
+    from lgvtool.config import load_config
+    from lgvtool.errors import InputError
+    from lgvtool.evaluate import regress
+    from lgvtool.evaluate.document import build_document, to_json
+    from lgvtool.evaluate.table import render_tables
+
+    if png and not outdir:
+        raise InputError("--png needs -o OUTDIR to write the images into")
+    if png:
+        from lgvtool.evaluate.plots import require_kaleido
+
+        require_kaleido()
+    upper = [regress.parse_bound(b, "--max") for b in maxima]
+    lower = [regress.parse_bound(b, "--min") for b in minima]
+    tol = regress.parse_tolerance(tolerance)
+    base_doc = None
+    if baseline is not None:
+        try:
+            base_doc = json.loads(Path(baseline).read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise InputError(f"baseline not found: {baseline}") from None
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise InputError(f"{baseline}: not JSON ({exc})") from None
+        regress.validate_baseline(base_doc, baseline)
+    cfg = load_config(config_path) if config_path else None
+    names = _split_names(estimators) or None
+
+    results = []
+    for log in logs:
+        with pywarnings.catch_warnings():
+            pywarnings.simplefilter("ignore")
+            res = evaluate_log(log, estimators=names, config=cfg, seed=seed,
+                               shared_centre=shared_centre, free_radius=free_radius)
+        for w in res.warnings:
+            click.echo(f"lgvtool: warning: {res.name}: {w}", err=True)
+        results.append(res)
+    _unique_names(results)
+    doc = build_document(results)
+
+    if as_json or fmt == "json":
+        click.echo(to_json(doc), nl=False)
+    else:
+        click.echo(render_tables(results, fmt), nl=False)
+    if outdir:
+        _write_outputs(Path(outdir), results, doc, png)
+
+    failures = regress.check_bounds(doc, upper, lower)
+    if base_doc is not None:
+        more, notes = regress.check_baseline(doc, base_doc, tol, source=baseline or "baseline")
+        for note in notes:
+            click.echo(f"lgvtool: warning: {note}", err=True)
+        failures += more
+    regress.raise_failures(failures)
+
+
+def _unique_names(results: list[EvaluationResult]) -> None:
+    """Logs with the same file name (in different folders) get -2, -3, ... appended."""
+    seen: dict[str, int] = {}
+    for res in results:
+        count = seen.get(res.name, 0) + 1
+        seen[res.name] = count
+        if count > 1:
+            res.name = f"{res.name}-{count}"
+
+
+def _write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any],
+                   png: bool) -> None:
+    from lgvtool.evaluate.document import to_json
+    from lgvtool.evaluate.plots import write_png
+    from lgvtool.evaluate.report import render_report
+    from lgvtool.evaluate.table import render_tables
+
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "table1.md").write_text(render_tables(results, "md"), encoding="utf-8")
+    (out / "table1.csv").write_text(render_tables(results, "csv"), encoding="utf-8")
+    (out / "table1.tex").write_text(render_tables(results, "tex"), encoding="utf-8")
+    (out / "table1.json").write_text(to_json(doc), encoding="utf-8")
+    figures: list[Any] = []
+    (out / "report.html").write_text(render_report(results, figures=figures), encoding="utf-8")
+    if png:
+        for slug, fig in figures:
+            write_png(fig, out / f"{slug}.png")

@@ -1,0 +1,66 @@
+"""Evaluation of localization accuracy: reference circle, rotations, metrics, Table 1.
+
+The core is pure (no files, no logs): it takes pandas DataFrames with columns t (s), x (m),
+y (m), heading (rad) and returns plain objects. Reading logs and running estimators is the job
+of :func:`lgvtool.commands.evaluate.evaluate_log`; plots and the HTML report live in
+:mod:`lgvtool.evaluate.plots` and :mod:`lgvtool.evaluate.report` (they import plotly).
+
+>>> from lgvtool.evaluate import evaluate_trajectories, build_table, to_markdown
+>>> result = evaluate_trajectories({"laser": df1, "pf": df2}, steering_angle=math.radians(60),
+...                                h=1.2)                                  # doctest: +SKIP
+>>> print(to_markdown(build_table([result])))                              # doctest: +SKIP
+"""
+
+from lgvtool.evaluate.circle import Circle, fit_centre, fit_circle, fit_geometric, fit_kasa
+from lgvtool.evaluate.document import build_document, to_json
+from lgvtool.evaluate.evaluation import (
+    EstimatorEvaluation,
+    EvaluationResult,
+    Rotation,
+    evaluate_trajectories,
+)
+from lgvtool.evaluate.laps import Laps, segment_laps
+from lgvtool.evaluate.metrics import (
+    RadialStats,
+    TruthStats,
+    associate_truth,
+    radial_stats,
+    truth_errors,
+    truth_stats,
+)
+from lgvtool.evaluate.reference import ReferenceInfo, kinematic_radius
+from lgvtool.evaluate.regress import check_baseline, check_bounds, lookup
+from lgvtool.evaluate.table import Table1, build_table, to_csv, to_latex, to_markdown, to_text
+
+__all__ = [
+    "Circle",
+    "EstimatorEvaluation",
+    "EvaluationResult",
+    "Laps",
+    "RadialStats",
+    "ReferenceInfo",
+    "Rotation",
+    "Table1",
+    "TruthStats",
+    "associate_truth",
+    "build_document",
+    "build_table",
+    "check_baseline",
+    "check_bounds",
+    "evaluate_trajectories",
+    "fit_centre",
+    "fit_circle",
+    "fit_geometric",
+    "fit_kasa",
+    "kinematic_radius",
+    "lookup",
+    "radial_stats",
+    "segment_laps",
+    "to_csv",
+    "to_json",
+    "to_latex",
+    "to_markdown",
+    "to_text",
+    "truth_errors",
+    "truth_stats",
+]

@@ -1,0 +1,288 @@
+"""Evaluate the trajectories of one drive: reference circle, rotations, metrics. Pure: no I/O.
+
+Inputs are pandas DataFrames with columns t (s), x (m), y (m), heading (rad), one per estimator,
+plus optionally the ground truth in the same layout. :func:`evaluate_trajectories` returns an
+:class:`EvaluationResult`; the command line, the report and the fleet engine all start there.
+
+Steps (docs/evaluation.md):
+
+1. reference radius ``R = h / tan(delta)``, or a free radius (``free_radius``);
+2. a centre per estimator fitted to its own trajectory, or one shared centre fitted to all of
+   them with equal weight per estimator (``shared_centre``); a free-radius geometric fit is
+   always made too, to show the fitted radius beside the kinematic one;
+3. rotations found once on the lap source (the truth if present, else the estimator closest to
+   its circle) and applied to all estimators by time; the centres are then fitted again on the
+   complete rotations only, the samples that are scored;
+4. signed radial errors, per-rotation statistics, the Average row, improvement over ``laser``;
+5. where truth exists, position and heading error against the interpolated truth.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from lgvtool.errors import InputError
+from lgvtool.evaluate.circle import Circle, fit_geometric
+from lgvtool.evaluate.laps import Laps
+from lgvtool.evaluate.metrics import (
+    RadialStats,
+    TruthStats,
+    average_stats,
+    improvement,
+    radial_stats,
+    truth_errors,
+    truth_stats,
+)
+from lgvtool.evaluate.reference import (
+    MIN_SAMPLES,
+    TRIM,
+    ReferenceInfo,
+    circles_and_laps,
+    reference_info,
+)
+
+__all__ = ["BASELINE", "EstimatorEvaluation", "EvaluationResult", "ReferenceInfo", "Rotation",
+           "clean_trajectory", "evaluate_trajectories"]
+
+BASELINE = "laser"
+"""The estimator that improvements are measured against."""
+
+OFF_CENTRE = 0.5
+"""An estimator whose circle centre is further than this fraction of the radius from the
+reference centre gets a warning."""
+
+
+@dataclass(frozen=True)
+class Rotation:
+    """One complete rotation of one estimator: its time span (s), radial statistics and, with
+    ground truth, the RMSE of the true position error in that rotation (m)."""
+
+    number: int
+    start: float
+    end: float
+    stats: RadialStats
+    truth_rmse: float | None = None
+
+
+@dataclass(frozen=True)
+class EstimatorEvaluation:
+    """Everything computed for one estimator on one drive."""
+
+    name: str
+    trajectory: pd.DataFrame
+    """Columns t (s), x (m), y (m), heading (rad)."""
+    circle: Circle | None = None
+    """The circle the estimator is scored against (None: no circle metrics)."""
+    fitted: Circle | None = None
+    """Free-radius geometric fit to the scored samples, for comparison with the kinematic R."""
+    radial: pd.DataFrame | None = None
+    """Columns t (s), error (m, signed radial), rotation (1-based, 0 outside a rotation)."""
+    rotations: tuple[Rotation, ...] = ()
+    average: RadialStats | None = None
+    """Table 1's Average row: mean over rotations (max_abs: the largest of any rotation)."""
+    pooled: RadialStats | None = None
+    """Statistics over all samples of the complete rotations together."""
+    improvement: float | None = None
+    """Average RMSE improvement over ``laser``, %."""
+    centre_offset: float | None = None
+    """Distance of this estimator's circle centre from the reference centre (the truth's, else
+    the lap source's), m. The radial error cannot show an estimator that circles in the wrong
+    place; this does."""
+    truth_error: pd.DataFrame | None = None
+    """Columns t (s), position_error (m), heading_error (rad)."""
+    truth: TruthStats | None = None
+
+
+@dataclass
+class EvaluationResult:
+    """The evaluation of one drive (one log)."""
+
+    name: str
+    estimators: dict[str, EstimatorEvaluation]
+    reference: ReferenceInfo
+    laps: Laps
+    truth: pd.DataFrame | None = None
+    truth_path: RadialStats | None = None
+    """Radial statistics of the true path about the lap source's circle, over the complete
+    rotations: how far the real drive is from the ideal circle."""
+    truth_circle: Circle | None = None
+    reference_circle: Circle | None = None
+    """The circle of the truth if given, else of the lap source (drawn in the plots)."""
+    reflectors: tuple[Any, ...] = ()
+    """Reflector map (objects with id, x, y in m) for the plots."""
+    warnings: list[str] = field(default_factory=list)
+    path: str | None = None
+    source: str = "log"
+    """'log': estimates read from the log; 'replay': estimators run by evaluate."""
+    settings: dict[str, Any] = field(default_factory=dict)
+    t0: float = 0.0
+    """Start of the drive, s (plots show time since t0)."""
+
+    @property
+    def has_truth(self) -> bool:
+        """True when the drive has ground truth."""
+        return self.truth is not None and not self.truth.empty
+
+
+def clean_trajectory(df: pd.DataFrame, name: str) -> pd.DataFrame:
+    """Columns t, x, y, heading as float, sorted by time, rows without a finite position or
+    time dropped, duplicate times collapsed to the last. A missing heading column is NaN."""
+    missing = [c for c in ("t", "x", "y") if c not in df.columns]
+    if missing:
+        raise InputError(f"trajectory '{name}' lacks column(s) {', '.join(missing)}")
+    out = pd.DataFrame({c: pd.to_numeric(df[c], errors="coerce") for c in ("t", "x", "y")})
+    out["heading"] = (
+        pd.to_numeric(df["heading"], errors="coerce") if "heading" in df.columns else math.nan
+    )
+    out = out[np.isfinite(out["t"]) & np.isfinite(out["x"]) & np.isfinite(out["y"])]
+    out = out.sort_values("t", kind="stable").drop_duplicates("t", keep="last")
+    return out.reset_index(drop=True).astype(float)
+
+
+def evaluate_trajectories(
+    trajectories: Mapping[str, pd.DataFrame],
+    *,
+    truth: pd.DataFrame | None = None,
+    steering_angle: float | None,
+    steering_source: str = "config",
+    h: float,
+    shared_centre: bool = False,
+    free_radius: bool = False,
+    name: str = "",
+    reflectors: Sequence[Any] = (),
+    lap_source: str | None = None,
+) -> EvaluationResult:
+    """Evaluate the ``trajectories`` (name -> DataFrame t, x, y, heading in s, m, rad) of one
+    drive against the reference circle and, if given, the ``truth`` (same columns).
+
+    ``steering_angle`` (rad) and ``h`` (m) give the kinematic radius; ``None`` means no
+    reference circle (ground-truth metrics only). ``lap_source`` names the trajectory whose
+    angle about the centre defines the rotations (default: the truth if given, else the
+    estimator with the smallest radial RMSE). Raises :class:`~lgvtool.errors.InputError` when
+    there is no usable trajectory, or neither a reference circle nor ground truth.
+    """
+    warnings: list[str] = []
+    trajs: dict[str, pd.DataFrame] = {}
+    for est, df in trajectories.items():
+        clean = clean_trajectory(df, est)
+        if len(clean) < MIN_SAMPLES:
+            warnings.append(f"estimator '{est}' has {len(clean)} usable pose(s): left out")
+            continue
+        trajs[est] = clean
+    if not trajs:
+        raise InputError(f"{name or 'log'}: no usable trajectory (no estimator produced poses)")
+    true_df = clean_trajectory(truth, "truth") if truth is not None else None
+    if true_df is not None and len(true_df) < 2:
+        warnings.append("the ground truth has fewer than 2 poses: left out")
+        true_df = None
+    t0 = min(float(df["t"].iloc[0]) for df in trajs.values())
+
+    info, warn = reference_info(steering_angle, steering_source, h, free_radius, shared_centre,
+                            has_truth=true_df is not None, name=name)
+    warnings.extend(warn)
+    radius = None if free_radius else info.kinematic_radius
+
+    circles: dict[str, Circle] = {}
+    laps = Laps()
+    truth_circle: Circle | None = None
+    ref_circle: Circle | None = None
+    if info.circle_drive:
+        circles, laps, truth_circle, ref_circle, warnings_c = circles_and_laps(
+            trajs, true_df, radius, shared_centre, lap_source)
+        warnings.extend(warnings_c)
+        if not circles:
+            info = replace(info, circle_drive=False)
+
+    evaluations = {n: _evaluate_one(n, df, circles.get(n), laps, true_df, radius is None)
+                   for n, df in trajs.items()}
+    if ref_circle is not None:
+        warnings.extend(_centre_offsets(evaluations, ref_circle, laps.source,
+                                        has_truth=true_df is not None, shared=shared_centre))
+    base = evaluations.get(BASELINE)
+    if base is not None and base.average is not None:
+        for n, ev in evaluations.items():
+            if ev.average is not None:
+                evaluations[n] = replace(ev, improvement=improvement(ev.average.rmse,
+                                                                     base.average.rmse))
+    truth_path = None
+    if true_df is not None and truth_circle is not None and laps.complete:
+        inside = laps.index(true_df["t"]) > 0
+        truth_path = radial_stats(truth_circle.radial_error(true_df["x"][inside],
+                                                            true_df["y"][inside]))
+    return EvaluationResult(
+        name=name, estimators=evaluations, reference=info, laps=laps, truth=true_df,
+        truth_path=truth_path, truth_circle=truth_circle, reference_circle=ref_circle,
+        reflectors=tuple(reflectors),
+        warnings=warnings, t0=t0,
+    )
+
+
+def _centre_offsets(
+    evaluations: dict[str, EstimatorEvaluation], ref: Circle, source: str, *,
+    has_truth: bool, shared: bool,
+) -> list[str]:
+    """Set each estimator's centre offset from ``ref`` (m); warnings for the far ones."""
+    warnings: list[str] = []
+    far = max(OFF_CENTRE * ref.r, 0.05)
+    for n, ev in evaluations.items():
+        if ev.circle is None:
+            continue
+        off = math.hypot(ev.circle.cx - ref.cx, ev.circle.cy - ref.cy)
+        evaluations[n] = replace(ev, centre_offset=off)
+        if off > far and not shared:
+            whose = "the true one" if has_truth else f"that of '{source}'"
+            see = "the ground-truth figures" if has_truth else "--shared-centre"
+            warnings.append(f"estimator '{n}' circles about a centre {off:.2f} m away from "
+                            f"{whose}: its circle figures do not show that offset (see {see})")
+    return warnings
+
+
+def _evaluate_one(
+    name: str,
+    df: pd.DataFrame,
+    circle: Circle | None,
+    laps: Laps,
+    true_df: pd.DataFrame | None,
+    free: bool,
+) -> EstimatorEvaluation:
+    terr = tstats = None
+    if true_df is not None:
+        terr = truth_errors(df, true_df)
+        tstats = truth_stats(terr["position_error"], terr["heading_error"])
+        if tstats.samples == 0:
+            terr = tstats = None
+    if circle is None:
+        return EstimatorEvaluation(name, df, truth_error=terr, truth=tstats)
+    t = df["t"].to_numpy()
+    err = circle.radial_error(df["x"], df["y"])
+    rot = laps.index(t)
+    radial = pd.DataFrame({"t": t, "error": err, "rotation": rot})
+    scored = rot > 0
+    fitted = None
+    if scored.sum() >= MIN_SAMPLES:
+        fitted = circle if free else fit_geometric(df["x"][scored], df["y"][scored], trim=TRIM,
+                                                   start=circle)
+    rows = []
+    truth_rot = laps.index(terr["t"]) if terr is not None else None
+    for k in range(1, laps.complete + 1):
+        sel = rot == k
+        if not sel.any():
+            continue
+        trmse = None
+        if terr is not None and truth_rot is not None:
+            pe = terr["position_error"].to_numpy()[truth_rot == k]
+            trmse = float(np.sqrt(np.mean(pe * pe))) if pe.size else None
+        rows.append(Rotation(k, laps.boundaries[k - 1], laps.boundaries[k],
+                             radial_stats(err[sel]), trmse))
+    average = average_stats([r.stats for r in rows]) if rows else None
+    pooled = radial_stats(err[scored]) if rows else None
+    return EstimatorEvaluation(
+        name, df, circle=circle, fitted=fitted, radial=radial, rotations=tuple(rows),
+        average=average, pooled=pooled, truth_error=terr, truth=tstats,
+    )
