@@ -122,7 +122,7 @@ class Reference:
     """What the evaluation compares against when the log does not say."""
 
     steering_angle_deg: float | None = 60.0
-    """Nominal steering angle of a circle drive, deg; None: take it from the log only."""
+    """Nominal steering angle of a circle drive, deg; None (``false`` in TOML): from the log only."""
 
 
 @dataclass(frozen=True)
@@ -141,7 +141,7 @@ class Config:
         return {
             "vehicle": asdict(self.vehicle),
             "area": asdict(self.area),
-            "reference": {k: v for k, v in asdict(self.reference).items() if v is not None},
+            "reference": {k: False if v is None else v for k, v in asdict(self.reference).items()},
             "reflectors": [asdict(r) for r in self.reflectors],
             "estimators": {k: dict(v) for k, v in self.estimators.items()},
             "simulator": dict(self.simulator),
@@ -198,6 +198,8 @@ def _check_section(name: str, table: Any, cls: type) -> dict[str, Any]:
 
 def _coerce(where: str, value: Any, type_name: Any) -> Any:
     t = str(type_name)
+    if value is False and "None" in t and "float" in t:
+        return None  # TOML has no null: `false` says "not set"
     if value is None:
         if "None" in t:
             return None

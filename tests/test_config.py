@@ -77,3 +77,12 @@ def test_config_cli(tmp_path: Path, run_cli) -> None:
     out = run_cli("config", bad)
     assert out.returncode == 2
     assert out.stderr.strip().count("\n") == 0 and "vehicle.h must be positive" in out.stderr
+
+
+def test_no_reference_steering_angle_round_trips(tmp_path: Path) -> None:
+    cfg = config_from_dict({"reference": {"steering_angle_deg": False}})
+    assert cfg.reference.steering_angle_deg is None
+    path = tmp_path / "c.toml"
+    path.write_text(to_toml(cfg.to_dict()))
+    assert load_config(path).reference.steering_angle_deg is None
+    assert config_from_dict(cfg.to_dict()).reference.steering_angle_deg is None
