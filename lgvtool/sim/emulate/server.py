@@ -301,10 +301,9 @@ class EmulatorServer:
             if not data:
                 break
             self._log("nav200", "received", data, t)
-            replies = self.nav200.feed(data, 0.0 if t is None else t)
             if self._silent("nav200", t):
-                continue
-            for reply in replies:
+                continue  # deaf and mute
+            for reply in self.nav200.feed(data, 0.0 if t is None else t):
                 if ep.write(reply, now):
                     self._log("nav200", "sent", reply, t)
 

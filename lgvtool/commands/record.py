@@ -1,0 +1,106 @@
+"""``lgvtool record``: the MCU and the NAV200 into a crash-safe log."""
+
+from __future__ import annotations
+
+import click
+
+_POSITIVE = click.FloatRange(min=0.0, min_open=True)
+
+
+@click.command()
+@click.option("--nav", "nav_url", metavar="URL",
+              help="NAV200 link: serial:///dev/ttyS0?baud=19200&parity=E (default 19200 8E1) "
+                   "or tcp://HOST:PORT.")
+@click.option("--mcu", "mcu_url", metavar="URL",
+              help="MCU link: serial:///dev/ttyUSB0?baud=115200 (default 115200 8N1) or "
+                   "tcp://HOST:PORT.")
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str),
+              help="The log to write (MCAP). With splitting: OUT-YYYYmmddTHHMMSSZ.mcap files.")
+@click.option("--duration", type=_POSITIVE, metavar="S",
+              help="Stop after S seconds (default: until Ctrl-C or SIGTERM).")
+@click.option("--poll-period", type=_POSITIVE, default=0.45, show_default=True, metavar="S",
+              help="NAV200 pose request period, s.")
+@click.option("--speed-input", is_flag=True,
+              help="Poll with Pw, sending the head's vehicle-frame speed (mm/s) and yaw rate "
+                   "from the MCU odometry.")
+@click.option("--omega-units", type=click.Choice(["rev", "half-deg"]), default="rev",
+              show_default=True,
+              help="Pw yaw-rate unit: 'rev' = 65536 per revolution per s, 'half-deg' = 0.5 deg/s.")
+@click.option("--sliding-mean", type=click.IntRange(1, 255), metavar="N",
+              help="Enter positioning with PN N (sliding mean over N poses) instead of PA.")
+@click.option("--action-radii", type=(_POSITIVE, _POSITIVE), metavar="RMIN RMAX",
+              help="Set the NAV200 action radii (PO), m.")
+@click.option("--nearest", type=click.IntRange(1, 255), metavar="N",
+              help="Use the N nearest reflectors (PC).")
+@click.option("--layer", type=click.IntRange(0, 255), default=0, show_default=True,
+              help="Reflector layer to upload.")
+@click.option("--no-map-upload", is_flag=True, help="Do not upload the stored reflector map.")
+@click.option("--reply-timeout", type=_POSITIVE, default=1.0, show_default=True, metavar="S",
+              help="NAV200 reply timeout, s.")
+@click.option("--split-size", type=_POSITIVE, metavar="MB",
+              help="Start a new file once the current one holds MB megabytes (10^6 bytes).")
+@click.option("--split-duration", type=_POSITIVE, metavar="S",
+              help="Start a new file every S seconds.")
+@click.option("--config", "config_file", type=click.Path(dir_okay=False, path_type=str),
+              help="Vehicle/reflector configuration (TOML), stored in the log; its geometry "
+                   "turns odometry into speed input.")
+@click.option("--status/--no-status", default=True, show_default=True,
+              help="Live status line on stderr.")
+@click.option("--force", is_flag=True, help="Overwrite OUTPUT if it exists.")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def record(nav_url: str | None, mcu_url: str | None, output: str, duration: float | None,
+           poll_period: float, speed_input: bool, omega_units: str, sliding_mean: int | None,
+           action_radii: tuple[float, float] | None, nearest: int | None, layer: int,
+           no_map_upload: bool, reply_timeout: float, split_size: float | None,
+           split_duration: float | None, config_file: str | None, status: bool, force: bool,
+           as_json: bool) -> None:
+    """Record the MCU frame stream and the NAV200 (polled for its pose) into OUTPUT.
+
+    Logged: raw bytes both ways (/mcu/rx, /nav200/tx, /nav200/rx), decoded frames (/mcu/frame)
+    and poses (/nav/pose), the uploaded reflector map (/map/reflectors and metadata), device
+    identity, and every link failure, gap, checksum error and NAV200 error reply
+    (/diagnostics), all stamped with the host receive time. A link that fails is retried with
+    backoff and the recording goes on. Ctrl-C or SIGTERM finishes the file; after a crash,
+    'lgvtool recover' saves all but about the last second. See docs/recording.md.
+    """
+    import json
+    import shlex
+    import sys
+    from pathlib import Path
+
+    from lgvtool.config import load_config
+    from lgvtool.devices.nav200_session import Nav200Settings
+    from lgvtool.devices.recorder import RecorderSettings
+    from lgvtool.devices.recorder import record as do_record
+    from lgvtool.errors import InputError
+    from lgvtool.wire.units import OMEGA_UNITS_PER_RAD_S, OMEGA_UNITS_PER_RAD_S_HALF_DEG
+
+    if nav_url is None and mcu_url is None:
+        raise InputError("record: give --nav URL, --mcu URL or both")
+    if speed_input and mcu_url is None:
+        raise InputError("record: --speed-input needs the MCU's odometry (--mcu URL)")
+    if action_radii is not None and action_radii[0] >= action_radii[1]:
+        raise InputError("record: --action-radii RMIN must be below RMAX")
+    nav = Nav200Settings(
+        poll_period=poll_period, reply_timeout=reply_timeout, layer=layer,
+        sliding_mean=sliding_mean, action_radii=action_radii, nearest_reflectors=nearest,
+        upload_map=not no_map_upload, speed_input=speed_input,
+        omega_scale=OMEGA_UNITS_PER_RAD_S if omega_units == "rev"
+        else OMEGA_UNITS_PER_RAD_S_HALF_DEG,
+    )
+    settings = RecorderSettings(
+        output=Path(output), nav_url=nav_url, mcu_url=mcu_url, duration=duration, nav=nav,
+        split_bytes=None if split_size is None else int(split_size * 1e6),
+        split_seconds=split_duration, config=load_config(config_file), status=status,
+        overwrite=force, command=shlex.join(["lgvtool", *sys.argv[1:]]),
+    )
+    result = do_record(settings)
+    if as_json:
+        click.echo(json.dumps({
+            "files": [str(p) for p in result.files], "counts": result.counts,
+            "errors": result.errors, "elapsed_s": round(result.elapsed, 3),
+            "bytes": result.bytes, "stop_reason": result.stop_reason,
+            "devices": result.devices,
+        }, indent=2))
+    else:
+        click.echo(result.summary())
