@@ -271,8 +271,5 @@ class LogSink:
             try:
                 w.close()
             except (OSError, ValueError):
-                stream = getattr(w, "_stream", None)
-                if stream is not None:
-                    with contextlib.suppress(OSError, ValueError):
-                        stream.close()
+                w.abort()
         self.failed.set()

@@ -9,6 +9,7 @@ asks the OS to put each chunk on disk, for power loss.
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import os
 import sys
@@ -238,6 +239,16 @@ class LogWriter:
             if self._fsync:
                 os.fsync(self._stream.fileno())
             self._stream.close()
+
+    def abort(self) -> None:
+        """Close the file without finishing it (after a write error such as a full disk): what
+        was written stays readable as a salvaged log; nothing more is attempted."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._owns_stream:
+            with contextlib.suppress(OSError, ValueError):
+                self._stream.close()
 
     def __enter__(self) -> LogWriter:
         return self
