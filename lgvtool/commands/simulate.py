@@ -137,5 +137,3 @@ def _text(value: Any) -> str:
         return "true" if value else "false"
     return f"{value:g}" if isinstance(value, float) else str(value)
 
-
-simulate.add_command(__import__("lgvtool.sim.emulate.serve", fromlist=["serve"]).serve)
