@@ -53,22 +53,11 @@ class DecodeReport:
         """Human-readable lines: frames decoded and error counts per device."""
 
         def errors(stats: dict[str, int]) -> str:
-            keys = (
-                "bytes_skipped",
-                "bad_checksum",
-                "bad_length",
-                "unknown_version",
-                "unknown_command",
-                "truncated",
-                "seq_gaps",
-                "frames_missing",
-                "seq_repeats",
-                "seq_resets",
-                "mcu_resets",
-                "error_replies",
-                "unexpected_reply",
-                "unanswered",
-            )
+            from lgvtool.wire.events import DecoderStats
+
+            kinds = DecoderStats.ERROR_KINDS
+            keys = ("bytes_skipped", *kinds[: kinds.index("seq_gaps") + 1], "frames_missing",
+                    *kinds[kinds.index("seq_gaps") + 1 :])
             found = [f"{k} {stats[k]}" for k in keys if stats.get(k)]
             return ", ".join(found) if found else "none"
 
