@@ -1,0 +1,189 @@
+"""``lgvtool replay``: run estimators over a log and write a new log with their estimates."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+
+#: logs longer than this (s of data) show a progress bar even when stderr is not a terminal
+LONG_LOG_S = 600.0
+
+
+@click.command()
+@click.argument("log", type=click.Path(dir_okay=False, path_type=str))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str),
+              help="Output log (MCAP): the input's messages plus the estimates.")
+@click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME",
+              help="Estimator to run (repeatable): laser, deadreckoning, ekf, pf-paper, pf. "
+                   "Default: all five.")
+@click.option("--particles", type=click.IntRange(min=1), default=None,
+              help="Particle count of the particle filters run (pf-paper, pf).")
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Seed of every random draw; the same seed gives identical output.")
+@click.option("--set", "sets", multiple=True, metavar="EST.PARAM=VALUE",
+              help="Estimator parameter, e.g. pf.particles=500 or pf-paper.spread_m=0.3 "
+                   "(repeatable; docs/filter.md lists them).")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
+              default=None, help="Configuration file (TOML): vehicle, area, reflectors, "
+                                 "[estimators.*]. Default: the one stored in the log.")
+@click.option("--start-at-truth", is_flag=True,
+              help="Start every estimator at the log's ground truth (/truth/pose).")
+@click.option("--cloud-period", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
+              help="Keep one particle cloud per this many seconds, s.")
+@click.option("--cloud-size", type=click.IntRange(min=0), default=50, show_default=True,
+              help="At most this many particles per kept cloud (0: no clouds).")
+@click.option("--compression", type=click.Choice(["lz4", "zstd", "none"]), default="lz4",
+              show_default=True, help="Compression of the chunks holding the estimates (the "
+                                      "input's chunks are copied as they are).")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | None,
+           seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
+           cloud_period: float, cloud_size: int, compression: str, as_json: bool) -> None:
+    """Replay LOG through the localisation estimators and write OUTPUT.
+
+    OUTPUT is a complete log: every message of LOG, plus per estimator NAME the pose of the
+    target rotation centre O on /estimate/NAME/pose (foxglove.PoseInFrame), the pose with its
+    covariance on /estimate/NAME/state (lgvtool.PoseEstimate) and, for particle filters,
+    decimated particle clouds on /estimate/NAME/particles (foxglove.PosesInFrame). The
+    effective estimator settings and the seed are stored in the metadata record 'replay'.
+    Positions in m, headings in rad, times in the log's own clock.
+    """
+    import json
+    import os
+    import sys
+    import time
+    import warnings
+    from dataclasses import fields
+
+    from lgvtool.config import load_config, parse_set_options
+    from lgvtool.errors import InputError, MissingDataError
+    from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS, check_names
+    from lgvtool.localize.replay import load_log, replay_data
+    from lgvtool.log import LogReader
+
+    started = time.perf_counter()
+    if os.path.abspath(output) == os.path.abspath(log):
+        raise InputError("the output must not be the input log")
+    names = check_names(list(estimators) if estimators else list(DEFAULT_ESTIMATORS))
+    settings: dict[str, Any] = parse_set_options(sets)
+    if particles is not None:
+        targets = [n for n in names
+                   if any(f.name == "particles" for f in fields(ESTIMATORS[n].Params))]
+        if not targets:
+            raise InputError("--particles applies to the particle filters (pf-paper, pf), "
+                             "none of which is selected")
+        for n in targets:
+            settings.setdefault(f"{n}.particles", particles)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        reader = LogReader(log)
+    for w in reader.warnings:
+        click.echo(f"lgvtool: warning: {w}", err=True)
+    cfg = load_config(config_path) if config_path else reader.config()
+    data = load_log(reader, cfg.reflectors or None, truth=start_at_truth)
+    t_read = time.perf_counter() - started
+
+    show = sys.stderr.isatty() or data.end > LONG_LOG_S
+    total = len(names) * (len(data.scans) + (len(data.nav["t"]) if data.nav else 0))
+    t0 = time.perf_counter()
+    if show:
+        with click.progressbar(length=max(total, 1), label="replay", file=sys.stderr) as bar:
+            result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
+                                 initial_pose="truth" if start_at_truth else None,
+                                 progress=bar.update, cloud_period_s=cloud_period,
+                                 cloud_size=cloud_size)
+            bar.update(max(0, total - bar.pos))
+    else:
+        result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
+                             initial_pose="truth" if start_at_truth else None,
+                             cloud_period_s=cloud_period, cloud_size=cloud_size)
+    t_filter = time.perf_counter() - t0
+    if estimators:
+        for n in names:
+            if n in result.skipped:
+                raise MissingDataError(f"{log}: {result.skipped[n]}")
+    for why in result.skipped.values():
+        click.echo(f"lgvtool: warning: {why}; skipped", err=True)
+
+    t1 = time.perf_counter()
+    written = _write(reader, output, result, cfg if config_path else None, log, compression)
+    t_write = time.perf_counter() - t1
+    summary: dict[str, Any] = {
+        "output": output,
+        "seed": seed,
+        "estimators": {n: {"estimates": len(result.tables[n].x),
+                           "clouds": len(result.clouds.get(n, [])),
+                           "seconds": round(result.timings.get(n, 0.0), 4)}
+                       for n in result.tables},
+        "skipped": result.skipped,
+        "messages_written": written,
+        "seconds": {"read": round(t_read, 4), "filter": round(t_filter, 4),
+                    "write": round(t_write, 4),
+                    "total": round(time.perf_counter() - started, 4)},
+    }
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+    else:
+        parts = ", ".join(f"{n} {v['estimates']}" for n, v in summary["estimators"].items())
+        click.echo(f"wrote {output}: estimates per estimator: {parts}")
+
+
+def _write(reader: Any, output: str, result: Any, config: Any, source: str,
+           compression: str = "lz4") -> int:
+    """The input's messages, the estimates (merged in time order) and the metadata."""
+    import heapq
+    from pathlib import Path
+
+    import numpy as np
+
+    from lgvtool.log import LogWriter, topics
+    from lgvtool.log.messages import FRAME_ID, stamp
+
+    skip = frozenset(t for n in result.tables for t in (
+        topics.estimate_pose(n), topics.estimate_state(n), topics.estimate_particles(n)))
+    skip = frozenset(t for t in skip if reader.has_topic(t))
+
+    def rows(name: str) -> Any:
+        tab = result.tables[name]
+        pose_topic, state_topic = topics.estimate_pose(name), topics.estimate_state(name)
+        half = 0.5 * tab.heading
+        for ns, x, y, h, qz, qw, c, n, e in zip(
+                tab.t_ns.tolist(), tab.x.tolist(), tab.y.tolist(), tab.heading.tolist(),
+                np.sin(half).tolist(), np.cos(half).tolist(), tab.covariance.tolist(),
+                tab.particles.tolist(), tab.ess.tolist(), strict=True):
+            st = stamp(ns)
+            yield ns, 0, pose_topic, {"timestamp": st, "frame_id": FRAME_ID, "pose": {
+                "position": {"x": x, "y": y, "z": 0.0},
+                "orientation": {"x": 0.0, "y": 0.0, "z": qz, "w": qw}}}
+            yield ns, 1, state_topic, {"timestamp": st, "estimator": name, "x": x, "y": y,
+                                       "heading": h, "covariance": c, "particles": n,
+                                       "ess": e}
+
+    def clouds(name: str) -> Any:
+        topic = topics.estimate_particles(name)
+        for ns, xs, ys, hs in result.clouds.get(name, []):
+            half = 0.5 * hs
+            yield ns, 2, topic, {"timestamp": stamp(ns), "frame_id": FRAME_ID, "poses": [
+                {"position": {"x": x, "y": y, "z": 0.0},
+                 "orientation": {"x": 0.0, "y": 0.0, "z": qz, "w": qw}}
+                for x, y, qz, qw in zip(xs.tolist(), ys.tolist(), np.sin(half).tolist(),
+                                        np.cos(half).tolist(), strict=True)]}
+
+    streams = [rows(n) for n in result.tables] + [clouds(n) for n in result.clouds]
+    n_written = 0
+    with LogWriter(output, source="replay", chunk_seconds=None, compression=compression) as w:
+        n_written += w.copy_from(reader, skip_topics=skip)
+        w.add_metadata("replay", {
+            "input": Path(source).name,
+            "seed": result.seed,
+            "estimators": list(result.tables),
+            "settings": result.settings,
+            "skipped": result.skipped,
+        })
+        if config is not None:
+            w.write_config(config)
+        for ns, _order, topic, msg in heapq.merge(*streams, key=lambda r: (r[0], r[1])):
+            w.write(topic, msg, ns)
+            n_written += 1
+    return n_written

@@ -1,0 +1,226 @@
+"""``ekf``: extended Kalman filter on the pose of O.
+
+Prediction: the body-frame odometry motion (encoders + gyro by default) composed onto the
+mean, ``P <- F P F^T + G Q G^T`` with the motion noise of :mod:`lgvtool.localize.noise`.
+
+Update from a reflector scan: each reflector's measured range and bearing are compared with
+the range and bearing of the map reflector seen from the sensor (its origin and heading in the
+body frame include the mounting offset and, when de-skewed, the motion since the reflector was
+measured), with noise ``diag(sigma_range^2, sigma_bearing^2)``. Association: the reflector's
+id when known, else the map reflector with the smallest Mahalanobis distance. An innovation
+whose squared Mahalanobis distance exceeds the chi-square quantile (2 dof) of
+``gate_probability`` is rejected as an outlier. The accepted reflectors are applied together in
+information form (exact for the linearised model). Update from a NAV pose: ``h = pose of the
+head`` (eq. 5 inverted), 3 dof gate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from lgvtool.localize.chi2 import chi2_quantile
+from lgvtool.localize.estimator import Estimate, Estimator, Motion, Observation
+from lgvtool.localize.fix import pose_fix
+from lgvtool.localize.geometry import wrap_scalar
+from lgvtool.localize.noise import MotionParams
+from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
+from lgvtool.localize.params import param
+
+
+@dataclass(frozen=True)
+class GaussianInitParams:
+    """How a Gaussian estimator starts."""
+
+    init: str = param("auto", "first pose: auto (first NAV pose or landmark fix, whichever "
+                      "comes first), laser (first valid NAV pose), landmarks (first scan with "
+                      "two known ids); a caller's initial pose always wins",
+                      choices=("auto", "laser", "landmarks"))
+    init_sigma_xy_m: float = param(0.05, "initial position standard deviation, m", minimum=0.0)
+    init_sigma_heading_rad: float = param(0.02, "initial heading standard deviation, rad",
+                                          minimum=0.0)
+
+
+@dataclass(frozen=True)
+class EkfParams(MotionParams, SourceParams, GaussianInitParams):
+    """Parameters of the EKF."""
+
+    sigma_range_m: float = param(0.02, "range noise of a reflector measurement, m",
+                                 minimum=1e-6)
+    sigma_bearing_rad: float = param(0.005, "bearing noise of a reflector measurement, rad",
+                                     minimum=1e-9)
+    sigma_range_per_m: float = param(0.0, "range noise that grows with the range (a scale "
+                                     "error), added in quadrature, m per m", minimum=0.0)
+    sigma_pose_xy_m: float = param(0.05, "position noise of a NAV pose, m", minimum=1e-6)
+    sigma_pose_heading_rad: float = param(0.01, "heading noise of a NAV pose, rad",
+                                          minimum=1e-9)
+    gate_probability: float = param(0.99, "chi-square gate: innovations less likely than this "
+                                    "are rejected", minimum=0.5, maximum=0.999999)
+
+
+class GaussianPoseEstimator(Estimator):
+    """Shared state and prediction of the Gaussian estimators (EKF, dead reckoning)."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self.mu: np.ndarray | None = None
+        self.P = np.zeros((3, 3))
+        if self.initial_pose is not None:
+            self._start(self.initial_pose)
+
+    def _start(self, pose: tuple[float, float, float]) -> None:
+        p = self.params
+        self.mu = np.array([pose[0], pose[1], wrap_scalar(pose[2])], dtype=np.float64)
+        self.P = np.diag([p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2,
+                          p.init_sigma_heading_rad ** 2])
+
+    def _try_start(self, obs: Observation) -> bool:
+        init = self.params.init
+        if isinstance(obs, PoseObservation) and init == "landmarks":
+            return False
+        if isinstance(obs, ScanObservation) and init == "laser":
+            return False
+        pose = pose_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map,
+                        use_ids=getattr(self.params, "use_ids", True))
+        if pose is None:
+            return False
+        self._start(pose)
+        return True
+
+    @property
+    def initialized(self) -> bool:
+        return self.mu is not None
+
+    def predict(self, motion: Motion) -> None:
+        if self.mu is None:
+            return
+        x, y, th = self.mu
+        c, s = math.cos(th), math.sin(th)
+        dx, dy = motion.dx, motion.dy
+        self.mu = np.array([x + c * dx - s * dy, y + s * dx + c * dy,
+                            wrap_scalar(th + motion.dth)])
+        F = np.array([[1.0, 0.0, -s * dx - c * dy], [0.0, 1.0, c * dx - s * dy],
+                      [0.0, 0.0, 1.0]])
+        sa, sl, st = self.params.noise_sigmas(motion.dist, motion.rot)
+        G = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        Q = np.diag([sa * sa, sl * sl, st * st])
+        self.P = F @ self.P @ F.T + G @ Q @ G.T
+
+    def estimate(self) -> Estimate | None:
+        if self.mu is None:
+            return None
+        return Estimate(float(self.mu[0]), float(self.mu[1]), float(self.mu[2]),
+                        0.5 * (self.P + self.P.T))
+
+
+class Ekf(GaussianPoseEstimator):
+    """Extended Kalman filter: odometry + gyro prediction, reflector or NAV pose updates."""
+
+    name = "ekf"
+    Params = EkfParams
+    summary = "EKF: odometry + gyro, reflector range/bearing or NAV pose updates, chi2 gating"
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)
+        self._gate2 = chi2_quantile(self.params.gate_probability, 2)
+        self._gate3 = chi2_quantile(self.params.gate_probability, 3)
+        self.rejected = 0
+        self.accepted = 0
+
+    def update(self, obs: Observation) -> bool:
+        if self.mu is None:
+            return self._try_start(obs)
+        if isinstance(obs, PoseObservation):
+            return self._update_pose(obs)
+        return self._update_scan(obs)
+
+    def _update_pose(self, obs: PoseObservation) -> bool:
+        p = self.params
+        x, y, th = self.mu  # type: ignore[misc]
+        c, s = math.cos(th), math.sin(th)
+        mx, my = self.vehicle.nav_x, self.vehicle.nav_y
+        nu = np.array([obs.x - (x + c * mx - s * my), obs.y - (y + s * mx + c * my),
+                       wrap_scalar(obs.heading - th)])
+        H = np.array([[1.0, 0.0, -s * mx - c * my], [0.0, 1.0, c * mx - s * my],
+                      [0.0, 0.0, 1.0]])
+        R = np.diag([p.sigma_pose_xy_m ** 2, p.sigma_pose_xy_m ** 2,
+                     p.sigma_pose_heading_rad ** 2])
+        S = H @ self.P @ H.T + R
+        if float(nu @ np.linalg.solve(S, nu)) > self._gate3:
+            self.rejected += 1
+            return False
+        K = self.P @ H.T @ np.linalg.inv(S)
+        self.mu = self.mu + K @ nu
+        self.mu[2] = wrap_scalar(float(self.mu[2]))
+        IKH = np.eye(3) - K @ H
+        self.P = IKH @ self.P @ IKH.T + K @ R @ K.T
+        self.accepted += 1
+        return True
+
+    def _update_scan(self, obs: ScanObservation) -> bool:
+        if len(obs) == 0 or len(self.map) == 0:
+            return False
+        p = self.params
+        x, y, th = (float(v) for v in self.mu)  # type: ignore[union-attr]
+        c, s = math.cos(th), math.sin(th)
+        # map reflectors in the body frame h[j], and each sensor origin o[k] (body frame)
+        ex, ey = self.map.x - x, self.map.y - y
+        hx, hy = c * ex + s * ey, -s * ex + c * ey
+        origin = obs.q - obs.ranges * obs.u
+        ray = np.angle(obs.u)
+        # predicted vector sensor -> reflector for every (k, j): v = h[j] - o[k]
+        vx = hx[None, :] - origin.real[:, None]
+        vy = hy[None, :] - origin.imag[:, None]
+        r2 = np.maximum(vx * vx + vy * vy, 1e-12)
+        rng = np.sqrt(r2)
+        nr = obs.ranges[:, None] - rng
+        nb = np.angle(np.exp(1j * (ray[:, None] - np.arctan2(vy, vx))))
+        # Jacobians of (range, ray angle) wrt (x, y, theta); dv/dx = (-c, s), dv/dy = (-s, -c),
+        # dv/dtheta = (hy, -hx)
+        dvx: tuple[Any, ...] = (-c, -s, hy[None, :])
+        dvy: tuple[Any, ...] = (s, -c, -hx[None, :])
+        Hr = [(vx * a + vy * b) / rng for a, b in zip(dvx, dvy, strict=True)]
+        Hb = [(vx * b - vy * a) / r2 for a, b in zip(dvx, dvy, strict=True)]
+        P = self.P
+        sr2 = p.sigma_range_m ** 2 + (p.sigma_range_per_m * obs.ranges[:, None]) ** 2
+        sb2 = p.sigma_bearing_rad ** 2
+
+        def quad(a: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
+            return sum(a[i] * P[i, j] * b[j] for i in range(3) for j in range(3))
+
+        srr = quad(Hr, Hr) + sr2
+        srb = quad(Hr, Hb)
+        sbb = quad(Hb, Hb) + sb2
+        det = srr * sbb - srb * srb
+        d2 = (sbb * nr * nr - 2.0 * srb * nr * nb + srr * nb * nb) / det
+        k_idx = np.arange(len(obs))
+        known = (obs.map_index(self.map) if p.use_ids
+                 else np.full(len(obs), -1, dtype=np.int64))
+        j = np.where(known >= 0, known, np.argmin(d2, axis=1))
+        ok = d2[k_idx, j] <= self._gate2
+        self.rejected += int((~ok).sum())
+        if not ok.any():
+            return False
+        kk, jj = k_idx[ok], j[ok]
+        n = len(kk)
+        H = np.empty((n, 2, 3))
+        for i in range(3):
+            H[:, 0, i] = np.broadcast_to(Hr[i], vx.shape)[kk, jj]
+            H[:, 1, i] = np.broadcast_to(Hb[i], vx.shape)[kk, jj]
+        nu = np.stack([nr[kk, jj], nb[kk, jj]], axis=1)
+        # information form with R = diag(sr2, sb2): Y = sum H^T R^-1 H, yv = sum H^T R^-1 nu
+        w = np.empty((n, 2))
+        w[:, 0] = 1.0 / np.broadcast_to(sr2, vx.shape)[kk, jj]
+        w[:, 1] = 1.0 / sb2
+        HtRi = H.transpose(0, 2, 1) * w[:, None, :]
+        Y = np.einsum("kia,kaj->ij", HtRi, H)
+        yv = np.einsum("kia,ka->i", HtRi, nu)
+        P_new = np.linalg.inv(np.linalg.inv(self.P) + Y)
+        self.mu = self.mu + P_new @ yv
+        self.mu[2] = wrap_scalar(float(self.mu[2]))
+        self.P = 0.5 * (P_new + P_new.T)
+        self.accepted += n
+        return True

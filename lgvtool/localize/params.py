@@ -1,0 +1,101 @@
+"""Estimator parameters: typed dataclasses with documented defaults, and ``--set`` handling.
+
+Every estimator declares its parameters as a frozen dataclass whose fields carry ``doc`` (with
+the unit) and optionally ``choices`` or ``minimum`` metadata. :func:`make_params` builds an
+instance from overrides given as ``{param: value}``, with one clear error for a mistake.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import MISSING, Field, field, fields, replace
+from typing import Any, TypeVar
+
+from lgvtool.errors import InputError
+
+P = TypeVar("P")
+
+
+def param(default: Any, doc: str, *, choices: tuple[str, ...] | None = None,
+          minimum: float | None = None, maximum: float | None = None) -> Any:
+    """A dataclass field with its documentation and limits."""
+    meta: dict[str, Any] = {"doc": doc}
+    if choices is not None:
+        meta["choices"] = choices
+    if minimum is not None:
+        meta["minimum"] = minimum
+    if maximum is not None:
+        meta["maximum"] = maximum
+    return field(default=default, metadata=meta)
+
+
+def _coerce(owner: str, f: Field[Any], value: Any) -> Any:
+    kind = type(f.default) if f.default is not MISSING else str
+    where = f"{owner}.{f.name}"
+    if kind is bool:
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, str) and value.lower() in ("true", "false", "yes", "no", "1", "0"):
+            return value.lower() in ("true", "yes", "1")
+        if isinstance(value, int) and value in (0, 1):
+            return bool(value)
+        raise InputError(f"{where} must be true or false, got {value!r}")
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise InputError(f"{where} must be an integer, got {value!r}")
+        if isinstance(value, float) and not value.is_integer():
+            raise InputError(f"{where} must be an integer, got {value!r}")
+        value = int(value)
+    elif kind is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise InputError(f"{where} must be a number, got {value!r}")
+        value = float(value)
+        if math.isnan(value):
+            raise InputError(f"{where} must be a number, got {value!r}")
+    elif kind is str:
+        value = str(value)
+        choices = f.metadata.get("choices")
+        if choices and value not in choices:
+            raise InputError(f"{where} must be one of {', '.join(choices)}, got {value!r}")
+        return value
+    lo, hi = f.metadata.get("minimum"), f.metadata.get("maximum")
+    if lo is not None and value < lo:
+        raise InputError(f"{where} must be at least {lo}, got {value}")
+    if hi is not None and value > hi:
+        raise InputError(f"{where} must be at most {hi}, got {value}")
+    return value
+
+
+def make_params(cls: type[P], owner: str, overrides: Mapping[str, Any] | None = None,
+                base: P | None = None) -> P:
+    """``cls`` with ``overrides`` applied over ``base`` (or the defaults).
+
+    Raises :class:`lgvtool.errors.InputError` naming ``owner.param`` for an unknown parameter or
+    a value of the wrong type or range.
+    """
+    known = {f.name: f for f in fields(cls)}  # type: ignore[arg-type]
+    out = base if base is not None else cls()
+    changes: dict[str, Any] = {}
+    for key, value in (overrides or {}).items():
+        if key not in known:
+            raise InputError(f"unknown parameter '{owner}.{key}' (known: "
+                             f"{', '.join(sorted(known))})")
+        changes[key] = _coerce(owner, known[key], value)
+    return replace(out, **changes) if changes else out  # type: ignore[type-var]
+
+
+def params_dict(params: Any) -> dict[str, Any]:
+    """The parameters as a plain JSON-able dict (infinities as strings)."""
+    out: dict[str, Any] = {}
+    for f in fields(params):
+        v = getattr(params, f.name)
+        if isinstance(v, float) and not math.isfinite(v):
+            v = "inf" if v > 0 else "-inf"
+        out[f.name] = v
+    return out
+
+
+def describe(cls: type) -> list[tuple[str, Any, str]]:
+    """``(name, default, doc)`` for every parameter of ``cls``, in declaration order."""
+    return [(f.name, f.default, f.metadata.get("doc", "")) for f in fields(cls)]

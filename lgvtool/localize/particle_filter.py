@@ -1,0 +1,282 @@
+"""``pf``: the paper's filter with the improvements expected of an AMCL-class localiser.
+
+Each improvement is a switch (``--set pf.<name>=false`` turns it off):
+
+- ``log_weights``: weights are kept and multiplied as logarithms and normalised with
+  log-sum-exp, so a long scan of sharp likelihoods never underflows to all-zero weights.
+- ``resample = ess``: low-variance (systematic) resampling only when the effective sample size
+  ``1 / sum w^2`` drops below ``ess_threshold`` times the particle count (``always``: after
+  every update, like the paper).
+- ``kld``: KLD-sampling chooses the particle count at each resampling between
+  ``min_particles`` and ``particles`` from the number of occupied histogram bins.
+- ``recovery``: augmented MCL. Short- and long-term averages of the measurement likelihood per
+  reflector (``alpha_fast``, ``alpha_slow``) decide the fraction ``max(0, 1 - w_fast/w_slow)``
+  of particles re-drawn uniformly over the work area when the likelihood collapses
+  (kidnapping, a wrong convergence).
+- ``deskew``: each reflector is placed at the odometry pose of its own measurement time within
+  the head revolution (done by the replay driver, see
+  :func:`lgvtool.localize.observations.scan_observation`).
+- ``outlier``: each reflector's likelihood is a mixture ``(1 - eps) N + eps U``: a Gaussian in
+  range (``sigma_range_m``) and bearing (``sigma_bearing_rad``, i.e. ``r sigma_b`` across the
+  ray) plus a uniform density over a disc of radius ``outlier_gate_m``, so a false reflector
+  (a shiny object) or a wrong association cannot zero a good particle.
+- pose-only observations: with no reflector scans in the log (or ``observations = poses``) the
+  particles are weighed against the NAV head pose with ``sigma_pose_xy_m`` and
+  ``sigma_pose_heading_rad`` (and the same outlier mixture).
+
+Unlike the paper's product of one Gaussian over the summed distances, reflectors are treated as
+independent measurements (the likelihood is the product of the per-reflector terms).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lgvtool.localize.estimator import Estimate, Motion, Observation
+from lgvtool.localize.fix import pose_fix
+from lgvtool.localize.kld import bin_keys, kld_count
+from lgvtool.localize.noise import MotionParams
+from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
+from lgvtool.localize.params import param
+from lgvtool.localize.particles import ParticleInitParams, ParticleSet
+from lgvtool.localize.resampling import (
+    effective_sample_size,
+    low_variance,
+    multinomial,
+    uniform_poses,
+)
+
+FloatArray = NDArray[np.float64]
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+@dataclass(frozen=True)
+class PfParams(MotionParams, SourceParams, ParticleInitParams):
+    """Parameters of the improved particle filter."""
+
+    particles: int = param(2000, "particles at the start, and the most KLD-sampling may use "
+                           "(the fixed count when kld is off)", minimum=1)
+    min_particles: int = param(100, "the fewest particles KLD-sampling may use", minimum=1)
+    sigma_range_m: float = param(0.02, "range noise of a reflector, m", minimum=1e-6)
+    sigma_bearing_rad: float = param(0.005, "bearing noise of a reflector, rad", minimum=1e-9)
+    sigma_range_per_m: float = param(0.0, "range noise that grows with the range (a scale "
+                                     "error), added in quadrature, m per m", minimum=0.0)
+    sigma_pose_xy_m: float = param(0.05, "position noise of a NAV pose observation, m",
+                                   minimum=1e-6)
+    sigma_pose_heading_rad: float = param(0.02, "heading noise of a NAV pose observation, rad",
+                                          minimum=1e-9)
+    log_weights: bool = param(True, "keep weights as logarithms")
+    resample: str = param("ess", "when to resample: ess (when the effective sample size drops) "
+                          "or always", choices=("ess", "always"))
+    ess_threshold: float = param(0.5, "resample when ESS < this x particle count", minimum=0.0,
+                                 maximum=1.0)
+    resampler: str = param("low-variance", "resampling scheme",
+                           choices=("low-variance", "multinomial"))
+    kld: bool = param(True, "adapt the particle count by KLD-sampling")
+    kld_epsilon: float = param(0.02, "KLD-sampling error bound", minimum=1e-6)
+    kld_delta: float = param(0.01, "KLD-sampling: the bound holds with probability 1 - delta",
+                             minimum=1e-9, maximum=0.5)
+    kld_bin_m: float = param(0.25, "KLD histogram bin size in x and y, m", minimum=1e-6)
+    kld_bin_rad: float = param(0.1, "KLD histogram bin size in heading, rad", minimum=1e-6)
+    recovery: bool = param(True, "recovery: augmented-MCL injection, and sensor resetting when "
+                           "the likelihood shows the filter is lost")
+    inject: str = param("sensor", "where recovery particles come from: sensor (around the pose "
+                        "the observation itself fixes: a landmark fix from reflector ids or the "
+                        "NAV pose; uniform when it fixes none) or uniform",
+                        choices=("sensor", "uniform"))
+    reset_likelihood: float = param(1.0, "sensor resetting: mean likelihood per measurement "
+                                    "(density, per m^2 for a reflector) below which the filter "
+                                    "counts as lost", minimum=0.0)
+    alpha_slow: float = param(0.001, "long-term likelihood average rate", minimum=0.0,
+                              maximum=1.0)
+    alpha_fast: float = param(0.1, "short-term likelihood average rate", minimum=0.0,
+                              maximum=1.0)
+    outlier: bool = param(True, "outlier-tolerant likelihood (Gaussian + uniform mixture)")
+    outlier_prob: float = param(0.05, "prior probability that a reflector is an outlier",
+                                minimum=1e-9, maximum=0.999)
+    outlier_gate_m: float = param(1.0, "radius of the disc over which an outlier is uniform, m",
+                                  minimum=1e-6)
+
+
+class ParticleFilter(ParticleSet):
+    """The improved particle filter (``pf``)."""
+
+    name = "pf"
+    Params = PfParams
+    summary = "the paper's filter with log weights, ESS/low-variance resampling, KLD, " \
+              "augmented MCL, de-skew, outlier-tolerant and pose-only likelihoods"
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)
+        p = self.params
+        self.logw = np.zeros(0)
+        self.w_slow: dict[str, float] = {}
+        self.w_fast: dict[str, float] = {}
+        self.injected = 0
+        self.resamplings = 0
+        self._cached: tuple[float, float, float, np.ndarray] | None = None
+        if self.initial_pose is not None:
+            self._start_around(self.initial_pose, p.particles)
+        elif p.init == "uniform":
+            self._start_uniform(p.particles)
+        self.logw = np.full(len(self.z), -math.log(max(1, len(self.z))))
+
+    # ------------------------------------------------------------------ likelihoods
+    def _mix(self, loglik: FloatArray, dims: int) -> FloatArray:
+        """Outlier mixture of per-measurement log-likelihoods (``dims``-D Gaussians)."""
+        p = self.params
+        if not p.outlier:
+            return loglik
+        eps = p.outlier_prob
+        log_u = -math.log(math.pi * p.outlier_gate_m ** 2) if dims == 2 else \
+            -math.log(math.pi * p.outlier_gate_m ** 2 * 2.0 * math.pi)
+        return np.logaddexp(math.log1p(-eps) + loglik, math.log(eps) + log_u)
+
+    def scan_loglik(self, obs: ScanObservation) -> tuple[FloatArray, int]:
+        """Log-likelihood of each particle for a scan, and the number of reflectors used."""
+        p = self.params
+        e = self.scan_residuals(obs, p.use_ids)
+        # the residual along (er) and across (et) each reflector's ray
+        ray = e * np.multiply.outer(self.rot.conj(), obs.u.conj())
+        er, et = ray.real, ray.imag
+        if p.sigma_range_per_m > 0.0:
+            sr = np.sqrt(p.sigma_range_m ** 2 + (p.sigma_range_per_m * obs.ranges) ** 2)
+        else:
+            sr = np.full(len(obs), p.sigma_range_m)
+        st = np.sqrt((obs.ranges * p.sigma_bearing_rad) ** 2 + 1e-12)
+        ll = -0.5 * ((er / sr) ** 2 + (et / st) ** 2) - (_LOG_2PI + np.log(sr) + np.log(st))
+        return self._mix(ll, 2).sum(axis=1), len(obs)
+
+    def pose_loglik(self, obs: PoseObservation) -> FloatArray:
+        """Log-likelihood of each particle for a NAV head pose."""
+        p = self.params
+        dx, dy, dh = self.head_residuals(obs)
+        sp, sh = p.sigma_pose_xy_m, p.sigma_pose_heading_rad
+        ll = -0.5 * ((dx * dx + dy * dy) / (sp * sp) + (dh / sh) ** 2) \
+            - (1.5 * _LOG_2PI + 2.0 * math.log(sp) + math.log(sh))
+        return self._mix(ll, 3)
+
+    # ------------------------------------------------------------------ update
+    def update(self, obs: Observation) -> bool:
+        p = self.params
+        if not self.initialized:
+            pose = pose_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map,
+                            use_ids=p.use_ids)
+            if pose is None:
+                return False
+            self._start_around(pose, p.particles)
+            self.logw = np.full(len(self.z), -math.log(len(self.z)))
+            return True
+        if isinstance(obs, PoseObservation):
+            ll, kind, count = self.pose_loglik(obs), "pose", 1
+        else:
+            if len(obs) == 0 or len(self.map) == 0:
+                return False
+            ll, count = self.scan_loglik(obs)
+            kind = "scan"
+        if p.log_weights:
+            lw = self.logw + ll
+            top = float(lw.max())
+            if not math.isfinite(top):
+                return False
+            e = np.exp(lw - top)
+            total = float(e.sum())
+            log_avg = top + math.log(total)  # log sum_m w_m p_m: the weighted mean likelihood
+            self.w = e / total
+            self.logw = lw - log_avg
+        else:
+            e = self.w * np.exp(ll)
+            total = float(e.sum())
+            if not (total > 0.0 and math.isfinite(total)):
+                return False  # every weight underflowed: the observation cannot be used
+            log_avg = math.log(total)
+            self.w = e / total
+            self.logw = np.log(np.maximum(self.w, 1e-300))
+        per_obs = log_avg / count
+        self._track_likelihood(kind, per_obs)
+        n = len(self.z)
+        self.last_ess = effective_sample_size(self.w)
+        self._cached = self.weighted_pose(self.w)
+        self._ref = self._cached[:3]
+        lost = 0.0
+        if p.recovery and p.reset_likelihood > 0.0:
+            lost = max(0.0, 1.0 - math.exp(min(per_obs, 700.0)) / p.reset_likelihood)
+        if lost > 0.0 or p.resample == "always" or self.last_ess < p.ess_threshold * n:
+            injected = self.injected
+            self._resample(kind, obs, lost)
+            if self.injected != injected:
+                # recovery re-drew particles: the belief, and so the estimate, is the new set
+                self._cached = self.weighted_pose(self.w)
+                self._ref = self._cached[:3]
+        return True
+
+    def predict(self, motion: Motion) -> None:
+        super().predict(motion)
+        self._cached = None
+
+    def _track_likelihood(self, kind: str, log_avg_per_obs: float) -> None:
+        p = self.params
+        w_avg = math.exp(max(log_avg_per_obs, -700.0))
+        slow = self.w_slow.get(kind, 0.0)
+        fast = self.w_fast.get(kind, 0.0)
+        self.w_slow[kind] = slow + p.alpha_slow * (w_avg - slow)
+        self.w_fast[kind] = fast + p.alpha_fast * (w_avg - fast)
+
+    def _resample(self, kind: str, obs: Observation, lost: float) -> None:
+        p = self.params
+        draw = low_variance if p.resampler == "low-variance" else multinomial
+        if p.kld:
+            cap = max(p.particles, p.min_particles)
+            idx = draw(self.w, cap, self.rng)
+            idx = idx[self.rng.permutation(cap)]
+            keys = bin_keys(self.z.real[idx], self.z.imag[idx], self.th[idx], p.kld_bin_m,
+                            p.kld_bin_rad)
+            n_new = kld_count(keys, p.kld_epsilon, p.kld_delta, p.min_particles, cap)
+            idx = idx[:n_new]
+        else:
+            n_new = p.particles
+            idx = draw(self.w, n_new, self.rng)
+        z, th = self.z[idx], self.th[idx]
+        n_inject = 0
+        if p.recovery:
+            frac = lost
+            slow, fast = self.w_slow.get(kind, 0.0), self.w_fast.get(kind, 0.0)
+            if slow > 0.0:
+                frac = max(frac, 1.0 - fast / slow)
+            n_inject = min(n_new, round(frac * n_new))
+        if n_inject > 0:
+            gx, gy, gt = self._recovery_poses(obs, n_inject)
+            z[:n_inject] = gx + 1j * gy
+            th[:n_inject] = gt
+            self.injected += n_inject
+            self.w_slow[kind] = self.w_fast[kind] = 0.0
+        self.z = z
+        self._set_headings(th)
+        self.w = np.full(n_new, 1.0 / n_new)
+        self.logw = np.full(n_new, -math.log(n_new))
+        self.resamplings += 1
+
+    def _recovery_poses(self, obs: Observation, n: int
+                        ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``n`` poses for recovery: around the pose the observation fixes (a landmark fix or
+        the NAV pose), else uniform over the work area."""
+        p = self.params
+        if p.inject == "sensor":
+            fix = pose_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map,
+                           use_ids=p.use_ids)
+            if fix is not None:
+                g = self.rng.standard_normal((3, n))
+                return (fix[0] + p.init_sigma_xy_m * g[0], fix[1] + p.init_sigma_xy_m * g[1],
+                        fix[2] + p.init_sigma_heading_rad * g[2])
+        return uniform_poses(self.rng, n, self.area)
+
+    def estimate(self) -> Estimate | None:
+        if not self.initialized:
+            return None
+        if self._cached is None:
+            self._cached = self.weighted_pose(self.w)
+        return self._as_estimate(self._cached)

@@ -1,0 +1,234 @@
+"""What the two particle filters share: the particle set, the prediction, the measurement
+geometry per particle, and the weighted estimate.
+
+Each particle is a pose of the target rotation centre O (the paper's choice: no eq. 5
+conversion of noisy data). Positions are kept as complex numbers ``z = x + iy`` and headings
+both as angles ``th`` and as rotors ``rot = exp(i th)``, so that moving a particle or putting a
+body-frame point into the world is one complex multiply-add, vectorised over particles and
+over the reflectors of a scan.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lgvtool.localize.estimator import Estimate, Estimator, Motion
+from lgvtool.localize.noise import perturbed_motion
+from lgvtool.localize.observations import PoseObservation, ScanObservation
+from lgvtool.localize.params import param
+from lgvtool.localize.resampling import uniform_poses
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+_TWO_PI = 2.0 * math.pi
+
+
+@dataclass(frozen=True)
+class ParticleInitParams:
+    """How a particle filter starts."""
+
+    init: str = param("uniform", "start: uniform over the work area (global localisation), or "
+                      "laser (around the first NAV pose or landmark fix); a caller's initial "
+                      "pose always wins", choices=("uniform", "laser"))
+    init_sigma_xy_m: float = param(0.1, "position spread of a start around a pose, m",
+                                   minimum=0.0)
+    init_sigma_heading_rad: float = param(0.05, "heading spread of a start around a pose, rad",
+                                          minimum=0.0)
+
+
+class ParticleSet(Estimator):
+    """Particles (positions ``z`` m, headings ``th`` rad) and their normalised weights ``w``."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self.z: ComplexArray = np.zeros(0, dtype=np.complex128)
+        self.th: FloatArray = np.zeros(0)
+        self.rot: ComplexArray = np.zeros(0, dtype=np.complex128)
+        self.w: FloatArray = np.zeros(0)
+        self.last_ess = 0.0
+        #: a pose near the bulk of the particles (the last estimate moved by the odometry)
+        self._ref: tuple[float, float, float] | None = None
+
+    @property
+    def x(self) -> FloatArray:
+        """Particle x, m."""
+        return self.z.real
+
+    @property
+    def y(self) -> FloatArray:
+        """Particle y, m."""
+        return self.z.imag
+
+    def set_particles(self, x: FloatArray, y: FloatArray, th: FloatArray,
+                      w: FloatArray | None = None) -> None:
+        """Replace the particle set (poses in m, rad; weights normalised here; None: equal)."""
+        self.z = np.asarray(x, dtype=np.float64) + 1j * np.asarray(y, dtype=np.float64)
+        self._set_headings(np.asarray(th, dtype=np.float64))
+        n = len(self.z)
+        self.w = np.full(n, 1.0 / n) if w is None else np.asarray(w) / np.sum(w)
+
+    def _set_headings(self, th: FloatArray) -> None:
+        self.th = np.remainder(th + math.pi, _TWO_PI) - math.pi
+        self.rot = np.exp(1j * self.th)
+
+    # ------------------------------------------------------------------ start
+    def _start_uniform(self, n: int) -> None:
+        self.set_particles(*uniform_poses(self.rng, n, self.area))
+
+    def _start_around(self, pose: tuple[float, float, float], n: int) -> None:
+        p = self.params
+        g = self.rng.standard_normal((3, n))
+        self.set_particles(pose[0] + p.init_sigma_xy_m * g[0], pose[1] + p.init_sigma_xy_m * g[1],
+                           pose[2] + p.init_sigma_heading_rad * g[2])
+
+    @property
+    def initialized(self) -> bool:
+        return len(self.z) > 0
+
+    # ------------------------------------------------------------------ prediction
+    def predict(self, motion: Motion) -> None:
+        """Eq. 9 for every particle: the odometry motion (with motion noise) composed onto
+        each particle's pose."""
+        n = len(self.z)
+        if n == 0:
+            return
+        p = self.params
+        dx, dy, dth = perturbed_motion(self.rng, n, motion.dx, motion.dy, motion.dth,
+                                       p.noise_sigmas(motion.dist, motion.rot))
+        if isinstance(dth, float):
+            self.z = self.z + self.rot * complex(dx, dy)
+            self.th = self.th + dth
+            self.rot = self.rot * complex(math.cos(dth), math.sin(dth))
+        else:
+            self.z = self.z + self.rot * (dx + 1j * dy)
+            self._set_headings(self.th + dth)
+        if self._ref is not None:
+            x, y, t = self._ref
+            c0, s0 = math.cos(t), math.sin(t)
+            self._ref = (x + c0 * motion.dx - s0 * motion.dy, y + s0 * motion.dx + c0 * motion.dy,
+                         t + motion.dth)
+
+    # ------------------------------------------------------------------ measurement geometry
+    def _map_index(self, obs: ScanObservation, use_ids: bool) -> NDArray[np.int64]:
+        """Map index of each reflector's id (-1: unknown, associate by nearest neighbour)."""
+        if not use_ids:
+            return np.full(len(obs), -1, dtype=np.int64)
+        return obs.map_index(self.map)
+
+    def world_points(self, obs: ScanObservation) -> ComplexArray:
+        """The measured reflectors in the world at every particle's pose, (M, K) complex, m."""
+        return self.z[:, None] + np.multiply.outer(self.rot, obs.q)
+
+    def scan_residuals(self, obs: ScanObservation, use_ids: bool) -> ComplexArray:
+        """For every particle m and reflector k, the residual ``L_j - p_mk`` (complex, m, world
+        frame) from the measured point to its associated map reflector ``j``. Shape (M, K).
+
+        Association is by id when known (and ``use_ids``), else with the nearest map reflector,
+        found exactly: every point is compared with the few reflectors nearest to the same
+        reflector seen from a reference pose (the last estimate), and the triangle inequality
+        proves for almost every point that no other reflector is nearer; the remaining points
+        are searched in the whole map.
+        """
+        p = self.world_points(obs)
+        j = self._map_index(obs, use_ids)
+        unknown = j < 0
+        if not unknown.any():
+            return self.map.z[j] - p
+        e = self._nearest_residuals(p, obs)
+        if not unknown.all():
+            e[:, ~unknown] = self.map.z[j[~unknown]] - p[:, ~unknown]
+        return e
+
+    def _reference_nearest(self, obs: ScanObservation) -> NDArray[np.intp]:
+        """For each measured point seen from the reference pose, a map reflector likely to be
+        the nearest one for the particles: the reflector of the measurement's id when the scan
+        gives one, else the nearest to the point at the reference pose. (Only a candidate:
+        callers check it.)"""
+        j = obs.map_index(self.map)
+        if (j >= 0).all():
+            return j
+        ref = self._reference_pose()
+        pr = complex(ref[0], ref[1]) + complex(math.cos(ref[2]), math.sin(ref[2])) * obs.q
+        near = np.argmin(np.abs(self.map.z[None, :] - pr[:, None]), axis=1)
+        return np.where(j >= 0, j, near)
+
+    def _nearest_residuals(self, p: ComplexArray, obs: ScanObservation) -> ComplexArray:
+        """``L_j - p`` with ``L_j`` the map reflector nearest to each point ``p`` (M, K)."""
+        mz = self.map.z
+        j1 = self._reference_nearest(obs)
+        e = mz[j1] - p
+        # a point within half the spacing of j1 to its nearest neighbour has j1 as its nearest
+        far = np.abs(e) >= self.map.half_sep[j1]
+        if far.any():
+            jb, _ = self.map.nearest(p.real[far], p.imag[far])
+            e[far] = mz[jb] - p[far]
+        return e
+
+    def nearest_distances(self, obs: ScanObservation, brute_tail: int = 0) -> FloatArray:
+        """Distance from every particle's measured point to the nearest map reflector, (M, K),
+        m (the paper's association; ids only speed the search up). Exact: a candidate
+        reflector (:meth:`_reference_nearest`) is the nearest for every point within half its
+        spacing to its own nearest neighbour; the other points, and the last ``brute_tail``
+        particles (those spread uniformly, which are never near), are compared with the whole
+        map."""
+        p = self.world_points(obs)
+        mz = self.map.z
+        m = len(p)
+        n = m - brute_tail
+        j1 = self._reference_nearest(obs)
+        d = np.empty(p.shape)
+        near = d[:n]
+        np.abs(mz[j1] - p[:n], out=near)
+        far = near >= self.map.half_sep[j1]
+        if far.any():
+            near[far] = self.map.nearest_distance(p[:n][far])
+        if brute_tail > 0:
+            tail = p[n:]
+            d[n:] = np.abs(mz[:, None, None] - tail[None, :, :]).min(axis=0)
+        return d
+
+    def _reference_pose(self) -> tuple[float, float, float]:
+        """A pose near the bulk of the particles: the last estimate, else the heaviest one."""
+        if self._ref is not None:
+            return self._ref
+        i = int(np.argmax(self.w)) if len(self.w) == len(self.z) else 0
+        return float(self.z[i].real), float(self.z[i].imag), float(self.th[i])
+
+    def head_residuals(self, obs: PoseObservation) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """NAV pose minus each particle's head pose: dx, dy (m) and wrapped dheading (rad)."""
+        mount = complex(self.vehicle.nav_x, self.vehicle.nav_y)
+        d = complex(obs.x, obs.y) - (self.z + self.rot * mount)
+        dh = np.angle(complex(math.cos(obs.heading), math.sin(obs.heading)) * self.rot.conj())
+        return d.real, d.imag, dh
+
+    # ------------------------------------------------------------------ estimate
+    def weighted_pose(self, w: FloatArray) -> tuple[float, float, float, FloatArray]:
+        """Weighted mean (eq. 11; the heading as a circular mean, since a plain mean of angles
+        breaks at +-pi) and the weighted covariance of ``(x, y, heading)``.
+
+        All weighted sums come from one product with the weights: with ``d = z - mean`` and
+        ``h`` the heading deviations, ``sum w d^2 = Sxx - Syy + 2i Sxy``,
+        ``sum w |d|^2 = Sxx + Syy``, ``sum w d h = Sxh + i Syh``.
+        """
+        mz = complex(w @ self.z)
+        mr = complex(w @ self.rot)
+        mt = math.atan2(mr.imag, mr.real)
+        d = self.z - mz
+        h = np.angle(self.rot * complex(mr.real, -mr.imag))
+        s1, s2, sh, shh = np.stack((d * d, d * d.conj(), d * h, h * h + 0j)) @ w
+        sxx, syy, sxy = 0.5 * (s2.real + s1.real), 0.5 * (s2.real - s1.real), 0.5 * s1.imag
+        cov = np.array([[sxx, sxy, sh.real], [sxy, syy, sh.imag],
+                        [sh.real, sh.imag, shh.real]])
+        return mz.real, mz.imag, mt, cov
+
+    def cloud(self) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+        if len(self.z) == 0:
+            return None
+        return self.z.real, self.z.imag, self.th
+
+    def _as_estimate(self, pose: tuple[float, float, float, FloatArray]) -> Estimate:
+        return Estimate(pose[0], pose[1], pose[2], pose[3], len(self.z), self.last_ess)

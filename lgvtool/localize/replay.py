@@ -1,0 +1,346 @@
+"""The replay driver: run estimators over the motion and observations of a log.
+
+:func:`run_replay` reads what the estimators need from a :class:`lgvtool.log.LogReader`
+(:func:`load_log`) and hands it to :func:`replay_data`, which is pure. For each estimator the
+driver builds the odometry track its motion settings ask for, the observations its source
+settings ask for (NAV poses, reflector scans, de-skewed or not), and then alternates
+``predict`` (the exact body-frame motion between consecutive observation times) and ``update``.
+Estimates are recorded at every observation time once the estimator is initialised.
+
+Times inside are seconds relative to the first message of the log (``t0_ns``); the
+trajectories returned carry absolute log time in s, like :meth:`LogReader.dataframe`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import zlib
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lgvtool.config import Config, default_config
+from lgvtool.errors import InputError, MissingDataError
+from lgvtool.localize.estimator import Estimator, Motion
+from lgvtool.localize.logdata import LazyScans, LogData, load_log, scan_batch
+from lgvtool.localize.motion import MotionSettings, MotionTrack
+from lgvtool.localize.observations import (
+    PoseObservation,
+    ScanObservation,
+    scan_observations,
+    sources,
+)
+from lgvtool.localize.params import params_dict
+from lgvtool.localize.registry import (
+    DEFAULT_ESTIMATORS,
+    ESTIMATORS,
+    check_names,
+    resolve_params,
+    split_settings,
+)
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from lgvtool.log import LogReader
+
+FloatArray = NDArray[np.float64]
+
+__all__ = ["EstimateTable", "LazyScans", "LogData", "ReplayResult", "load_log", "replay_data",
+           "run_replay"]
+
+
+@dataclass
+class EstimateTable:
+    """One estimator's output: ``t_ns`` (int ns since the epoch), pose of O (m, m, rad),
+    row-major 3x3 ``covariance`` per row, particle count and ESS per row."""
+
+    t_ns: NDArray[np.int64]
+    x: FloatArray
+    y: FloatArray
+    heading: FloatArray
+    covariance: FloatArray
+    particles: NDArray[np.int64]
+    ess: FloatArray
+
+
+@dataclass
+class ReplayResult:
+    """What :func:`run_replay` returns.
+
+    ``trajectories``: ``{name: DataFrame[t (s), x (m), y (m), heading (rad)]}`` of O (built on
+    first use); ``settings``: ``{name: {param: value}}`` effective parameters; ``tables``: the
+    full output per estimator (with covariance, particle count, ESS); ``clouds``: decimated
+    particle clouds ``(t_ns, x, y, heading)``; ``skipped``: estimators that could not run on
+    this log, with the reason; ``timings``: seconds per estimator (and ``read``).
+    """
+
+    settings: dict[str, dict[str, Any]]
+    tables: dict[str, EstimateTable]
+    clouds: dict[str, list[tuple[int, FloatArray, FloatArray, FloatArray]]]
+    skipped: dict[str, str]
+    timings: dict[str, float]
+    t0_ns: int
+    seed: int
+    _frames: dict[str, pd.DataFrame] | None = field(default=None, repr=False)
+
+    @property
+    def trajectories(self) -> dict[str, pd.DataFrame]:
+        """``{name: DataFrame[t, x, y, heading]}``; ``t`` is the absolute log time in s."""
+        if self._frames is None:
+            import pandas as pd
+
+            self._frames = {n: pd.DataFrame({"t": tab.t_ns * 1e-9, "x": tab.x, "y": tab.y,
+                                             "heading": tab.heading})
+                            for n, tab in self.tables.items()}
+        return self._frames
+
+
+# ---------------------------------------------------------------------------------- running
+
+
+def estimator_rng(seed: int, name: str) -> np.random.Generator:
+    """The generator of one estimator: derived from the user's seed and the estimator's name,
+    so a filter draws the same numbers whichever other estimators run beside it."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(
+        [int(seed) & 0xFFFFFFFF, zlib.crc32(name.encode())])))
+
+
+def truth_pose_at(data: LogData, t: float) -> tuple[float, float, float] | None:
+    """Ground-truth pose of O interpolated at ``t`` (s after ``t0_ns``), if the log has it."""
+    tr = data.truth
+    if tr is None or len(tr["t"]) == 0:
+        return None
+    x = float(np.interp(t, tr["t"], tr["x"]))
+    y = float(np.interp(t, tr["t"], tr["y"]))
+    h = float(np.interp(t, tr["t"], np.unwrap(tr["heading"])))
+    return x, y, math.remainder(h, 2.0 * math.pi)
+
+
+def _observations(data: LogData, est_cls: type[Estimator], params: Any,
+                  track: MotionTrack | None, vehicle: Any
+                  ) -> tuple[list[PoseObservation | ScanObservation], list[PoseObservation]]:
+    """The observations an estimator updates with, and NAV poses it may only start from."""
+    use_scans, use_poses = sources(getattr(params, "observations", "both"),
+                                   data.has_scans and est_cls.uses_scans,
+                                   data.has_poses and est_cls.uses_poses)
+    obs: list[PoseObservation | ScanObservation] = []
+    poses: list[PoseObservation] = []
+    if data.nav is not None and data.has_poses and est_cls.uses_poses:
+        nav = data.nav
+        lat = float(getattr(params, "pose_latency_s", 0.0))
+        ok = np.nonzero(nav["valid"])[0]
+        ts = (nav["t"][ok] - lat).tolist()
+        xs, ys, hs = nav["x"][ok].tolist(), nav["y"][ok].tolist(), nav["heading"][ok].tolist()
+        poses = [PoseObservation(t, x, y, h) for t, x, y, h in zip(ts, xs, ys, hs, strict=True)]
+    if use_poses:
+        obs.extend(poses)
+        poses = []
+    if use_scans:
+        deskew = bool(getattr(params, "deskew", False))
+        lo = float(getattr(params, "min_range_m", 0.0))
+        hi = float(getattr(params, "max_range_m", math.inf))
+        chosen = None
+        if getattr(params, "scans", "all") == "nav-poll" and data.nav is not None:
+            chosen = poll_scans(data.scan_received(), data.nav["t"])
+        obs.extend(scan_observations(scan_batch(data.scans, chosen), vehicle.nav_x,
+                                     vehicle.nav_y, track=track, deskew=deskew, min_range=lo,
+                                     max_range=hi))
+    obs.sort(key=lambda o: o.t)
+    return obs, poses
+
+
+def poll_scans(received: FloatArray, poll_times: FloatArray) -> list[int]:
+    """Indices of the scans the NAV reported at its polls: for each poll time (s), the last
+    scan received (complete) before it, each scan at most once."""
+    if len(received) == 0 or len(poll_times) == 0:
+        return list(range(len(received)))
+    k = np.searchsorted(received, np.asarray(poll_times), side="right") - 1
+    return np.unique(k[k >= 0]).tolist()
+
+
+def replay_data(data: LogData, names: Sequence[str] | None = None, *,
+                config: Config | None = None, seed: int = 0,
+                settings: Mapping[str, Any] | None = None,
+                initial_pose: tuple[float, float, float] | str | None = None,
+                progress: Callable[[int], None] | None = None,
+                cloud_period_s: float = 2.0, cloud_size: int = 50) -> ReplayResult:
+    """Run the estimators ``names`` over ``data`` (see :func:`run_replay`)."""
+    cfg = config or default_config()
+    chosen = check_names(list(names) if names is not None else list(DEFAULT_ESTIMATORS))
+    per_name = split_settings(settings)
+    idle = [n for n in per_name if n not in chosen]
+    if idle:
+        raise InputError(f"setting(s) of estimator '{idle[0]}' given, but '{idle[0]}' is not "
+                         f"run (running: {', '.join(chosen)})")
+    params = {n: resolve_params(n, cfg.estimators, per_name.get(n)) for n in chosen}
+    if not (data.has_scans or data.has_poses):
+        raise MissingDataError("the log has no observations: neither reflector scans "
+                               "(/nav/reflectors with a reflector map) nor valid NAV poses "
+                               "(/nav/pose)")
+    if not data.has_motion and any(ESTIMATORS[n].uses_motion for n in chosen):
+        raise MissingDataError("the log has no motion data (/mcu/frame or /odom/twist)")
+    vehicle = cfg.vehicle
+    tracks: dict[MotionSettings, MotionTrack] = {}
+    result = ReplayResult({}, {}, {}, {}, {}, data.t0_ns, seed)
+    for name in chosen:
+        started = time.perf_counter()
+        cls = ESTIMATORS[name]
+        p = params[name]
+        result.settings[name] = params_dict(p)
+        track = None
+        if cls.uses_motion:
+            ms = p.motion_settings()
+            track = tracks.get(ms)
+            if track is None:
+                track = tracks[ms] = MotionTrack(data.increments(ms, vehicle), ms.step_form)
+        obs, start_only = _observations(data, cls, p, track, vehicle)
+        if not obs:
+            result.skipped[name] = (f"{name} has no usable observations in this log")
+            continue
+        start_pose: tuple[float, float, float] | None = None
+        if initial_pose == "truth":
+            start_pose = truth_pose_at(data, obs[0].t)
+            if start_pose is None:
+                raise MissingDataError("initial pose 'truth' asked for, but the log has no "
+                                       "/truth/pose")
+        elif initial_pose is not None and not isinstance(initial_pose, str):
+            start_pose = tuple(float(v) for v in initial_pose)  # type: ignore[assignment]
+        elif isinstance(initial_pose, str):
+            raise InputError(f"initial pose must be (x, y, heading) or 'truth', "
+                             f"got {initial_pose!r}")
+        est = cls(p, vehicle=vehicle, reflectors=data.reflectors, area=cfg.area,
+                  rng=estimator_rng(seed, name), initial_pose=start_pose)
+        todo: Sequence[PoseObservation | ScanObservation | _Mark] = obs
+        if not est.initialized and start_only:
+            todo = _start(est, obs, start_only, track)
+        table, clouds = _run_one(est, todo, track, data.t0_ns, progress, cloud_period_s,
+                                 cloud_size)
+        result.tables[name] = table
+        if clouds:
+            result.clouds[name] = clouds
+        result.timings[name] = time.perf_counter() - started
+    return result
+
+
+def _start(est: Estimator, obs: list[PoseObservation | ScanObservation],
+           start_only: list[PoseObservation], track: MotionTrack | None
+           ) -> list[PoseObservation | ScanObservation | _Mark]:
+    """Feed observations and start-only NAV poses in time order until the estimator has a
+    pose; return the observations still to process, beginning with a zero-motion marker at the
+    start time so that the motion from there on is not lost."""
+    merged: list[tuple[float, int, PoseObservation | ScanObservation]] = sorted(
+        [(o.t, 0, o) for o in obs] + [(o.t, 1, o) for o in start_only], key=lambda r: r[0])
+    prev: float | None = None
+    for i, (t, _kind, o) in enumerate(merged):
+        if prev is not None and track is not None and est.uses_motion:
+            d = track.deltas(np.array([prev]), np.array([t]))
+            est.predict(Motion(float(d.dx[0]), float(d.dy[0]), float(d.dth[0]),
+                               float(d.dist[0]), float(d.rot[0])))
+        prev = t
+        est.update(o)
+        if est.initialized:
+            rest = [r[2] for r in merged[i + 1:] if r[1] == 0]
+            return [_Mark(t), *rest]
+    return []
+
+
+@dataclass(frozen=True)
+class _Mark:
+    """A time at which the driver only moves the estimator (no observation)."""
+
+    t: float
+
+
+def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _Mark],
+             track: MotionTrack | None, t0_ns: int, progress: Callable[[int], None] | None,
+             cloud_period_s: float, cloud_size: int
+             ) -> tuple[EstimateTable, list[tuple[int, FloatArray, FloatArray, FloatArray]]]:
+    times = np.array([o.t for o in obs], dtype=np.float64)
+    n = len(obs)
+    if track is not None and n > 1:
+        d = track.deltas(times[:-1], times[1:])
+        steps = list(zip(d.dx.tolist(), d.dy.tolist(), d.dth.tolist(), d.dist.tolist(),
+                         d.rot.tolist(), strict=True))
+    else:
+        steps = [(0.0, 0.0, 0.0, 0.0, 0.0)] * max(0, n - 1)
+    rows_t: list[float] = []
+    rows: list[tuple[float, float, float]] = []
+    covs: list[NDArray[np.float64]] = []
+    parts: list[int] = []
+    esss: list[float] = []
+    clouds: list[tuple[int, FloatArray, FloatArray, FloatArray]] = []
+    next_cloud = -math.inf
+    uses_motion = est.uses_motion
+    report = 0
+    for i, o in enumerate(obs):
+        if i > 0 and uses_motion:
+            est.predict(Motion(*steps[i - 1]))
+        if not isinstance(o, _Mark):
+            est.update(o)
+        e = est.estimate()
+        if e is not None:
+            rows_t.append(o.t)
+            rows.append((e.x, e.y, e.heading))
+            covs.append(e.covariance)
+            parts.append(e.particles)
+            esss.append(e.ess)
+            if cloud_size > 0 and o.t >= next_cloud:
+                c = est.cloud()
+                if c is not None:
+                    k = len(c[0])
+                    sel = np.linspace(0, k - 1, min(k, cloud_size)).astype(np.intp)
+                    clouds.append((t0_ns + round(o.t * 1e9), c[0][sel].copy(),
+                                   c[1][sel].copy(), c[2][sel].copy()))
+                    next_cloud = o.t + cloud_period_s
+        if progress is not None and i - report >= 500:
+            progress(i - report)
+            report = i
+    if progress is not None:
+        progress(n - report)
+    t = np.array(rows_t, dtype=np.float64)
+    pose = np.array(rows, dtype=np.float64).reshape(-1, 3)
+    table = EstimateTable(
+        t0_ns + np.round(t * 1e9).astype(np.int64), pose[:, 0], pose[:, 1],
+        np.remainder(pose[:, 2] + math.pi, 2.0 * math.pi) - math.pi,
+        np.array(covs, dtype=np.float64).reshape(-1, 9),
+        np.array(parts, dtype=np.int64), np.array(esss, dtype=np.float64))
+    return table, clouds
+
+
+def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
+               config: Config | None = None, seed: int = 0,
+               settings: Mapping[str, Any] | None = None,
+               initial_pose: tuple[float, float, float] | str | None = None,
+               progress: Callable[[int], None] | None = None,
+               cloud_period_s: float = 2.0, cloud_size: int = 50) -> ReplayResult:
+    """Run estimators over a log.
+
+    :param reader: an open :class:`lgvtool.log.LogReader`.
+    :param names: estimator names (default :data:`DEFAULT_ESTIMATORS`); estimators that have
+        no usable observation in this log are listed in ``result.skipped``.
+    :param config: vehicle, area, reflectors and ``[estimators.*]`` settings (default: the
+        log's stored configuration).
+    :param seed: seed of every random draw; the same seed gives identical results.
+    :param settings: ``{"<estimator>.<param>": value}`` overrides (``--set``).
+    :param initial_pose: ``(x, y, heading)`` of O (m, rad) or ``"truth"`` (the log's ground
+        truth at the first observation) to start every estimator there.
+    :param progress: called with the number of observations processed since the last call.
+    :param cloud_period_s: keep one particle cloud per this many seconds, s.
+    :param cloud_size: at most this many particles per kept cloud (0: none).
+    :raises MissingDataError: no motion data, or no observation source.
+    :raises InputError: an unknown estimator or parameter.
+    """
+    started = time.perf_counter()
+    cfg = config if config is not None else reader.config()
+    data = load_log(reader, cfg.reflectors or None, truth=initial_pose == "truth")
+    read_s = time.perf_counter() - started
+    result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
+                         initial_pose=initial_pose, progress=progress,
+                         cloud_period_s=cloud_period_s, cloud_size=cloud_size)
+    result.timings["read"] = read_s
+    return result
