@@ -148,12 +148,19 @@ class Config:
         }
 
 
+_HALL_OFFSETS = (0.00, 0.31, -0.22, 0.12, -0.35, 0.27, -0.08, 0.19, -0.29, 0.05,
+                 0.34, -0.15, 0.23, -0.31, 0.09, -0.24, 0.29, -0.04, 0.16, -0.19)
+"""Irregular spacing of the default reflectors, in units of the mean spacing along the walls."""
+
+
 def paper_hall_reflectors(area: Area | None = None, count: int = 20) -> tuple[Reflector, ...]:
     """The paper's hall: ``count`` 10 cm cylinders on the walls of a 25 m x 20 m room.
 
-    Reflectors stand 5 cm off the walls (their centres), spread evenly along the perimeter
-    with a half-spacing offset so none sits in a corner. Ids run 1..count counter-clockwise from
-    the south-west corner.
+    Reflectors stand 5 cm off the walls (their centres), spread along the perimeter at a mean
+    spacing of perimeter / count, each shifted by up to a third of that spacing
+    (:data:`_HALL_OFFSETS`). Evenly spaced reflectors in a rectangle look the same from two poses
+    half a turn apart, which no localiser can tell apart; installers avoid such layouts, and so
+    does this default. Ids run 1..count counter-clockwise from the south-west corner.
     """
     a = area or Area()
     inset = 0.05
@@ -162,7 +169,7 @@ def paper_hall_reflectors(area: Area | None = None, count: int = 20) -> tuple[Re
     perimeter = 2 * (w + h)
     out = []
     for i in range(count):
-        s = (i + 0.5) * perimeter / count
+        s = (i + 0.5 + _HALL_OFFSETS[i % len(_HALL_OFFSETS)]) * perimeter / count
         if s < w:
             x, y = x0 + s, y0
         elif s < w + h:
