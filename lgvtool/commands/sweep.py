@@ -1,0 +1,94 @@
+"""``lgvtool sweep``: parameter sweeps over many logs and seeds on a Dask cluster."""
+
+from __future__ import annotations
+
+import click
+
+MAX_LISTED = 10
+"""Failed tasks named one by one on stderr before the rest are only counted."""
+
+
+def _split_names(values: tuple[str, ...]) -> list[str]:
+    return [n.strip() for v in values for n in v.split(",") if n.strip()]
+
+
+@click.command()
+@click.argument("logs", nargs=-1, required=True, metavar="LOG_OR_DIR...",
+                type=click.Path(exists=True, path_type=str))
+@click.option("-o", "--output", "outdir", required=True,
+              type=click.Path(file_okay=False, path_type=str),
+              help="Directory of the results (created; re-using it resumes the sweep).")
+@click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME",
+              help="Estimator to run (repeatable or comma-separated); default: laser, "
+                   "deadreckoning, ekf, pf-paper, pf.")
+@click.option("--grid", "grid_items", multiple=True, metavar="KEY=V1,V2,...",
+              help="Values of an estimator setting to sweep, as in replay --set "
+                   "(e.g. pf.particles=100,300,1000); several --grid give their product.")
+@click.option("--set", "set_items", multiple=True, metavar="KEY=VALUE",
+              help="An estimator setting fixed for every task (e.g. pf.init=laser).")
+@click.option("--seeds", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Seeds per log and setting: 0 .. N-1.")
+@click.option("--scheduler", metavar="tcp://HOST:PORT",
+              help="Run on this Dask scheduler instead of a local cluster (see docs/fleet.md).")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Worker processes of the local cluster  [default: one per CPU]")
+@click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False, path_type=str),
+              help="Configuration TOML used instead of the one stored in each log.")
+@click.option("--retry-failed", is_flag=True,
+              help="Run again the tasks whose log failed before (corrupt, missing channels).")
+@click.option("--no-progress", is_flag=True, help="No progress bar on stderr.")
+@click.option("--json", "as_json", is_flag=True, help="Print the outcome as JSON.")
+def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
+          grid_items: tuple[str, ...], set_items: tuple[str, ...], seeds: int,
+          scheduler: str | None, workers: int | None, config_path: str | None,
+          retry_failed: bool, no_progress: bool, as_json: bool) -> None:
+    """Run the estimators over every log in LOG_OR_DIR... (files, or directories searched for
+    *.mcap) for every setting of the grid and every seed, and evaluate each run as
+    lgvtool evaluate does: one task per (log, setting, seed).
+
+    Tasks run on a local Dask cluster (one process per CPU), or with --scheduler on an
+    existing one. Every finished task is stored in OUTDIR/tasks/ under a key made of the
+    log's content hash, the settings, the seed and the lgvtool version, so running the same
+    sweep again skips what is done and an interrupted sweep resumes. A log that fails
+    (corrupt, missing channels) is reported and does not stop the others.
+
+    Writes into OUTDIR: results.parquet/.csv (one row per log x setting x seed x estimator,
+    every figure of evaluate's JSON under a dotted name such as circle.rmse_mm or
+    truth.position_rmse_m), summary.parquet/.csv (per log x setting x estimator over the
+    seeds: mean, std, Student-t 95 % interval), report.html and sweep.json.
+
+    Exit 0 when the sweep ran (failed logs are reported, not fatal), 2 bad input.
+    """
+    import json
+    from pathlib import Path
+
+    from lgvtool.config import load_config, parse_set_options
+    from lgvtool.errors import InputError
+    from lgvtool.fleet.sweep import run_sweep
+    from lgvtool.fleet.tasks import check_settings, grid_settings, parse_grid
+
+    if scheduler is not None and workers is not None:
+        raise InputError("give --scheduler or --workers, not both")
+    grid = parse_grid(grid_items)
+    fixed = parse_set_options(set_items)
+    config = load_config(config_path) if config_path else None
+    names = check_settings(_split_names(estimators), grid_settings(grid, fixed), config)
+    result = run_sweep(
+        logs, Path(outdir), grid=grid, fixed=fixed, seeds=seeds, estimators=names,
+        config=config, config_path=config_path, scheduler=scheduler, workers=workers,
+        progress=not no_progress, retry_failed=retry_failed)
+    for i, f in enumerate(result.failures):
+        if i == MAX_LISTED:
+            click.echo(f"lgvtool: warning: sweep: {len(result.failures) - MAX_LISTED} more failed "
+                       "task(s), see summary.csv", err=True)
+            break
+        setting = ",".join(f"{k}={v}" for k, v in f["setting"].items()) or "default"
+        click.echo(f"lgvtool: warning: sweep: {f['log']} ({setting}, seed {f['seed']}): "
+                   f"{f['error']}", err=True)
+    if as_json:
+        click.echo(json.dumps(result.as_dict(), indent=2))
+        return
+    click.echo(f"{result.tasks} task(s): {result.ran} run now, {result.reused} already done, "
+               f"{result.failed} failed; {result.elapsed_s:.1f} s")
+    for p in result.files:
+        click.echo(f"  {p}")
