@@ -48,12 +48,14 @@ def _estimates_from_log(
 
 def _run_estimators(
     reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
-    settings: Mapping[str, Any] | None, warnings: list[str],
+    settings: Mapping[str, Any] | None, warnings: list[str], start_at_truth: bool = False,
 ) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
 
     chosen = list(names) if names else list(DEFAULT_ESTIMATORS)
-    out = run_replay(reader, chosen, config=cfg, seed=seed, settings=dict(settings or {}))
+    start: dict[str, Any] = {"initial_pose": "truth"} if start_at_truth else {}
+    out = run_replay(reader, chosen, config=cfg, seed=seed, settings=dict(settings or {}),
+                     **start)
     for name, reason in (getattr(out, "skipped", None) or {}).items():
         warnings.append(f"estimator '{name}' left out: {reason}")
     return dict(out.trajectories), dict(out.settings)
@@ -69,12 +71,16 @@ def evaluate_log(
     shared_centre: bool = False,
     free_radius: bool = False,
     lap_source: str | None = None,
+    start_at_truth: bool = False,
 ) -> EvaluationResult:
     """Evaluate one log.
 
     The log's ``/estimate/<name>/pose`` channels are scored if it has any (``estimators``
     picks among them); otherwise the estimators (default: ``DEFAULT_ESTIMATORS`` of
-    :mod:`lgvtool.localize`) are run with ``run_replay`` using ``seed`` and ``settings``.
+    :mod:`lgvtool.localize`) are run with ``run_replay`` using ``seed`` and ``settings``, and
+    with ``start_at_truth`` every estimator starts at the log's ground truth (``/truth/pose``)
+    at its first observation instead of initialising itself (a warning when the log's own
+    estimates are scored, since nothing is run then).
     ``config`` overrides the configuration stored in the log. The steering angle of the
     reference circle is the median logged steering angle (MCU frames), else
     ``config.reference.steering_angle_deg``. Raises :class:`~lgvtool.errors.InputError` (or a
@@ -92,8 +98,12 @@ def evaluate_log(
     source = "log"
     used: dict[str, Any] = {}
     if trajs is None:
-        trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings)
+        trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
+                                      start_at_truth)
         source = "replay"
+    elif start_at_truth:
+        warnings.append("--start-at-truth has no effect: the log's own estimates are scored "
+                        "(evaluate a log without /estimate/* channels to run the estimators)")
     truth = _pose_frame(reader, topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
     if truth is not None and truth.empty:
         truth = None
@@ -152,11 +162,14 @@ def _split_names(values: Sequence[str]) -> list[str]:
               help="Fit the radius too (geometric fit) instead of R = h / tan(delta).")
 @click.option("--png", is_flag=True, help="Also write every figure as PNG into OUTDIR "
               "(needs the optional kaleido package).")
+@click.option("--start-at-truth", is_flag=True,
+              help="When evaluate runs the estimators: start every one at the log's ground "
+                   "truth (/truth/pose) instead of letting it initialise itself.")
 def evaluate(
     logs: tuple[str, ...], outdir: str | None, estimators: tuple[str, ...], as_json: bool,
     fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
     tolerance: str, seed: int, config_path: str | None, shared_centre: bool,
-    free_radius: bool, png: bool,
+    free_radius: bool, png: bool, start_at_truth: bool,
 ) -> None:
     """Evaluate the localization in LOG... against the kinematic reference circle (R = h /
     tan(delta), centre fitted by least squares) and, where the log has it, ground truth.
@@ -203,7 +216,8 @@ def evaluate(
         with pywarnings.catch_warnings():
             pywarnings.simplefilter("ignore")
             res = evaluate_log(log, estimators=names, config=cfg, seed=seed,
-                               shared_centre=shared_centre, free_radius=free_radius)
+                               shared_centre=shared_centre, free_radius=free_radius,
+                               start_at_truth=start_at_truth)
         for w in res.warnings:
             click.echo(f"lgvtool: warning: {res.name}: {w}", err=True)
         results.append(res)

@@ -6,7 +6,8 @@ number) per measurement stamp that has a landmark, the landmark map on ``/map/re
 ground truth on ``/truth/pose`` (foxglove.PoseInFrame) and one ``/diagnostics`` event per quirk
 kind. Metadata: ``importer`` (provenance with SHA-256 of every file read, citation, camera
 geometry, counts, quirks, settings) and ``config`` (camera at the robot centre, work area around
-the landmarks, the landmark map).
+the landmarks, the landmark map, no reference circle, the estimators' camera and odometry noise
+profile).
 Log times are the dataset's own Unix stamps in ns; messages are written in time order.
 """
 
@@ -20,9 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from lgvtool.config import Config, Vehicle, default_config
+from lgvtool.config import Config, Reference, Vehicle, default_config
 from lgvtool.errors import InputError
 from lgvtool.importers.mrclam import CITATION, DATASET_URL, MrclamDataset, robot_files
+from lgvtool.importers.mrclam_profile import (
+    ESTIMATOR_PROFILE,
+    PROFILE_NAME,
+    estimator_profile,
+)
 from lgvtool.importers.mrclam_quirks import ImportSettings, PreparedRun, prepare_run
 from lgvtool.log import LogWriter, topics
 from lgvtool.log.messages import FRAME_ID, stamp
@@ -57,6 +63,8 @@ class ImportSummary:
     """Messages written (all channels, diagnostic mirrors included)."""
     elapsed_s: float
     """Wall-clock time of the import, s."""
+    estimator_profile: str = PROFILE_NAME
+    """Name of the estimator settings stored in the log's configuration."""
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (stable keys)."""
@@ -83,19 +91,25 @@ class ImportSummary:
                 f"  camera    bearings {cam['bearing_min_rad']:+.3f} .. "
                 f"{cam['bearing_max_rad']:+.3f} rad (fov {cam['fov_deg']:.1f} deg), ranges "
                 f"{cam['range_min_m']:.2f} .. {cam['range_max_m']:.2f} m")
+        lines.append(f"  profile   {self.estimator_profile}: camera and odometry settings of "
+                     f"{', '.join(sorted(ESTIMATOR_PROFILE))} in the log's config")
         lines.extend(f"  quirk     {q['kind']}: {q['message']}" for q in self.quirks)
         return "\n".join(lines)
 
 
 def mrclam_config(run: PreparedRun, dataset: MrclamDataset) -> Config:
     """The configuration stored in the log: camera at the robot centre (nav_x = nav_y = 0),
-    the work area around the landmarks, the landmark map."""
+    the work area around the landmarks, the landmark map, no reference circle (the robots
+    drive freely, so evaluation uses the ground truth only), and the camera and odometry noise
+    of every estimator (:mod:`lgvtool.importers.mrclam_profile`)."""
     base = default_config()
     return replace(
         base,
         vehicle=replace(Vehicle(), nav_x=0.0, nav_y=0.0),
         area=run.area,
+        reference=Reference(steering_angle_deg=None),
         reflectors=dataset.landmark_map(run.settings.landmark_radius_m),
+        estimators=estimator_profile(),
     )
 
 
@@ -118,6 +132,7 @@ def importer_record(run: PreparedRun, dataset: MrclamDataset) -> dict[str, Any]:
         "quirks": {q.kind: q.count for q in run.quirks},
         "residuals_vs_truth": run.residuals,
         "settings": asdict(run.settings),
+        "estimator_profile": PROFILE_NAME,
         "landmark_ids": "subject numbers (Barcodes.dat)",
         "time_unit": "log times are the dataset's Unix stamps in ns, rounded to the microsecond",
     }

@@ -1,0 +1,134 @@
+"""Accuracy on real data: the default ``pf`` on one full MRCLAM robot stays under its bound, and
+the metric of the accuracy benchmark (estimates carried through the odometry to every odometry
+step) is exact on constructed cases.
+
+Dataset: K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, "The UTIAS multi-robot
+cooperative localization and mapping dataset", IJRR 30(8):969-974, 2011.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pandas as pd
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+ROBOT = 3
+"""The robot of the regression test (Dataset 6)."""
+REFERENCE_EKF_M = 0.193
+"""The dataset's reference EKF position RMSE for that robot, m."""
+PF_BOUND_M = 0.25
+"""Bound on ``pf``'s position RMSE at every odometry step and at its estimate times, from the
+ground truth and from its own start, m: 1.3 x the reference EKF. Measured with seeds 0-3:
+0.18-0.21 m at odometry steps, 0.16-0.20 m at estimate times (docs/mrclam.md, "Accuracy")."""
+
+
+def _metrics() -> ModuleType:
+    """``benchmarks/mrclam_metrics.py``, the metric of the accuracy table."""
+    name = "mrclam_metrics"
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+# ------------------------------------------------------------------ the metric, constructed cases
+
+
+def test_an_estimate_is_carried_along_the_commanded_arc() -> None:
+    m = _metrics()
+    t = np.arange(0.0, 10.0001, 0.01)
+    v, w = 0.2, 0.1
+    odo = pd.DataFrame({"t": t, "v": np.full(len(t), v), "omega": np.full(len(t), w)})
+    # one estimate at t = 1.005 s (between two odometry stamps) at (1, 2), heading 0.3
+    est = pd.DataFrame({"t": [1.005], "x": [1.0], "y": [2.0], "heading": [0.3]})
+    out = m.estimates_at_odometry(est, odo)
+    assert out["t"].iloc[0] == pytest.approx(1.01)
+    assert out["t"].iloc[-1] == pytest.approx(10.0)
+    # the last odometry row holds no motion after it: the arc ends at t = 10 s
+    dt = out["t"].to_numpy() - 1.005
+    r = v / w
+    th = 0.3 + w * dt
+    x = 1.0 + r * (np.sin(th) - math.sin(0.3))
+    y = 2.0 - r * (np.cos(th) - math.cos(0.3))
+    np.testing.assert_allclose(out["x"], x, atol=1e-9)
+    np.testing.assert_allclose(out["y"], y, atol=1e-9)
+    np.testing.assert_allclose(out["heading"], np.remainder(th + math.pi, 2 * math.pi) - math.pi,
+                               atol=1e-9)
+
+
+def test_each_odometry_step_follows_the_latest_estimate() -> None:
+    m = _metrics()
+    t = np.arange(0.0, 4.0001, 0.5)
+    odo = pd.DataFrame({"t": t, "v": np.full(len(t), 1.0), "omega": np.zeros(len(t))})
+    est = pd.DataFrame({"t": [1.0, 2.0], "x": [0.0, 5.0], "y": [0.0, 0.0],
+                        "heading": [0.0, math.pi / 2]})
+    out = m.estimates_at_odometry(est, odo)
+    assert out["t"].tolist() == [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0]
+    assert out["x"].tolist() == pytest.approx([0.0, 0.5, 5.0, 5.0, 5.0, 5.0, 5.0])
+    assert out["y"].tolist() == pytest.approx([0.0, 0.0, 0.0, 0.5, 1.0, 1.5, 2.0])
+
+
+def test_rmse_only_where_the_ground_truth_exists() -> None:
+    m = _metrics()
+    truth = pd.DataFrame({"t": [0.0, 1.0, 2.0, 5.0, 6.0], "x": [0.0, 1.0, 2.0, 5.0, 6.0],
+                          "y": np.zeros(5)})
+    est = pd.DataFrame({"t": [0.5, 1.5, 3.0, 5.5, 7.0], "x": [0.5, 1.5, 9.0, 5.5, 9.0],
+                        "y": [0.3, 0.4, 0.0, 0.0, 0.0]})
+    # t = 3.0 lies in a 3 s ground-truth gap, t = 7.0 after its end: both left out
+    rmse, n = m.position_rmse(est, truth, max_gap_s=1.5)
+    assert n == 3
+    assert rmse == pytest.approx(math.sqrt((0.09 + 0.16 + 0.0) / 3))
+    # with the default 0.5 s the 1 s sampling itself counts as gaps
+    assert m.position_rmse(est, truth)[1] == 0
+
+
+# ------------------------------------------------------------------ the real robot
+
+
+@pytest.mark.mrclam
+@pytest.mark.slow
+def test_pf_on_one_full_robot_stays_under_its_bound(mrclam_data: Path, tmp_path: Path) -> None:
+    from lgvtool.commands.evaluate import evaluate_log
+    from lgvtool.evaluate.document import build_document
+    from lgvtool.importers.mrclam_log import import_robot
+    from lgvtool.localize import run_replay
+    from lgvtool.log import LogReader, topics
+
+    m = _metrics()
+    log = tmp_path / f"robot{ROBOT}.mcap"
+    import_robot(mrclam_data, ROBOT, log)
+    reader = LogReader(log)
+    truth = reader.dataframe(topics.TRUTH)[["t", "x", "y", "heading"]]
+    odometry = reader.dataframe(topics.ODOM)[["t", "v", "omega"]]
+    figures = {}
+    for start in ("truth", None):
+        # the default pf with the settings the log carries, exactly as replay runs it
+        out = run_replay(reader, ["pf"], seed=0, initial_pose=start, cloud_size=0)
+        traj = out.trajectories["pf"]
+        at_odometry, steps = m.position_rmse(m.estimates_at_odometry(traj, odometry), truth)
+        at_estimates, _ = m.position_rmse(traj, truth)
+        assert steps > 0.95 * len(odometry)
+        figures[start or "own"] = (at_odometry, at_estimates)
+    for start, (at_odometry, at_estimates) in figures.items():
+        assert at_odometry <= PF_BOUND_M, f"pf from {start}: {at_odometry:.3f} m at odometry steps"
+        assert at_estimates <= PF_BOUND_M, f"pf from {start}: {at_estimates:.3f} m at estimates"
+    assert PF_BOUND_M <= 1.3 * REFERENCE_EKF_M + 1e-9
+    # evaluate runs the same estimator from the same log and reports the ground-truth metrics
+    result = evaluate_log(log, estimators=["pf"], start_at_truth=True)
+    doc = build_document([result])
+    assert doc["reference"]["circle_drive"] is False
+    truth_figures = doc["estimators"]["pf"]["truth"]
+    assert truth_figures["position_rmse_m"] <= PF_BOUND_M
+    assert truth_figures["position_rmse_m"] == pytest.approx(figures["truth"][1], rel=0.05)
