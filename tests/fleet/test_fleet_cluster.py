@@ -74,7 +74,7 @@ def test_sweep_runs_on_a_separate_scheduler_and_worker(tmp_path, run_cli):
 
         out = tmp_path / "out"
         proc = run_cli("sweep", logs, "-e", "laser,pf", "--grid", "pf.particles=20,40",
-                       "--scheduler", address, "-o", out, timeout=180)
+                       "--scheduler", address, "-o", out, timeout=400)
         assert proc.returncode == 0, proc.stderr + (tmp_path / "worker.log").read_text()
         assert "4 task(s): 4 run now, 0 already done, 0 failed" in proc.stdout
         tidy = pd.read_parquet(out / "results.parquet")

@@ -38,7 +38,7 @@ def first_sweep(logs, tmp_path_factory):
     out = tmp_path_factory.mktemp("sweep") / "out"
     proc = subprocess.run([sys.executable, "-m", "lgvtool", "sweep", str(logs["dir"]), *GRID,
                            "--workers", "2", "-o", str(out)],
-                          capture_output=True, text=True, timeout=180)
+                          capture_output=True, text=True, timeout=400)
     return proc, out
 
 
@@ -82,7 +82,7 @@ def test_same_sweep_again_does_no_new_work(first_sweep, run_cli):
     assert proc.returncode == 0, proc.stderr
     before = {p.name: p.stat().st_mtime_ns for p in (out / "tasks").glob("*.json")}
     again = run_cli("sweep", _dir_of(out), *GRID,
-                    "--workers", "2", "-o", out, timeout=120)
+                    "--workers", "2", "-o", out, timeout=400)
     assert again.returncode == 0, again.stderr
     assert "8 task(s): 0 run now, 8 already done, 0 failed" in again.stdout
     assert "sweep [" not in again.stderr
@@ -107,7 +107,7 @@ def test_interrupted_sweep_resumes(first_sweep, run_cli, tmp_path):
         p.unlink()
     (copy / "results.parquet").unlink()
     again = run_cli("sweep", _dir_of(out), *GRID, "--workers", "1", "--no-progress", "--json",
-                    "-o", copy, timeout=120)
+                    "-o", copy, timeout=400)
     assert again.returncode == 0, again.stderr
     facts = json.loads(again.stdout)
     assert (facts["tasks"], facts["ran"], facts["reused"], facts["failed"]) == (8, 3, 5, 0)
@@ -121,7 +121,7 @@ def test_failing_logs_are_reported_and_the_others_finish(logs, run_cli, tmp_path
     out = tmp_path / "out"
     args = ("sweep", logs["a"], logs["corrupt"], logs["nomotion"], logs["b"], "-e", "laser",
             "--workers", "2", "-o", out)
-    proc = run_cli(*args, timeout=180)
+    proc = run_cli(*args, timeout=400)
     assert proc.returncode == 0, proc.stderr
     assert "4 task(s): 4 run now, 0 already done, 2 failed" in proc.stdout
     assert "corrupt.mcap (default, seed 0): LogFormatError" in proc.stderr
@@ -134,7 +134,7 @@ def test_failing_logs_are_reported_and_the_others_finish(logs, run_cli, tmp_path
     assert pd.notna(summary.loc["a", "truth.position_rmse_m.mean"])
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "corrupt.mcap" in html and "not an MCAP file" in html
-    again = run_cli(*args, timeout=120)
+    again = run_cli(*args, timeout=400)
     assert "0 run now, 4 already done, 2 failed" in again.stdout
 
 
