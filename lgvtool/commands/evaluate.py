@@ -8,7 +8,9 @@ Heavy imports stay inside the functions so that ``lgvtool --help`` stays instant
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -72,6 +74,7 @@ def evaluate_log(
     free_radius: bool = False,
     lap_source: str | None = None,
     start_at_truth: bool = False,
+    replay: bool = False,
 ) -> EvaluationResult:
     """Evaluate one log.
 
@@ -84,7 +87,8 @@ def evaluate_log(
     ``config`` overrides the configuration stored in the log. The steering angle of the
     reference circle is the median logged steering angle (MCU frames), else
     ``config.reference.steering_angle_deg``. Raises :class:`~lgvtool.errors.InputError` (or a
-    subclass) for a log that cannot be evaluated.
+    subclass) for a log that cannot be evaluated. ``replay=True`` runs the estimators even when
+    the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
     """
     from lgvtool.evaluate.evaluation import evaluate_trajectories
     from lgvtool.evaluate.reference import steering_from_frames
@@ -94,7 +98,7 @@ def evaluate_log(
               else LogReader(path_or_reader))
     cfg = config if config is not None else reader.config()
     warnings: list[str] = list(reader.warnings)
-    trajs = _estimates_from_log(reader, estimators)
+    trajs = None if replay else _estimates_from_log(reader, estimators)
     source = "log"
     used: dict[str, Any] = {}
     if trajs is None:
@@ -126,6 +130,46 @@ def evaluate_log(
     result.settings = used
     result.warnings[:0] = warnings
     return result
+
+
+@dataclass(frozen=True)
+class _LogTask:
+    """What one worker needs to evaluate one log: its path and the options (small, picklable)."""
+
+    path: str
+    options: dict[str, Any]
+
+
+def _evaluate_task(task: _LogTask) -> EvaluationResult:
+    """Evaluate one log on a worker of the fleet engine (warnings travel in the result)."""
+    import warnings as pywarnings
+
+    with pywarnings.catch_warnings():
+        pywarnings.simplefilter("ignore")
+        return evaluate_log(task.path, **task.options)
+
+
+def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: str | None,
+                  workers: int | None) -> list[EvaluationResult]:
+    """Evaluate every log: in this process for one log, else on the fleet engine (a local Dask
+    cluster, or ``scheduler``); the first log that fails stops the command with its error."""
+    from lgvtool.errors import InputError
+
+    tasks = [_LogTask(log, options) for log in logs]
+    if len(tasks) == 1 and scheduler is None and workers is None:
+        return [_evaluate_task(tasks[0])]
+    from lgvtool.fleet.engine import run_tasks
+
+    results: list[EvaluationResult | None] = [None] * len(tasks)
+    for out in run_tasks(_evaluate_task, tasks, scheduler=scheduler, workers=workers,
+                         progress=sys.stderr.isatty(), label="logs"):
+        if not out.ok:
+            error = out.error or "failed"
+            if out.input_error:  # "LogFormatError: <path>: ..." already names the log
+                raise InputError(error.split(": ", 1)[-1])
+            raise InputError(f"{out.task.path}: {error}")
+        results[out.index] = out.value
+    return [r for r in results if r is not None]
 
 
 def _split_names(values: Sequence[str]) -> list[str]:
@@ -162,6 +206,11 @@ def _split_names(values: Sequence[str]) -> list[str]:
               help="Fit the radius too (geometric fit) instead of R = h / tan(delta).")
 @click.option("--png", is_flag=True, help="Also write every figure as PNG into OUTDIR "
               "(needs the optional kaleido package).")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="Evaluate several logs on a local Dask cluster of this many processes "
+                   "(default with several logs: one per CPU).")
+@click.option("--scheduler", metavar="tcp://HOST:PORT", default=None,
+              help="Evaluate on an existing Dask cluster instead (docs/fleet.md).")
 @click.option("--start-at-truth", is_flag=True,
               help="When evaluate runs the estimators: start every one at the log's ground "
                    "truth (/truth/pose) instead of letting it initialise itself.")
@@ -169,7 +218,8 @@ def evaluate(
     logs: tuple[str, ...], outdir: str | None, estimators: tuple[str, ...], as_json: bool,
     fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
     tolerance: str, seed: int, config_path: str | None, shared_centre: bool,
-    free_radius: bool, png: bool, start_at_truth: bool,
+    free_radius: bool, png: bool, workers: int | None, scheduler: str | None,
+    start_at_truth: bool,
 ) -> None:
     """Evaluate the localization in LOG... against the kinematic reference circle (R = h /
     tan(delta), centre fitted by least squares) and, where the log has it, ground truth.
@@ -182,7 +232,6 @@ def evaluate(
     Exit 0 success, 1 a --max/--min/--baseline check failed, 2 bad input.
     """
     import json
-    import warnings as pywarnings
 
     from lgvtool.config import load_config
     from lgvtool.errors import InputError
@@ -211,16 +260,14 @@ def evaluate(
     cfg = load_config(config_path) if config_path else None
     names = _split_names(estimators) or None
 
-    results = []
-    for log in logs:
-        with pywarnings.catch_warnings():
-            pywarnings.simplefilter("ignore")
-            res = evaluate_log(log, estimators=names, config=cfg, seed=seed,
-                               shared_centre=shared_centre, free_radius=free_radius,
-                               start_at_truth=start_at_truth)
+    if workers is not None and scheduler is not None:
+        raise InputError("give --workers or --scheduler, not both")
+    options = {"estimators": names, "config": cfg, "seed": seed, "shared_centre": shared_centre,
+               "free_radius": free_radius, "start_at_truth": start_at_truth}
+    results = _evaluate_all(logs, options, scheduler=scheduler, workers=workers)
+    for res in results:
         for w in res.warnings:
             click.echo(f"lgvtool: warning: {res.name}: {w}", err=True)
-        results.append(res)
     _unique_names(results)
     doc = build_document(results)
 
