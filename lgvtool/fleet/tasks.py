@@ -261,7 +261,7 @@ def evaluate_task(task: SweepTask) -> dict[str, Any]:
     """
     from lgvtool.commands.evaluate import evaluate_log
     from lgvtool.evaluate.document import build_document
-    from lgvtool.log import LogReader, topics
+    from lgvtool.log import LogReader
 
     if not Path(task.log).is_file():
         raise FileNotFoundError(f"{task.log}: not found on this worker (every worker must see "
@@ -269,12 +269,8 @@ def evaluate_task(task: SweepTask) -> dict[str, Any]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = LogReader(task.log)
-        held = topics.estimator_names(reader.topic_names())
-        if held:
-            raise InputError(
-                f"{task.label or task.log}: the log holds estimates already "
-                f"({', '.join(held)}); sweep runs the estimators itself: give it the log "
-                "before replay")
+        # a log written by replay holds estimates: the sweep runs the estimators afresh anyway
         result = evaluate_log(reader, estimators=list(task.estimators) or None,
-                              config=task.config, seed=task.seed, settings=dict(task.settings))
+                              config=task.config, seed=task.seed, settings=dict(task.settings),
+                              replay=True)
     return document_metrics(build_document([result]))
