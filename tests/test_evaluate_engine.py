@@ -6,7 +6,8 @@ import json
 import shutil
 from pathlib import Path
 
-from conftest import SAMPLE_LOGS
+SAMPLE_LOGS = Path(__file__).resolve().parent.parent / "sample_logs"
+
 
 
 def test_several_logs_on_the_engine_match_one_at_a_time(tmp_path: Path, run_cli) -> None:

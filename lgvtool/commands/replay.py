@@ -2,9 +2,19 @@
 
 from __future__ import annotations
 
-from typing import Any
+import os
+from typing import TYPE_CHECKING, Any
 
 import click
+
+# The filters' matrix products are tiny (at most particles x reflectors): BLAS threads only add
+# their start-up and their spinning between calls (about 0.1 s of an hour's replay). Set before
+# numpy is imported (the command imports it when it runs); an explicit setting wins.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 #: logs longer than this (s of data) show a progress bar even when stderr is not a terminal
 LONG_LOG_S = 600.0
@@ -49,8 +59,25 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
     effective estimator settings and the seed are stored in the metadata record 'replay'.
     Positions in m, headings in rad, times in the log's own clock.
     """
+    import gc
+
+    # Reading, filtering and writing allocate millions of objects that form no cycles: the
+    # collector's passes over them cost tens of ms and free nothing.
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        _replay(log, output, estimators, particles, seed, sets, config_path, start_at_truth,
+                cloud_period, cloud_size, compression, as_json)
+    finally:
+        if collecting:
+            gc.enable()
+
+
+def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int | None,
+            seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
+            cloud_period: float, cloud_size: int, compression: str, as_json: bool) -> None:
+    """The replay command (see :func:`replay`)."""
     import json
-    import os
     import sys
     import time
     import warnings
@@ -131,46 +158,41 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
 
 def _write(reader: Any, output: str, result: Any, config: Any, source: str,
            compression: str = "lz4") -> int:
-    """The input's messages, the estimates (merged in time order) and the metadata."""
-    import heapq
+    """The input's messages (chunks copied verbatim), the metadata and the estimates, merged
+    in time order (pose before state before cloud at one time, estimators in run order)."""
     from pathlib import Path
 
     import numpy as np
 
     from lgvtool.log import LogWriter, topics
-    from lgvtool.log.messages import FRAME_ID, stamp
 
     skip = frozenset(t for n in result.tables for t in (
         topics.estimate_pose(n), topics.estimate_state(n), topics.estimate_particles(n)))
     skip = frozenset(t for t in skip if reader.has_topic(t))
-
-    def rows(name: str) -> Any:
-        tab = result.tables[name]
-        pose_topic, state_topic = topics.estimate_pose(name), topics.estimate_state(name)
-        half = 0.5 * tab.heading
-        for ns, x, y, h, qz, qw, c, n, e in zip(
-                tab.t_ns.tolist(), tab.x.tolist(), tab.y.tolist(), tab.heading.tolist(),
-                np.sin(half).tolist(), np.cos(half).tolist(), tab.covariance.tolist(),
-                tab.particles.tolist(), tab.ess.tolist(), strict=True):
-            st = stamp(ns)
-            yield ns, 0, pose_topic, {"timestamp": st, "frame_id": FRAME_ID, "pose": {
-                "position": {"x": x, "y": y, "z": 0.0},
-                "orientation": {"x": 0.0, "y": 0.0, "z": qz, "w": qw}}}
-            yield ns, 1, state_topic, {"timestamp": st, "estimator": name, "x": x, "y": y,
-                                       "heading": h, "covariance": c, "particles": n,
-                                       "ess": e}
-
-    def clouds(name: str) -> Any:
-        topic = topics.estimate_particles(name)
-        for ns, xs, ys, hs in result.clouds.get(name, []):
-            half = 0.5 * hs
-            yield ns, 2, topic, {"timestamp": stamp(ns), "frame_id": FRAME_ID, "poses": [
-                {"position": {"x": x, "y": y, "z": 0.0},
-                 "orientation": {"x": 0.0, "y": 0.0, "z": qz, "w": qw}}
-                for x, y, qz, qw in zip(xs.tolist(), ys.tolist(), np.sin(half).tolist(),
-                                        np.cos(half).tolist(), strict=True)]}
-
-    streams = [rows(n) for n in result.tables] + [clouds(n) for n in result.clouds]
+    names: list[str] = []
+    datas: list[bytes] = []
+    times: list[NDArray[np.int64]] = []
+    keys: list[NDArray[np.int64]] = []  # (order at one time, stream)
+    stream = 0
+    for name, tab in result.tables.items():
+        for order, (topic, encoded) in enumerate((
+                (topics.estimate_pose(name), _pose_messages(tab)),
+                (topics.estimate_state(name), _state_messages(name, tab)))):
+            names.extend([topic] * len(encoded))
+            datas.extend(encoded)
+            times.append(tab.t_ns)
+            keys.append(np.full(len(encoded), order * 1024 + stream, dtype=np.int64))
+        stream += 1
+    for name, clouds in result.clouds.items():
+        encoded = _cloud_messages(clouds)
+        names.extend([topics.estimate_particles(name)] * len(encoded))
+        datas.extend(encoded)
+        times.append(np.array([c[0] for c in clouds], dtype=np.int64))
+        keys.append(np.full(len(encoded), 2 * 1024 + stream, dtype=np.int64))
+        stream += 1
+    t_all = np.concatenate(times) if times else np.zeros(0, dtype=np.int64)
+    k_all = np.concatenate(keys) if keys else np.zeros(0, dtype=np.int64)
+    order_all = np.lexsort((k_all, t_all)).tolist()
     n_written = 0
     with LogWriter(output, source="replay", chunk_seconds=None, compression=compression) as w:
         n_written += w.copy_from(reader, skip_topics=skip)
@@ -183,7 +205,90 @@ def _write(reader: Any, output: str, result: Any, config: Any, source: str,
         })
         if config is not None:
             w.write_config(config)
-        for ns, _order, topic, msg in heapq.merge(*streams, key=lambda r: (r[0], r[1])):
-            w.write(topic, msg, ns)
-            n_written += 1
+        w.write_encoded_many([names[i] for i in order_all], [datas[i] for i in order_all],
+                             t_all[order_all].tolist())
+        n_written += len(order_all)
     return n_written
+
+
+def _numbers(values: Any) -> list[bytes]:
+    """JSON texts of the numbers of a 1-D array (orjson's formatting, as in whole messages)."""
+    import numpy as np
+    import orjson
+
+    text = orjson.dumps(np.ascontiguousarray(values, dtype=np.float64),
+                        option=orjson.OPT_SERIALIZE_NUMPY)
+    return text[1:-1].split(b",") if len(text) > 2 else []
+
+
+def _stamps(t_ns: Any) -> tuple[list[int], list[int]]:
+    """Seconds and nanoseconds of integer ns since the epoch."""
+    import numpy as np
+
+    sec, nsec = np.divmod(np.asarray(t_ns, dtype=np.int64), 1_000_000_000)
+    return sec.tolist(), nsec.tolist()
+
+
+def _pose_messages(tab: Any) -> list[bytes]:
+    """foxglove.PoseInFrame messages (JSON) of an estimate table's poses."""
+    import numpy as np
+    import orjson
+
+    from lgvtool.log.messages import FRAME_ID
+
+    head = b'{"timestamp":{"sec":%d,"nsec":%d},"frame_id":' + orjson.dumps(FRAME_ID)
+    template = head + (b',"pose":{"position":{"x":%b,"y":%b,"z":0.0},"orientation":'
+                       b'{"x":0.0,"y":0.0,"z":%b,"w":%b}}}')
+    half = 0.5 * tab.heading
+    return [template % row for row in zip(*_stamps(tab.t_ns), _numbers(tab.x), _numbers(tab.y),
+                                          _numbers(np.sin(half)), _numbers(np.cos(half)),
+                                          strict=True)]
+
+
+def _state_messages(name: str, tab: Any) -> list[bytes]:
+    """lgvtool.PoseEstimate messages (JSON) of an estimate table."""
+    import orjson
+
+    template = (b'{"timestamp":{"sec":%d,"nsec":%d},"estimator":' + orjson.dumps(name)
+                + b',"x":%b,"y":%b,"heading":%b,"covariance":[%b],"particles":%d,"ess":%b}')
+    cov = _numbers(tab.covariance.ravel())
+    rows = [b",".join(cov[i:i + 9]) for i in range(0, len(cov), 9)]
+    return [template % row for row in zip(
+        *_stamps(tab.t_ns), _numbers(tab.x), _numbers(tab.y), _numbers(tab.heading), rows,
+        tab.particles.tolist(), _numbers(tab.ess), strict=True)]
+
+
+def _cloud_messages(clouds: Any) -> list[bytes]:
+    """foxglove.PosesInFrame messages (JSON) of kept particle clouds ``(t_ns, x, y,
+    heading)``."""
+    import numpy as np
+    import orjson
+
+    from lgvtool.log.messages import FRAME_ID
+
+    if not clouds:
+        return []
+    head = b'{"timestamp":{"sec":%d,"nsec":%d},"frame_id":' + orjson.dumps(FRAME_ID) \
+        + b',"poses":['
+    sizes = [len(c[1]) for c in clouds]
+    half = 0.5 * np.concatenate([c[3] for c in clouds])
+    cols = (_numbers(np.concatenate([c[1] for c in clouds])),
+            _numbers(np.concatenate([c[2] for c in clouds])), _numbers(np.sin(half)),
+            _numbers(np.cos(half)))
+    # one pose: {"position":{"x":X,"y":Y,"z":0.0},"orientation":{"x":0.0,"y":0.0,"z":Z,"w":W}}
+    glue = (b'{"position":{"x":', b',"y":', b',"z":0.0},"orientation":{"x":0.0,"y":0.0,"z":',
+            b',"w":', b'}},')
+    n = len(cols[0])
+    parts: list[bytes] = [b""] * (9 * n)
+    for j in range(4):
+        parts[2 * j::9] = [glue[j]] * n
+        parts[2 * j + 1::9] = cols[j]
+    parts[8::9] = [glue[4]] * n
+    secs, nsecs = _stamps([c[0] for c in clouds])
+    out: list[bytes] = []
+    at = 0
+    for sec, nsec, k in zip(secs, nsecs, sizes, strict=True):
+        body = b"".join(parts[9 * at:9 * (at + k)])[:-1] if k else b""
+        out.append(head % (sec, nsec) + body + b"]}")
+        at += k
+    return out

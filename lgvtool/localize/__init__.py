@@ -13,16 +13,50 @@ Python without a log::
 and the replay driver that runs them over a log (:func:`run_replay`).
 """
 
-from lgvtool.localize.deadreckoning import DeadReckoning, DeadReckoningParams
-from lgvtool.localize.ekf import Ekf, EkfParams
-from lgvtool.localize.estimator import Estimate, Estimator, Motion
-from lgvtool.localize.laser import LaserBaseline, LaserParams
-from lgvtool.localize.motion import MotionSettings, MotionTrack
-from lgvtool.localize.observations import PoseObservation, RawScan, ScanObservation
-from lgvtool.localize.paper_pf import PaperParticleFilter, PaperPfParams
-from lgvtool.localize.particle_filter import ParticleFilter, PfParams
-from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS
-from lgvtool.localize.replay import ReplayResult, run_replay
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from lgvtool.localize.deadreckoning import DeadReckoning, DeadReckoningParams
+    from lgvtool.localize.ekf import Ekf, EkfParams
+    from lgvtool.localize.estimator import Estimate, Estimator, Motion
+    from lgvtool.localize.laser import LaserBaseline, LaserParams
+    from lgvtool.localize.motion import MotionSettings, MotionTrack
+    from lgvtool.localize.observations import PoseObservation, RawScan, ScanObservation
+    from lgvtool.localize.paper_pf import PaperParticleFilter, PaperPfParams
+    from lgvtool.localize.particle_filter import ParticleFilter, PfParams
+    from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS
+    from lgvtool.localize.replay import ReplayResult, run_replay
+
+#: public name -> module that defines it (imported on first use, so that a command running
+#: one estimator does not import the others)
+_EXPORTS = {
+    "DeadReckoning": "deadreckoning", "DeadReckoningParams": "deadreckoning",
+    "Ekf": "ekf", "EkfParams": "ekf",
+    "Estimate": "estimator", "Estimator": "estimator", "Motion": "estimator",
+    "LaserBaseline": "laser", "LaserParams": "laser",
+    "MotionSettings": "motion", "MotionTrack": "motion",
+    "PoseObservation": "observations", "RawScan": "observations",
+    "ScanObservation": "observations",
+    "PaperParticleFilter": "paper_pf", "PaperPfParams": "paper_pf",
+    "ParticleFilter": "particle_filter", "PfParams": "particle_filter",
+    "DEFAULT_ESTIMATORS": "registry", "ESTIMATORS": "registry",
+    "ReplayResult": "replay", "run_replay": "replay",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'lgvtool.localize' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"lgvtool.localize.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))
+
 
 __all__ = [
     "DEFAULT_ESTIMATORS",

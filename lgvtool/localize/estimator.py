@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,7 +21,13 @@ from lgvtool.config import Area, Reflector, Vehicle
 from lgvtool.localize.observations import PoseObservation, ReflectorMap, ScanObservation
 from lgvtool.localize.params import make_params, params_dict
 
+if TYPE_CHECKING:
+    from lgvtool.localize.motion import Deltas
+
 Observation = PoseObservation | ScanObservation
+FloatArray = NDArray[np.float64]
+#: a kept particle cloud: time (s), particle x (m), y (m) and heading (rad)
+Cloud = tuple[float, FloatArray, FloatArray, FloatArray]
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,6 +65,40 @@ class Estimate:
     covariance: NDArray[np.float64] = field(default_factory=lambda: np.zeros((3, 3)))
     particles: int = 0
     ess: float = 0.0
+
+
+class EstimateRows:
+    """What :meth:`Estimator.run` returns: one row per observation time at which the estimator
+    had a pose. ``t`` (s, the caller's clock), pose of O (m, m, rad; the heading not wrapped),
+    row-major 3x3 ``covariance`` per row, particle count and ESS per row, and the kept
+    particle ``clouds``."""
+
+    __slots__ = ("clouds", "covariance", "ess", "heading", "particles", "t", "x", "y")
+
+    def __init__(self, t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
+                 covariance: FloatArray, particles: NDArray[np.int64], ess: FloatArray,
+                 clouds: list[Cloud]) -> None:
+        self.t = t
+        self.x = x
+        self.y = y
+        self.heading = heading
+        self.covariance = covariance
+        self.particles = particles
+        self.ess = ess
+        self.clouds = clouds
+
+
+_SAMPLES: dict[tuple[int, int], NDArray[np.intp]] = {}
+
+
+def cloud_sample(k: int, size: int) -> NDArray[np.intp]:
+    """Indices of at most ``size`` of ``k`` particles, evenly strided through the set (do not
+    modify: shared between calls)."""
+    sel = _SAMPLES.get((k, size))
+    if sel is None:
+        sel = _SAMPLES[(k, size)] = np.linspace(0, k - 1, min(k, size)).astype(np.intp)
+        sel.setflags(write=False)
+    return sel
 
 
 class Estimator(ABC):
@@ -118,3 +159,54 @@ class Estimator(ABC):
                              NDArray[np.float64]] | None:
         """The particles ``(x, y, heading)`` for particle filters, else None."""
         return None
+
+    def run(self, times: FloatArray, observations: Sequence[Observation | None],
+            steps: Deltas | None, *, progress: Callable[[int], None] | None = None,
+            cloud_period_s: float = 2.0, cloud_size: int = 50) -> EstimateRows:
+        """Process observations in time order and record the estimate after each.
+
+        ``times[i]`` (s) is the time of ``observations[i]``; None there means "only move the
+        estimator to this time". ``steps`` holds the body-frame motion from each time to the
+        next (``len(times) - 1`` entries; None: no motion). One particle cloud of at most
+        ``cloud_size`` particles is kept per ``cloud_period_s`` s. ``progress`` is called with
+        the number of observations processed since its last call.
+        """
+        n = len(observations)
+        if steps is not None and self.uses_motion and n > 1:
+            moves: list[tuple[float, float, float, float, float]] | None = list(zip(
+                steps.dx.tolist(), steps.dy.tolist(), steps.dth.tolist(), steps.dist.tolist(),
+                steps.rot.tolist(), strict=True))
+        else:
+            moves = None
+        ts = np.asarray(times, dtype=np.float64).tolist()
+        rows: list[tuple[float, float, float, float, int, float]] = []
+        covs: list[FloatArray] = []
+        clouds: list[Cloud] = []
+        next_cloud = -math.inf
+        report = 0
+        for i, o in enumerate(observations):
+            if i > 0 and moves is not None:
+                self.predict(Motion(*moves[i - 1]))
+            if o is not None:
+                self.update(o)
+            e = self.estimate()
+            if e is not None:
+                t = ts[i]
+                rows.append((t, e.x, e.y, e.heading, e.particles, e.ess))
+                covs.append(e.covariance)
+                if cloud_size > 0 and t >= next_cloud:
+                    c = self.cloud()
+                    if c is not None:
+                        sel = cloud_sample(len(c[0]), cloud_size)
+                        clouds.append((t, c[0][sel], c[1][sel], c[2][sel]))
+                        next_cloud = t + cloud_period_s
+            if progress is not None and i - report >= 500:
+                progress(i - report)
+                report = i
+        if progress is not None:
+            progress(n - report)
+        a = np.array([r[:4] for r in rows], dtype=np.float64).reshape(-1, 4)
+        return EstimateRows(a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy(), a[:, 3].copy(),
+                            np.array(covs, dtype=np.float64).reshape(-1, 9),
+                            np.array([r[4] for r in rows], dtype=np.int64),
+                            np.array([r[5] for r in rows], dtype=np.float64), clouds)

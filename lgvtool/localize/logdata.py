@@ -6,8 +6,9 @@ kept as their JSON bytes (:class:`LazyScans`) and decoded only for the estimator
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
@@ -37,11 +38,12 @@ class LazyScans(Sequence[RawScan]):
     """Reflector scans kept as their JSON bytes and decoded only when an estimator needs them
     (the paper's filter uses one revolution per NAV poll, about a quarter of them)."""
 
-    def __init__(self, t0_ns: int, received_ns: list[int], raw: list[bytes]) -> None:
+    def __init__(self, t0_ns: int, received_ns: list[int] | NDArray[np.int64],
+                 raw: list[bytes]) -> None:
         self._t0 = t0_ns
         self._raw = raw
         #: receive (log) time of each scan, s after ``t0_ns``
-        self.received = _seconds(np.array(received_ns, dtype=np.int64), t0_ns)
+        self.received = _seconds(np.asarray(received_ns, dtype=np.int64), t0_ns)
 
     def __len__(self) -> int:
         return len(self._raw)
@@ -60,34 +62,28 @@ class LazyScans(Sequence[RawScan]):
 
     def batch(self, indices: Sequence[int] | None = None) -> ScanBatch:
         """Decode the scans ``indices`` (all if None) into flat arrays."""
-        import orjson
-
-        loads = orjson.loads
         raw = self._raw
-        idx = range(len(raw)) if indices is None else indices
-        t: list[int] = []
-        period: list[float] = []
-        counts: list[int] = []
-        rr: list[float] = []
-        bb: list[float] = []
-        tt: list[float] = []
-        ii: list[int] = []
-        for k in idx:
-            d = loads(raw[k])
-            ts = d["timestamp"]
-            t.append(ts["sec"] * 1_000_000_000 + ts["nsec"])
-            period.append(d.get("scan_period", 0.0))
-            obs = d["observations"]
-            counts.append(len(obs))
-            for o in obs:
-                rr.append(o["range"])
-                bb.append(o["bearing"])
-                tt.append(o["time_in_scan"])
-                ii.append(o["id"])
-        return ScanBatch(_seconds(np.array(t, dtype=np.int64), self._t0),
-                         np.array(period, dtype=np.float64), np.array(counts, dtype=np.int64),
-                         np.array(rr, dtype=np.float64), np.array(bb, dtype=np.float64),
-                         np.array(tt, dtype=np.float64), np.array(ii, dtype=np.int64))
+        chosen = raw if indices is None else [raw[k] for k in indices]
+        t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64), _scan_fields)
+        if not cols:
+            z = np.zeros(0)
+            e = np.zeros(0, dtype=np.int64)
+            return ScanBatch(z, z, e, z, z, z, e)
+        period, counts, ranges, bearings, times, ids = cols
+        return ScanBatch(_seconds(t, self._t0), period, counts, ranges, bearings, times, ids)
+
+
+def _scan_fields(docs: list[dict[str, Any]]) -> tuple[NDArray[Any], ...]:
+    """Per scan its period and count, per reflector range, bearing, time in scan and id."""
+    obs = [d["observations"] for d in docs]
+    flat = [o for os in obs for o in os]
+    n = len(flat)
+    return (np.array([d.get("scan_period", 0.0) for d in docs], dtype=np.float64),
+            np.array([len(o) for o in obs], dtype=np.int64),
+            np.fromiter(map(itemgetter("range"), flat), dtype=np.float64, count=n),
+            np.fromiter(map(itemgetter("bearing"), flat), dtype=np.float64, count=n),
+            np.fromiter(map(itemgetter("time_in_scan"), flat), dtype=np.float64, count=n),
+            np.fromiter(map(itemgetter("id"), flat), dtype=np.int64, count=n))
 
 
 def scan_batch(scans: Sequence[RawScan], indices: Sequence[int] | None = None) -> ScanBatch:
@@ -160,82 +156,99 @@ class LogData:
         return Increments(np.zeros(0), np.zeros(0), np.zeros(0))
 
 
+#: messages decoded at a time: the dicts of one block are freed before the next is decoded,
+#: so decoding reuses the same memory instead of growing the heap by the whole topic
+_DECODE_BLOCK = 2048
+
+
+def _decode_columns(raw: Sequence[bytes], log_ns: NDArray[np.int64],
+                    fields: Callable[[list[dict[str, Any]]], tuple[NDArray[Any], ...]]
+                    ) -> tuple[NDArray[np.int64], list[NDArray[Any]]]:
+    """Decode JSON messages block by block: their own time stamps (ns, else the log times)
+    and the arrays ``fields`` extracts from each block's dicts (messages on the last axis)."""
+    import orjson
+
+    loads = orjson.loads
+    stamps: list[NDArray[np.int64]] = []
+    parts: list[tuple[NDArray[Any], ...]] = []
+    for a in range(0, len(raw), _DECODE_BLOCK):
+        docs = [loads(x) for x in raw[a:a + _DECODE_BLOCK]]
+        stamps.append(_stamps_ns(docs, log_ns[a:a + _DECODE_BLOCK]))
+        parts.append(fields(docs))
+    if not parts:
+        return np.zeros(0, dtype=np.int64), []
+    return np.concatenate(stamps), [np.concatenate(c, axis=-1) for c in zip(*parts, strict=True)]
+
+
+def _stamps_ns(docs: list[dict[str, Any]], log_ns: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Each message's own timestamp (ns since the epoch), else its log time."""
+    try:
+        return np.array([ts["sec"] * 1_000_000_000 + ts["nsec"]
+                         for ts in map(itemgetter("timestamp"), docs)], dtype=np.int64)
+    except (KeyError, TypeError):
+        out = log_ns.copy()
+        for i, d in enumerate(docs):
+            ts = d.get("timestamp")
+            if ts:
+                out[i] = ts["sec"] * 1_000_000_000 + ts["nsec"]
+        return out
+
+
+def _columns(docs: list[dict[str, Any]], keys: Sequence[str], dtype: type) -> NDArray[Any]:
+    """The fields ``keys`` of every message as the rows of one array, (len(keys), n)."""
+    n = len(docs)
+    return np.stack([np.fromiter(map(itemgetter(k), docs), dtype=dtype, count=n)
+                     for k in keys]) if keys else np.empty((0, n), dtype=dtype)
+
+
 def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *,
              truth: bool = False) -> LogData:
     """Read the motion and observation topics of a log (and the ground truth if ``truth``)
     into arrays; reflector scans are kept undecoded until used."""
-    import orjson
-
     from lgvtool.log import topics as T
 
     wanted = [T.MCU_FRAME, T.ODOM, T.NAV_POSE, T.NAV_REFLECTORS]
     if truth:
         wanted.append(T.TRUTH)
-    mcu: list[tuple[int, int, int, int, int, float]] = []
-    twist: list[tuple[int, float, float]] = []
-    nav: list[tuple[int, float, float, float, bool]] = []
-    scan_ns: list[int] = []
-    scan_raw: list[bytes] = []
-    poses: list[tuple[int, float, float, float, float]] = []
-    loads = orjson.loads
-    first: int | None = None
-    mcu_topic, nav_topic, scan_topic, odom_topic = T.MCU_FRAME, T.NAV_POSE, T.NAV_REFLECTORS, \
-        T.ODOM
-    for m in reader.raw_messages(wanted):
-        if first is None:
-            first = m.log_time_ns
-        topic = m.topic
-        if topic == scan_topic:
-            scan_ns.append(m.log_time_ns)
-            scan_raw.append(m.data)
-            continue
-        d = loads(m.data)
-        ts = d.get("timestamp")
-        t_ns = ts["sec"] * 1_000_000_000 + ts["nsec"] if ts else m.log_time_ns
-        if topic == mcu_topic:
-            mcu.append((t_ns, d["seq"], d["mcu_time_ms"], d["enc_left"], d["enc_right"],
-                        d["gyro_rate"]))
-        elif topic == nav_topic:
-            nav.append((t_ns, d["x"], d["y"], d["heading"], bool(d["valid"])))
-        elif topic == odom_topic:
-            twist.append((t_ns, d["v"], d["omega"]))
-        else:
-            q = d["pose"]["orientation"]
-            p = d["pose"]["position"]
-            poses.append((t_ns, p["x"], p["y"], q.get("z", 0.0), q.get("w", 1.0)))
-    t0 = first or 0
+    cols = reader.raw_columns(wanted)
+    t0 = min((int(ts[0]) for ts, _ in cols.values() if len(ts)), default=0)
     refl = tuple(reflectors) if reflectors is not None else reader.reflector_map()
     data = LogData(t0, refl)
-    if mcu:
-        ti = np.array([r[0] for r in mcu], dtype=np.int64)
+    if T.MCU_FRAME in cols:
+        log_ns, raw = cols[T.MCU_FRAME]
+        ti, (ints, gyro) = _decode_columns(raw, log_ns, lambda docs: (
+            _columns(docs, ("seq", "mcu_time_ms", "enc_left", "enc_right"), np.int64),
+            _columns(docs, ("gyro_rate",), np.float64)[0]))
         order = np.argsort(ti, kind="stable")
-        cols = list(zip(*mcu, strict=True))
-        data.mcu = {"t": _seconds(ti[order], t0),
-                    "seq": np.array(cols[1], dtype=np.int64)[order],
-                    "mcu_time_ms": np.array(cols[2], dtype=np.int64)[order],
-                    "enc_left": np.array(cols[3], dtype=np.int64)[order],
-                    "enc_right": np.array(cols[4], dtype=np.int64)[order],
-                    "gyro_rate": np.array(cols[5], dtype=np.float64)[order]}
-    if twist:
-        ti = np.array([r[0] for r in twist], dtype=np.int64)
-        a = np.array([r[1:] for r in twist], dtype=np.float64)
+        ints = ints[:, order]
+        data.mcu = {"t": _seconds(ti[order], t0), "seq": ints[0], "mcu_time_ms": ints[1],
+                    "enc_left": ints[2], "enc_right": ints[3], "gyro_rate": gyro[order]}
+    if T.ODOM in cols:
+        log_ns, raw = cols[T.ODOM]
+        ti, (a,) = _decode_columns(raw, log_ns, lambda docs: (
+            _columns(docs, ("v", "omega"), np.float64),))
         order = np.argsort(ti, kind="stable")
-        data.twist = {"t": _seconds(ti[order], t0), "v": a[order, 0], "omega": a[order, 1]}
-    if nav:
-        ti = np.array([r[0] for r in nav], dtype=np.int64)
-        a = np.array([r[1:4] for r in nav], dtype=np.float64)
+        a = a[:, order]
+        data.twist = {"t": _seconds(ti[order], t0), "v": a[0], "omega": a[1]}
+    if T.NAV_POSE in cols:
+        log_ns, raw = cols[T.NAV_POSE]
+        ti, (a, valid) = _decode_columns(raw, log_ns, lambda docs: (
+            _columns(docs, ("x", "y", "heading"), np.float64),
+            np.array([bool(d["valid"]) for d in docs], dtype=bool)))
         order = np.argsort(ti, kind="stable")
-        data.nav = {"t": _seconds(ti[order], t0), "x": a[order, 0], "y": a[order, 1],
-                    "heading": a[order, 2],
-                    "valid": np.array([r[4] for r in nav], dtype=bool)[order]
-                    & np.isfinite(a[order]).all(axis=1)}
-    if scan_raw:
-        data.scans = LazyScans(t0, scan_ns, scan_raw)
-    if poses:
-        ti = np.array([r[0] for r in poses], dtype=np.int64)
-        a = np.array([r[1:] for r in poses], dtype=np.float64)
-        order = np.argsort(ti, kind="stable")
-        a = a[order]
-        data.truth = {"t": _seconds(ti[order], t0), "x": a[:, 0], "y": a[:, 1],
-                      "heading": 2.0 * np.arctan2(a[:, 2], a[:, 3])}
+        a = a[:, order]
+        data.nav = {"t": _seconds(ti[order], t0), "x": a[0], "y": a[1], "heading": a[2],
+                    "valid": valid[order] & np.isfinite(a).all(axis=0)}
+    if T.NAV_REFLECTORS in cols:
+        log_ns, raw = cols[T.NAV_REFLECTORS]
+        data.scans = LazyScans(t0, log_ns, raw)
+    if T.TRUTH in cols:
+        log_ns, raw = cols[T.TRUTH]
+        ti, (a,) = _decode_columns(raw, log_ns, lambda docs: (np.array(
+            [(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
+              d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
+             for d in docs], dtype=np.float64).reshape(-1, 4).T,))
+        a = a[:, np.argsort(ti, kind="stable")]
+        data.truth = {"t": _seconds(np.sort(ti, kind="stable"), t0), "x": a[0], "y": a[1],
+                      "heading": 2.0 * np.arctan2(a[2], a[3])}
     return data

@@ -50,7 +50,6 @@ class MotionSettings:
     step_form: str = "arc"
 
 
-@dataclass(frozen=True)
 class Increments:
     """Motion between consecutive samples: ``t`` has one more entry than ``ds`` and ``dth``.
 
@@ -58,10 +57,14 @@ class Increments:
     ``missing_frames``: frames lost according to the sequence numbers (MCU input only).
     """
 
-    t: NDArray[np.float64]
-    ds: NDArray[np.float64]
-    dth: NDArray[np.float64]
-    missing_frames: int = 0
+    __slots__ = ("ds", "dth", "missing_frames", "t")
+
+    def __init__(self, t: NDArray[np.float64], ds: NDArray[np.float64],
+                 dth: NDArray[np.float64], missing_frames: int = 0) -> None:
+        self.t = t
+        self.ds = ds
+        self.dth = dth
+        self.missing_frames = missing_frames
 
 
 def unwrap_counter(values: NDArray[np.int64], modulus: int, signed: bool) -> NDArray[np.int64]:
@@ -155,7 +158,6 @@ def step_offsets(ds: NDArray[np.float64], dth: NDArray[np.float64], step_form: s
     raise ValueError(f"unknown step form {step_form!r} (known: {', '.join(STEP_FORMS)})")
 
 
-@dataclass(frozen=True)
 class Deltas:
     """Body-frame motions between pairs of times, one entry per pair.
 
@@ -163,11 +165,16 @@ class Deltas:
     ``rot`` (rad) are the path length and the total absolute rotation, which scale motion noise.
     """
 
-    dx: NDArray[np.float64]
-    dy: NDArray[np.float64]
-    dth: NDArray[np.float64]
-    dist: NDArray[np.float64]
-    rot: NDArray[np.float64]
+    __slots__ = ("dist", "dth", "dx", "dy", "rot")
+
+    def __init__(self, dx: NDArray[np.float64], dy: NDArray[np.float64],
+                 dth: NDArray[np.float64], dist: NDArray[np.float64],
+                 rot: NDArray[np.float64]) -> None:
+        self.dx = dx
+        self.dy = dy
+        self.dth = dth
+        self.dist = dist
+        self.rot = rot
 
 
 class MotionTrack:

@@ -52,18 +52,23 @@ class RawScan:
     ids: NDArray[np.int64]
 
 
-@dataclass(frozen=True)
 class ScanBatch:
     """Many scans as flat arrays: per scan its start ``t`` (s), ``period`` (s) and ``counts``
     (reflectors); per reflector its range (m), bearing (rad), time in the scan (s) and id."""
 
-    t: NDArray[np.float64]
-    period: NDArray[np.float64]
-    counts: NDArray[np.int64]
-    ranges: NDArray[np.float64]
-    bearings: NDArray[np.float64]
-    times: NDArray[np.float64]
-    ids: NDArray[np.int64]
+    __slots__ = ("bearings", "counts", "ids", "period", "ranges", "t", "times")
+
+    def __init__(self, t: NDArray[np.float64], period: NDArray[np.float64],
+                 counts: NDArray[np.int64], ranges: NDArray[np.float64],
+                 bearings: NDArray[np.float64], times: NDArray[np.float64],
+                 ids: NDArray[np.int64]) -> None:
+        self.t = t
+        self.period = period
+        self.counts = counts
+        self.ranges = ranges
+        self.bearings = bearings
+        self.times = times
+        self.ids = ids
 
     def __len__(self) -> int:
         return len(self.t)
@@ -226,7 +231,12 @@ class ReflectorMap:
         self.x = np.array([r.x for r in self.reflectors], dtype=np.float64)
         self.y = np.array([r.y for r in self.reflectors], dtype=np.float64)
         self.ids = np.array([r.id for r in self.reflectors], dtype=np.int64)
-        self._index = {int(i): k for k, i in enumerate(self.ids)}
+        # ids sorted, and the map index of each (the last reflector of a repeated id)
+        order = np.argsort(self.ids, kind="stable")
+        sorted_ids = self.ids[order]
+        last = np.ones(len(order), dtype=bool)
+        last[:-1] = sorted_ids[:-1] != sorted_ids[1:]
+        self._sorted_ids, self._sorted_index = sorted_ids[last], order[last]
         #: reflector positions as complex numbers x + iy, m
         self.z = self.x + 1j * self.y
         #: half the distance from each reflector to its nearest neighbour, m: a point closer
@@ -246,8 +256,12 @@ class ReflectorMap:
 
     def index_of(self, ids: NDArray[np.int64]) -> NDArray[np.int64]:
         """Map indices of reflector ids; -1 for an unknown or absent id."""
-        get = self._index.get
-        return np.array([get(int(i), -1) for i in ids], dtype=np.int64)
+        ids = np.asarray(ids, dtype=np.int64)
+        known = self._sorted_ids
+        if len(known) == 0:
+            return np.full(ids.shape, -1, dtype=np.int64)
+        at = np.minimum(np.searchsorted(known, ids), len(known) - 1)
+        return np.where(known[at] == ids, self._sorted_index[at], -1).astype(np.int64)
 
     def _build_grid(self) -> tuple[float, float, int, int, list[NDArray[np.int64]]]:
         c = self._cell

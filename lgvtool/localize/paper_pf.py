@@ -21,17 +21,40 @@ times the heading difference, so the filter still runs.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
-from lgvtool.localize.estimator import Estimate, Motion, Observation
+from lgvtool.localize.estimator import (
+    Cloud,
+    Estimate,
+    EstimateRows,
+    Motion,
+    Observation,
+    cloud_sample,
+)
 from lgvtool.localize.fix import pose_fix
 from lgvtool.localize.noise import MotionParams
-from lgvtool.localize.observations import PoseObservation, SourceParams
+from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
 from lgvtool.localize.particles import ParticleInitParams, ParticleSet
-from lgvtool.localize.resampling import RedistributionPlan, effective_sample_size
+from lgvtool.localize.resampling import RedistributionDraws, RedistributionPlan
+
+if TYPE_CHECKING:
+    from lgvtool.localize.motion import Deltas
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+
+#: redistributions whose random numbers are drawn in one call (about 2^14 numbers at most:
+#: larger blocks no longer fit the caches)
+_DRAW_NUMBERS = 1 << 14
+#: particle sets of about this many particles in all are weighed in one block by
+#: :meth:`PaperParticleFilter.run`, and their covariances computed together
+_COVARIANCE_BLOCK = 1 << 14
 
 #: heading spread of the redistribution, rad. The paper gives none. A heading offset moves a
 #: reflector at range r by r times the offset; this spread moves a reflector 25 m away (across
@@ -77,7 +100,16 @@ class PaperPfParams(MotionParams, SourceParams, ParticleInitParams):
 
 
 class PaperParticleFilter(ParticleSet):
-    """The paper's particle filter (section 3.2), every constant a parameter."""
+    """The paper's particle filter (section 3.2), every constant a parameter.
+
+    The particles are kept packed as the rows of one (M, 3) complex array: position ``z``,
+    heading rotor ``rot`` and 1. Putting a scan's reflectors into the world at every particle
+    and comparing them with candidate map reflectors is then one matrix product, and the
+    weighted sums of eq. 11 (with the sum of the weights) another. The redistribution's random
+    numbers are drawn ahead for several updates at once when the filter draws nothing else
+    per update (no motion noise, the paper's default): the same numbers in the same order as
+    one draw per update, so results do not depend on it.
+    """
 
     name = "pf-paper"
     Params = PaperPfParams
@@ -85,33 +117,116 @@ class PaperParticleFilter(ParticleSet):
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)
-        self._mean: tuple[float, float, float, np.ndarray] | None = None
+        p = self.params
+        #: pose of the last estimate (x, y m, heading rad), moved by the odometry since
+        self._mean: tuple[float, float, float] | None = None
+        #: what the covariance and ESS of the last estimate are computed from: the packed
+        #: weighted particles, their (unnormalised) weights and the weighted sums of z and rot;
+        #: replaced by (covariance, ESS) once computed
+        self._cov: _Weighted | tuple[FloatArray, float] | None = None
         self._plan: RedistributionPlan | None = None
-        n = self.params.particles
+        self._draws: RedistributionDraws | None = None
+        self._drawn = 0
+        self._quiet_motion = (p.noise_dist == 0.0 and p.noise_lat == 0.0 and p.noise_rot == 0.0
+                              and p.noise_rot_per_m == 0.0)
+        #: exponent factor of eq. 10: w = exp(factor D^2)
+        self._factor = -0.5 / (p.sigma_m * p.sigma_m)
+        self._packing: tuple[ComplexArray, ComplexArray, ComplexArray] | None = None
+        self._buffers: dict[tuple[int, int, int], tuple[FloatArray, ...]] = {}
+        self._map_z3 = self.map.z[:, None, None]
+        n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
         if self.initial_pose is not None:
-            self._start_around(self.initial_pose, self.params.particles)
-        elif self.params.init == "uniform":
-            self._start_uniform(self.params.particles)
+            self._start_around(self.initial_pose, p.particles)
+        elif p.init == "uniform":
+            self._start_uniform(p.particles)
+
+    # ------------------------------------------------------------------ packed particles
+    def _packed(self) -> ComplexArray:
+        """The particles as one (M, 3) complex array with columns ``z``, ``rot`` and ones."""
+        pk = self._packing
+        if pk is not None and pk[1] is self.z and pk[2] is self.rot:
+            return pk[0]
+        s = np.empty((len(self.z), 3), dtype=np.complex128)
+        s[:, 0] = self.z
+        s[:, 1] = self.rot
+        s[:, 2] = 1.0
+        self._adopt(s, self._th)
+        return s
+
+    def _adopt(self, s: ComplexArray, th: FloatArray | None = None) -> None:
+        """Make the packed array ``s`` the particle set (headings ``th`` if known)."""
+        self.z, self.rot = s[:, 0], s[:, 1]
+        self._th = th
+        self._packing = (s, self.z, self.rot)
+
+    def _move_refs(self, dx: float, dy: float, dth: float) -> None:
+        """Move the last estimate and the reference pose by a body-frame motion (m, rad)."""
+        if self._ref is not None:
+            self._ref = _moved(self._ref, dx, dy, dth, wrap=False)
+        if self._mean is not None:
+            self._mean = _moved(self._mean, dx, dy, dth)
 
     def predict(self, motion: Motion) -> None:
-        super().predict(motion)
-        if self._mean is not None:
-            x, y, th, cov = self._mean
-            c, s = math.cos(th), math.sin(th)
-            self._mean = (x + c * motion.dx - s * motion.dy, y + s * motion.dx + c * motion.dy,
-                          math.remainder(th + motion.dth, 2.0 * math.pi), cov)
+        if not (self._quiet_motion and len(self.z)):
+            super().predict(motion)
+            if self._mean is not None:
+                self._mean = _moved(self._mean, motion.dx, motion.dy, motion.dth)
+            return
+        step = _motion_matrices(np.array([motion.dx]), np.array([motion.dy]),
+                                np.array([motion.dth]))[0]
+        self._adopt(self._packed() @ step)
+        self._move_refs(motion.dx, motion.dy, motion.dth)
 
-    def distances(self, obs: Observation) -> np.ndarray:
+    # ------------------------------------------------------------------ correction
+    def distances(self, obs: Observation) -> FloatArray:
         """The summed association distance ``D_m`` of every particle, m."""
         if isinstance(obs, PoseObservation):
             dx, dy, dh = self.head_residuals(obs)
             return np.sqrt(dx * dx + dy * dy) + self.params.pose_heading_m * np.abs(dh)
         if self.params.use_ids:
             return np.abs(self.scan_residuals(obs, True)).sum(axis=1)
-        tail = 0 if self._plan is None else self._plan.m - self._plan.n_local
-        d = self.nearest_distances(obs, brute_tail=tail)
-        return d @ np.ones(d.shape[1])
+        j1 = self._reference_nearest(obs)
+        b = np.stack((np.ones(len(obs)), obs.q, -self.map.z[j1]))
+        return self._nearest_sums(self._packed(), _Scan(b, self.map.half_sep[j1]))
+
+    def _nearest_sums(self, s: ComplexArray, scan: _Scan, exponent: FloatArray | None = None
+                      ) -> FloatArray:
+        """``D_m``: the summed distances from every particle's measured points to their nearest
+        map reflectors, m (see :meth:`nearest_distances`; ``s``: the packed particles). With
+        ``exponent``, writes the exponent of eq. 10, ``-D_m^2 / (2 sigma^2)``, there instead
+        and returns it.
+
+        Each point is compared with its candidate map reflector; a point within half the
+        candidate's spacing to its nearest neighbour has no nearer one, the others are
+        compared with the whole map. The particles spread uniformly by the last
+        redistribution (the last ones) are compared with the whole map.
+        """
+        m = len(s)
+        plan = self._plan
+        n = m if plan is None or plan.m != m else plan.n_local
+        k = scan.k
+        bufs = self._buffers.get((m, n, k))
+        if bufs is None:
+            d = np.empty((m, k))
+            bufs = self._buffers[(m, n, k)] = (d, d[:n], d[n:], np.ones(k), np.empty(m))
+        d, near, tail, ones, sums = bufs
+        # z + rot q - candidate, for every particle and point, in one product
+        np.abs(s[:n] @ scan.b, out=near)
+        if n < m:
+            pts = s[n:, :2] @ scan.b2
+            _min(np.abs(self._map_z3 - pts), axis=0, out=tail)
+        if _max(near, axis=None) >= scan.half_min:
+            far = near >= scan.half
+            if far.any():
+                mi, ki = np.nonzero(far)
+                near[mi, ki] = self.map.nearest_distance(s[mi, 0] + s[mi, 1] * scan.b[1, ki])
+        np.dot(d, ones, out=sums)
+        if exponent is None:
+            return sums.copy()
+        np.multiply(sums, sums, out=exponent)
+        exponent *= self._factor
+        return exponent
 
     def update(self, obs: Observation) -> bool:
         p = self.params
@@ -125,31 +240,383 @@ class PaperParticleFilter(ParticleSet):
         if not isinstance(obs, PoseObservation) and (len(obs) == 0 or len(self.map) == 0):
             return False
         d = self.distances(obs)
-        sigma = p.sigma_m
-        w = np.exp(d * d * (-0.5 / (sigma * sigma)))
-        w *= 1.0 / math.sqrt(2.0 * math.pi * sigma * sigma)
-        total = float(w.sum())
-        if total > 0.0 and math.isfinite(total):
-            w /= total
-        else:
-            # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
-            w = (d == d.min()).astype(np.float64)
-            w /= w.sum()
-        self.w = w
-        self.last_ess = effective_sample_size(w)
-        self._mean = self.weighted_pose(w)
-        self._ref = self._mean[:3]
-        if self._plan is None or self._plan.m != len(self.z):
-            self._plan = RedistributionPlan(
-                len(self.z), self.area, top_fraction=p.top_fraction,
-                local_fraction=p.local_fraction, spread_m=p.spread_m,
-                heading_spread_rad=p.heading_spread_rad)
-        self.z, self.th = self._plan.apply(self.z, self.th, w, self.rng)
-        self.rot = np.exp(1j * self.th)
-        self.w = self._uniform_w
+        s = self._packed()
+        exponent = d * d
+        exponent *= self._factor
+        new = np.empty_like(s)
+        self._cov = self._correct(s, exponent, np.empty(len(s)), new)
+        self._adopt(new)
         return True
+
+    def _correct(self, s: ComplexArray, exponent: FloatArray, w: FloatArray,
+                 out: ComplexArray) -> _Weighted:
+        """Weigh the packed particles ``s`` with eq. 10, given its exponent
+        ``-D_m^2 / (2 sigma^2)``, into ``w`` (unnormalised), estimate with eq. 11
+        (``self._mean``) and redistribute into ``out``. Returns what the estimate's covariance
+        is computed from."""
+        # eq. 10 up to its constant factor, which the normalisation removes
+        np.exp(exponent, out=w)
+        # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one product
+        sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
+        if not (total > 0.0 and math.isfinite(total)):
+            # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
+            np.equal(exponent, exponent.max(), out=w)
+            sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
+        self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
+        m = len(s)
+        plan = self._plan
+        if plan is None or plan.m != m:
+            p = self.params
+            plan = self._plan = RedistributionPlan(
+                m, self.area, top_fraction=p.top_fraction, local_fraction=p.local_fraction,
+                spread_m=p.spread_m, heading_spread_rad=p.heading_spread_rad)
+            self._draws = None
+        draws = self._draws
+        if draws is None:
+            count = max(1, _DRAW_NUMBERS // (4 * m)) if self._quiet_motion else 1
+            draws = self._draws = plan.draw(self.rng, count, packed=True)
+            self._drawn = 0
+        elif self._drawn >= draws.count:
+            draws.refill(self.rng)
+            self._drawn = 0
+        plan.apply_packed(s, w, draws, self._drawn, out)
+        self._drawn += 1
+        self.w = self._uniform_w
+        return (s, w, total, complex(sx, sy), complex(sc, ss))
+
+    # ------------------------------------------------------------------ estimate
+    def _spread(self) -> tuple[FloatArray, float]:
+        """Covariance (3, 3) and effective sample size of the last estimate."""
+        cov = self._cov
+        if cov is None:
+            return np.zeros((3, 3)), 0.0
+        if len(cov) == 5:
+            s, w, total, sum_z, sum_rot = cov
+            c, e = _covariances_and_ess(s[None], w[None], np.array([total]),
+                                        np.array([sum_z]), np.array([sum_rot]))
+            self._cov = (c[0], float(e[0]))
+            return self._cov
+        return cov
 
     def estimate(self) -> Estimate | None:
         if self._mean is None:
             return None
-        return self._as_estimate(self._mean)
+        x, y, th = self._mean
+        cov, ess = self._spread()
+        self.last_ess = ess
+        return Estimate(x, y, th, cov, len(self.z), ess)
+
+    # ------------------------------------------------------------------ replay
+    def run(self, times: FloatArray, observations: Sequence[Observation | None],
+            steps: Deltas | None, *, progress: Callable[[int], None] | None = None,
+            cloud_period_s: float = 2.0, cloud_size: int = 50) -> EstimateRows:
+        """:meth:`Estimator.run` with the same results as ``predict``, ``update`` and
+        ``estimate`` in turn, faster: the scans' candidate map reflectors are looked up and
+        the motions turned into matrices for all observations at once, and the particle sets
+        of consecutive updates are kept in one block whose covariances and effective sample
+        sizes are computed together."""
+        n = len(observations)
+        if steps is not None and n > 1:
+            moves: list[tuple[float, float, float, float, float]] | None = list(zip(
+                steps.dx.tolist(), steps.dy.tolist(), steps.dth.tolist(), steps.dist.tolist(),
+                steps.rot.tolist(), strict=True))
+            motion = _motion_matrices(steps.dx, steps.dy, steps.dth) if self._quiet_motion \
+                else None
+        else:
+            moves = motion = None
+        prepared = self._prepare_scans(observations)
+        ts = np.asarray(times, dtype=np.float64).tolist()
+        rec = _Recorder()
+        if self._mean is not None:
+            rec.fixed(*self._spread())
+        clouds: list[Cloud] = []
+        next_cloud = -math.inf
+        report = 0
+        block = _Block(self._packed()) if len(self.z) else None
+        m = len(self.z)
+        rows, which = rec.rows, rec.which
+        # the particles are in ``block.current``, or in ``block.spare`` when ``pending``
+        pending = False
+        matmul, copyto = np.matmul, np.copyto
+        for i, o in enumerate(observations):
+            scan = prepared.get(i) if o is not None else None
+            # the motion still to apply to the estimate and the reference pose (a scan weighed
+            # below sets both anew)
+            refs_behind: tuple[float, ...] | None = None
+            if i > 0 and moves is not None:
+                if motion is not None and block is not None:
+                    if pending:
+                        matmul(block.spare, motion[i - 1], out=block.current)
+                    else:
+                        matmul(block.current, motion[i - 1], out=block.spare)
+                    pending = not pending
+                    if scan is None:
+                        self._move_refs(*moves[i - 1][:3])
+                    else:
+                        refs_behind = moves[i - 1][:3]
+                else:
+                    self._leave(block, rec, pending)
+                    pending = False
+                    self.predict(Motion(*moves[i - 1]))
+                    block = _Block(self._packed()) if len(self.z) else None
+                    m = len(self.z)
+            if o is not None:
+                if scan is not None and block is not None:
+                    if pending:
+                        copyto(block.current, block.spare)
+                    s = block.current
+                    _, _, total, sum_z, sum_rot = self._correct(
+                        s, self._nearest_sums(s, scan, block.exponent), block.weights,
+                        block.spare)
+                    pending = True
+                    # on to the next row of the block (recording the block when it is full)
+                    block.totals.append(total)
+                    block.sum_z.append(sum_z)
+                    block.sum_rot.append(sum_rot)
+                    rec.count += 1
+                    k = block.k = block.k + 1
+                    if k < block.size:
+                        block.current = block.states[k]
+                        block.weights = block.w[k]
+                    else:
+                        rec.close(block)
+                        block.restart()
+                else:
+                    if refs_behind is not None:
+                        self._move_refs(*refs_behind)
+                    self._leave(block, rec, pending)
+                    pending = False
+                    before = self._cov
+                    self.update(o)
+                    if self._cov is not before:
+                        rec.fixed(*self._spread())
+                    block = _Block(self._packed()) if len(self.z) else None
+                    m = len(self.z)
+            if self._mean is not None and block is not None:
+                t = ts[i]
+                now = block.spare if pending else block.current
+                rows.append((t, *self._mean, m))
+                which.append(rec.count - 1)
+                if cloud_size > 0 and t >= next_cloud:
+                    c = now[cloud_sample(len(now), cloud_size)]
+                    clouds.append((t, c[:, 0].real.copy(), c[:, 0].imag.copy(),
+                                   np.angle(c[:, 1])))
+                    next_cloud = t + cloud_period_s
+            if progress is not None and i - report >= 500:
+                progress(i - report)
+                report = i
+        if progress is not None:
+            progress(n - report)
+        self._leave(block, rec, pending)
+        out = rec.finish(clouds)
+        if len(out.covariance):
+            self._cov = (out.covariance[-1].reshape(3, 3).copy(), float(out.ess[-1]))
+            self.last_ess = float(out.ess[-1])
+        return out
+
+    def _leave(self, block: _Block | None, rec: _Recorder, pending: bool) -> None:
+        """Hand the particles of ``block`` (in its spare row when ``pending``) back to the
+        filter and record the covariances of its weighed sets."""
+        if block is not None:
+            self._adopt((block.spare if pending else block.current).copy())
+            rec.close(block)
+            block.restart()
+
+    def _prepare_scans(self, observations: Sequence[Observation | None]) -> dict[int, _Scan]:
+        """For the scans whose reflectors all have an id in the map (and when association is
+        by nearest neighbour): per observation index, the scan for :meth:`_nearest_sums` with
+        the reflector of each point's id as its candidate."""
+        if self.params.use_ids or len(self.map) == 0:
+            return {}
+        idx = [i for i, o in enumerate(observations)
+               if isinstance(o, ScanObservation) and len(o) > 0]
+        if not idx:
+            return {}
+        scans: list[ScanObservation] = [observations[i] for i in idx]  # type: ignore[misc]
+        j = self.map.index_of(np.concatenate([o.ids for o in scans]))
+        known = j >= 0
+        j = np.where(known, j, 0)
+        b = np.stack((np.ones(len(j)), np.concatenate([o.q for o in scans]), -self.map.z[j]))
+        half = self.map.half_sep[j]
+        bounds = np.cumsum([0] + [len(o) for o in scans])
+        starts = bounds[:-1]
+        complete = np.logical_and.reduceat(known, starts).tolist()
+        least = np.minimum.reduceat(half, starts).tolist()
+        bounds_list = bounds.tolist()
+        out: dict[int, _Scan] = {}
+        for i, a, e, ok, h in zip(idx, bounds_list[:-1], bounds_list[1:], complete, least,
+                                  strict=True):
+            if ok:
+                out[i] = _Scan(b[:, a:e], half[a:e], h)
+        return out
+
+
+_max = np.maximum.reduce
+_min = np.minimum.reduce
+
+
+class _Scan:
+    """A scan laid out for :meth:`PaperParticleFilter._nearest_sums`: ``b`` (3, K) rows ones,
+    the measured points ``q`` (body frame, m) and minus a candidate map reflector per point
+    (m); ``b2`` its first two rows; ``half``: half each candidate's distance to its nearest
+    neighbour (m), and the least of those."""
+
+    __slots__ = ("b", "b2", "half", "half_min", "k")
+
+    def __init__(self, b: ComplexArray, half: FloatArray, half_min: float | None = None
+                 ) -> None:
+        self.b = b
+        self.b2 = b[:2]
+        self.half = half
+        if half_min is None:
+            half_min = float(half.min()) if len(half) else math.inf
+        self.half_min = half_min
+        self.k = b.shape[1]
+
+
+#: a weighted particle set: packed particles (M, 3), unnormalised weights, their sum and the
+#: weighted sums of z and rot
+_Weighted = tuple[ComplexArray, FloatArray, float, complex, complex]
+
+
+def _motion_matrices(dx: FloatArray, dy: FloatArray, dth: FloatArray) -> ComplexArray:
+    """Eq. 9 for packed particles as matrices, (n, 3, 3): the packed particles times matrix
+    ``k`` are the particles moved by the body-frame motion ``(dx[k], dy[k])`` (m) and turned by
+    ``dth[k]`` (rad): ``z + rot (dx + i dy)``, ``rot exp(i dth)``, 1."""
+    out = np.zeros((len(dx), 3, 3), dtype=np.complex128)
+    out[:, 0, 0] = 1.0
+    out[:, 1, 0].real = dx
+    out[:, 1, 0].imag = dy
+    out[:, 1, 1].real = np.cos(dth)
+    out[:, 1, 1].imag = np.sin(dth)
+    out[:, 2, 2] = 1.0
+    return out
+
+
+def _covariances_and_ess(s: ComplexArray, w: FloatArray, total: FloatArray, sum_z: ComplexArray,
+                         sum_rot: ComplexArray, work: _Work | None = None
+                         ) -> tuple[FloatArray, FloatArray]:
+    """Covariances (B, 3, 3) and effective sample sizes (B,) of ``B`` weighted particle sets:
+    packed particles ``s`` (B, M, 3), unnormalised weights ``w`` (B, M), their sums ``total``
+    (B,) and the weighted sums of z and rot (B,). ``work``: scratch for at least B sets.
+
+    With ``d = z - mean`` and ``h`` the heading deviations from the circular mean (rad), the
+    covariance entries are the weighted sums of the products of ``(Re d, Im d, h)``.
+    """
+    b, m = w.shape
+    if work is None or len(work.wn) < b or work.wn.shape[1] != m:
+        work = _Work(b, m)
+    wn, a, aw = work.wn[:b], work.a[:, :b], work.aw[:, :b]
+    d, r = work.d[:b], work.r[:b]
+    np.divide(w, total[:, None], out=wn)
+    np.subtract(s[:, :, 0], (sum_z / total)[:, None], out=d)
+    a[0] = d.real
+    a[1] = d.imag
+    np.multiply(s[:, :, 1], sum_rot.conj()[:, None], out=r)
+    np.arctan2(r.imag, r.real, out=a[2])
+    np.multiply(a, wn, out=aw)
+    cov = np.einsum("ibm,jbm->bij", aw, a)
+    ess = 1.0 / np.einsum("bm,bm->b", wn, wn)
+    return cov, ess
+
+
+class _Work:
+    """Scratch arrays of :func:`_covariances_and_ess` for ``b`` sets of ``m`` particles."""
+
+    __slots__ = ("a", "aw", "d", "r", "wn")
+
+    def __init__(self, b: int, m: int) -> None:
+        self.wn = np.empty((b, m))
+        self.a = np.empty((3, b, m))
+        self.aw = np.empty((3, b, m))
+        self.d = np.empty((b, m), dtype=np.complex128)
+        self.r = np.empty((b, m), dtype=np.complex128)
+
+
+class _Block:
+    """Consecutive particle sets of :meth:`PaperParticleFilter.run`: row ``k`` holds the
+    particles of the ``k``-th weighing, so the weighed sets stay for the covariances without
+    copies; a redistribution writes ``spare``, from which the next motion moves the particles
+    into the next row. A full block starts over at row 0."""
+
+    def __init__(self, first: ComplexArray) -> None:
+        m = len(first)
+        self.size = max(1, _COVARIANCE_BLOCK // max(1, m))
+        self.states = np.empty((self.size, m, 3), dtype=np.complex128)
+        self.states[0] = first
+        #: where a redistribution or a motion writes the particles before they are weighed
+        self.spare = np.empty((m, 3), dtype=np.complex128)
+        self.w = np.empty((self.size, m))
+        #: the exponent of eq. 10 of the set being weighed
+        self.exponent = np.empty(m)
+        self.work = _Work(self.size, m)
+        self.k = 0
+        self.current = self.states[0]
+        self.weights = self.w[0]
+        self.totals: list[float] = []
+        self.sum_z: list[complex] = []
+        self.sum_rot: list[complex] = []
+
+    def spread(self) -> tuple[FloatArray, FloatArray]:
+        """Covariances (k, 9) and ESS (k,) of the sets weighed so far."""
+        k = self.k
+        if k == 0:
+            return np.zeros((0, 9)), np.zeros(0)
+        cov, ess = _covariances_and_ess(self.states[:k], self.w[:k], np.array(self.totals),
+                                        np.array(self.sum_z), np.array(self.sum_rot),
+                                        self.work)
+        return cov.reshape(k, 9), ess
+
+    def restart(self) -> None:
+        """Start over at row 0 (the weighed sets are recorded)."""
+        self.k = 0
+        self.current = self.states[0]
+        self.weights = self.w[0]
+        self.totals, self.sum_z, self.sum_rot = [], [], []
+
+
+class _Recorder:
+    """Collects the rows of :meth:`PaperParticleFilter.run`: ``rows`` (t, x, y, heading,
+    particles) and ``which``, the weighed set whose covariance and ESS each row takes (the
+    last one before it); ``count`` sets have been weighed."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[float, float, float, float, int]] = []
+        self.which: list[int] = []
+        self.covs: list[FloatArray] = []
+        self.ess: list[FloatArray] = []
+        self.count = 0
+
+    def fixed(self, cov: FloatArray, ess: float) -> None:
+        """A weighed set whose covariance and ESS are known."""
+        self.covs.append(np.asarray(cov, dtype=np.float64).reshape(1, 9))
+        self.ess.append(np.array([ess]))
+        self.count += 1
+
+    def close(self, block: _Block) -> None:
+        """Record the covariances and ESS of the sets weighed in ``block``."""
+        cov, ess = block.spread()
+        if len(cov):
+            self.covs.append(cov)
+            self.ess.append(ess)
+
+    def finish(self, clouds: list[Cloud]) -> EstimateRows:
+        covs = np.concatenate(self.covs) if self.covs else np.zeros((0, 9))
+        ess = np.concatenate(self.ess) if self.ess else np.zeros(0)
+        which = np.array(self.which, dtype=np.intp)
+        if len(which) and which.min() < 0:
+            raise ValueError("an estimate before any weighed particle set")
+        a = np.array(self.rows, dtype=np.float64).reshape(-1, 5)
+        return EstimateRows(a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy(), a[:, 3].copy(),
+                            covs[which], a[:, 4].astype(np.int64), ess[which], clouds)
+
+
+def _moved(pose: tuple[float, float, float], dx: float, dy: float, dth: float, *,
+           wrap: bool = True) -> tuple[float, float, float]:
+    """``pose`` (m, m, rad) followed by the body-frame motion ``(dx, dy, dth)``; the heading
+    wrapped to [-pi, pi] when ``wrap``."""
+    x, y, th = pose
+    c, s = math.cos(th), math.sin(th)
+    h = th + dth
+    return (x + c * dx - s * dy, y + s * dx + c * dy,
+            math.remainder(h, 2.0 * math.pi) if wrap else h)

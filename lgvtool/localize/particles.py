@@ -46,12 +46,24 @@ class ParticleSet(Estimator):
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
         self.z: ComplexArray = np.zeros(0, dtype=np.complex128)
-        self.th: FloatArray = np.zeros(0)
+        self._th: FloatArray | None = np.zeros(0)
         self.rot: ComplexArray = np.zeros(0, dtype=np.complex128)
         self.w: FloatArray = np.zeros(0)
         self.last_ess = 0.0
         #: a pose near the bulk of the particles (the last estimate moved by the odometry)
         self._ref: tuple[float, float, float] | None = None
+
+    @property
+    def th(self) -> FloatArray:
+        """Particle headings, rad (not wrapped; taken from the rotors ``rot`` when a filter
+        keeps only those)."""
+        if self._th is None:
+            self._th = np.angle(self.rot)
+        return self._th
+
+    @th.setter
+    def th(self, value: FloatArray) -> None:
+        self._th = value
 
     @property
     def x(self) -> FloatArray:

@@ -2,23 +2,55 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+import importlib
+from collections.abc import Iterator, Mapping
+from typing import TYPE_CHECKING, Any
 
 from lgvtool.errors import InputError
-from lgvtool.localize.deadreckoning import DeadReckoning
-from lgvtool.localize.ekf import Ekf
-from lgvtool.localize.estimator import Estimator
-from lgvtool.localize.laser import LaserBaseline
-from lgvtool.localize.paper_pf import PaperParticleFilter
 from lgvtool.localize.params import make_params
-from lgvtool.localize.particle_filter import ParticleFilter
+
+if TYPE_CHECKING:
+    from lgvtool.localize.estimator import Estimator
+
+#: name -> (module, class) of every estimator
+_WHERE: dict[str, tuple[str, str]] = {
+    "laser": ("lgvtool.localize.laser", "LaserBaseline"),
+    "deadreckoning": ("lgvtool.localize.deadreckoning", "DeadReckoning"),
+    "ekf": ("lgvtool.localize.ekf", "Ekf"),
+    "pf-paper": ("lgvtool.localize.paper_pf", "PaperParticleFilter"),
+    "pf": ("lgvtool.localize.particle_filter", "ParticleFilter"),
+}
+
+
+class _Estimators(Mapping[str, "type[Estimator]"]):
+    """The estimator classes by name. A class's module is imported when the class is first
+    asked for, so that running one estimator does not import the others."""
+
+    def __init__(self) -> None:
+        self._classes: dict[str, type[Estimator]] = {}
+
+    def __getitem__(self, name: str) -> type[Estimator]:
+        cls = self._classes.get(name)
+        if cls is None:
+            module, attr = _WHERE[name]
+            cls = self._classes[name] = getattr(importlib.import_module(module), attr)
+        return cls
+
+    def __contains__(self, name: object) -> bool:
+        return name in _WHERE
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(_WHERE)
+
+    def __len__(self) -> int:
+        return len(_WHERE)
+
+    def __repr__(self) -> str:
+        return f"ESTIMATORS({', '.join(_WHERE)})"
+
 
 #: name -> estimator class
-ESTIMATORS: dict[str, type[Estimator]] = {
-    cls.name: cls
-    for cls in (LaserBaseline, DeadReckoning, Ekf, PaperParticleFilter, ParticleFilter)
-}
+ESTIMATORS: Mapping[str, type[Estimator]] = _Estimators()
 
 #: what replay runs when no estimator is named
 DEFAULT_ESTIMATORS: tuple[str, ...] = ("laser", "deadreckoning", "ekf", "pf-paper", "pf")

@@ -121,25 +121,33 @@ def truth_pose_at(data: LogData, t: float) -> tuple[float, float, float] | None:
     return x, y, math.remainder(h, 2.0 * math.pi)
 
 
+def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
+                       ) -> list[PoseObservation]:
+    """The valid NAV poses, applied at receive time minus the estimator's pose latency."""
+    if data.nav is None or not data.has_poses or not est_cls.uses_poses:
+        return []
+    nav = data.nav
+    lat = float(getattr(params, "pose_latency_s", 0.0))
+    ok = np.nonzero(nav["valid"])[0]
+    ts = (nav["t"][ok] - lat).tolist()
+    xs, ys, hs = nav["x"][ok].tolist(), nav["y"][ok].tolist(), nav["heading"][ok].tolist()
+    return [PoseObservation(t, x, y, h) for t, x, y, h in zip(ts, xs, ys, hs, strict=True)]
+
+
 def _observations(data: LogData, est_cls: type[Estimator], params: Any,
-                  track: MotionTrack | None, vehicle: Any
+                  track: MotionTrack | None, vehicle: Any, *, start_poses: bool = True
                   ) -> tuple[list[PoseObservation | ScanObservation], list[PoseObservation]]:
-    """The observations an estimator updates with, and NAV poses it may only start from."""
+    """The observations an estimator updates with, and NAV poses it may only start from
+    (those only with ``start_poses``; see :func:`_start_poses`)."""
     use_scans, use_poses = sources(getattr(params, "observations", "both"),
                                    data.has_scans and est_cls.uses_scans,
                                    data.has_poses and est_cls.uses_poses)
     obs: list[PoseObservation | ScanObservation] = []
     poses: list[PoseObservation] = []
-    if data.nav is not None and data.has_poses and est_cls.uses_poses:
-        nav = data.nav
-        lat = float(getattr(params, "pose_latency_s", 0.0))
-        ok = np.nonzero(nav["valid"])[0]
-        ts = (nav["t"][ok] - lat).tolist()
-        xs, ys, hs = nav["x"][ok].tolist(), nav["y"][ok].tolist(), nav["heading"][ok].tolist()
-        poses = [PoseObservation(t, x, y, h) for t, x, y, h in zip(ts, xs, ys, hs, strict=True)]
     if use_poses:
-        obs.extend(poses)
-        poses = []
+        obs.extend(_pose_observations(data, est_cls, params))
+    elif start_poses:
+        poses = _pose_observations(data, est_cls, params)
     if use_scans:
         deskew = bool(getattr(params, "deskew", False))
         lo = float(getattr(params, "min_range_m", 0.0))
@@ -154,13 +162,25 @@ def _observations(data: LogData, est_cls: type[Estimator], params: Any,
     return obs, poses
 
 
+def _start_poses(data: LogData, est_cls: type[Estimator], params: Any
+                 ) -> list[PoseObservation]:
+    """The NAV poses an estimator may only start from: all valid ones when it does not update
+    with them."""
+    _, use_poses = sources(getattr(params, "observations", "both"),
+                           data.has_scans and est_cls.uses_scans,
+                           data.has_poses and est_cls.uses_poses)
+    return [] if use_poses else _pose_observations(data, est_cls, params)
+
+
 def poll_scans(received: FloatArray, poll_times: FloatArray) -> list[int]:
     """Indices of the scans the NAV reported at its polls: for each poll time (s), the last
     scan received (complete) before it, each scan at most once."""
     if len(received) == 0 or len(poll_times) == 0:
         return list(range(len(received)))
-    k = np.searchsorted(received, np.asarray(poll_times), side="right") - 1
-    return np.unique(k[k >= 0]).tolist()
+    k = np.searchsorted(received, np.sort(np.asarray(poll_times)), side="right") - 1
+    k = k[k >= 0]
+    # sorted already: keep each index once
+    return k[np.concatenate(([True], k[1:] != k[:-1]))].tolist() if len(k) else []
 
 
 def replay_data(data: LogData, names: Sequence[str] | None = None, *,
@@ -198,7 +218,7 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
             track = tracks.get(ms)
             if track is None:
                 track = tracks[ms] = MotionTrack(data.increments(ms, vehicle), ms.step_form)
-        obs, start_only = _observations(data, cls, p, track, vehicle)
+        obs, _ = _observations(data, cls, p, track, vehicle, start_poses=False)
         if not obs:
             result.skipped[name] = (f"{name} has no usable observations in this log")
             continue
@@ -216,8 +236,10 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
         est = cls(p, vehicle=vehicle, reflectors=data.reflectors, area=cfg.area,
                   rng=estimator_rng(seed, name), initial_pose=start_pose)
         todo: Sequence[PoseObservation | ScanObservation | _Mark] = obs
-        if not est.initialized and start_only:
-            todo = _start(est, obs, start_only, track)
+        if not est.initialized:
+            start_only = _start_poses(data, cls, p)
+            if start_only:
+                todo = _start(est, obs, start_only, track)
         table, clouds = _run_one(est, todo, track, data.t0_ns, progress, cloud_period_s,
                                  cloud_size)
         result.tables[name] = table
@@ -249,11 +271,13 @@ def _start(est: Estimator, obs: list[PoseObservation | ScanObservation],
     return []
 
 
-@dataclass(frozen=True)
 class _Mark:
     """A time at which the driver only moves the estimator (no observation)."""
 
-    t: float
+    __slots__ = ("t",)
+
+    def __init__(self, t: float) -> None:
+        self.t = t
 
 
 def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _Mark],
@@ -261,54 +285,14 @@ def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _
              cloud_period_s: float, cloud_size: int
              ) -> tuple[EstimateTable, list[tuple[int, FloatArray, FloatArray, FloatArray]]]:
     times = np.array([o.t for o in obs], dtype=np.float64)
-    n = len(obs)
-    if track is not None and n > 1:
-        d = track.deltas(times[:-1], times[1:])
-        steps = list(zip(d.dx.tolist(), d.dy.tolist(), d.dth.tolist(), d.dist.tolist(),
-                         d.rot.tolist(), strict=True))
-    else:
-        steps = [(0.0, 0.0, 0.0, 0.0, 0.0)] * max(0, n - 1)
-    rows_t: list[float] = []
-    rows: list[tuple[float, float, float]] = []
-    covs: list[NDArray[np.float64]] = []
-    parts: list[int] = []
-    esss: list[float] = []
-    clouds: list[tuple[int, FloatArray, FloatArray, FloatArray]] = []
-    next_cloud = -math.inf
-    uses_motion = est.uses_motion
-    report = 0
-    for i, o in enumerate(obs):
-        if i > 0 and uses_motion:
-            est.predict(Motion(*steps[i - 1]))
-        if not isinstance(o, _Mark):
-            est.update(o)
-        e = est.estimate()
-        if e is not None:
-            rows_t.append(o.t)
-            rows.append((e.x, e.y, e.heading))
-            covs.append(e.covariance)
-            parts.append(e.particles)
-            esss.append(e.ess)
-            if cloud_size > 0 and o.t >= next_cloud:
-                c = est.cloud()
-                if c is not None:
-                    k = len(c[0])
-                    sel = np.linspace(0, k - 1, min(k, cloud_size)).astype(np.intp)
-                    clouds.append((t0_ns + round(o.t * 1e9), c[0][sel].copy(),
-                                   c[1][sel].copy(), c[2][sel].copy()))
-                    next_cloud = o.t + cloud_period_s
-        if progress is not None and i - report >= 500:
-            progress(i - report)
-            report = i
-    if progress is not None:
-        progress(n - report)
-    t = np.array(rows_t, dtype=np.float64)
-    pose = np.array(rows, dtype=np.float64).reshape(-1, 3)
+    steps = track.deltas(times[:-1], times[1:]) if track is not None and len(obs) > 1 else None
+    rows = est.run(times, [None if isinstance(o, _Mark) else o for o in obs], steps,
+                   progress=progress, cloud_period_s=cloud_period_s, cloud_size=cloud_size)
     table = EstimateTable(
-        t0_ns + np.round(t * 1e9).astype(np.int64), pose[:, 0], pose[:, 1],
-        np.remainder(pose[:, 2] + math.pi, 2.0 * math.pi) - math.pi,
-        np.array(covs, dtype=np.float64).reshape(-1, 9),
-        np.array(parts, dtype=np.int64), np.array(esss, dtype=np.float64))
+        t0_ns + np.round(rows.t * 1e9).astype(np.int64), rows.x, rows.y,
+        np.remainder(rows.heading + math.pi, 2.0 * math.pi) - math.pi, rows.covariance,
+        rows.particles, rows.ess)
+    clouds = [(t0_ns + round(t * 1e9), x, y, h) for t, x, y, h in rows.clouds]
     return table, clouds
 
 

@@ -69,6 +69,65 @@ def redistribute(z: NDArray[np.complex128], th: FloatArray, weights: FloatArray,
     return new_z, new_th, plan.n_local
 
 
+class RedistributionDraws:
+    """The random part of ``count`` consecutive redistributions, drawn in one call (the same
+    numbers, in the same order, as ``count`` draws of one redistribution each).
+
+    Per redistribution ``b``: ``slots[b]`` (which of the parents, in the order of the top
+    weights, each local particle descends from), ``local_z[b]`` and ``local_th[b]`` (the
+    offsets of the local particles from their parents, m and rad), ``far_z[b]`` and
+    ``far_th[b]`` (the uniform particles, m and rad). With ``packed`` instead, the same laid
+    out for particles packed as rows ``(z, rot, 1)`` (``rot = exp(i th)``): the new set is
+    ``parents * scale[b] + shift[b]``, with ``parents`` the rows ``slots_all[b]`` of the
+    parents in the order of the top weights (the uniform particles take any parent and a
+    scale of 0).
+    """
+
+    __slots__ = ("_plan", "count", "far_th", "far_z", "local_th", "local_z", "scale", "shift",
+                 "slots", "slots_all")
+
+    def __init__(self, plan: RedistributionPlan, rng: np.random.Generator, count: int, *,
+                 packed: bool = False) -> None:
+        m, n_local = plan.m, plan.n_local
+        self.count = count
+        self._plan = plan
+        if not packed:
+            u = rng.random((count, 4, m))
+            off = u[:, 1:] * plan.width
+            off += plan.low
+            self.slots = (u[:, 0, :n_local] * plan.n_top).astype(np.intp)
+            offz = off[:, 0] + 1j * off[:, 1]
+            self.local_z = offz[:, :n_local]
+            self.local_th = off[:, 2, :n_local]
+            self.far_z = plan.far_z + offz[:, n_local:]
+            self.far_th = plan.far_th + off[:, 2, n_local:]
+            return
+        # the parts that do not change from one draw to the next
+        self.slots_all = np.zeros((count, m), dtype=np.intp)
+        self.scale = np.zeros((count, m, 3), dtype=np.complex128)
+        self.scale[:, :n_local, 0] = 1.0
+        self.scale[:, :, 2] = 1.0
+        self.shift = np.zeros((count, m, 3), dtype=np.complex128)
+        self.refill(rng)
+
+    def refill(self, rng: np.random.Generator) -> None:
+        """Draw the next ``count`` redistributions into the arrays of this (packed) draw."""
+        plan = self._plan
+        n_local = plan.n_local
+        u = rng.random((self.count, 4, plan.m))
+        self.slots_all[:, :n_local] = u[:, 0, :n_local] * plan.n_top  # truncated, as astype
+        off = u[:, 1:]
+        off *= plan.width
+        off += plan.low
+        turn = np.exp(1j * off[:, 2])
+        self.scale[:, :n_local, 1] = turn[:, :n_local]
+        z = self.shift[:, :, 0]
+        z.real = off[:, 0]
+        z.imag = off[:, 1]
+        z[:, n_local:] += plan.far_z
+        self.shift[:, n_local:, 1] = turn[:, n_local:]
+
+
 class RedistributionPlan:
     """The constant part of the paper's redistribution for a set of ``m`` particles: how many
     parents and local particles, and the half widths of every particle's uniform draw (around
@@ -90,17 +149,41 @@ class RedistributionPlan:
         self.far_z = np.full(m - n_local, centre)
         self.far_th = np.zeros(m - n_local)
 
+    def draw(self, rng: np.random.Generator, count: int = 1, *, packed: bool = False
+             ) -> RedistributionDraws:
+        """The random numbers of the next ``count`` redistributions (with ``packed``, also
+        laid out for :meth:`apply_packed`)."""
+        return RedistributionDraws(self, rng, count, packed=packed)
+
     def apply(self, z: NDArray[np.complex128], th: FloatArray, weights: FloatArray,
               rng: np.random.Generator) -> tuple[NDArray[np.complex128], FloatArray]:
         """New positions and headings (local particles first)."""
-        m, n_top = self.m, self.n_top
-        order = np.argpartition(weights, m - n_top)[m - n_top:] if n_top < m else np.arange(m)
-        u = rng.random((4, m))
-        parents = order[(u[0, :self.n_local] * n_top).astype(np.intp)]
-        off = u[1:] * self.width
-        off += self.low
-        new_z = np.concatenate((z[parents], self.far_z))
-        new_z += off[0] + 1j * off[1]
-        new_th = np.concatenate((th[parents], self.far_th))
-        new_th += off[2]
+        return self.apply_drawn(z, th, weights, self.draw(rng), 0)
+
+    def apply_drawn(self, z: NDArray[np.complex128], th: FloatArray, weights: FloatArray,
+                    draws: RedistributionDraws, b: int
+                    ) -> tuple[NDArray[np.complex128], FloatArray]:
+        """New positions and headings (local particles first) from redistribution ``b`` of
+        numbers drawn ahead."""
+        m, n_top, n_local = self.m, self.n_top, self.n_local
+        top = np.argpartition(weights, m - n_top)[m - n_top:] if n_top < m else np.arange(m)
+        parents = top[draws.slots[b]]
+        new_z = np.empty(m, dtype=np.complex128)
+        np.add(z[parents], draws.local_z[b], out=new_z[:n_local])
+        new_z[n_local:] = draws.far_z[b]
+        new_th = np.empty(m)
+        np.add(th[parents], draws.local_th[b], out=new_th[:n_local])
+        new_th[n_local:] = draws.far_th[b]
         return new_z, new_th
+
+    def apply_packed(self, state: NDArray[np.complex128], weights: FloatArray,
+                     draws: RedistributionDraws, b: int, out: NDArray[np.complex128]) -> None:
+        """:meth:`apply_drawn` on particles packed as the rows of ``state`` (M, 3): columns
+        ``z`` (m), ``rot`` (heading rotor ``exp(i th)``) and ones; writes ``out`` (M, 3). The
+        weights need not be normalised. A heading offset multiplies the parent's rotor by
+        ``exp(i offset)``."""
+        m, n_top = self.m, self.n_top
+        top = weights.argpartition(m - n_top)[m - n_top:] if n_top < m else np.arange(m)
+        state.take(top[draws.slots_all[b]], axis=0, out=out)
+        np.multiply(out, draws.scale[b], out=out)
+        np.add(out, draws.shift[b], out=out)

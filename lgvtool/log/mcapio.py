@@ -4,45 +4,332 @@ The ``mcap`` package's own Writer and Reader are correct but spend tens of micro
 message; a one-hour log holds about 200 000 messages. This module packs message records
 directly into the chunk buffer, reads chunks with one decompression and a tight
 ``struct.unpack_from`` loop, and copies whole chunks of another file verbatim (no decoding),
-which is what ``replay`` and ``decode`` do with the input's messages. Records that occur rarely
-(schemas, channels, metadata, summary) are written with the ``mcap`` package's record classes.
-Files written here are ordinary MCAP (checked by the ``mcap`` package's reader in the tests).
+which is what ``replay`` and ``decode`` do with the input's messages. The other records
+(header, schemas, channels, metadata, summary, footer) are packed and parsed here too, so
+that reading and writing an indexed file does not import the ``mcap`` package (only the
+salvage of a cut-off file uses its stream reader). Files written here are ordinary MCAP
+(checked by the ``mcap`` package's reader in the tests).
 """
 
 from __future__ import annotations
 
+import contextlib
 import heapq
+import mmap
+import os
 import struct
 import zlib
-from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field
-from typing import IO
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from typing import IO, TYPE_CHECKING, Any
 
 import lz4.frame
 import zstandard
-from mcap.data_stream import RecordBuilder
-from mcap.opcode import Opcode
-from mcap.records import (
-    Channel,
-    Chunk,
-    ChunkIndex,
-    DataEnd,
-    Footer,
-    Header,
-    Metadata,
-    MetadataIndex,
-    Schema,
-    Statistics,
-    SummaryOffset,
-)
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 MAGIC = b"\x89MCAP0\r\n"
 _MSG_HEAD = struct.Struct("<BQHIQQ")  # opcode, record length, channel, sequence, log, publish
 _REC_HEAD = struct.Struct("<BQ")
 _MSG_FIELDS = struct.Struct("<HIQQ")
 _CHUNK_HEAD = struct.Struct("<QQQI")  # start, end, uncompressed size, crc
+_U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
 _U64 = struct.Struct("<Q")
+_MAP_ENTRY = struct.Struct("<HQ")  # channel id -> u64 (chunk index offsets, statistics counts)
+
+# record opcodes (MCAP specification)
+OP_HEADER = 0x01
+OP_FOOTER = 0x02
+OP_SCHEMA = 0x03
+OP_CHANNEL = 0x04
+OP_MESSAGE = 0x05
+OP_CHUNK = 0x06
+OP_MESSAGE_INDEX = 0x07
+OP_CHUNK_INDEX = 0x08
+OP_STATISTICS = 0x0B
+OP_METADATA = 0x0C
+OP_METADATA_INDEX = 0x0D
+OP_SUMMARY_OFFSET = 0x0E
+OP_DATA_END = 0x0F
+
+
+class _Record:
+    """A plain record: the fields ``_fields`` (in order), set by position or keyword."""
+
+    __slots__: tuple[str, ...] = ()
+    _fields: tuple[str, ...] = ()
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        for name, value in zip(self._fields, args, strict=False):
+            setattr(self, name, value)
+        for name, value in kwargs.items():
+            setattr(self, name, value)
+
+    def __repr__(self) -> str:
+        fields = ", ".join(f"{n}={getattr(self, n)!r}" for n in self._fields)
+        return f"{type(self).__name__}({fields})"
+
+    def __eq__(self, other: object) -> bool:
+        return type(other) is type(self) and all(
+            getattr(self, n) == getattr(other, n) for n in self._fields)
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+class Schema(_Record):
+    """A schema record."""
+
+    _fields = ("id", "name", "encoding", "data")
+    __slots__ = ("data", "encoding", "id", "name")
+    id: int
+    name: str
+    encoding: str
+    data: bytes
+
+
+class Channel(_Record):
+    """A channel record."""
+
+    _fields = ("id", "topic", "message_encoding", "schema_id", "metadata")
+    __slots__ = ("id", "message_encoding", "metadata", "schema_id", "topic")
+    id: int
+    topic: str
+    message_encoding: str
+    schema_id: int
+    metadata: dict[str, str]
+
+
+class Metadata(_Record):
+    """A metadata record: its name and string map."""
+
+    _fields = ("name", "metadata")
+    __slots__ = ("metadata", "name")
+    name: str
+    metadata: dict[str, str]
+
+
+class MetadataIndex(_Record):
+    """Where a metadata record is: file offset and length in bytes, and its name."""
+
+    _fields = ("offset", "length", "name")
+    __slots__ = ("length", "name", "offset")
+    offset: int
+    length: int
+    name: str
+
+
+class ChunkIndex(_Record):
+    """A chunk index record: times in ns, offsets and sizes in bytes."""
+
+    _fields = ("message_start_time", "message_end_time", "chunk_start_offset", "chunk_length",
+               "message_index_offsets", "message_index_length", "compression",
+               "compressed_size", "uncompressed_size")
+    __slots__ = ("chunk_length", "chunk_start_offset", "compressed_size", "compression",
+                 "message_end_time", "message_index_length", "message_index_offsets",
+                 "message_start_time", "uncompressed_size")
+    def __init__(self, message_start_time: int, message_end_time: int,
+                 chunk_start_offset: int, chunk_length: int,
+                 message_index_offsets: dict[int, int], message_index_length: int,
+                 compression: str, compressed_size: int, uncompressed_size: int) -> None:
+        self.message_start_time = message_start_time
+        self.message_end_time = message_end_time
+        self.chunk_start_offset = chunk_start_offset
+        self.chunk_length = chunk_length
+        self.message_index_offsets = message_index_offsets
+        self.message_index_length = message_index_length
+        self.compression = compression
+        self.compressed_size = compressed_size
+        self.uncompressed_size = uncompressed_size
+
+
+class Summary(_Record):
+    """The summary section of an indexed file. ``channel_message_counts`` is None when the
+    file has no statistics record."""
+
+    _fields = ("schemas", "channels", "chunk_indexes", "metadata_indexes",
+               "channel_message_counts")
+    __slots__ = ("channel_message_counts", "channels", "chunk_indexes", "metadata_indexes",
+                 "schemas")
+    schemas: dict[int, Schema]
+    channels: dict[int, Channel]
+    chunk_indexes: list[ChunkIndex]
+    metadata_indexes: list[MetadataIndex]
+    channel_message_counts: dict[int, int] | None
+
+
+# ---------------------------------------------------------------------- packing
+
+
+def _str(text: str) -> bytes:
+    raw = text.encode()
+    return _U32.pack(len(raw)) + raw
+
+
+def _string_map(entries: Mapping[str, str]) -> bytes:
+    body = b"".join(_str(k) + _str(v) for k, v in entries.items())
+    return _U32.pack(len(body)) + body
+
+
+def _id_map(entries: Mapping[int, int]) -> bytes:
+    return _U32.pack(10 * len(entries)) + b"".join(_MAP_ENTRY.pack(k, v)
+                                                   for k, v in entries.items())
+
+
+def record(opcode: int, body: bytes) -> bytes:
+    """One MCAP record: opcode, length and ``body``."""
+    return _REC_HEAD.pack(opcode, len(body)) + body
+
+
+def schema_record(s: Schema) -> bytes:
+    """The record of a schema."""
+    return record(OP_SCHEMA, _U16.pack(s.id) + _str(s.name) + _str(s.encoding)
+                  + _U32.pack(len(s.data)) + s.data)
+
+
+def channel_record(c: Channel) -> bytes:
+    """The record of a channel."""
+    return record(OP_CHANNEL, _U16.pack(c.id) + _U16.pack(c.schema_id) + _str(c.topic)
+                  + _str(c.message_encoding) + _string_map(c.metadata))
+
+
+_CHUNK_INDEX_LAYOUTS: dict[tuple[int, int], struct.Struct] = {}
+
+
+def chunk_index_record(ci: ChunkIndex) -> bytes:
+    """The record of a chunk index."""
+    kind = ci.compression.encode()
+    key = (len(ci.message_index_offsets), len(kind))
+    layout = _CHUNK_INDEX_LAYOUTS.get(key)
+    if layout is None:
+        n, k = key
+        layout = _CHUNK_INDEX_LAYOUTS[key] = struct.Struct(
+            f"<BQQQQQI{'HQ' * n}QI{k}sQQ")
+    offsets = [v for item in ci.message_index_offsets.items() for v in item]
+    return layout.pack(OP_CHUNK_INDEX, layout.size - 9, ci.message_start_time,
+                       ci.message_end_time, ci.chunk_start_offset, ci.chunk_length,
+                       10 * key[0], *offsets, ci.message_index_length, key[1], kind,
+                       ci.compressed_size, ci.uncompressed_size)
+
+
+# ---------------------------------------------------------------------- parsing
+
+
+class _Cursor:
+    """Reads MCAP primitives from a buffer."""
+
+    __slots__ = ("buf", "pos")
+
+    def __init__(self, buf: Any, pos: int = 0) -> None:
+        self.buf = buf
+        self.pos = pos
+
+    def u8(self) -> int:
+        v: int = self.buf[self.pos]
+        self.pos += 1
+        return v
+
+    def u16(self) -> int:
+        (v,) = _U16.unpack_from(self.buf, self.pos)
+        self.pos += 2
+        return int(v)
+
+    def u32(self) -> int:
+        (v,) = _U32.unpack_from(self.buf, self.pos)
+        self.pos += 4
+        return int(v)
+
+    def u64(self) -> int:
+        (v,) = _U64.unpack_from(self.buf, self.pos)
+        self.pos += 8
+        return int(v)
+
+    def raw(self, n: int) -> bytes:
+        v = bytes(self.buf[self.pos:self.pos + n])
+        self.pos += n
+        return v
+
+    def string(self) -> str:
+        return self.raw(self.u32()).decode()
+
+    def string_map(self) -> dict[str, str]:
+        end = self.pos + 4 + self.u32()
+        out: dict[str, str] = {}
+        while self.pos < end:
+            k = self.string()
+            out[k] = self.string()
+        return out
+
+    def id_map(self) -> dict[int, int]:
+        n = self.u32()
+        layout = _ID_MAPS.get(n)
+        if layout is None:
+            layout = _ID_MAPS[n] = struct.Struct("<" + "HQ" * (n // 10))
+        flat = layout.unpack_from(self.buf, self.pos)
+        self.pos += n
+        return dict(zip(flat[0::2], flat[1::2], strict=True))
+
+
+_ID_MAPS: dict[int, struct.Struct] = {}
+
+
+def read_summary(f: IO[bytes]) -> Summary | None:
+    """The summary section of an indexed MCAP file; None when it has none (or no footer)."""
+    f.seek(0, os.SEEK_END)
+    size = f.tell()
+    tail = 9 + 20 + len(MAGIC)
+    if size < len(MAGIC) + tail:
+        return None
+    f.seek(size - tail)
+    foot = f.read(tail)
+    if foot[-len(MAGIC):] != MAGIC or foot[0] != OP_FOOTER:
+        return None
+    summary_start, _offsets, _crc = struct.unpack_from("<QQI", foot, 9)
+    if summary_start == 0:
+        return None
+    f.seek(summary_start)
+    buf = f.read(size - tail - summary_start)
+    out = Summary({}, {}, [], [], None)
+    c = _Cursor(buf)
+    while c.pos + 9 <= len(buf):
+        opcode, length = _REC_HEAD.unpack_from(buf, c.pos)
+        c.pos += 9
+        end = c.pos + length
+        if opcode == OP_CHUNK_INDEX:
+            start_t, end_t, offset, clen = struct.unpack_from("<QQQQ", buf, c.pos)
+            c.pos += 32
+            offsets = c.id_map()
+            milen = c.u64()
+            kind = c.string()
+            csize, usize = struct.unpack_from("<QQ", buf, c.pos)
+            out.chunk_indexes.append(ChunkIndex(start_t, end_t, offset, clen, offsets, milen,
+                                                kind, csize, usize))
+        elif opcode == OP_SCHEMA:
+            sid = c.u16()
+            name, enc = c.string(), c.string()
+            out.schemas[sid] = Schema(sid, name, enc, c.raw(c.u32()))
+        elif opcode == OP_CHANNEL:
+            cid, sid = c.u16(), c.u16()
+            topic, enc = c.string(), c.string()
+            out.channels[cid] = Channel(cid, topic, enc, sid, c.string_map())
+        elif opcode == OP_STATISTICS:
+            c.pos += 8 + 2 + 4 * 4 + 16
+            out.channel_message_counts = c.id_map()
+        elif opcode == OP_METADATA_INDEX:
+            off, mlen = c.u64(), c.u64()
+            out.metadata_indexes.append(MetadataIndex(off, mlen, c.string()))
+        c.pos = end
+    return out
+
+
+def read_metadata(f: IO[bytes], index: MetadataIndex) -> Metadata:
+    """The metadata record that ``index`` points at."""
+    f.seek(index.offset)
+    buf = f.read(index.length)
+    c = _Cursor(buf, 9)
+    name = c.string()
+    return Metadata(name, c.string_map())
 
 
 def _compress(kind: str, data: bytes) -> bytes:
@@ -53,24 +340,28 @@ def _compress(kind: str, data: bytes) -> bytes:
     return data
 
 
-def decompress(kind: str, data: bytes, size: int) -> bytes:
+def decompress(kind: str, data: bytes | memoryview, size: int) -> bytes:
     """Uncompressed records of a chunk compressed with ``kind`` ('', 'zstd', 'lz4')."""
     if kind == "zstd":
         return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
     if kind == "lz4":
         return bytes(lz4.frame.decompress(data))
     if kind == "":
-        return data
+        return bytes(data)
     raise ValueError(f"unsupported chunk compression {kind!r}")
 
 
-@dataclass
 class _OpenChunk:
-    buf: bytearray = field(default_factory=bytearray)
-    start: int = 0
-    end: int = 0
-    count: int = 0
-    index: dict[int, list[tuple[int, int]]] = field(default_factory=dict)
+    """The chunk being filled: records, time span (ns), message count, per-channel index."""
+
+    __slots__ = ("buf", "count", "end", "index", "start")
+
+    def __init__(self) -> None:
+        self.buf = bytearray()
+        self.start = 0
+        self.end = 0
+        self.count = 0
+        self.index: dict[int, list[tuple[int, int]]] = {}
 
 
 class McapWriter:
@@ -97,9 +388,7 @@ class McapWriter:
         self._chunk = _OpenChunk()
         self._pos = 0
         self._emit(MAGIC)
-        b = RecordBuilder()
-        Header(profile=profile, library=library).write(b)
-        self._emit(b.end())
+        self._emit(record(OP_HEADER, _str(profile) + _str(library)))
 
     def _emit(self, data: bytes | bytearray | memoryview) -> None:
         self._out.write(data)
@@ -111,9 +400,9 @@ class McapWriter:
         sid = schema_id if schema_id is not None else max(self._schemas, default=0) + 1
         if sid in self._schemas:
             raise ValueError(f"schema id {sid} is taken")
-        schema = Schema(id=sid, name=name, encoding=encoding, data=data)
+        schema = Schema(sid, name, encoding, data)
         self._schemas[sid] = schema
-        self._put_record(schema)
+        self._chunk.buf += schema_record(schema)
         return sid
 
     def add_channel(self, topic: str, message_encoding: str, schema_id: int,
@@ -122,16 +411,10 @@ class McapWriter:
         cid = channel_id if channel_id is not None else max(self._channels, default=0) + 1
         if cid in self._channels:
             raise ValueError(f"channel id {cid} is taken")
-        channel = Channel(id=cid, topic=topic, message_encoding=message_encoding,
-                          schema_id=schema_id, metadata=metadata or {})
+        channel = Channel(cid, topic, message_encoding, schema_id, dict(metadata or {}))
         self._channels[cid] = channel
-        self._put_record(channel)
+        self._chunk.buf += channel_record(channel)
         return cid
-
-    def _put_record(self, record: Schema | Channel) -> None:
-        b = RecordBuilder()
-        record.write(b)
-        self._chunk.buf += b.end()
 
     # ------------------------------------------------------------------ messages
     def add_message(self, channel_id: int, log_time: int, data: bytes,
@@ -156,6 +439,49 @@ class McapWriter:
         if len(c.buf) >= self._chunk_bytes:
             self.close_chunk()
 
+    def add_messages(self, channel_ids: Sequence[int], log_times: Sequence[int],
+                     datas: Sequence[bytes]) -> None:
+        """Append many message records (publish time = log time): the same file as
+        :meth:`add_message` one after the other, with the records of each chunk joined at
+        once."""
+        pack = _MSG_HEAD.pack
+        n = len(datas)
+        records = [pack(5, 22 + len(d), c, 0, t, t)
+                   for c, t, d in zip(channel_ids, log_times, datas, strict=True)]
+        sizes = [31 + len(d) for d in datas]
+        counts = self._counts
+        i = 0
+        while i < n:
+            c = self._chunk
+            pos = len(c.buf)
+            # the messages that go into this chunk: it closes once it holds chunk_bytes
+            j = i
+            end = pos
+            while j < n and end < self._chunk_bytes:
+                end += sizes[j]
+                j += 1
+            index = c.index
+            for cid, t, size in zip(channel_ids[i:j], log_times[i:j], sizes[i:j], strict=True):
+                entries = index.get(cid)
+                if entries is None:
+                    entries = index[cid] = []
+                entries.append((t, pos))
+                pos += size
+                counts[cid] = counts.get(cid, 0) + 1
+            parts: list[bytes] = [b""] * (2 * (j - i))
+            parts[0::2] = records[i:j]
+            parts[1::2] = datas[i:j]
+            c.buf += b"".join(parts)
+            lo, hi = min(log_times[i:j]), max(log_times[i:j])
+            if c.count == 0:
+                c.start, c.end = lo, hi
+            else:
+                c.start, c.end = min(c.start, lo), max(c.end, hi)
+            c.count += j - i
+            if len(c.buf) >= self._chunk_bytes:
+                self.close_chunk()
+            i = j
+
     @property
     def chunk_open(self) -> bool:
         """Whether the open chunk holds any message."""
@@ -169,25 +495,23 @@ class McapWriter:
         data = bytes(c.buf)
         compressed = _compress(self._compression, data)
         start_offset = self._pos
-        b = RecordBuilder()
-        Chunk(message_start_time=c.start, message_end_time=c.end, uncompressed_size=len(data),
-              uncompressed_crc=zlib.crc32(data), compression=self._compression,
-              data=compressed).write(b)
-        chunk_record = b.end()
-        self._emit(chunk_record)
+        head = (_CHUNK_HEAD.pack(c.start, c.end, len(data), zlib.crc32(data))
+                + _str(self._compression) + _U64.pack(len(compressed)))
+        self._emit(_REC_HEAD.pack(OP_CHUNK, len(head) + len(compressed)) + head)
+        self._emit(compressed)
         mi_start = self._pos
         offsets: dict[int, int] = {}
         parts: list[bytes] = []
         for cid, entries in c.index.items():
             offsets[cid] = self._pos + sum(len(p) for p in parts)
-            body = b"".join(_U64.pack(t) + _U64.pack(o) for t, o in entries)
-            parts.append(struct.pack("<BQHI", Opcode.MESSAGE_INDEX, 6 + len(body), cid, len(body))
+            body = struct.pack(f"<{2 * len(entries)}Q", *[v for e in entries for v in e])
+            parts.append(struct.pack("<BQHI", OP_MESSAGE_INDEX, 6 + len(body), cid, len(body))
                          + body)
         blob = b"".join(parts)
         self._emit(blob)
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=c.start, message_end_time=c.end, chunk_start_offset=start_offset,
-            chunk_length=len(chunk_record), message_index_offsets=offsets,
+            chunk_length=9 + len(head) + len(compressed), message_index_offsets=offsets,
             message_index_length=self._pos - mi_start, compression=self._compression,
             compressed_size=len(compressed), uncompressed_size=len(data)))
         self._note_times(c.start, c.end, c.count)
@@ -207,82 +531,117 @@ class McapWriter:
 
         The caller must have registered the source's schemas and channels here under the same
         ids; ``channel_counts`` (from the source's statistics) adds to this file's statistics.
+        Chunks that follow each other in the source (each with its message indexes right
+        after it, as this writer lays them out) are copied as one run of bytes.
         """
         self.close_chunk()
-        count = 0
+        runs: list[list[int]] = []  # [source start, source end, output start]
         for ci in chunk_indexes:
-            source.seek(ci.chunk_start_offset)
-            record = source.read(ci.chunk_length)
-            mi_old = min(ci.message_index_offsets.values(), default=ci.chunk_start_offset
-                         + ci.chunk_length)
-            source.seek(mi_old)
-            indexes = source.read(ci.message_index_length)
-            new_start = self._pos
-            self._emit(record)
-            new_mi = self._pos
-            self._emit(indexes)
+            chunk_end = ci.chunk_start_offset + ci.chunk_length
+            mi_old = min(ci.message_index_offsets.values(), default=chunk_end)
+            if mi_old == chunk_end:
+                spans = [(ci.chunk_start_offset, chunk_end + ci.message_index_length)]
+            else:
+                spans = [(ci.chunk_start_offset, chunk_end),
+                         (mi_old, mi_old + ci.message_index_length)]
+            new_start = new_mi = -1
+            for a, b in spans:
+                if runs and runs[-1][1] == a:
+                    runs[-1][1] = b
+                else:
+                    out = runs[-1][2] + runs[-1][1] - runs[-1][0] if runs else self._pos
+                    runs.append([a, b, out])
+                run = runs[-1]
+                at = run[2] + a - run[0]
+                if new_start < 0:
+                    new_start = at
+                new_mi = at + (chunk_end - a if len(spans) == 1 else 0)
             self._chunk_indexes.append(ChunkIndex(
-                message_start_time=ci.message_start_time, message_end_time=ci.message_end_time,
-                chunk_start_offset=new_start, chunk_length=ci.chunk_length,
-                message_index_offsets={k: v - mi_old + new_mi
-                                       for k, v in ci.message_index_offsets.items()},
-                message_index_length=ci.message_index_length, compression=ci.compression,
-                compressed_size=ci.compressed_size, uncompressed_size=ci.uncompressed_size))
+                ci.message_start_time, ci.message_end_time, new_start, ci.chunk_length,
+                {k: v - mi_old + new_mi for k, v in ci.message_index_offsets.items()},
+                ci.message_index_length, ci.compression, ci.compressed_size,
+                ci.uncompressed_size))
             if ci.message_index_offsets:
                 self._note_times(ci.message_start_time, ci.message_end_time, 0)
+        for a, b, at in runs:
+            assert at == self._pos
+            self._copy_range(source, a, b - a)
+        count = 0
         for cid, n in channel_counts.items():
             self._counts[cid] = self._counts.get(cid, 0) + n
             count += n
         self._message_count += count
 
+    def _copy_range(self, source: IO[bytes], offset: int, length: int) -> None:
+        """Append ``length`` bytes of ``source`` from ``offset``: in the kernel when both are
+        files (``os.copy_file_range``), else through memory."""
+        done = 0
+        try:
+            src_fd, dst_fd = source.fileno(), self._out.fileno()
+        except (AttributeError, OSError, ValueError):
+            src_fd = dst_fd = -1
+        if src_fd >= 0 and hasattr(os, "copy_file_range"):
+            self._out.flush()
+            try:
+                while done < length:
+                    n = os.copy_file_range(src_fd, dst_fd, length - done, offset + done)
+                    if n <= 0:
+                        break
+                    done += n
+            except OSError:
+                pass
+            self._out.seek(0, os.SEEK_END)
+            self._pos += done
+        while done < length:
+            source.seek(offset + done)
+            data = source.read(min(length - done, 1 << 22))
+            if not data:
+                raise ValueError("source file ends inside a chunk")
+            self._emit(data)
+            done += len(data)
+
     # ------------------------------------------------------------------ metadata, end
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         """Write a metadata record (closes the open chunk first, to keep time order)."""
         self.close_chunk()
-        b = RecordBuilder()
-        Metadata(name=name, metadata=data).write(b)
-        record = b.end()
-        self._metadata_indexes.append(MetadataIndex(offset=self._pos, length=len(record), name=name))
-        self._emit(record)
+        rec = record(OP_METADATA, _str(name) + _string_map(data))
+        self._metadata_indexes.append(MetadataIndex(self._pos, len(rec), name))
+        self._emit(rec)
 
     def finish(self) -> None:
         """Close the open chunk and write the summary, footer and closing magic."""
         self.close_chunk()
-        b = RecordBuilder()
-        DataEnd(data_section_crc=0).write(b)
-        self._emit(b.end())
+        self._emit(record(OP_DATA_END, _U32.pack(0)))
         summary_start = self._pos
-        s = RecordBuilder()
-        offsets: list[SummaryOffset] = []
+        parts: list[bytes] = []
+        offsets: list[tuple[int, int, int]] = []
+        size = 0
 
-        def group(opcode: Opcode, records: Iterable[object]) -> None:
-            begin = s.count
-            for r in records:
-                r.write(s)  # type: ignore[attr-defined]
-            if s.count > begin:
-                offsets.append(SummaryOffset(group_opcode=opcode, group_start=summary_start + begin,
-                                             group_length=s.count - begin))
+        def group(opcode: int, records: list[bytes]) -> None:
+            nonlocal size
+            if records:
+                blob = b"".join(records)
+                offsets.append((opcode, summary_start + size, len(blob)))
+                parts.append(blob)
+                size += len(blob)
 
-        group(Opcode.SCHEMA, self._schemas.values())
-        group(Opcode.CHANNEL, self._channels.values())
-        group(Opcode.STATISTICS, [Statistics(
-            message_count=self._message_count, schema_count=len(self._schemas),
-            channel_count=len(self._channels), attachment_count=0,
-            metadata_count=len(self._metadata_indexes), chunk_count=len(self._chunk_indexes),
-            message_start_time=self._start, message_end_time=self._end,
-            channel_message_counts=dict(self._counts))])
-        group(Opcode.CHUNK_INDEX, self._chunk_indexes)
-        group(Opcode.METADATA_INDEX, self._metadata_indexes)
-        offset_start = summary_start + s.count
-        for o in offsets:
-            o.write(s)
-        summary = s.end()
+        group(OP_SCHEMA, [schema_record(x) for x in self._schemas.values()])
+        group(OP_CHANNEL, [channel_record(x) for x in self._channels.values()])
+        group(OP_STATISTICS, [record(OP_STATISTICS, struct.pack(
+            "<QHIIIIQQ", self._message_count, len(self._schemas), len(self._channels), 0,
+            len(self._metadata_indexes), len(self._chunk_indexes), self._start, self._end)
+            + _id_map(self._counts))])
+        group(OP_CHUNK_INDEX, [chunk_index_record(x) for x in self._chunk_indexes])
+        group(OP_METADATA_INDEX, [record(OP_METADATA_INDEX, _U64.pack(x.offset)
+                                         + _U64.pack(x.length) + _str(x.name))
+                                  for x in self._metadata_indexes])
+        offset_start = summary_start + size
+        parts.extend(record(OP_SUMMARY_OFFSET, struct.pack("<BQQ", *o)) for o in offsets)
+        summary = b"".join(parts)
         crc = zlib.crc32(summary)
-        crc = zlib.crc32(struct.pack("<BQQQ", Opcode.FOOTER, 20, summary_start, offset_start), crc)
+        crc = zlib.crc32(struct.pack("<BQQQ", OP_FOOTER, 20, summary_start, offset_start), crc)
         self._emit(summary)
-        f = RecordBuilder()
-        Footer(summary_start=summary_start, summary_offset_start=offset_start, summary_crc=crc).write(f)
-        self._emit(f.end())
+        self._emit(record(OP_FOOTER, struct.pack("<QQI", summary_start, offset_start, crc)))
         self._emit(MAGIC)
         self._out.flush()
 
@@ -304,6 +663,89 @@ def chunk_messages(records: bytes, wanted: set[int] | None) -> list[tuple[int, i
             if wanted is None or cid in wanted:
                 out.append((log_time, cid, pub, records[body + 22 : body + length]))
         pos = body + length
+    return out
+
+
+def _chunk_frame(buf: Any, ci: ChunkIndex) -> tuple[str, int, int]:
+    """Compression, offset and length (bytes) of the compressed records of the chunk ``ci``
+    of a file held in ``buf``."""
+    pos = ci.chunk_start_offset + 9 + _CHUNK_HEAD.size
+    (clen,) = _U32.unpack_from(buf, pos)
+    kind = bytes(buf[pos + 4:pos + 4 + clen]).decode()
+    pos += 4 + clen
+    (dlen,) = _U64.unpack_from(buf, pos)
+    return kind, pos + 8, dlen
+
+
+def _chunk_records(buf: Any, ci: ChunkIndex, zstd: zstandard.ZstdDecompressor | None = None
+                   ) -> bytes:
+    """The uncompressed records of the chunk ``ci`` of a file held in ``buf``."""
+    kind, at, size = _chunk_frame(buf, ci)
+    # released on return even if something (a sampling profiler) keeps this frame alive
+    with memoryview(buf)[at:at + size] as data:
+        if kind == "zstd" and zstd is not None:
+            return zstd.decompress(data, max_output_size=ci.uncompressed_size)
+        return bytes(decompress(kind, data, ci.uncompressed_size))
+
+
+def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Iterable[int]
+                  ) -> dict[int, tuple[NDArray[np.int64], list[bytes]]]:
+    """Every message of the ``wanted`` channels of an indexed file: per channel, the log times
+    (ns) and the message data, in log-time order (ties in stored order).
+
+    Only the chunks holding a wanted channel are decompressed, and their messages are found
+    through the chunks' message indexes (chunks without one are walked record by record).
+    """
+    import numpy as np
+
+    want = set(wanted)
+    times: dict[int, list[NDArray[np.uint64]]] = {c: [] for c in want}
+    datas: dict[int, list[bytes]] = {c: [] for c in want}
+    order = sorted((ci for ci in chunk_indexes
+                    if not ci.message_index_offsets or want & ci.message_index_offsets.keys()),
+                   key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
+    zstd = zstandard.ZstdDecompressor()
+    try:
+        buf: Any = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+    except (AttributeError, OSError, ValueError):
+        f.seek(0)
+        buf = f.read()
+    unpack = _U64.unpack_from
+    try:
+        for ci in order:
+            records = _chunk_records(buf, ci, zstd)
+            mio = ci.message_index_offsets
+            if not mio:
+                for log_time, cid, _pub, data in chunk_messages(records, want):
+                    times[cid].append(np.array([log_time], dtype=np.uint64))
+                    datas[cid].append(data)
+                continue
+            for cid, off in mio.items():
+                if cid not in want:
+                    continue
+                (nbytes,) = _U32.unpack_from(buf, off + 11)
+                pairs = np.frombuffer(buf, dtype="<u8", count=nbytes // 8, offset=off + 15)
+                times[cid].append(pairs[0::2].copy())
+                d = datas[cid]
+                for at in pairs[1::2].tolist():
+                    (length,) = unpack(records, at + 1)
+                    d.append(records[at + 31:at + 9 + length])
+            del pairs
+    finally:
+        if isinstance(buf, mmap.mmap):
+            with contextlib.suppress(BufferError):
+                # a profiler or debugger holding a frame of this function can keep a view of
+                # the map alive; the map is then unmapped when that view goes
+                buf.close()
+    out: dict[int, tuple[NDArray[np.int64], list[bytes]]] = {}
+    for cid in want:
+        t = (np.concatenate(times[cid]) if times[cid] else np.zeros(0, np.uint64)).astype(np.int64)
+        payloads = datas[cid]
+        if len(t) > 1 and not bool(np.all(t[1:] >= t[:-1])):
+            o = np.argsort(t, kind="stable")
+            t = t[o]
+            payloads = [payloads[i] for i in o.tolist()]
+        out[cid] = (t, payloads)
     return out
 
 

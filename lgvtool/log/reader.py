@@ -15,18 +15,27 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import orjson
-from mcap.reader import SeekingReader
-from mcap.records import Channel, ChunkIndex, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader
 
 from lgvtool.config import Config, Reflector, config_from_dict, default_config
 from lgvtool.errors import ConfigError, LogFormatError
 from lgvtool.log import topics as T
-from lgvtool.log.mcapio import iter_indexed
+from lgvtool.log.mcapio import (
+    Channel,
+    ChunkIndex,
+    Metadata,
+    Schema,
+    iter_indexed,
+    read_channels,
+    read_metadata,
+    read_summary,
+)
 from lgvtool.log.writer import FORMAT_VERSION
 
 if TYPE_CHECKING:
+    import numpy as np
     import pandas as pd
+    from mcap.records import Message
+    from numpy.typing import NDArray
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -126,22 +135,28 @@ class LogReader:
     def _open_indexed(self) -> bool:
         try:
             with open(self.path, "rb") as f:
-                reader = SeekingReader(f)
-                summary = reader.get_summary()
+                summary = read_summary(f)
                 if summary is None:
                     return False
-                self._schemas = dict(summary.schemas)
-                self._channels = dict(summary.channels)
-                self._metadata = list(reader.iter_metadata())
-                self._chunk_indexes = list(summary.chunk_indexes)
-                if summary.statistics is not None:
-                    self._counts = dict(summary.statistics.channel_message_counts)
+                self._schemas = summary.schemas
+                self._channels = summary.channels
+                self._metadata = [read_metadata(f, i) for i in summary.metadata_indexes]
+                self._chunk_indexes = summary.chunk_indexes
+                if summary.channel_message_counts is not None:
+                    self._counts = summary.channel_message_counts
             return True
         except Exception:
             self._schemas, self._channels, self._metadata = {}, {}, []
+            self._chunk_indexes, self._counts = [], {}
             return False
 
     def _salvage(self) -> None:
+        from mcap.records import Channel as McapChannel
+        from mcap.records import Message
+        from mcap.records import Metadata as McapMetadata
+        from mcap.records import Schema as McapSchema
+        from mcap.stream_reader import StreamReader
+
         msgs: list[Message] = []
         good_end = len(MAGIC)
         with open(self.path, "rb") as f:
@@ -150,12 +165,13 @@ class LogReader:
                 for rec in stream.records:
                     if isinstance(rec, Message):
                         msgs.append(rec)
-                    elif isinstance(rec, Schema):
-                        self._schemas[rec.id] = rec
-                    elif isinstance(rec, Channel):
-                        self._channels[rec.id] = rec
-                    elif isinstance(rec, Metadata):
-                        self._metadata.append(rec)
+                    elif isinstance(rec, McapSchema):
+                        self._schemas[rec.id] = Schema(rec.id, rec.name, rec.encoding, rec.data)
+                    elif isinstance(rec, McapChannel):
+                        self._channels[rec.id] = Channel(rec.id, rec.topic, rec.message_encoding,
+                                                         rec.schema_id, dict(rec.metadata))
+                    elif isinstance(rec, McapMetadata):
+                        self._metadata.append(Metadata(rec.name, dict(rec.metadata)))
                     good_end = f.tell()
             except Exception:
                 pass
@@ -210,6 +226,44 @@ class LogReader:
             for log_time, cid, pub, data in iter_indexed(f, self._chunk_indexes, ids):
                 topic, schema = topic_of[cid]
                 yield RawMessage(topic, schema, log_time, pub, data)
+
+    def raw_columns(self, topics: Iterable[str]) -> dict[str, tuple[NDArray[np.int64],
+                                                                   list[bytes]]]:
+        """Every message of ``topics``, undecoded, per topic: the log times (ns since the
+        epoch) and the JSON bytes, in log-time order. Faster than :meth:`raw_messages` for
+        whole topics: only their chunks are decompressed and their messages are found through
+        the chunks' indexes. Topics without messages are left out."""
+        import numpy as np
+
+        wanted = self._topic_filter(topics) or set()
+        by_topic: dict[str, list[int]] = {}
+        for cid, c in self._channels.items():
+            if c.topic in wanted:
+                by_topic.setdefault(c.topic, []).append(cid)
+        if not by_topic:
+            return {}
+        out: dict[str, tuple[NDArray[np.int64], list[bytes]]] = {}
+        if self._salvaged is not None:
+            acc: dict[str, tuple[list[int], list[bytes]]] = {t: ([], []) for t in by_topic}
+            for m in self.raw_messages(by_topic):
+                acc[m.topic][0].append(m.log_time_ns)
+                acc[m.topic][1].append(m.data)
+            return {t: (np.array(ts, dtype=np.int64), ds) for t, (ts, ds) in acc.items() if ts}
+        with open(self.path, "rb") as f:
+            per_channel = read_channels(f, self._chunk_indexes,
+                                        [c for ids in by_topic.values() for c in ids])
+        for topic, ids in by_topic.items():
+            parts = [per_channel[c] for c in ids if len(per_channel[c][0])]
+            if not parts:
+                continue
+            if len(parts) == 1:
+                out[topic] = parts[0]
+                continue
+            t = np.concatenate([p[0] for p in parts])
+            data = [d for p in parts for d in p[1]]
+            order = np.argsort(t, kind="stable")
+            out[topic] = (t[order], [data[i] for i in order.tolist()])
+        return out
 
     def verbatim_plan(self, skip_topics: frozenset[str] = frozenset()) -> tuple[
             dict[int, tuple[str, str, bytes]], dict[int, tuple[str, str, int]],

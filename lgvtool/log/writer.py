@@ -14,8 +14,7 @@ import json
 import os
 import sys
 import time
-from collections.abc import Iterable, Mapping
-from datetime import UTC, datetime
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import IO, TYPE_CHECKING, Any
@@ -97,7 +96,7 @@ class LogWriter:
             "source": source,
             "command": command if command is not None else " ".join(
                 [Path(sys.argv[0]).name, *sys.argv[1:]]),
-            "created_utc": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         })
 
     # ------------------------------------------------------------------ registration
@@ -137,6 +136,24 @@ class LogWriter:
                 self._chunk_first_ns = t
             elif t - self._chunk_first_ns >= self._chunk_ns:
                 self.flush()
+
+    def write_encoded_many(self, topics: Sequence[str], datas: Sequence[bytes],
+                           log_times_ns: Sequence[int]) -> None:
+        """Write many JSON-encoded messages in the order given (publish time = log time):
+        the same file as :meth:`write_encoded` one by one, faster."""
+        if self._chunk_ns is not None:
+            for topic, data, t in zip(topics, datas, log_times_ns, strict=True):
+                self.write_encoded(topic, data, t)
+            return
+        ids: dict[str, int] = {}
+        cids = []
+        for topic in topics:
+            cid = ids.get(topic)
+            if cid is None:
+                cid = ids[topic] = self.channel_id(topic)
+            cids.append(cid)
+        self._writer.add_messages(cids, [int(t) for t in log_times_ns], datas)
+        self.message_count += len(cids)
 
     def write_raw(self, device: str, direction: str, data: bytes, log_time_ns: int) -> None:
         """Log bytes exactly as received from (rx) or sent to (tx) ``device``."""
