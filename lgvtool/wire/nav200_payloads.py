@@ -56,6 +56,29 @@ class Payload:
         return cls(*cls.FORMAT.unpack(data))
 
 
+class _PoseFields:
+    """SI views of the raw pose fields ``x_mm``, ``y_mm``, ``heading_raw`` of a payload."""
+
+    x_mm: int
+    y_mm: int
+    heading_raw: int
+
+    @property
+    def x(self) -> float:
+        """X of the vehicle's head, m."""
+        return mm_to_m(self.x_mm)
+
+    @property
+    def y(self) -> float:
+        """Y of the vehicle's head, m."""
+        return mm_to_m(self.y_mm)
+
+    @property
+    def heading(self) -> float:
+        """Heading, rad in (-pi, pi]."""
+        return heading_to_rad(self.heading_raw)
+
+
 @dataclass(frozen=True)
 class Empty(Payload):
     """No data (SA, SV, ST, SS, MA, PA, PP, UA, DA requests; SA, MA, PA, UA, DA replies)."""
@@ -182,7 +205,7 @@ class ReflectorRadius(Payload):
 
 
 @dataclass(frozen=True)
-class MappingStart(Payload):
+class MappingStart(_PoseFields, Payload):
     """MS request: layer u8, X i32 mm, Y i32 mm, heading i16, radius u8 (12 bytes)."""
 
     FORMAT = struct.Struct("<BiihB")
@@ -192,24 +215,9 @@ class MappingStart(Payload):
     heading_raw: int
     radius: int
 
-    @property
-    def x(self) -> float:
-        """X of the vehicle's head, m."""
-        return mm_to_m(self.x_mm)
-
-    @property
-    def y(self) -> float:
-        """Y of the vehicle's head, m."""
-        return mm_to_m(self.y_mm)
-
-    @property
-    def heading(self) -> float:
-        """Heading, rad in (-pi, pi]."""
-        return heading_to_rad(self.heading_raw)
-
 
 @dataclass(frozen=True)
-class MappingScan(Payload):
+class MappingScan(_PoseFields, Payload):
     """MM and MN requests: layer u8, scans u8, X i32 mm, Y i32 mm, heading i16, radius u8."""
 
     FORMAT = struct.Struct("<BBiihB")
@@ -219,21 +227,6 @@ class MappingScan(Payload):
     y_mm: int
     heading_raw: int
     radius: int
-
-    @property
-    def x(self) -> float:
-        """X of the vehicle's head, m."""
-        return mm_to_m(self.x_mm)
-
-    @property
-    def y(self) -> float:
-        """Y of the vehicle's head, m."""
-        return mm_to_m(self.y_mm)
-
-    @property
-    def heading(self) -> float:
-        """Heading, rad in (-pi, pi]."""
-        return heading_to_rad(self.heading_raw)
 
 
 @dataclass(frozen=True)
@@ -246,7 +239,7 @@ class MappingResult(Payload):
 
 
 @dataclass(frozen=True)
-class Pose(Payload):
+class Pose(_PoseFields, Payload):
     """PP reply: X i32 mm, Y i32 mm, heading i16, quality u8, reflectors used u8 (12 bytes).
 
     Heading: 65536 units per revolution, counter-clockwise from the map x axis (assumed).
@@ -260,20 +253,6 @@ class Pose(Payload):
     quality: int
     reflectors_used: int
 
-    @property
-    def x(self) -> float:
-        """X of the head, m."""
-        return mm_to_m(self.x_mm)
-
-    @property
-    def y(self) -> float:
-        """Y of the head, m."""
-        return mm_to_m(self.y_mm)
-
-    @property
-    def heading(self) -> float:
-        """Heading of the head, rad in (-pi, pi]."""
-        return heading_to_rad(self.heading_raw)
 
     @property
     def valid(self) -> bool:
@@ -349,7 +328,7 @@ class SpeedOmega(Payload):
 
 
 @dataclass(frozen=True)
-class LayerPose(Payload):
+class LayerPose(_PoseFields, Payload):
     """PM request and reply: layer u8, X i32 mm, Y i32 mm, heading i16 (11 bytes)."""
 
     FORMAT = struct.Struct("<Biih")
@@ -357,21 +336,6 @@ class LayerPose(Payload):
     x_mm: int
     y_mm: int
     heading_raw: int
-
-    @property
-    def x(self) -> float:
-        """X of the head, m."""
-        return mm_to_m(self.x_mm)
-
-    @property
-    def y(self) -> float:
-        """Y of the head, m."""
-        return mm_to_m(self.y_mm)
-
-    @property
-    def heading(self) -> float:
-        """Heading, rad in (-pi, pi]."""
-        return heading_to_rad(self.heading_raw)
 
 
 @dataclass(frozen=True)
