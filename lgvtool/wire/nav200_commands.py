@@ -169,8 +169,33 @@ def is_known_reply(code: str) -> bool:
     return code in REPLIES or (len(code) == 2 and code[1] == ERROR_FUNCTION)
 
 
+class _Coded:
+    """What requests and replies share: a two-letter ``code`` and a data block."""
+
+    code: str
+    payload: Payload
+
+    @property
+    def mode(self) -> str:
+        """Mode letter."""
+        return self.code[0]
+
+    @property
+    def function(self) -> str:
+        """Function letter."""
+        return self.code[1]
+
+    def telegram(self) -> Telegram:
+        """Unframed telegram (letters and data bytes)."""
+        return Telegram(self.mode, self.function, self.payload.pack())
+
+    def encode(self) -> bytes:
+        """The framed bytes as they travel on the wire."""
+        return encode_telegram(self.mode, self.function, self.payload.pack())
+
+
 @dataclass(frozen=True)
-class Request:
+class Request(_Coded):
     """A host -> device telegram: ``code`` (e.g. ``"PP"``) and its data block.
 
     Construction checks that the code is known and the payload has the command's layout.
@@ -190,16 +215,6 @@ class Request:
             )
 
     @property
-    def mode(self) -> str:
-        """Mode letter."""
-        return self.code[0]
-
-    @property
-    def function(self) -> str:
-        """Function letter."""
-        return self.code[1]
-
-    @property
     def spec(self) -> CommandSpec:
         """This command's row of the table."""
         return COMMANDS[self.code]
@@ -209,17 +224,9 @@ class Request:
         """The code of the reply that answers this request."""
         return self.spec.reply_code
 
-    def telegram(self) -> Telegram:
-        """Unframed telegram (letters and data bytes)."""
-        return Telegram(self.mode, self.function, self.payload.pack())
-
-    def encode(self) -> bytes:
-        """The framed bytes as sent to the device."""
-        return encode_telegram(self.mode, self.function, self.payload.pack())
-
 
 @dataclass(frozen=True)
-class Reply:
+class Reply(_Coded):
     """A device -> host telegram other than an error: ``code`` and its data block."""
 
     code: str
@@ -234,24 +241,6 @@ class Reply:
                 f"NAV200 {self.code} reply carries {expected.__name__}, "
                 f"not {type(self.payload).__name__}"
             )
-
-    @property
-    def mode(self) -> str:
-        """Mode letter."""
-        return self.code[0]
-
-    @property
-    def function(self) -> str:
-        """Function letter."""
-        return self.code[1]
-
-    def telegram(self) -> Telegram:
-        """Unframed telegram (letters and data bytes)."""
-        return Telegram(self.mode, self.function, self.payload.pack())
-
-    def encode(self) -> bytes:
-        """The framed bytes as the device sends them."""
-        return encode_telegram(self.mode, self.function, self.payload.pack())
 
 
 @dataclass(frozen=True)
