@@ -203,12 +203,9 @@ class LogReader:
             raise LogFormatError(f"{self.path}: unreadable format_version {version!r}")
 
     # ------------------------------------------------------------------ messages
-    def _topic_filter(self, topics: Iterable[str] | None) -> set[str] | None:
-        return None if topics is None else set(topics)
-
     def raw_messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """Every stored message (or those of ``topics``) in log-time order, undecoded."""
-        wanted = self._topic_filter(topics)
+        wanted = None if topics is None else set(topics)
         schemas = {sid: s.name for sid, s in self._schemas.items()}
         if self._salvaged is not None:
             for m in self._salvaged:
@@ -235,7 +232,7 @@ class LogReader:
         the chunks' indexes. Topics without messages are left out."""
         import numpy as np
 
-        wanted = self._topic_filter(topics) or set()
+        wanted = set(topics)
         by_topic: dict[str, list[int]] = {}
         for cid, c in self._channels.items():
             if c.topic in wanted:

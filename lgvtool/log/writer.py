@@ -222,12 +222,12 @@ class LogWriter:
         return n
 
     def write_config(self, config: Config) -> None:
-        """Store the effective configuration (record 'config') and the vehicle geometry."""
+        """Store the effective configuration as the metadata record 'config'."""
         d = config.to_dict()
         self.add_metadata("config", d)
 
     # ------------------------------------------------------------------ chunking
-    def maybe_flush(self, now_ns: int | None = None) -> None:
+    def maybe_flush(self) -> None:
         """Close the chunk in progress if it is older than ``chunk_seconds`` by the wall clock
         (call this periodically while a device is silent)."""
         if self._chunk_ns is None or self._chunk_first_ns is None:
