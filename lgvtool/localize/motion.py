@@ -80,6 +80,20 @@ def unwrap_counter(values: NDArray[np.int64], modulus: int, signed: bool) -> NDA
     return np.asarray(np.mod(d, modulus), dtype=np.int64)
 
 
+def clock_rate(dt_mcu: NDArray[np.float64], dt_host: NDArray[np.float64]) -> float:
+    """MCU clock seconds per host clock second: the median ratio of the clock steps between
+    frames, 1 when there are none to compare.
+
+    On a vehicle it is 1 (to the clocks' drift); a run an emulator plays N times faster than real
+    time (``lgvtool simulate serve --speed N``) is received N times faster than the MCU's clock
+    runs, and its gyro rates (rad/s of the vehicle's time) must be integrated over MCU time.
+    """
+    ok = (dt_mcu > 0) & (dt_host > 1e-3)
+    if not ok.any():
+        return 1.0
+    return float(np.median(dt_mcu[ok] / dt_host[ok]))
+
+
 def increments_from_mcu(t: NDArray[np.float64], seq: NDArray[np.int64],
                         mcu_time_ms: NDArray[np.int64], enc_left: NDArray[np.int64],
                         enc_right: NDArray[np.int64], gyro_rate: NDArray[np.float64],
@@ -88,8 +102,9 @@ def increments_from_mcu(t: NDArray[np.float64], seq: NDArray[np.int64],
 
     ``t``: host receive time of each frame, s. Duplicated frames (same sequence number and
     counts) are dropped. The time step of the gyro integral is taken from the MCU clock when it
-    agrees with the host clock (it has no host scheduling jitter), else from the host clock. The
-    gyro is integrated with the trapezoid rule between samples.
+    agrees with the host clock (it has no host scheduling jitter), else from the host clock,
+    both in MCU seconds (see :func:`clock_rate`). The gyro is integrated with the trapezoid rule
+    between samples.
     """
     if settings.fusion not in FUSIONS:
         raise ValueError(f"unknown fusion {settings.fusion!r} (known: {', '.join(FUSIONS)})")
@@ -118,8 +133,10 @@ def increments_from_mcu(t: NDArray[np.float64], seq: NDArray[np.int64],
     missing = int(np.maximum(dseq - 1, 0).sum())
     dt_host = np.diff(t)
     dt_mcu = unwrap_counter(np.asarray(mcu_time_ms, dtype=np.int64), _U32, signed=False) * 1e-3
-    agree = (dt_mcu > 0) & (np.abs(dt_mcu - dt_host) <= 0.5 * np.abs(dt_host) + 0.05)
-    dt = np.where(agree, dt_mcu, dt_host)
+    rate = clock_rate(dt_mcu, dt_host)
+    agree = (dt_mcu > 0) & (np.abs(dt_mcu - rate * dt_host)
+                            <= rate * (0.5 * np.abs(dt_host) + 0.05))
+    dt = np.where(agree, dt_mcu, rate * dt_host)
     g = np.asarray(gyro_rate, dtype=np.float64)
     dth_gyro = 0.5 * (g[:-1] + g[1:]) * dt
     if settings.fusion == "encoders":

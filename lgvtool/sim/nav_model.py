@@ -18,7 +18,7 @@ no motion compensation: this is where the error while turning comes from (``docs
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -178,6 +178,26 @@ def _match(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmark
     repeat[1:] = (rows[1:] == rows[:-1]) & (target[1:] == target[:-1])
     matched[rows[repeat], cols[repeat]] = -1
     return matched
+
+
+def compensate(scans: Scans, rows: NDArray[np.intp], vx: float, vy: float, omega: float
+               ) -> Scans:
+    """The revolutions ``rows`` of ``scans`` as a device that compensates its motion sees them.
+
+    Given the velocity of the head (``vx``, ``vy`` in m/s along the vehicle's axes, ``omega`` in
+    rad/s, as the host sends it with Pv/Pw/PV), each observation, measured ``dt`` s from
+    mid-revolution, is moved into the head frame at mid-revolution: the point ``r (cos b, sin b)``
+    becomes ``(vx dt, vy dt) + R(omega dt) r (cos b, sin b)`` (constant velocity, first order).
+    With the true velocity this removes the skew; with a wrong one it leaves or adds some.
+    """
+    dt = scans.time_in_scan[rows] - 0.5 * scans.period
+    turned = scans.bearing[rows] + omega * dt
+    px = vx * dt + scans.range[rows] * np.cos(turned)
+    py = vy * dt + scans.range[rows] * np.sin(turned)
+    return replace(scans, start=scans.start[rows], seen=scans.seen[rows],
+                   time_in_scan=scans.time_in_scan[rows], range=np.hypot(px, py),
+                   bearing=wrap_pi(np.arctan2(py, px)), matched=scans.matched[rows],
+                   hidden=scans.hidden[rows])
 
 
 def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,

@@ -116,7 +116,6 @@ class NavSettings:
     """Fewest matched reflectors for a valid position."""
     max_reflectors: int = 8
     """The device fits only this many nearest matched reflectors (NAV200 PC command); 0: all."""
-    """Fewest matched reflectors for a valid position."""
     quality_rms_mm: float = 250.0
     """Quality falls from 100 to 0 as the fit's RMS range residual grows to this, mm."""
     latency_s: float = 0.040

@@ -1,10 +1,15 @@
-"""The virtual NAV200: modes, error replies, the upload loop, the download."""
+"""The virtual NAV200: modes, error replies, the upload loop, the download, speed input and
+the sliding mean."""
 
 from __future__ import annotations
 
+import math
+
+import pytest
 from devices_helpers import circle_playback
 
-from lgvtool.sim.emulate import VirtualNav200
+from lgvtool.config import Vehicle
+from lgvtool.sim.emulate import Playback, PoseFix, VirtualNav200, playback_from_scenario
 from lgvtool.wire import nav200 as proto
 
 
@@ -58,3 +63,68 @@ def test_download_replaces_the_layer_and_settings_are_checked() -> None:
     assert isinstance(ok, proto.Reply) and ok.code == "PO"
     dev.reset()
     assert dev.mode == "standby" and len(dev.reflectors()) == 2
+
+
+def _o_radial_error(fix: PoseFix, pb_centre: tuple[float, float], radius: float) -> float:
+    """Distance (m) of O, converted from the reported head pose, from the driven circle."""
+    veh = Vehicle()
+    ox = fix.x - veh.nav_x * math.cos(fix.heading) + veh.nav_y * math.sin(fix.heading)
+    oy = fix.y - veh.nav_x * math.sin(fix.heading) - veh.nav_y * math.cos(fix.heading)
+    return math.hypot(ox - pb_centre[0], oy - pb_centre[1]) - radius
+
+
+@pytest.fixture(scope="module")
+def circle_run() -> tuple[Playback, tuple[float, float], float]:
+    """A noise-free simulated paper-circle run, its circle centre and radius (m)."""
+    from lgvtool.sim.run import simulate
+
+    overrides = {"sim.noise": False}
+    ref = simulate("paper-circle", seed=1, duration=60.0, overrides=overrides).plan.reference
+    pb = playback_from_scenario("paper-circle", seed=1, duration=60.0, overrides=overrides)
+    return pb, (ref["centre_x"], ref["centre_y"]), ref["radius"]
+
+
+def _head_speed() -> tuple[float, float, float]:
+    """The head's velocity on the paper's circle: vx, vy (m/s, vehicle axes), omega (rad/s)."""
+    veh, d = Vehicle(), math.radians(60.0)
+    v, w = 0.36 * math.cos(d), 0.36 * math.sin(d) / veh.h
+    return v - w * veh.nav_y, w * veh.nav_x, w
+
+
+def test_speed_input_compensates_the_turning_skew(circle_run) -> None:
+    pb, centre, radius = circle_run
+    assert pb.per_revolution
+    dev = VirtualNav200(pb)
+    ask(dev, proto.request_positioning_mode(), t=0.0)
+    times = [20.0 + 0.45 * i for i in range(40)]
+    plain = [_o_radial_error(dev.current_fix(t), centre, radius)
+             for t in times if isinstance(ask(dev, proto.request_pose(), t=t), proto.Reply)]
+    vx, vy, w = _head_speed()
+    fast = []
+    for t in times:
+        reply = ask(dev, proto.request_pose_with_speed(vx, vy, w), t=t)
+        assert isinstance(reply, proto.Reply) and reply.payload.valid
+        fast.append(_o_radial_error(dev.current_fix(t), centre, radius))
+    assert dev.speed_inputs and dev.speed_inputs[0][1] == "Pw"
+    assert abs(sum(plain) / len(plain)) > 0.03  # the skew: a bias of tens of mm
+    assert max(abs(e) for e in fast[1:]) < 0.002  # compensated from the first speed input on
+    # a stale speed input is not used: a PP 1 s later gets the skewed solution again
+    t = times[-1] + 1.0
+    ask(dev, proto.request_pose(), t=t)
+    assert abs(_o_radial_error(dev.current_fix(t), centre, radius)) > 0.03
+
+
+def test_sliding_mean_averages_the_last_revolutions(circle_run) -> None:
+    pb = circle_run[0]
+    dev = VirtualNav200(pb)
+    ask(dev, proto.request_positioning_mean(4), t=0.0)
+    t = 30.0
+    reply = ask(dev, proto.request_pose(), t=t)
+    i = pb.index_at(t)
+    last = pb.poses[i - 3:i + 1]
+    assert reply.payload.x == pytest.approx(sum(f.x for f in last) / 4, abs=0.0006)
+    assert reply.payload.y == pytest.approx(sum(f.y for f in last) / 4, abs=0.0006)
+    assert abs(reply.payload.x - pb.poses[i].x) > 0.005  # not the newest alone
+    ask(dev, proto.request_positioning_mode(), t=t)  # PA: back to a mean of one
+    assert ask(dev, proto.request_pose(), t=t).payload.x == pytest.approx(pb.poses[i].x,
+                                                                          abs=0.0006)

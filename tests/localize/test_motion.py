@@ -5,11 +5,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from lgvtool.config import Vehicle
 from lgvtool.localize.motion import (
     MotionSettings,
     MotionTrack,
+    clock_rate,
     increments_from_mcu,
     increments_from_twist,
     unwrap_counter,
@@ -42,6 +44,20 @@ def test_mcu_distance_and_heading() -> None:
     assert abs(enc.dth.sum() - 1.0) < 5e-3
     blend = increments_from_mcu(t, seq, ms, cl, cr, g * 0.0, veh, MotionSettings("blend", 0.5))
     assert abs(blend.dth.sum() - 0.5 * enc.dth.sum()) < 1e-12
+
+
+def test_a_run_played_faster_integrates_the_gyro_over_mcu_time() -> None:
+    veh = Vehicle()
+    t, seq, ms, cl, cr, g = _frames(101, 0.2, 0.1, veh)
+    jitter = np.random.default_rng(0).uniform(0.0, 0.003, len(t))
+    inc = increments_from_mcu(t / 4.0 + jitter, seq, ms, cl, cr, g, veh, MotionSettings())
+    assert abs(inc.dth.sum() - 1.0) < 1e-12  # 10 s of MCU time at 0.1 rad/s, received in 2.5 s
+    assert clock_rate(np.diff(ms) * 1e-3, np.diff(t)) == pytest.approx(1.0, abs=1e-12)
+    # the MCU clock resets once: that step falls back to the (scaled) host step
+    ms2 = ms.copy()
+    ms2[50:] -= 4000
+    inc = increments_from_mcu(t / 4.0, seq, ms2, cl, cr, g, veh, MotionSettings())
+    assert abs(inc.dth.sum() - 1.0) < 1e-9
 
 
 def test_long_gap_takes_heading_from_encoders() -> None:

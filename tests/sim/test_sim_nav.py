@@ -9,6 +9,7 @@ import pytest
 
 from lgvtool.log import LogReader, topics
 from lgvtool.log.messages import from_stamp
+from lgvtool.sim import nav_model
 from lgvtool.sim.nav_device import Nav200Device
 from lgvtool.wire import nav200 as proto
 
@@ -133,3 +134,40 @@ def test_device_answers_requests_as_an_emulator_would(sim_cache) -> None:
     ack = proto.decode_reply(proto.parse_telegram(
         device.answer(proto.request_positioning_mode(), t)))
     assert ack.code == "PA"
+
+
+def _head_velocity(sim, times):
+    """The head's true velocity at ``times``: vx, vy along the vehicle's axes (m/s), omega."""
+    v, e = sim.config.vehicle, 1e-3
+    ax, ay, ath = sim.truth.point_at(times + e, v.nav_x, v.nav_y)
+    bx, by, bth = sim.truth.point_at(times - e, v.nav_x, v.nav_y)
+    _, _, th = sim.truth.point_at(times, v.nav_x, v.nav_y)
+    vxw, vyw, w = (ax - bx) / (2 * e), (ay - by) / (2 * e), (ath - bth) / (2 * e)
+    c, s = np.cos(th), np.sin(th)
+    return c * vxw + s * vyw, -s * vxw + c * vyw, w
+
+
+def test_speed_input_compensation_removes_the_skew_and_a_wrong_speed_does_not(
+        sim_cache) -> None:
+    sim = sim_cache("paper-circle", duration=60.0, **QUIET)
+    sc, v = sim.scans, sim.config.vehicle
+    rows = np.arange(200, 260)  # turning at constant speed
+    mid = sc.start[rows] + 0.5 * sc.period
+    hx, hy, _ = sim.truth.point_at(mid, v.nav_x, v.nav_y)
+    vx, vy, w = _head_velocity(sim, mid)
+    assert np.all(w > 0.2) and np.all(np.hypot(vx, vy) > 0.2)
+
+    def error(scale: float) -> np.ndarray:
+        out = []
+        for i, k in enumerate(rows):
+            scans = nav_model.compensate(sc, np.array([k]), scale * vx[i], scale * vy[i],
+                                         scale * w[i])
+            sol = nav_model.solve(scans, sim.truth, v, sim.settings.nav, sim.landmarks)
+            out.append(math.hypot(sol.x[0] - hx[i], sol.y[0] - hy[i]))
+        return np.array(out)
+
+    raw = np.hypot(sim.solutions.x[rows] - hx, sim.solutions.y[rows] - hy)
+    assert np.all(error(0.0) == pytest.approx(raw, abs=1e-9))  # zero speed: the plain fit
+    assert raw.mean() > 0.03
+    assert error(1.0).max() < 0.001  # the true speed: the skew is gone
+    assert error(0.5).mean() > 0.3 * raw.mean()  # half the speed: half the skew is left

@@ -4,7 +4,8 @@ Two sources give the same :class:`Playback`:
 
 - a simulator scenario (:func:`playback_from_scenario`): the MCU frames as the simulated link
   delivers them (lost frames left out, corrupted ones corrupted) and the NAV200's pose
-  solution of every head revolution from the moment it can be reported;
+  solution of every head revolution from the moment it can be reported, together with the
+  means to solve any revolution again with motion compensation (speed input);
 - a log (:func:`playback_from_log`): its /mcu/rx bytes in the chunks they arrived in (or, when
   a log has none, its /mcu/frame messages encoded again), and its /nav/pose messages as the
   solutions. A recorded or simulated run is played back as it was logged.
@@ -18,6 +19,7 @@ import base64
 import bisect
 import math
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -64,15 +66,30 @@ class Playback:
     """Length of the run, s."""
     source: str
     """What it was made from (for messages)."""
+    resolve: Callable[[int, float, float, float], PoseFix] | None = None
+    """``resolve(k, vx, vy, omega)``: the solution of revolution ``k`` (an index into
+    :attr:`poses`) by a device that compensates its motion within the revolution with the head
+    velocity ``vx``, ``vy`` (m/s, along the vehicle's axes) and ``omega`` (rad/s). None when the
+    poses are what a device reported (a log)."""
+
+    @property
+    def per_revolution(self) -> bool:
+        """The poses are one solution per head revolution (a scenario), so a device can average
+        (PN) and compensate (Pv/Pw/PV) them; a log's poses are replies already."""
+        return self.resolve is not None
 
     @cached_property
     def pose_times(self) -> list[float]:
         """Times of the pose solutions, s."""
         return [p.t for p in self.poses]
 
+    def index_at(self, t: float) -> int:
+        """Index of the newest solution reportable at ``t`` s, -1 before the first."""
+        return bisect.bisect_right(self.pose_times, t) - 1
+
     def pose_at(self, t: float) -> PoseFix | None:
         """The newest solution reportable at ``t`` s, or None before the first."""
-        i = bisect.bisect_right(self.pose_times, t) - 1
+        i = self.index_at(t)
         return self.poses[i] if i >= 0 else None
 
     def mcu_bytes(self) -> bytes:
@@ -84,6 +101,9 @@ def playback_from_scenario(name: str, *, seed: int = 0, duration: float | None =
                            config: Config | None = None,
                            overrides: dict[str, Any] | None = None) -> Playback:
     """Simulate scenario ``name`` (``lgvtool simulate`` settings) and play its device side."""
+    import numpy as np
+
+    from lgvtool.sim import nav_model
     from lgvtool.sim.events import mcu_sends, nav_solutions
     from lgvtool.sim.run import simulate
 
@@ -91,8 +111,17 @@ def playback_from_scenario(name: str, *, seed: int = 0, duration: float | None =
     mcu = tuple(McuChunk(s.t, s.delivered) for s in mcu_sends(sim) if s.delivered)
     poses = tuple(PoseFix(p.t, p.x, p.y, p.heading, p.quality, p.reflectors_used, p.valid)
                   for p in nav_solutions(sim))
+
+    def resolve(k: int, vx: float, vy: float, omega: float) -> PoseFix:
+        scans = nav_model.compensate(sim.scans, np.array([k]), vx, vy, omega)
+        s = nav_model.solve(scans, sim.truth, sim.config.vehicle, sim.settings.nav,
+                            sim.landmarks)
+        return PoseFix(poses[k].t, float(s.x[0]), float(s.y[0]), float(s.heading[0]),
+                       int(s.quality[0]), int(s.used[0]), bool(s.valid[0]))
+
     return Playback(mcu=mcu, poses=poses, reflectors=tuple(sim.config.reflectors),
-                    duration=float(sim.duration), source=f"scenario {name} (seed {seed})")
+                    duration=float(sim.duration), source=f"scenario {name} (seed {seed})",
+                    resolve=resolve)
 
 
 def _frame_from_message(d: dict[str, Any]) -> bytes:

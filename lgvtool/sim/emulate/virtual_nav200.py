@@ -8,18 +8,33 @@ marker with number 0xFF; one more UR gets 'E' with F3 = 10, all reflectors trans
 can be changed with SC, SI, SD and the download (DA, DR). Pose requests (PP, Pv, Pw, PV) are
 answered with the newest solution of the played run; the speed inputs are kept in
 :attr:`VirtualNav200.speed_inputs`.
+
+When the run is a scenario (one solution per head revolution) the device also does what the
+NAV200's positioning settings ask:
+
+- speed input: a revolution that ends within :data:`SPEED_MAX_AGE` of a Pv/Pw/PV request is
+  solved again, compensated with the speeds of the latest such request (Pv: no yaw rate; PV:
+  world-frame speeds, turned into the vehicle frame with the device's heading), so that a host
+  that sends good speeds gets the skew of turning removed, and one that sends wrong ones (the
+  omega units are an open point of the protocol) gets it changed;
+- sliding mean (PN n): the reply is the mean of the last n revolutions' solutions (positions
+  averaged, heading as a circular mean); no valid position while the newest has none. PA
+  enters positioning without one (n = 1; the NAV200's own default is undocumented).
+
+A log's poses are the device's replies already and are answered as they are.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from lgvtool.config import Reflector
-from lgvtool.sim.emulate.playback import Playback
+from lgvtool.sim.emulate.playback import Playback, PoseFix
 from lgvtool.wire import nav200 as proto
 
-__all__ = ["MODE_GROUP", "SERIAL_NUMBER", "VERSION", "VirtualNav200"]
+__all__ = ["MODE_GROUP", "SERIAL_NUMBER", "SPEED_MAX_AGE", "VERSION", "VirtualNav200"]
 
 #: Software version the virtual device reports (SV).
 VERSION = (2, 4, 1)
@@ -38,6 +53,8 @@ _ECHO = frozenset({"SU", "PL", "PM", "PC"})
 _NOT_AVAILABLE, _WRONG_NUMBER, _ALL_TRANSFERRED, _WRONG_RADII = 4, 5, 10, 13
 #: Reflector number of the upload end marker.
 END_NUMBER = 0xFF
+#: A speed input older than this at the end of a revolution is not used to compensate it, s.
+SPEED_MAX_AGE = 0.5
 
 
 @dataclass
@@ -57,10 +74,16 @@ class VirtualNav200:
     """The device side of a NAV200 link, driven by a :class:`Playback`.
 
     :param playback: the run whose pose solutions and map the device reports.
+    :param omega_scale: wire units of a Pw/PV yaw rate per rad/s (default 32768/pi, 65536 per
+        revolution per second, as lgvtool's recorder sends it).
     """
 
-    def __init__(self, playback: Playback) -> None:
+    def __init__(self, playback: Playback, omega_scale: float = proto.OMEGA_UNITS_PER_RAD_S) -> None:
         self.playback = playback
+        self.omega_scale = omega_scale
+        #: (t, vx, vy, omega) of every speed input, in the vehicle frame: m/s, m/s, rad/s
+        self._speeds: list[tuple[float, float, float, float]] = []
+        self._compensated: dict[tuple[int, float, float, float], PoseFix] = {}
         self._decoder = proto.Nav200RequestDecoder()
         self._state = _State()
         self.store: dict[tuple[int, int], tuple[int, int]] = {}
@@ -91,6 +114,7 @@ class VirtualNav200:
         """Power cycle: back to standby with the settings forgotten (the map is kept)."""
         self._state = _State(radius=self._state.radius)
         self._decoder = proto.Nav200RequestDecoder()
+        self._speeds = []
 
     def feed(self, data: bytes, t: float) -> list[bytes]:
         """Bytes from the host at ``t`` s in, reply telegrams out (garbage is ignored)."""
@@ -113,6 +137,8 @@ class VirtualNav200:
             if code == "PN":
                 assert isinstance(request.payload, proto.Count)
                 st.sliding_mean = request.payload.n
+            elif code == "PA":
+                st.sliding_mean = 1
             if code == "UA":
                 st.upload_cursor, st.upload_done = 0, False
             if code == "DA":
@@ -123,6 +149,7 @@ class VirtualNav200:
         if code in _POSE:
             if code != "PP":
                 self.speed_inputs.append((t, code, request.payload))
+                self._speeds.append((t, *self._vehicle_speed(code, request.payload, t)))
             return self._pose(t)
         if code in _ECHO:
             return proto.build_echo_reply(request)
@@ -131,8 +158,59 @@ class VirtualNav200:
             return self._error(request, 2)  # not implemented
         return handler(request)
 
+    def _vehicle_speed(self, code: str, payload: proto.Payload, t: float
+                       ) -> tuple[float, float, float]:
+        """A speed input as (vx, vy, omega) along the vehicle's axes: m/s, m/s, rad/s."""
+        if isinstance(payload, proto.Speed):
+            return payload.vx, payload.vy, 0.0
+        assert isinstance(payload, proto.SpeedOmega)
+        vx, vy, omega = payload.vx, payload.vy, payload.omega(self.omega_scale)
+        if code == "PV":  # world frame: into the vehicle frame with the device's own heading
+            fix = self.playback.pose_at(t)
+            th = 0.0 if fix is None else fix.heading
+            c, s = math.cos(th), math.sin(th)
+            vx, vy = c * vx + s * vy, -s * vx + c * vy
+        return vx, vy, omega
+
+    def _solution(self, k: int) -> PoseFix:
+        """Revolution ``k`` as the device solves it: compensated with the latest speed input
+        received before it was solved, if that is recent enough."""
+        pb = self.playback
+        fix = pb.poses[k]
+        if pb.resolve is None:
+            return fix
+        speed = next((sp for sp in reversed(self._speeds) if sp[0] <= fix.t), None)
+        if speed is None or fix.t - speed[0] > SPEED_MAX_AGE:
+            return fix
+        key = (k, *speed[1:])
+        if key not in self._compensated:
+            self._compensated[key] = pb.resolve(k, *speed[1:])
+        return self._compensated[key]
+
+    def current_fix(self, t: float) -> PoseFix | None:
+        """The solution the device reports at ``t`` s: the newest revolution's, compensated
+        and averaged as its settings ask (see the module docstring); None before the first."""
+        pb = self.playback
+        i = pb.index_at(t)
+        if i < 0:
+            return None
+        if not pb.per_revolution:
+            return pb.poses[i]
+        newest = self._solution(i)
+        n = max(1, self._state.sliding_mean)
+        if n == 1 or not newest.valid:
+            return newest
+        fixes = [f for f in (self._solution(j) for j in range(max(0, i - n + 1), i + 1))
+                 if f.valid]
+        heading = math.atan2(sum(math.sin(f.heading) for f in fixes),
+                             sum(math.cos(f.heading) for f in fixes))
+        return PoseFix(newest.t, sum(f.x for f in fixes) / len(fixes),
+                       sum(f.y for f in fixes) / len(fixes), heading,
+                       round(sum(f.quality for f in fixes) / len(fixes)),
+                       newest.reflectors_used, True)
+
     def _pose(self, t: float) -> bytes:
-        fix = self.playback.pose_at(t)
+        fix = self.current_fix(t)
         if fix is None or not fix.valid:
             used = 0 if fix is None else min(fix.reflectors_used, 255)
             return proto.build_no_position_reply(proto.NO_POSITION, used)
