@@ -86,7 +86,7 @@ def lookup(doc: Mapping[str, Any], key: str) -> float | None:
     estimators = doc.get("estimators") or {}
     parts = key.split(".")
     node: Any = _MISSING
-    for cut in range(len(parts) - 1, 0, -1):  # longest estimator name first (names may hold '.')
+    for cut in range(len(parts), 0, -1):  # longest estimator name first (names may hold '.')
         name = ".".join(parts[:cut])
         if name in estimators:
             node = _walk(estimators[name], parts[cut:], key)
@@ -99,6 +99,10 @@ def lookup(doc: Mapping[str, Any], key: str) -> float | None:
         node = _walk(doc, parts, key)
     if node is None:
         return None
+    if isinstance(node, Mapping):
+        known = ", ".join(sorted(k for k in node if not isinstance(node[k], list)))
+        raise InputError(f"figure '{key}' is a group, not a number: name one of its figures "
+                         f"({key}.KEY, KEY one of: {known})")
     if isinstance(node, bool) or not isinstance(node, int | float):
         raise InputError(f"figure '{key}' is not a number")
     return float(node)

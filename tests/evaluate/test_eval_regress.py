@@ -48,6 +48,10 @@ def test_lookup(doc) -> None:
         lookup(doc, "ekf.circle.rmse_mm")
     with pytest.raises(InputError, match="no 'rmse'"):
         lookup(doc, "pf.circle.rmse")
+    with pytest.raises(InputError, match=r"'laser' is a group.*circle, .*truth"):
+        lookup(doc, "laser")
+    with pytest.raises(InputError, match=r"'pf.circle' is a group.*rmse_mm"):
+        lookup(doc, "pf.circle")
 
 
 def test_bounds(doc) -> None:
