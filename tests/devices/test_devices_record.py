@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import os
 import re
 import resource
 import signal
@@ -13,6 +14,7 @@ import time
 import warnings
 from pathlib import Path
 
+import pytest
 from devices_helpers import (
     Procs,
     diagnostics,
@@ -182,3 +184,19 @@ def test_full_disk_stops_with_a_clear_message(tmp_path: Path, procs: Procs) -> N
     assert "lgvtool recover" in lines[0]
     r = _reader(out)
     assert r.topics()[topics.MCU_FRAME].count > 10
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full on this system")
+def test_no_space_left_on_device_stops_with_a_clear_message(tmp_path: Path,
+                                                             procs: Procs) -> None:
+    # /dev/full accepts the open and fails every write with ENOSPC, as a full disk does
+    server = start_emulator(tmp_path, "tcp", duration=60.0, speed=5.0)
+    try:
+        p = procs.lgvtool(*record_args(server, Path("/dev/full"), "--force"))
+        _, stderr = p.communicate(timeout=20)
+    finally:
+        server.stop()
+    assert p.returncode == 2
+    lines = [line for line in stderr.splitlines() if line.startswith("lgvtool: error:")]
+    assert len(lines) == 1 and "disk full while writing /dev/full" in lines[0]
+    assert "No space left on device" in lines[0] and "Traceback" not in stderr
