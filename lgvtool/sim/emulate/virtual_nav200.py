@@ -27,6 +27,7 @@ A log's poses are the device's replies already and are answered as they are.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -55,6 +56,8 @@ _NOT_AVAILABLE, _WRONG_NUMBER, _ALL_TRANSFERRED, _WRONG_RADII = 4, 5, 10, 13
 END_NUMBER = 0xFF
 #: A speed input older than this at the end of a revolution is not used to compensate it, s.
 SPEED_MAX_AGE = 0.5
+#: Speed inputs and compensated solutions kept (minutes of polling; a PN mean spans 32 s at most).
+_KEEP = 1024
 
 
 @dataclass
@@ -82,7 +85,7 @@ class VirtualNav200:
         self.playback = playback
         self.omega_scale = omega_scale
         #: (t, vx, vy, omega) of every speed input, in the vehicle frame: m/s, m/s, rad/s
-        self._speeds: list[tuple[float, float, float, float]] = []
+        self._speeds: deque[tuple[float, float, float, float]] = deque(maxlen=_KEEP)
         self._compensated: dict[tuple[int, float, float, float], PoseFix] = {}
         self._decoder = proto.Nav200RequestDecoder()
         self._state = _State()
@@ -114,7 +117,7 @@ class VirtualNav200:
         """Power cycle: back to standby with the settings forgotten (the map is kept)."""
         self._state = _State(radius=self._state.radius)
         self._decoder = proto.Nav200RequestDecoder()
-        self._speeds = []
+        self._speeds.clear()
 
     def feed(self, data: bytes, t: float) -> list[bytes]:
         """Bytes from the host at ``t`` s in, reply telegrams out (garbage is ignored)."""
@@ -184,6 +187,8 @@ class VirtualNav200:
             return fix
         key = (k, *speed[1:])
         if key not in self._compensated:
+            if len(self._compensated) >= _KEEP:
+                self._compensated.clear()
             self._compensated[key] = pb.resolve(k, *speed[1:])
         return self._compensated[key]
 
