@@ -1,14 +1,17 @@
 """Position accuracy of lgvtool's estimators on the UTIAS MRCLAM Dataset 6, as Markdown tables.
 
-For each robot: import the robot's files into a log (``lgvtool import mrclam``, which stores the
-camera and odometry noise profile of every estimator in the log's configuration), run the
-estimators over it with :func:`lgvtool.localize.run_replay` exactly as ``lgvtool replay`` and
-``lgvtool evaluate`` do, and compute the position RMSE (m) against the Vicon ground truth:
+For each robot: import the robot's files into a log (``lgvtool import mrclam``, which delays the
+odometry by what the camera shows and stores the camera and odometry noise profile of every
+estimator in the log's configuration), run the estimators over it with
+:func:`lgvtool.localize.run_replay` exactly as ``lgvtool replay`` and ``lgvtool evaluate`` do,
+and compute the position RMSE (m) against the Vicon ground truth:
 
 - *at every odometry step*, the dataset reference's metric: each estimate is carried forward
   through the logged odometry to every odometry time until the next estimate (dead reckoning
-  from the posterior mean, :func:`mrclam_metrics.estimates_at_odometry`), from the first
-  estimate on;
+  from the posterior mean, :func:`mrclam_metrics.estimates_at_odometry`; an estimator with
+  odometry scales in its state, the EKF with ``odometry_scales``, carries it with the scales it
+  holds, as its own prediction does: :func:`calibrated_trajectory`), from the first estimate
+  on;
 - *at the estimate times* (one per camera frame with a landmark), what ``lgvtool evaluate``
   reports.
 
@@ -28,6 +31,8 @@ Usage::
     python benchmarks/mrclam_accuracy.py --robots 1,3 --estimators ekf --init truth --json
     python benchmarks/mrclam_accuracy.py --set pf.particles=1000 --seed 3
     python benchmarks/mrclam_accuracy.py --no-profile         # the NAV200 defaults instead
+    python benchmarks/mrclam_accuracy.py --odometry-delay 0 --set ekf.odometry_scales=false
+                                                              # without the two corrections
 
 The dataset folder is ``$LGVTOOL_MRCLAM``, else ``../shared/data/mrclam/MRCLAM_Dataset6`` beside
 the repository, else ``--dataset``.
@@ -51,6 +56,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mrclam_metrics import estimates_at_odometry, odometry_vs_truth, position_rmse, truth_at
@@ -87,22 +93,94 @@ def score(trajectory: Any, odometry: Any, truth: Any) -> dict[str, float | int]:
             "estimates": est_n}
 
 
+CALIBRATION_COLUMNS = {"s_v": "scale_v", "s_w": "scale_w"}
+"""Odometry calibration state of an estimator -> column of the estimate table that
+:func:`mrclam_metrics.estimates_at_odometry` applies."""
+
+
+def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, config: Any,
+                          seed: int, settings: dict[str, Any],
+                          initial_pose: str | None) -> pd.DataFrame:
+    """``trajectory`` (what ``run_replay`` gave for estimator ``name``) with the odometry
+    calibration the estimator held at each row (``scale_v``, ``scale_w``), so that the estimate
+    is carried between rows the way the estimator itself predicts.
+
+    ``run_replay`` returns poses only. For an estimator with odometry calibration states (the
+    EKF with ``odometry_scales``) this runs it again over the same observations and motion, as
+    ``replay`` does for a log without NAV poses (an MRCLAM log), recording its calibration after
+    each observation; the replayed poses must equal ``trajectory``'s, else the driver and the
+    replay disagree and this raises. Any other estimator's ``trajectory`` is returned as it is.
+    """
+    from lgvtool.localize.logdata import load_log, scan_batch
+    from lgvtool.localize.motion import MotionTrack
+    from lgvtool.localize.observations import scan_observations
+    from lgvtool.localize.registry import ESTIMATORS, resolve_params, split_settings
+    from lgvtool.localize.replay import estimator_rng, truth_pose_at
+
+    cls = ESTIMATORS[name]
+    params = resolve_params(name, config.estimators, split_settings(settings).get(name))
+    if not getattr(params, "odometry_scales", False):
+        return trajectory
+    data = load_log(reader, config.reflectors or None, truth=initial_pose == "truth")
+    if data.has_poses:
+        raise ValueError("calibrated_trajectory replays scan-only logs (MRCLAM), this one has "
+                         "NAV poses")
+    ms = params.motion_settings()
+    track = MotionTrack(data.increments(ms, config.vehicle), ms.step_form)
+    vehicle = config.vehicle
+    obs = scan_observations(scan_batch(data.scans), vehicle.nav_x, vehicle.nav_y, track=track,
+                            deskew=params.deskew, min_range=params.min_range_m,
+                            max_range=params.max_range_m)
+    obs.sort(key=lambda o: o.t)
+    start = truth_pose_at(data, obs[0].t) if initial_pose == "truth" else None
+    trace: list[dict[str, float]] = []
+
+    class Traced(cls):  # type: ignore[misc, valid-type]
+        def estimate(self) -> Any:
+            e = super().estimate()
+            if e is not None:
+                trace.append(self.odometry_calibration)
+            return e
+
+    est = Traced(params, vehicle=vehicle, reflectors=data.reflectors, area=config.area,
+                 rng=estimator_rng(seed, name), initial_pose=start)
+    times = np.array([o.t for o in obs], dtype=np.float64)
+    rows = est.run(times, obs, track.deltas(times[:-1], times[1:]), cloud_size=0)
+    heading = np.remainder(rows.heading + math.pi, 2.0 * math.pi) - math.pi
+    same = (len(rows.x) == len(trajectory)
+            and np.allclose(rows.x, trajectory["x"], rtol=0.0, atol=1e-9)
+            and np.allclose(rows.y, trajectory["y"], rtol=0.0, atol=1e-9)
+            and np.allclose(heading, trajectory["heading"], rtol=0.0, atol=1e-9))
+    if not same:
+        raise RuntimeError(f"{name}: the calibration driver does not reproduce run_replay's "
+                           "trajectory")
+    out = trajectory.copy()
+    for state, column in CALIBRATION_COLUMNS.items():
+        if trace and state in trace[0]:
+            out[column] = [c[state] for c in trace]
+    return out
+
+
 def run_robot(dataset: Path, robot: int, estimators: list[str], *, seed: int,
               settings: dict[str, Any], workdir: Path, inits: tuple[str, ...] = INITS,
-              profile: bool = True) -> dict[str, Any]:
+              profile: bool = True, odometry_delay_s: float | None = None) -> dict[str, Any]:
     """Import one robot, replay the estimators from each start in ``inits``, score them.
 
     :param profile: keep the estimator settings the importer stored in the log; ``False``
         replaces them by the estimators' defaults (the NAV200 settings).
+    :param odometry_delay_s: the importer's odometry delay, s (None: measured from the camera,
+        the importer's default).
     :returns: ``robot``, the reference figures (m), ``import_s``, ``replay_s`` per start (s),
         ``results[init][estimator]`` as :func:`score` gives.
     """
     from lgvtool.importers.mrclam_log import import_robot
+    from lgvtool.importers.mrclam_quirks import ImportSettings
     from lgvtool.localize import run_replay
     from lgvtool.log import LogReader, topics
 
     log = workdir / f"robot{robot}.mcap"
-    summary = import_robot(dataset, robot, log)
+    summary = import_robot(dataset, robot, log,
+                           settings=ImportSettings(odometry_delay_s=odometry_delay_s))
     reader = LogReader(log)
     cfg = reader.config()
     if not profile:
@@ -113,8 +191,10 @@ def run_robot(dataset: Path, robot: int, estimators: list[str], *, seed: int,
         "robot": robot, "reference_ekf_m": REFERENCE_EKF_M.get(robot),
         "reference_dead_reckoning_m": REFERENCE_DEAD_RECKONING_M.get(robot),
         "import_s": round(summary.elapsed_s, 3), "replay_s": {}, "results": {},
+        "calibration": {},
     }
     row["odometry_vs_truth"] = odometry_vs_truth(odometry, truth)
+    row["timing"] = summary.timing
     for init in inits:
         names = [*estimators, DEAD_RECKONING] if init == "truth" else list(estimators)
         names = list(dict.fromkeys(names))
@@ -123,10 +203,21 @@ def run_robot(dataset: Path, robot: int, estimators: list[str], *, seed: int,
         result = run_replay(reader, names, config=cfg, seed=seed, settings=own,
                             initial_pose="truth" if init == "truth" else None, cloud_size=0)
         row["replay_s"][init] = round(time.perf_counter() - t0, 3)
+        start = "truth" if init == "truth" else None
+        trajectories = {
+            name: calibrated_trajectory(reader, name, traj, config=cfg, seed=seed,
+                                        settings=own, initial_pose=start)
+            for name, traj in result.trajectories.items()
+        }
         row["results"][init] = {
-            name: score(result.trajectories[name], odometry, truth)
-            if name in result.trajectories else None
+            name: score(trajectories[name], odometry, truth) if name in trajectories else None
             for name in names
+        }
+        row["calibration"][init] = {
+            name: {col: round(float(traj[col].iloc[-1]), 4)
+                   for col in CALIBRATION_COLUMNS.values() if col in traj}
+            for name, traj in trajectories.items()
+            if any(col in traj for col in CALIBRATION_COLUMNS.values())
         }
         if init == "truth" and DEAD_RECKONING in result.trajectories:
             # the perfect estimator: the ground truth at every observation time, carried
@@ -209,6 +300,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", dest="settings", action="append", default=[],
                     help="estimator setting over the log's profile, e.g. pf.particles=1000 "
                          "(repeatable)")
+    ap.add_argument("--odometry-delay", default="auto",
+                    help="odometry delay of the import, s, or auto (measured from the camera, "
+                         "the importer's default)")
     ap.add_argument("--no-profile", action="store_true",
                     help="the estimators' defaults (NAV200) instead of the profile the "
                          "importer stores in the log")
@@ -225,6 +319,7 @@ def main(argv: list[str] | None = None) -> int:
     robots = [int(r) for r in args.robots.split(",") if r.strip()]
     estimators = [e.strip() for e in args.estimators.split(",") if e.strip()]
     inits = tuple(i.strip() for i in args.init.split(",") if i.strip())
+    delay = None if args.odometry_delay == "auto" else float(args.odometry_delay)
     if not set(inits) <= set(INITS):
         print(f"mrclam_accuracy: --init takes {', '.join(INITS)}", file=sys.stderr)
         return 2
@@ -237,7 +332,8 @@ def main(argv: list[str] | None = None) -> int:
         workdir.mkdir(parents=True, exist_ok=True)
         for robot in robots:
             row = run_robot(dataset, robot, estimators, seed=args.seed, settings=settings,
-                            workdir=workdir, inits=inits, profile=not args.no_profile)
+                            workdir=workdir, inits=inits, profile=not args.no_profile,
+                            odometry_delay_s=delay)
             rows.append(row)
             for init in inits:
                 res = row["results"][init]
@@ -247,9 +343,12 @@ def main(argv: list[str] | None = None) -> int:
                     file=sys.stderr)
     if args.json:
         print(json.dumps({"seed": args.seed, "inits": list(inits), "settings": settings,
+                          "odometry_delay_s": delay,
                           "profile": not args.no_profile, "rows": rows}, indent=2))
         return 0
-    meta = (f"seed {args.seed}; estimator settings: "
+    meta = (f"seed {args.seed}; odometry delay: "
+            + ("measured from the camera" if delay is None else f"{delay} s")
+            + "; estimator settings: "
             + ("the profile stored by the importer" if not args.no_profile
                else "the estimators' defaults")
             + ("; --set " + ", ".join(f"{k}={v}" for k, v in settings.items())
@@ -266,12 +365,23 @@ def main(argv: list[str] | None = None) -> int:
     print("Position RMSE (m) at the estimate times (one per camera frame with a landmark):\n")
     print(estimate_time_table(rows, estimators, inits))
     print()
-    print("Odometry against the ground truth (per 1 s window; 1 = the commands are exact):\n")
-    print("| robot | distance travelled / commanded | heading change / commanded |")
-    print("|---|---:|---:|")
+    print("Odometry against the ground truth (per 1 s window, after the import's delay; 1 = the "
+          "commands are exact), beside what the estimators learnt without it: the delay the "
+          "importer measured from the camera, and the odometry scales of the estimators that "
+          "hold them at the end of the run from the truth:\n")
+    learnt = sorted({e for r in rows for e in r["calibration"].get("truth", {})})
+    head = ["robot", "distance travelled / commanded", "heading change / commanded",
+            "odometry delay (s)", *[f"`{e}` s_v, s_w" for e in learnt]]
+    print("| " + " | ".join(head) + " |")
+    print("|---|" + "---:|" * (len(head) - 1))
     for r in rows:
-        o = r["odometry_vs_truth"]
-        print(f"| Robot{r['robot']} | {o['distance_ratio']:.3f} | {o['turn_ratio']:.3f} |")
+        o, tm = r["odometry_vs_truth"], r["timing"]
+        cells = [f"Robot{r['robot']}", f"{o['distance_ratio']:.3f}", f"{o['turn_ratio']:.3f}",
+                 f"{tm['odometry_delay_s']:.3f}"]
+        for e in learnt:
+            c = r["calibration"].get("truth", {}).get(e, {})
+            cells.append(f"{c['scale_v']:.3f}, {c['scale_w']:.3f}" if c else "-")
+        print("| " + " | ".join(cells) + " |")
     print()
     ratios = [best_of(r, "truth", estimators)[1] / r["reference_ekf_m"]
               for r in rows if "truth" in inits and r["reference_ekf_m"]]

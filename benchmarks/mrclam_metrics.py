@@ -75,7 +75,12 @@ def track_at(t: FloatArray, v: FloatArray, omega: FloatArray,
 def estimates_at_odometry(estimate: pd.DataFrame, odometry: pd.DataFrame) -> pd.DataFrame:
     """The estimate carried to every odometry time from its first row on.
 
-    :param estimate: ``t`` (s), ``x``, ``y`` (m), ``heading`` (rad), ascending ``t``.
+    :param estimate: ``t`` (s), ``x``, ``y`` (m), ``heading`` (rad), ascending ``t``; optional
+        ``scale_v``, ``scale_w`` (dimensionless) and ``drift`` (rad/m): the odometry
+        calibration the estimator holds at that row (an EKF with ``odometry_scales`` or
+        ``odometry_drift``), applied until the next row as the estimator's own prediction does:
+        ``v' = scale_v v``, ``omega' = scale_w omega + drift |v|``. Without them the commands
+        are taken as they are.
     :param odometry: ``t`` (s), ``v`` (m/s), ``omega`` (rad/s), ascending ``t``.
     :returns: ``t`` (s, the odometry times at or after the first estimate), ``x``, ``y`` (m),
         ``heading`` (rad): the latest estimate at or before each time, moved by the odometry
@@ -88,24 +93,52 @@ def estimates_at_odometry(estimate: pd.DataFrame, odometry: pd.DataFrame) -> pd.
         return pd.DataFrame({c: np.zeros(0) for c in cols})
     base = to[0]  # relative times: Unix seconds lose precision in products
     te, to = te - base, to - base
-    v = odometry["v"].to_numpy(dtype=np.float64)
-    w = odometry["omega"].to_numpy(dtype=np.float64)
-    track = odometry_track(to, v, w)
+    ne, no = len(te), len(to)
+    # one track over the odometry and the estimate times together: each interval moves by the
+    # command holding then (none before the first or after the last odometry row), scaled by
+    # the scales of the estimate it follows
+    tm = np.concatenate([to, te])
+    order = np.argsort(tm, kind="stable")
+    where = np.empty(no + ne, dtype=np.int64)
+    where[order] = np.arange(no + ne)
+    tm = tm[order]
+    cmd = np.searchsorted(to, tm, side="right") - 1
+    moving = (cmd >= 0) & (cmd < no - 1)
+    cmd = np.clip(cmd, 0, no - 1)
+    v = np.where(moving, odometry["v"].to_numpy(dtype=np.float64)[cmd], 0.0)
+    w = np.where(moving, odometry["omega"].to_numpy(dtype=np.float64)[cmd], 0.0)
+    follows = np.searchsorted(te, tm, side="right") - 1
+    row = np.clip(follows, 0, ne - 1)
+
+    def per_interval(col: str, default: float) -> FloatArray:
+        if col not in estimate.columns:
+            return np.full(len(tm), default)
+        return np.where(follows >= 0, estimate[col].to_numpy(dtype=np.float64)[row], default)
+
+    # heading drift per commanded metre, then the scales
+    w = per_interval("scale_w", 1.0) * w + per_interval("drift", 0.0) * np.abs(v)
+    v = per_interval("scale_v", 1.0) * v
+    dt = np.diff(tm)
+    ds, dth = v[:-1] * dt, w[:-1] * dt
+    th = np.concatenate([[0.0], np.cumsum(dth)])
+    ex_, ey_ = _arc(ds, dth, th[:-1])
+    x = np.concatenate([[0.0], np.cumsum(ex_)])
+    y = np.concatenate([[0.0], np.cumsum(ey_)])
     sel = to >= te[0]
     tj = to[sel]
     k = np.searchsorted(te, tj, side="right") - 1  # the estimate each odometry time follows
-    px, py, pth = track_at(to, v, w, track, te)   # odometry pose at each estimate time
-    qx, qy, qth = track[0][sel], track[1][sel], track[2][sel]
+    pe = where[no + k]  # track node of estimate k
+    qj = where[:no][sel]  # track node of each odometry time
     # body-frame motion from estimate k's time to the odometry time, composed onto estimate k
-    c, s = np.cos(pth[k]), np.sin(pth[k])
-    ddx, ddy = qx - px[k], qy - py[k]
+    c, s = np.cos(th[pe]), np.sin(th[pe])
+    ddx, ddy = x[qj] - x[pe], y[qj] - y[pe]
     bx, by = c * ddx + s * ddy, -s * ddx + c * ddy
-    dth = qth - pth[k]
+    dh = th[qj] - th[pe]
     ex = estimate["x"].to_numpy(dtype=np.float64)[k]
     ey = estimate["y"].to_numpy(dtype=np.float64)[k]
     eh = estimate["heading"].to_numpy(dtype=np.float64)[k]
     ce, se = np.cos(eh), np.sin(eh)
-    heading = np.remainder(eh + dth + math.pi, 2.0 * math.pi) - math.pi
+    heading = np.remainder(eh + dh + math.pi, 2.0 * math.pi) - math.pi
     return pd.DataFrame({"t": tj + base, "x": ex + ce * bx - se * by,
                          "y": ey + se * bx + ce * by, "heading": heading})
 

@@ -27,11 +27,15 @@ def import_() -> None:
               help="Radius given to every landmark in the map, m.")
 @click.option("--area-margin", type=float, default=1.5, show_default=True,
               help="Margin around the landmarks' bounding box that forms the work area, m.")
+@click.option("--odometry-delay", default="auto", show_default=True, metavar="S|auto",
+              help="Write the odometry this many s after its stamps (the robots carry out a "
+                   "command about 0.2 s late); auto measures the delay per robot from the "
+                   "camera data, 0 keeps the file's stamps.")
 @click.option("--compression", type=click.Choice(["zstd", "lz4", "none"]), default="zstd",
               show_default=True, help="MCAP chunk compression.")
 def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, as_json: bool,
            gap_threshold: float, landmark_radius: float, area_margin: float,
-           compression: str) -> None:
+           odometry_delay: str, compression: str) -> None:
     """Import the UTIAS MRCLAM dataset in DATASET_DIR (e.g. MRCLAM_Dataset6) into a log.
 
     Writes odometry (commanded v m/s, omega rad/s) to /odom/twist, each measurement time's
@@ -59,7 +63,8 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
     if not area_margin >= 0:
         raise InputError(f"--area-margin must not be negative, got {area_margin}")
     settings = ImportSettings(gap_threshold_s=gap_threshold, landmark_radius_m=landmark_radius,
-                              area_margin_m=area_margin)
+                              area_margin_m=area_margin,
+                              odometry_delay_s=_delay(odometry_delay))
     if robot is not None:
         summary = import_robot(dataset_dir, robot, output, settings=settings,
                                compression=compression)
@@ -70,3 +75,18 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
         click.echo(json.dumps([s.to_dict() for s in summaries], indent=2))
     else:
         click.echo("\n".join(s.format_text() for s in summaries))
+
+
+def _delay(text: str) -> float | None:
+    """``--odometry-delay``: None for auto, else seconds in [0, 5]."""
+    from lgvtool.errors import InputError
+
+    if text.strip().lower() == "auto":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"--odometry-delay expects seconds or auto, got '{text}'") from None
+    if not 0.0 <= value <= 5.0:
+        raise InputError(f"--odometry-delay must be within 0 to 5 s, got '{text}'")
+    return value

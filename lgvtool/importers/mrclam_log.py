@@ -8,7 +8,9 @@ kind. Metadata: ``importer`` (provenance with SHA-256 of every file read, citati
 geometry, counts, quirks, settings) and ``config`` (camera at the robot centre, work area around
 the landmarks, the landmark map, no reference circle, the estimators' camera and odometry noise
 profile).
-Log times are the dataset's own Unix stamps in ns; messages are written in time order.
+Log times are the dataset's own Unix stamps in ns, the odometry's delayed by the time the robot
+takes to carry out a command (``timing`` in the ``importer`` record); messages are written in
+time order.
 """
 
 from __future__ import annotations
@@ -63,6 +65,8 @@ class ImportSummary:
     """Messages written (all channels, diagnostic mirrors included)."""
     elapsed_s: float
     """Wall-clock time of the import, s."""
+    timing: dict[str, Any]
+    """The odometry delay applied and measured (see PreparedRun.timing)."""
     estimator_profile: str = PROFILE_NAME
     """Name of the estimator settings stored in the log's configuration."""
 
@@ -91,6 +95,16 @@ class ImportSummary:
                 f"  camera    bearings {cam['bearing_min_rad']:+.3f} .. "
                 f"{cam['bearing_max_rad']:+.3f} rad (fov {cam['fov_deg']:.1f} deg), ranges "
                 f"{cam['range_min_m']:.2f} .. {cam['range_max_m']:.2f} m")
+        tm = self.timing
+        if tm:
+            if tm["measured_delay_s"] is None:
+                how = f"too few landmark sightings to measure it, {tm['pairs']} pairs"
+            else:
+                how = (f"landmark bearing changes off by {tm['bearing_rms_without_delay_rad']:.4f}"
+                       f" rad RMS without a delay, {tm['bearing_rms_with_delay_rad']:.4f} rad "
+                       f"with {tm['measured_delay_s']:.3f} s, {tm['pairs']} pairs")
+            lines.append(f"  timing    odometry written {tm['odometry_delay_s']:.3f} s after its "
+                         f"stamps ({tm['method']}; {how})")
         lines.append(f"  profile   {self.estimator_profile}: camera and odometry settings of "
                      f"{', '.join(sorted(ESTIMATOR_PROFILE))} in the log's config")
         lines.extend(f"  quirk     {q['kind']}: {q['message']}" for q in self.quirks)
@@ -115,7 +129,7 @@ def mrclam_config(run: PreparedRun, dataset: MrclamDataset) -> Config:
 
 def importer_record(run: PreparedRun, dataset: MrclamDataset) -> dict[str, Any]:
     """The ``importer`` metadata record: provenance (dataset, robot, files with SHA-256),
-    citation, camera geometry, counts, quirks, settings."""
+    citation, camera geometry, counts, quirks, odometry timing, settings."""
     files = [*dataset.files, *run.files]
     return {
         "importer": "mrclam",
@@ -131,10 +145,12 @@ def importer_record(run: PreparedRun, dataset: MrclamDataset) -> dict[str, Any]:
         "counts": run.counts,
         "quirks": {q.kind: q.count for q in run.quirks},
         "residuals_vs_truth": run.residuals,
+        "timing": run.timing,
         "settings": asdict(run.settings),
         "estimator_profile": PROFILE_NAME,
         "landmark_ids": "subject numbers (Barcodes.dat)",
-        "time_unit": "log times are the dataset's Unix stamps in ns, rounded to the microsecond",
+        "time_unit": "log times are the dataset's Unix stamps in ns, rounded to the microsecond; "
+                     "the odometry's delayed by timing.odometry_delay_s",
     }
 
 
@@ -246,7 +262,7 @@ def write_run(run: PreparedRun, dataset: MrclamDataset, out: str | Path, *,
         quirks=tuple({"kind": q.kind, "count": q.count, "level": q.level, "message": q.message}
                      for q in run.quirks),
         camera=dict(run.camera), start_s=run.start_ns / 1e9, end_s=run.end_ns / 1e9,
-        messages=messages, elapsed_s=time.perf_counter() - t0,
+        messages=messages, elapsed_s=time.perf_counter() - t0, timing=dict(run.timing),
     )
 
 

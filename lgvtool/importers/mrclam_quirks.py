@@ -13,7 +13,10 @@ What is done to the data (docs/mrclam.md has the reasoning):
   times go to the report, the observations stay in the log for the estimators to gate (dropping
   them by the ground truth would hand the estimators information they must not have);
 - gaps in odometry and ground truth longer than a threshold, and ground truth that starts late or
-  ends early relative to the sensor data, are measured and reported.
+  ends early relative to the sensor data, are measured and reported;
+- the odometry (commanded velocities) is moved to when the robot carries it out: its stamps are
+  delayed by ``odometry_delay_s``, by default the delay measured from the camera alone
+  (:mod:`lgvtool.importers.mrclam_timing`), so that motion and camera agree in time.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import pandas as pd
 
 from lgvtool.config import Area
 from lgvtool.importers.mrclam import ROBOT_SUBJECTS, FileInfo, MrclamDataset, RobotRecording
+from lgvtool.importers.mrclam_timing import delay_ns, odometry_delay
 
 NS = 1_000_000_000
 _LIST_MAX = 20
@@ -51,6 +55,11 @@ class ImportSettings:
     """Radius given to every landmark in the map, m (see docs/mrclam.md)."""
     area_margin_m: float = 1.5
     """Margin added around the landmark bounding box to form the work area, m."""
+    odometry_delay_s: float | None = None
+    """How long after its stamp a commanded velocity takes effect, s: the odometry messages are
+    written this much later than the file's stamps. None measures it per robot from the camera
+    without ground truth (:func:`lgvtool.importers.mrclam_timing.odometry_delay`; 0 when there
+    are too few landmark sightings to tell); 0 keeps the file's stamps."""
 
 
 @dataclass(frozen=True)
@@ -97,6 +106,11 @@ class PreparedRun:
     and robust standard deviations in m and rad (None without data), observations compared."""
     area: Area
     """The landmark bounding box plus ``settings.area_margin_m``, m."""
+    timing: dict[str, Any]
+    """The odometry delay: ``odometry_delay_s`` (applied, s), ``measured_delay_s`` (what the
+    camera shows, s, None when not measured), ``pairs`` (landmark sightings compared),
+    ``bearing_rms_without_delay_rad`` and ``bearing_rms_with_delay_rad`` (residual of the
+    bearing changes predicted from the commands, rad), ``method``."""
     files: tuple[FileInfo, ...]
     """The robot's three files."""
     settings: ImportSettings
@@ -437,6 +451,28 @@ def prepare_run(dataset: MrclamDataset, rec: RobotRecording,
         truth_outside_area=int(outside.sum()),
     )
     quirks = tuple(sorted(col.quirks, key=lambda q: q.time_ns))
+    timing = _timing(odo, obs, st.odometry_delay_s)
+    odo = odo.assign(t_ns=odo["t_ns"].to_numpy() + delay_ns(timing["odometry_delay_s"]))
     return PreparedRun(robot=rec.robot, odometry=odo, truth=tru, observations=obs,
                        quirks=quirks, counts=col.counts, camera=_camera(obs),
-                       residuals=residuals, area=area, files=rec.files, settings=st)
+                       residuals=residuals, area=area, timing=timing, files=rec.files,
+                       settings=st)
+
+
+def _timing(odo: pd.DataFrame, obs: pd.DataFrame, delay_s: float | None) -> dict[str, Any]:
+    """The odometry delay to apply: ``delay_s`` if given, else the one the camera shows
+    (:func:`odometry_delay` on the landmark observations; no ground truth involved)."""
+    est = odometry_delay(odo["t_ns"].to_numpy() * 1e-9, odo["v"].to_numpy(),
+                         odo["omega"].to_numpy(), obs["t_ns"].to_numpy() * 1e-9,
+                         obs["landmark"].to_numpy(), obs["range"].to_numpy(),
+                         obs["bearing"].to_numpy())
+    measured = est.delay_s if est.rms_rad is not None else None
+    applied = float(delay_s) if delay_s is not None else (measured or 0.0)
+    return {
+        "odometry_delay_s": applied,
+        "measured_delay_s": measured,
+        "pairs": est.pairs,
+        "bearing_rms_without_delay_rad": est.rms_at_zero_rad,
+        "bearing_rms_with_delay_rad": est.rms_rad,
+        "method": "given" if delay_s is not None else "measured from the camera",
+    }

@@ -12,6 +12,15 @@ whose squared Mahalanobis distance exceeds the chi-square quantile (2 dof) of
 ``gate_probability`` is rejected as an outlier. The accepted reflectors are applied together in
 information form (exact for the linearised model). Update from a NAV pose: ``h = pose of the
 head`` (eq. 5 inverted), 3 dof gate.
+
+Odometry scale factors (``odometry_scales``, off by default): the state grows to
+``(x, y, theta, s_v, s_w)``, where ``s_v`` multiplies the odometry's distance and ``s_w`` its
+heading change (dimensionless, prior mean 1). Odometry that is biased rather than noisy, e.g.
+commanded velocities of a robot that travels and turns less than commanded, then becomes a
+state the observations estimate: they see the pose only, and reach the scales through the
+correlation the prediction builds between them and the pose. The scales follow a random walk
+whose variance grows with the distance travelled and the angle turned (:func:`scaled_motion`,
+:meth:`GaussianPoseEstimator._predict_scaled`).
 """
 
 from __future__ import annotations
@@ -29,6 +38,11 @@ from lgvtool.localize.geometry import wrap_scalar
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
+
+POSE = 3
+"""Size of the pose part ``(x, y, theta)`` of the state."""
+SCALED = 5
+"""Size of the state with the odometry scales, ``(x, y, theta, s_v, s_w)``."""
 
 
 @dataclass(frozen=True)
@@ -59,6 +73,42 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams):
                                           minimum=1e-9)
     gate_probability: float = param(0.99, "chi-square gate: innovations less likely than this "
                                     "are rejected", minimum=0.5, maximum=0.999999)
+    odometry_scales: bool = param(False, "estimate a distance scale s_v and a heading-change "
+                                  "scale s_w of the odometry in the state (x, y, theta, s_v, "
+                                  "s_w); for biased odometry such as commanded velocities")
+    scale_sigma_v: float = param(0.05, "prior standard deviation of the distance scale s_v "
+                                 "(prior mean 1), dimensionless", minimum=1e-6)
+    scale_sigma_w: float = param(0.05, "prior standard deviation of the heading-change scale "
+                                 "s_w (prior mean 1), dimensionless", minimum=1e-6)
+    scale_walk_v: float = param(0.0, "random walk of s_v: its variance grows by this squared "
+                                "per metre travelled, 1/sqrt(m)", minimum=0.0)
+    scale_walk_w: float = param(0.0, "random walk of s_w: its variance grows by this squared "
+                                "per radian turned, 1/sqrt(rad)", minimum=0.0)
+
+
+def scaled_motion(dx: float, dy: float, dth: float, s_v: float, s_w: float
+                  ) -> tuple[float, float, float, float, float]:
+    """A body-frame odometry motion with its distance scaled by ``s_v`` and its turn by ``s_w``.
+
+    The motion ``(dx, dy)`` (m, in the frame of the earlier pose) and ``dth`` (rad) is read as
+    a turn ``a``, a straight chord ``d`` and a turn ``dth - a`` (``a`` the chord's direction,
+    ``d < 0`` when the chord points backwards); the scaled motion turns ``s_w a``, travels
+    ``s_v d`` and turns ``s_w (dth - a)``. This is exact for a turn-drive-turn path and, for an
+    arc, keeps the chord in the middle of the scaled turn (the chord's length is then off by
+    ``sinc(s_w dth / 2) / sinc(dth / 2) - 1``: 0.8 % for a 1 rad arc at ``s_w`` 0.9). With
+    ``s_v = s_w = 1`` it is the motion itself. ``s_v`` and ``s_w`` are dimensionless.
+
+    :returns: ``(dx', dy', dth')`` (m, m, rad) and ``a``, ``d`` (rad, m), which the Jacobians
+        need.
+    """
+    d = math.hypot(dx, dy)
+    a = math.atan2(dy, dx) if d > 0.0 else 0.0
+    if abs(a) > 0.5 * math.pi:
+        a = wrap_scalar(a - math.pi)
+        d = -d
+    sa = s_w * a
+    sd = s_v * d
+    return sd * math.cos(sa), sd * math.sin(sa), s_w * dth, a, d
 
 
 class GaussianPoseEstimator(Estimator):
@@ -66,16 +116,31 @@ class GaussianPoseEstimator(Estimator):
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        #: True when the state carries the odometry scales ``(s_v, s_w)`` after the pose
+        self.scaled = bool(getattr(self.params, "odometry_scales", False))
+        n = SCALED if self.scaled else POSE
         self.mu: np.ndarray | None = None
-        self.P = np.zeros((3, 3))
+        self.P = np.zeros((n, n))
         if self.initial_pose is not None:
             self._start(self.initial_pose)
 
     def _start(self, pose: tuple[float, float, float]) -> None:
         p = self.params
-        self.mu = np.array([pose[0], pose[1], wrap_scalar(pose[2])], dtype=np.float64)
-        self.P = np.diag([p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2,
-                          p.init_sigma_heading_rad ** 2])
+        mu = [pose[0], pose[1], wrap_scalar(pose[2])]
+        var = [p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2, p.init_sigma_heading_rad ** 2]
+        if self.scaled:
+            mu += [1.0, 1.0]
+            var += [p.scale_sigma_v ** 2, p.scale_sigma_w ** 2]
+        self.mu = np.array(mu, dtype=np.float64)
+        self.P = np.diag(var)
+
+    @property
+    def odometry_calibration(self) -> dict[str, float]:
+        """The estimated odometry scales ``s_v`` and ``s_w`` (dimensionless); empty without
+        them in the state or before the first pose."""
+        if self.mu is None or not self.scaled:
+            return {}
+        return {"s_v": float(self.mu[POSE]), "s_w": float(self.mu[POSE + 1])}
 
     def _try_start(self, obs: Observation) -> bool:
         init = self.params.init
@@ -97,6 +162,9 @@ class GaussianPoseEstimator(Estimator):
     def predict(self, motion: Motion) -> None:
         if self.mu is None:
             return
+        if self.scaled:
+            self._predict_scaled(motion)
+            return
         x, y, th = self.mu
         c, s = math.cos(th), math.sin(th)
         dx, dy = motion.dx, motion.dy
@@ -109,11 +177,38 @@ class GaussianPoseEstimator(Estimator):
         Q = np.diag([sa * sa, sl * sl, st * st])
         self.P = F @ self.P @ F.T + G @ Q @ G.T
 
+    def _predict_scaled(self, motion: Motion) -> None:
+        """Prediction of the state ``(x, y, theta, s_v, s_w)``: the odometry motion scaled by
+        the current scales (:func:`scaled_motion`), the body-frame motion noise of the odometry
+        motion as in the 3-state prediction, and the scales' random walk (variances
+        ``scale_walk_v^2 dist`` and ``scale_walk_w^2 rot``)."""
+        assert self.mu is not None
+        p = self.params
+        x, y, th, sv, sw = (float(v) for v in self.mu)
+        dx, dy, dth, a, d = scaled_motion(motion.dx, motion.dy, motion.dth, sv, sw)
+        c, s = math.cos(th), math.sin(th)
+        # world displacement e = s_v d (cos(th + s_w a), sin(th + s_w a))
+        ex, ey = c * dx - s * dy, s * dx + c * dy
+        self.mu = np.array([x + ex, y + ey, wrap_scalar(th + dth), sv, sw])
+        ang = th + sw * a
+        F = np.eye(SCALED)
+        F[0, 2], F[1, 2] = -ey, ex
+        F[0, 3], F[1, 3] = d * math.cos(ang), d * math.sin(ang)
+        F[0, 4], F[1, 4], F[2, 4] = -ey * a, ex * a, motion.dth
+        sa, sl, st = p.noise_sigmas(motion.dist, motion.rot)
+        G = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        P = F @ self.P @ F.T
+        P[:POSE, :POSE] += G @ np.diag([sa * sa, sl * sl, st * st]) @ G.T
+        P[3, 3] += p.scale_walk_v ** 2 * motion.dist
+        P[4, 4] += p.scale_walk_w ** 2 * motion.rot
+        self.P = P
+
     def estimate(self) -> Estimate | None:
         if self.mu is None:
             return None
+        P = self.P[:POSE, :POSE]
         return Estimate(float(self.mu[0]), float(self.mu[1]), float(self.mu[2]),
-                        0.5 * (self.P + self.P.T))
+                        0.5 * (P + P.T))
 
 
 class Ekf(GaussianPoseEstimator):
@@ -139,13 +234,15 @@ class Ekf(GaussianPoseEstimator):
 
     def _update_pose(self, obs: PoseObservation) -> bool:
         p = self.params
-        x, y, th = self.mu  # type: ignore[misc]
+        x, y, th = (float(v) for v in self.mu[:POSE])  # type: ignore[index]
         c, s = math.cos(th), math.sin(th)
         mx, my = self.vehicle.nav_x, self.vehicle.nav_y
         nu = np.array([obs.x - (x + c * mx - s * my), obs.y - (y + s * mx + c * my),
                        wrap_scalar(obs.heading - th)])
-        H = np.array([[1.0, 0.0, -s * mx - c * my], [0.0, 1.0, c * mx - s * my],
-                      [0.0, 0.0, 1.0]])
+        n = len(self.P)
+        H = np.zeros((3, n))
+        H[:, :POSE] = [[1.0, 0.0, -s * mx - c * my], [0.0, 1.0, c * mx - s * my],
+                       [0.0, 0.0, 1.0]]
         R = np.diag([p.sigma_pose_xy_m ** 2, p.sigma_pose_xy_m ** 2,
                      p.sigma_pose_heading_rad ** 2])
         S = H @ self.P @ H.T + R
@@ -155,7 +252,7 @@ class Ekf(GaussianPoseEstimator):
         K = self.P @ H.T @ np.linalg.inv(S)
         self.mu = self.mu + K @ nu
         self.mu[2] = wrap_scalar(float(self.mu[2]))
-        IKH = np.eye(3) - K @ H
+        IKH = np.eye(n) - K @ H
         self.P = IKH @ self.P @ IKH.T + K @ R @ K.T
         self.accepted += 1
         return True
@@ -164,7 +261,7 @@ class Ekf(GaussianPoseEstimator):
         if len(obs) == 0 or len(self.map) == 0:
             return False
         p = self.params
-        x, y, th = (float(v) for v in self.mu)  # type: ignore[union-attr]
+        x, y, th = (float(v) for v in self.mu[:POSE])  # type: ignore[index]
         c, s = math.cos(th), math.sin(th)
         # map reflectors in the body frame h[j], and each sensor origin o[k] (body frame)
         ex, ey = self.map.x - x, self.map.y - y
@@ -206,7 +303,8 @@ class Ekf(GaussianPoseEstimator):
             return False
         kk, jj = k_idx[ok], j[ok]
         n = len(kk)
-        H = np.empty((n, 2, 3))
+        # the measurements depend on the pose only: zero columns for the odometry scales
+        H = np.zeros((n, 2, len(P)))
         for i in range(3):
             H[:, 0, i] = np.broadcast_to(Hr[i], vx.shape)[kk, jj]
             H[:, 1, i] = np.broadcast_to(Hb[i], vx.shape)[kk, jj]

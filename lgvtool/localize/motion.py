@@ -132,7 +132,8 @@ def increments_from_mcu(t: NDArray[np.float64], seq: NDArray[np.int64],
     dseq = unwrap_counter(seq, 1 << 16, signed=False)
     missing = int(np.maximum(dseq - 1, 0).sum())
     dt_host = np.diff(t)
-    dt_mcu = unwrap_counter(np.asarray(mcu_time_ms, dtype=np.int64), _U32, signed=False) * 1e-3
+    dt_mcu = np.asarray(unwrap_counter(np.asarray(mcu_time_ms, dtype=np.int64), _U32,
+                                       signed=False) * 1e-3, dtype=np.float64)
     rate = clock_rate(dt_mcu, dt_host)
     agree = (dt_mcu > 0) & (np.abs(dt_mcu - rate * dt_host)
                             <= rate * (0.5 * np.abs(dt_host) + 0.05))

@@ -65,6 +65,8 @@ def test_all_robots(synthetic: Any, tmp_path: Path, capsys: pytest.CaptureFixtur
     ("no_robot_option", "give exactly one of --robot N and --all"),
     ("both_options", "give exactly one of --robot N and --all"),
     ("bad_threshold", "--gap-threshold must be positive"),
+    ("bad_delay", "--odometry-delay expects seconds or auto"),
+    ("negative_delay", "--odometry-delay must be within 0 to 5 s"),
     ("absent_folder", "no such folder"),
 ])
 def test_bad_input_is_one_line_and_exit_2(case: str, needle: str, synthetic: Any,
@@ -85,6 +87,10 @@ def test_bad_input_is_one_line_and_exit_2(case: str, needle: str, synthetic: Any
         args = ["--robot", "1", "--all"]
     elif case == "bad_threshold":
         args += ["--gap-threshold", "-1"]
+    elif case == "bad_delay":
+        args += ["--odometry-delay", "soon"]
+    elif case == "negative_delay":
+        args += ["--odometry-delay", "-0.2"]
     elif case == "absent_folder":
         root = tmp_path / "absent"
     out = tmp_path / "out.mcap"
@@ -117,3 +123,18 @@ def test_help_stays_light() -> None:
                          timeout=60, check=True)
     assert "DATASET_DIR" in res.stdout and "--robot" in res.stdout
     assert res.stdout.strip().endswith("LIGHT")
+
+
+def test_odometry_delay_option(synthetic: Any, tmp_path: Path,
+                               capsys: pytest.CaptureFixture[str]) -> None:
+    for given in ("0.25", "0", "auto"):
+        code, text, err = run(["import", "mrclam", str(synthetic.root), "-r", "1", "-o",
+                               str(tmp_path / f"r1-{given}.mcap"), "--json",
+                               "--odometry-delay", given], capsys)
+        assert code == 0, err
+        timing = json.loads(text)["timing"]
+        if given != "auto":
+            assert timing["odometry_delay_s"] == float(given) and timing["method"] == "given"
+        else:  # the synthetic excerpt has too few sightings to measure: no delay applied
+            assert timing["method"] == "measured from the camera"
+            assert timing["odometry_delay_s"] == (timing["measured_delay_s"] or 0.0)
