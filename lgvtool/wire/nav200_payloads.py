@@ -269,11 +269,9 @@ class Pose(_PoseFields, Payload):
         )
 
 
-@dataclass(frozen=True)
-class Speed(Payload):
-    """Pv request: vx i16 mm/s, vy i16 mm/s (vehicle frame, assumed)."""
+class _SpeedFields:
+    """SI views of the raw speed fields ``vx_mm_s``, ``vy_mm_s`` of a payload."""
 
-    FORMAT = struct.Struct("<hh")
     vx_mm_s: int
     vy_mm_s: int
 
@@ -289,7 +287,16 @@ class Speed(Payload):
 
 
 @dataclass(frozen=True)
-class SpeedOmega(Payload):
+class Speed(_SpeedFields, Payload):
+    """Pv request: vx i16 mm/s, vy i16 mm/s (vehicle frame, assumed)."""
+
+    FORMAT = struct.Struct("<hh")
+    vx_mm_s: int
+    vy_mm_s: int
+
+
+@dataclass(frozen=True)
+class SpeedOmega(_SpeedFields, Payload):
     """Pw (vehicle frame, assumed) and PV (world frame) requests: vx, vy i16 mm/s, omega i16.
 
     Omega units are an open point; lgvtool uses 65536 per revolution per second (32768/pi per
@@ -300,16 +307,6 @@ class SpeedOmega(Payload):
     vx_mm_s: int
     vy_mm_s: int
     omega_raw: int
-
-    @property
-    def vx(self) -> float:
-        """Speed along x, m/s."""
-        return mm_to_m(self.vx_mm_s)
-
-    @property
-    def vy(self) -> float:
-        """Speed along y, m/s."""
-        return mm_to_m(self.vy_mm_s)
 
     def omega(self, scale: float = OMEGA_UNITS_PER_RAD_S) -> float:
         """Yaw rate, rad/s, with ``scale`` wire units per rad/s."""
