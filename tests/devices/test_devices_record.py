@@ -13,6 +13,7 @@ import signal
 import time
 import warnings
 from pathlib import Path
+from typing import Any
 
 import pytest
 from devices_helpers import (
@@ -170,16 +171,24 @@ def _limit_file_size() -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (32_000, 32_000))
 
 
-def test_full_disk_stops_with_a_clear_message(tmp_path: Path, procs: Procs) -> None:
+def _record_until_full(tmp_path: Path, procs: Procs, out: Path, *extra: str,
+                       **popen: Any) -> tuple[int, str, list[str]]:
+    """Record from the emulator into ``out`` until the write fails: exit code, stderr and its
+    error lines."""
     server = start_emulator(tmp_path, "tcp", duration=60.0, speed=5.0)
-    out = tmp_path / "full.mcap"
     try:
-        p = procs.lgvtool(*record_args(server, out), preexec_fn=_limit_file_size)
+        p = procs.lgvtool(*record_args(server, out, *extra), **popen)
         _, stderr = p.communicate(timeout=20)
     finally:
         server.stop()
-    assert p.returncode == 2
     lines = [line for line in stderr.splitlines() if line.startswith("lgvtool: error:")]
+    return p.returncode, stderr, lines
+
+
+def test_full_disk_stops_with_a_clear_message(tmp_path: Path, procs: Procs) -> None:
+    out = tmp_path / "full.mcap"
+    code, _, lines = _record_until_full(tmp_path, procs, out, preexec_fn=_limit_file_size)
+    assert code == 2
     assert len(lines) == 1 and "disk full while writing" in lines[0]
     assert "lgvtool recover" in lines[0]
     r = _reader(out)
@@ -190,13 +199,7 @@ def test_full_disk_stops_with_a_clear_message(tmp_path: Path, procs: Procs) -> N
 def test_no_space_left_on_device_stops_with_a_clear_message(tmp_path: Path,
                                                              procs: Procs) -> None:
     # /dev/full accepts the open and fails every write with ENOSPC, as a full disk does
-    server = start_emulator(tmp_path, "tcp", duration=60.0, speed=5.0)
-    try:
-        p = procs.lgvtool(*record_args(server, Path("/dev/full"), "--force"))
-        _, stderr = p.communicate(timeout=20)
-    finally:
-        server.stop()
-    assert p.returncode == 2
-    lines = [line for line in stderr.splitlines() if line.startswith("lgvtool: error:")]
+    code, stderr, lines = _record_until_full(tmp_path, procs, Path("/dev/full"), "--force")
+    assert code == 2
     assert len(lines) == 1 and "disk full while writing /dev/full" in lines[0]
     assert "No space left on device" in lines[0] and "Traceback" not in stderr
