@@ -31,7 +31,10 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from lgvtool.config import Reflector
+from lgvtool.localize.geometry import circular_mean
 from lgvtool.sim.emulate.playback import Playback, PoseFix
 from lgvtool.wire import nav200 as proto
 
@@ -207,8 +210,7 @@ class VirtualNav200:
             return newest
         fixes = [f for f in (self._solution(j) for j in range(max(0, i - n + 1), i + 1))
                  if f.valid]
-        heading = math.atan2(sum(math.sin(f.heading) for f in fixes),
-                             sum(math.cos(f.heading) for f in fixes))
+        heading = circular_mean(np.array([f.heading for f in fixes]))
         return PoseFix(newest.t, sum(f.x for f in fixes) / len(fixes),
                        sum(f.y for f in fixes) / len(fixes), heading,
                        round(sum(f.quality for f in fixes) / len(fixes)),
