@@ -52,6 +52,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "evaluate",
         "Table 1, error metrics, plots and report for one or more logs.",
     ),
+    "export": (
+        "lgvtool.commands.export",
+        "export",
+        "Write a log's trajectories as TUM, KITTI, CSV or Parquet files.",
+    ),
     "sweep": (
         "lgvtool.commands.sweep",
         "sweep",
