@@ -75,6 +75,7 @@ def evaluate_log(
     lap_source: str | None = None,
     start_at_truth: bool = False,
     replay: bool = False,
+    trajectories: Mapping[str, pd.DataFrame] | None = None,
 ) -> EvaluationResult:
     """Evaluate one log.
 
@@ -89,6 +90,8 @@ def evaluate_log(
     ``config.reference.steering_angle_deg``. Raises :class:`~lgvtool.errors.InputError` (or a
     subclass) for a log that cannot be evaluated. ``replay=True`` runs the estimators even when
     the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
+    ``trajectories`` (name -> DataFrame t, x, y, heading of O) are scored beside them
+    (``--trajectory``, :mod:`lgvtool.interop.foreign`).
     """
     from lgvtool.evaluate.evaluation import evaluate_trajectories
     from lgvtool.evaluate.reference import steering_from_frames
@@ -111,6 +114,10 @@ def evaluate_log(
     truth = _pose_frame(reader, topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
     if truth is not None and truth.empty:
         truth = None
+    if trajectories:
+        from lgvtool.interop.foreign import add_foreign
+
+        trajs = add_foreign(trajs, trajectories, truth, log=str(reader.path))
     steering = None
     steering_source = "none"
     if reader.has_topic(topics.MCU_FRAME):
@@ -214,12 +221,15 @@ def _split_names(values: Sequence[str]) -> list[str]:
 @click.option("--start-at-truth", is_flag=True,
               help="When evaluate runs the estimators: start every one at the log's ground "
                    "truth (/truth/pose) instead of letting it initialise itself.")
+@click.option("--trajectory", "foreign", multiple=True, metavar="NAME=FILE",
+              help="Also score a trajectory of O made by another tool: a TUM (.tum, .txt) or "
+                   "CSV (.csv) file stamped in the log's time (repeatable; one LOG only).")
 def evaluate(
     logs: tuple[str, ...], outdir: str | None, estimators: tuple[str, ...], as_json: bool,
     fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
     tolerance: str, seed: int, config_path: str | None, shared_centre: bool,
     free_radius: bool, png: bool, workers: int | None, scheduler: str | None,
-    start_at_truth: bool,
+    start_at_truth: bool, foreign: tuple[str, ...],
 ) -> None:
     """Evaluate the localization in LOG... against the kinematic reference circle (R = h /
     tan(delta), centre fitted by least squares) and, where the log has it, ground truth.
@@ -264,6 +274,12 @@ def evaluate(
         raise InputError("give --workers or --scheduler, not both")
     options = {"estimators": names, "config": cfg, "seed": seed, "shared_centre": shared_centre,
                "free_radius": free_radius, "start_at_truth": start_at_truth}
+    if foreign:
+        from lgvtool.interop.foreign import load_trajectories
+
+        if len(logs) > 1:
+            raise InputError("--trajectory scores a file against one log; give one LOG")
+        options["trajectories"] = load_trajectories(foreign)
     results = _evaluate_all(logs, options, scheduler=scheduler, workers=workers)
     for res in results:
         for w in res.warnings:
