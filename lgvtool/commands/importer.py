@@ -90,3 +90,38 @@ def _delay(text: str) -> float | None:
     if not 0.0 <= value <= 5.0:
         raise InputError(f"--odometry-delay must be within 0 to 5 s, got '{text}'")
     return value
+
+
+@import_.command(short_help="A ROS 2 bag (rosbag2 MCAP or SQLite) into a log.")
+@click.argument("bag", type=click.Path(path_type=str))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str),
+              help="Output .mcap log.")
+@click.option("--topic", "topic_options", multiple=True, metavar="ROLE=/name",
+              help="Topic of a role instead of the automatic choice (repeatable): odom, gyro, "
+                   "nav, reflectors, truth, tf; ROLE=none leaves a role out.")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
+              help="Vehicle geometry and reflector map (TOML) stored in the log.")
+@click.option("--sensor-frame", default=None, metavar="FRAME",
+              help="Frame of the navigation sensor in /tf (default: the NAV350 messages' "
+                   "frame, else nav); the transform from the vehicle frame gives the mounting.")
+@click.option("--compression", type=click.Choice(["zstd", "lz4", "none"]), default="zstd",
+              show_default=True, help="MCAP chunk compression.")
+@click.option("--force", is_flag=True, help="Replace OUTPUT if it exists.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+def ros2(bag: str, output: str, topic_options: tuple[str, ...], config_path: str | None,
+         sensor_frame: str | None, compression: str, force: bool, as_json: bool) -> None:
+    """Import the rosbag2 BAG (a bag folder, or one .mcap or .db3 file) into a log.
+
+    Odometry (nav_msgs/Odometry, geometry_msgs/TwistStamped) and the gyro (sensor_msgs/Imu)
+    go to /odom/twist, the NAV pose (sick_scan_xd/NAVPoseData or a geometry_msgs pose of the
+    head) to /nav/pose, NAV350 reflectors (sick_scan_xd/NAVLandmarkData) to /nav/reflectors,
+    a ground-truth pose of O to /truth/pose; /tf gives the sensor mounting. Topics are chosen by
+    type (docs/interop.md). The imported log replays and evaluates like any lgvtool log.
+    """
+    import json
+
+    from lgvtool.interop.ros2_import import import_bag
+
+    summary = import_bag(bag, output, topic_options=topic_options, config=config_path,
+                         sensor_frame=sensor_frame, compression=compression, force=force)
+    click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())
