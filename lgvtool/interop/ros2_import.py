@@ -40,7 +40,12 @@ import numpy as np
 from lgvtool.config import Area, Config, Reference, default_config, load_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.interop import ros2_roles as R
-from lgvtool.interop.ros2_types import NAV_POSE_DATA, register_from_bag, typestore
+from lgvtool.interop.ros2_types import (
+    NAV_POSE_DATA,
+    register_from_bag,
+    require_rosbags,
+    typestore,
+)
 from lgvtool.localize.geometry import wrap_scalar
 from lgvtool.log import LogWriter, topics
 from lgvtool.log.messages import pose_in_frame, stamp, yaw_from_quaternion
@@ -129,6 +134,7 @@ def open_bag(path: Path) -> Reader:
 
     :raises InputError: no such path, not a rosbag2 bag, a bag rosbags cannot read.
     """
+    require_rosbags()
     from rosbags.rosbag2 import Reader, ReaderError
 
     if not path.exists():

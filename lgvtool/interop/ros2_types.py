@@ -74,8 +74,22 @@ sick_scan_xd/NAVReflectorData[] reflectors
 NAVLandmarkData.msg), as the driver defines them."""
 
 
+ROS2_EXTRA = "pip install 'lgvtool[ros2]'"
+"""How to install rosbags with lgvtool."""
+
+
+def require_rosbags() -> None:
+    """Raise a one-line :class:`InputError` naming the extra when rosbags is missing."""
+    try:
+        import rosbags  # noqa: F401
+    except ImportError:
+        raise InputError(f"import ros2 needs rosbags, which is not installed: "
+                         f"{ROS2_EXTRA}") from None
+
+
 def typestore() -> Typestore:
     """The ROS 2 Humble types with sick_scan_xd's NAV350 messages registered."""
+    require_rosbags()
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     store = get_typestore(Stores.ROS2_HUMBLE)

@@ -1,0 +1,212 @@
+"""``lgvtool import ros2``: bags written in code from a simulated drive, imported, replayed and
+evaluated like any log; bad bags and options refused with one line."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lgvtool.cli import main
+from lgvtool.commands.evaluate import evaluate_log
+from lgvtool.config import to_toml
+from lgvtool.interop.ros2_import import import_bag
+from lgvtool.log import LogReader, topics
+
+sys.path.insert(0, str(Path(__file__).parent))
+from ros2_bags import Bag, bag_from_log  # noqa: E402
+
+
+def run(capsys: pytest.CaptureFixture[str], *args: object) -> tuple[int, str, str]:
+    code = 0
+    try:
+        main([str(a) for a in args])
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("ros2")
+
+
+@pytest.fixture(scope="module")
+def hall(sim_log: Path, folder: Path) -> Path:
+    """The drive's vehicle and reflector map, with a wrong mounting (the bag's /tf wins)."""
+    d = LogReader(sim_log).config().to_dict()
+    d.pop("simulator")
+    d["vehicle"]["nav_x"] = 0.3
+    path = folder / "hall.toml"
+    path.write_text(to_toml(d))
+    return path
+
+
+@pytest.fixture(scope="module")
+def mcap_bag(sim_log: Path, folder: Path) -> Path:
+    return bag_from_log(sim_log, folder / "drive_bag")
+
+
+@pytest.fixture(scope="module")
+def imported(mcap_bag: Path, hall: Path, folder: Path) -> Path:
+    out = folder / "imported.mcap"
+    import_bag(mcap_bag, out, config=hall)
+    return out
+
+
+def test_an_imported_bag_evaluates_like_the_simulated_log(sim_log: Path, imported: Path) -> None:
+    original = evaluate_log(sim_log, estimators=["laser"])
+    result = evaluate_log(imported, estimators=["laser", "ekf", "pf"])
+    laser = result.estimators["laser"].truth
+    reference = original.estimators["laser"].truth
+    assert laser is not None and reference is not None
+    # the same NAV poses, rounded to mm and mdeg by the NAV350 messages
+    assert laser.samples == reference.samples
+    assert laser.position_rmse == pytest.approx(reference.position_rmse, abs=1e-3)
+    for name in ("ekf", "pf"):
+        truth = result.estimators[name].truth
+        assert truth is not None and truth.samples > 100
+        assert truth.position_rmse < laser.position_rmse, name
+
+
+def test_the_log_holds_the_contract_channels_and_the_mounting_of_tf(imported: Path,
+                                                                    sim_log: Path) -> None:
+    reader = LogReader(imported)
+    names = set(reader.topic_names())
+    assert {topics.ODOM, topics.NAV_POSE, topics.NAV_REFLECTORS, topics.TRUTH,
+            topics.MAP} <= names
+    cfg = reader.config()
+    assert cfg.vehicle.nav_x == pytest.approx(LogReader(sim_log).config().vehicle.nav_x,
+                                              abs=1e-9)
+    assert len(cfg.reflectors) == len(LogReader(sim_log).config().reflectors)
+    record = reader.metadata["importer"]
+    assert record["importer"] == "ros2" and record["mounting"]["source"].startswith("tf")
+    scans = reader.dataframe(topics.NAV_REFLECTORS)
+    original = LogReader(sim_log).dataframe(topics.NAV_REFLECTORS)
+    assert len(scans) == len(original)
+    assert np.allclose(scans["range"], original["range"], atol=6e-4)
+    assert (scans["id"].to_numpy() == original["id"].to_numpy()).all()
+    from mcap.reader import make_reader
+
+    with open(imported, "rb") as f:
+        assert sum(1 for _ in make_reader(f).iter_messages()) > 0
+
+
+def _yaw_rate_ratio(log: Path) -> float:
+    """Median of the logged yaw rate over the true one while turning."""
+    reader = LogReader(log)
+    odom = reader.dataframe(topics.ODOM)
+    truth = reader.dataframe(topics.TRUTH)
+    h = np.unwrap(truth["heading"].to_numpy())
+    rate = np.diff(h) / np.diff(truth["t"].to_numpy())
+    true_at = np.interp(odom["t"].to_numpy(), truth["t"].to_numpy()[:-1], rate)
+    turning = np.abs(true_at) > 0.1
+    return float(np.median(odom["omega"].to_numpy()[turning] / true_at[turning]))
+
+
+def test_the_gyro_gives_the_yaw_rate(mcap_bag: Path, imported: Path, folder: Path) -> None:
+    """The bag's wheel odometry overstates the yaw rate by 10 %, its gyro is exact."""
+    assert _yaw_rate_ratio(imported) == pytest.approx(1.0, abs=1e-3)
+    without = folder / "no_gyro.mcap"
+    summary = import_bag(mcap_bag, without, topic_options=["gyro=none"])
+    assert summary.yaw_rate == "odometry"
+    assert _yaw_rate_ratio(without) == pytest.approx(1.1, abs=1e-3)
+
+
+def test_a_single_sqlite_file_with_twist_odometry(sim_log: Path, hall: Path, folder: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    bag = bag_from_log(sim_log, folder / "sqlite_bag", storage="sqlite3", odometry="twist")
+    db3 = next(bag.glob("*.db3"))
+    out = folder / "from_db3.mcap"
+    code, text, err = run(capsys, "import", "ros2", db3, "-o", out, "--config", hall, "--json")
+    assert code == 0, err
+    assert '"odom"' in text and "TwistStamped" in text
+    result = evaluate_log(out, estimators=["laser", "ekf"])
+    assert result.estimators["ekf"].truth is not None
+    code, _, err = run(capsys, "replay", out, "-e", "ekf", "-o", folder / "replayed.mcap")
+    assert code == 0, err
+
+
+# ----------------------------------------------------------------------- bad input
+
+
+def _tiny(path: Path, *, odom: int = 1, nav: bool = True, storage: str = "mcap") -> Path:
+    """A few messages: ``odom`` Odometry topics and a PoseStamped NAV pose."""
+    with Bag(path, storage) as bag:
+        for k in range(20):
+            ns = 1_700_000_000_000_000_000 + k * 100_000_000
+            for i in range(odom):
+                bag.write(f"/odom{i or ''}", "nav_msgs/msg/Odometry", bag.odometry(ns, 0.2, 0.1),
+                          ns)
+            if nav:
+                bag.write("/nav_pose", "geometry_msgs/msg/PoseStamped",
+                          bag.pose_stamped(ns, 5.0 + 0.02 * k, 5.0, 0.01 * k), ns)
+    return path
+
+
+@pytest.mark.parametrize(("kwargs", "options", "expected"), [
+    ({"odom": 0}, [], "no usable odometry"),
+    ({"nav": False}, [], "no observation topic"),
+    ({"odom": 2}, [], "choose one with --topic odom=/name"),
+    ({}, ["--topic", "wheels=/odom"], "no role 'wheels'"),
+    ({}, ["--topic", "nav=/odom"], "nav_msgs/Odometry is not a type the nav role reads"),
+    ({}, ["--topic", "truth=/vicon"], "no such topic"),
+    ({}, ["--topic", "odom"], "ROLE=/name"),
+])
+def test_bad_bags_and_options(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                              kwargs: dict[str, object], options: list[str],
+                              expected: str) -> None:
+    bag = _tiny(tmp_path / "bag", **kwargs)  # type: ignore[arg-type]
+    code, _, err = run(capsys, "import", "ros2", bag, "-o", tmp_path / "out.mcap", *options)
+    assert code == 2
+    assert expected in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "out.mcap").exists()
+
+
+def test_a_good_tiny_bag_and_the_overwrite_policy(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    bag = _tiny(tmp_path / "bag")
+    out = tmp_path / "out.mcap"
+    code, text, err = run(capsys, "import", "ros2", bag, "-o", out)
+    assert code == 0, err
+    assert "/nav_pose" in text and "no --config" in text
+    before = out.read_bytes()
+    code, _, err = run(capsys, "import", "ros2", bag, "-o", out)
+    assert code == 2 and "--force" in err and out.read_bytes() == before
+    assert run(capsys, "import", "ros2", bag, "-o", out, "--force")[0] == 0
+    code, _, err = run(capsys, "import", "ros2", bag, "-o", bag / "inside.mcap")
+    assert code == 2 and "inside the input" in err
+    nav = LogReader(out).dataframe(topics.NAV_POSE)
+    assert len(nav) == 20 and nav["heading"].iloc[-1] == pytest.approx(0.19, abs=1e-9)
+    assert math.isclose(nav["x"].iloc[1], 5.02, abs_tol=1e-9)
+
+
+def test_files_that_are_not_bags(tmp_path: Path, imported: Path,
+                                 capsys: pytest.CaptureFixture[str]) -> None:
+    cases = [
+        (imported, "not a readable rosbag2 bag"),    # an lgvtool log: JSON, not CDR
+        (tmp_path / "empty", "without metadata.yaml"),
+        (tmp_path / "missing", "no such file"),
+        (tmp_path / "notes.txt", "not a rosbag2 bag"),
+    ]
+    (tmp_path / "notes.txt").write_text("hello")
+    (tmp_path / "empty").mkdir()
+    broken = tmp_path / "broken.mcap"
+    broken.write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 40)
+    cases.append((broken, "not a readable rosbag2 bag"))
+    for path, expected in cases:
+        code, _, err = run(capsys, "import", "ros2", path, "-o", tmp_path / "o.mcap")
+        assert code == 2 and expected in err, (path, err)
+        assert len(err.strip().splitlines()) == 1
+
+
+def test_without_rosbags_the_extra_is_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    bag = _tiny(tmp_path / "bag")
+    monkeypatch.setitem(sys.modules, "rosbags", None)
+    code, _, err = run(capsys, "import", "ros2", bag, "-o", tmp_path / "o.mcap")
+    assert code == 2 and "lgvtool[ros2]" in err
