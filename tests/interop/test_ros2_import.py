@@ -9,15 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ros2_bags import Bag, bag_from_log
 
 from lgvtool.cli import main
 from lgvtool.commands.evaluate import evaluate_log
 from lgvtool.config import to_toml
 from lgvtool.interop.ros2_import import import_bag
 from lgvtool.log import LogReader, topics
-
-sys.path.insert(0, str(Path(__file__).parent))
-from ros2_bags import Bag, bag_from_log  # noqa: E402
 
 
 def run(capsys: pytest.CaptureFixture[str], *args: object) -> tuple[int, str, str]:
