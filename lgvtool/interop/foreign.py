@@ -13,6 +13,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from lgvtool.errors import InputError
+from lgvtool.interop.options import parse_pairs
 from lgvtool.interop.trajfile import read_trajectory
 
 if TYPE_CHECKING:
@@ -26,19 +27,12 @@ def parse_trajectory_options(items: Sequence[str]) -> dict[str, str]:
 
     :raises InputError: no ``=``, an empty or unusable name, a name given twice.
     """
-    out: dict[str, str] = {}
-    for item in items:
-        name, sep, path = item.partition("=")
-        name, path = name.strip(), path.strip()
-        if not sep or not name or not path:
-            raise InputError(f"--trajectory expects NAME=FILE, got '{item}'")
+    def check(name: str) -> None:
         if not _NAME.match(name):
             raise InputError(f"--trajectory name '{name}' must be letters, digits and _ . + - "
                              f"(it names a Table 1 column)")
-        if name in out:
-            raise InputError(f"--trajectory name '{name}' is given twice")
-        out[name] = path
-    return out
+
+    return parse_pairs(items, "--trajectory", "NAME=FILE", check)
 
 
 def load_trajectories(items: Sequence[str]) -> dict[str, pd.DataFrame]:

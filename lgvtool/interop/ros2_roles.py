@@ -27,6 +27,7 @@ import re
 from collections.abc import Mapping, Sequence
 
 from lgvtool.errors import InputError
+from lgvtool.interop.options import parse_pairs
 from lgvtool.interop.ros2_types import NAV_LANDMARK_DATA, NAV_POSE_DATA
 
 ODOMETRY = "nav_msgs/msg/Odometry"
@@ -63,18 +64,11 @@ def parse_topic_options(items: Sequence[str]) -> dict[str, str]:
 
     :raises InputError: no ``=``, a role that does not exist, a role given twice.
     """
-    out: dict[str, str] = {}
-    for item in items:
-        role, sep, topic = item.partition("=")
-        role, topic = role.strip(), topic.strip()
-        if not sep or not role or not topic:
-            raise InputError(f"--topic expects ROLE=/name, got '{item}'")
+    def check(role: str) -> None:
         if role not in ROLES:
             raise InputError(f"--topic: no role '{role}' (roles: {', '.join(ROLES)})")
-        if role in out:
-            raise InputError(f"--topic {role} is given twice")
-        out[role] = topic
-    return out
+
+    return parse_pairs(items, "--topic", "ROLE=/name", check)
 
 
 def looks_like_truth(topic: str) -> bool:

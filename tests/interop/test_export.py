@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from lgvtool.cli import main
 from lgvtool.commands.evaluate import evaluate_log
 from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
@@ -19,15 +19,7 @@ from lgvtool.interop.export import export_log
 
 FAST = ["laser", "ekf"]
 
-
-def run(capsys: pytest.CaptureFixture[str], *args: object) -> tuple[int, str, str]:
-    code = 0
-    try:
-        main([str(a) for a in args])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
+CLI = Callable[..., tuple[int, str, str]]
 
 
 @pytest.fixture(scope="module")
@@ -103,42 +95,42 @@ def test_every_format_round_trips_the_poses(sim_log: Path, exported: Path,
 
 
 def test_existing_files_need_force(sim_log: Path, tmp_path: Path,
-                                   capsys: pytest.CaptureFixture[str]) -> None:
+                                   cli: CLI) -> None:
     out = tmp_path / "out"
-    assert run(capsys, "export", sim_log, "-e", "laser", "-o", out)[0] == 0
+    assert cli("export", sim_log, "-e", "laser", "-o", out)[0] == 0
     before = (out / "laser.tum").read_bytes()
-    code, _, err = run(capsys, "export", sim_log, "-e", "laser", "-o", out)
+    code, _, err = cli("export", sim_log, "-e", "laser", "-o", out)
     assert code == 2 and "exists; pass --force" in err and len(err.strip().splitlines()) == 1
     assert (out / "laser.tum").read_bytes() == before
-    code, out_text, _ = run(capsys, "export", sim_log, "-e", "laser", "-o", out, "--force")
+    code, out_text, _ = cli("export", sim_log, "-e", "laser", "-o", out, "--force")
     assert code == 0 and "laser" in out_text
 
 
 def test_parquet_without_pyarrow_names_the_extra(sim_log: Path, tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch,
-                                                 capsys: pytest.CaptureFixture[str]) -> None:
+                                                 cli: CLI) -> None:
     monkeypatch.setitem(sys.modules, "pyarrow", None)
-    code, _, err = run(capsys, "export", sim_log, "--format", "parquet", "-o", tmp_path / "p")
+    code, _, err = cli("export", sim_log, "--format", "parquet", "-o", tmp_path / "p")
     assert code == 2
     assert "lgvtool[fleet]" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "p").exists()
 
 
 def test_unknown_estimator_and_output_is_a_file(sim_log: Path, tmp_path: Path,
-                                                capsys: pytest.CaptureFixture[str]) -> None:
-    code, _, err = run(capsys, "export", sim_log, "-e", "nosuch", "-o", tmp_path / "x")
+                                                cli: CLI) -> None:
+    code, _, err = cli("export", sim_log, "-e", "nosuch", "-o", tmp_path / "x")
     assert code == 2 and "nosuch" in err
-    code, _, err = run(capsys, "export", sim_log, "-o", sim_log)
+    code, _, err = cli("export", sim_log, "-o", sim_log)
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert sim_log.stat().st_size > 0
 
 
-def test_estimates_of_a_replayed_log_are_exported_as_logged(sim_log: Path,
-                                                            tmp_path: Path) -> None:
+def test_estimates_of_a_replayed_log_are_exported_as_logged(sim_log: Path, tmp_path: Path,
+                                                            cli: CLI) -> None:
     from lgvtool.log import LogReader, topics
 
     replayed = tmp_path / "replayed.mcap"
-    assert main_code(["replay", str(sim_log), "-e", "ekf", "-o", str(replayed)]) == 0
+    assert cli("replay", sim_log, "-e", "ekf", "-o", replayed)[0] == 0
     summary = export_log(replayed, tmp_path / "r", "csv")
     assert summary.source == "log" and "ekf" in summary.trajectories
     logged = LogReader(replayed).dataframe(topics.estimate_pose("ekf"))
@@ -147,14 +139,6 @@ def test_estimates_of_a_replayed_log_are_exported_as_logged(sim_log: Path,
     assert np.allclose(got["x_m"], logged["x"], atol=2e-6)
     with pytest.raises(InputError, match="no estimates of pf"):
         export_log(replayed, tmp_path / "r2", "csv", estimators=["pf"])
-
-
-def main_code(args: list[str]) -> int:
-    try:
-        main(args)
-    except SystemExit as exc:
-        return int(exc.code or 0)
-    return 0
 
 
 def test_tum_reader_tells_the_bad_line(tmp_path: Path) -> None:

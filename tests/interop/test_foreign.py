@@ -4,22 +4,14 @@ built-in estimators; bad files refused with one line."""
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
-from lgvtool.cli import main
 from lgvtool.interop.export import export_log
 
-
-def run(capsys: pytest.CaptureFixture[str], *args: object) -> tuple[int, str, str]:
-    code = 0
-    try:
-        main([str(a) for a in args])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
+CLI = Callable[..., tuple[int, str, str]]
 
 
 @pytest.fixture(scope="module")
@@ -31,8 +23,8 @@ def files(sim_log: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_a_foreign_trajectory_scores_as_the_estimator_it_copies(
-        sim_log: Path, files: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, err = run(capsys, "evaluate", sim_log, "-e", "ekf", "--json", "-o",
+        sim_log: Path, files: Path, tmp_path: Path, cli: CLI) -> None:
+    code, out, err = cli("evaluate", sim_log, "-e", "ekf", "--json", "-o",
                          tmp_path / "report",
                          "--trajectory", f"mine={files / 'tum' / 'ekf.tum'}",
                          "--trajectory", f"sheet={files / 'csv' / 'ekf.csv'}")
@@ -59,16 +51,16 @@ def test_a_foreign_trajectory_scores_as_the_estimator_it_copies(
 ])
 def test_bad_or_empty_tum_files_are_refused(sim_log: Path, tmp_path: Path, text: str,
                                             expected: str,
-                                            capsys: pytest.CaptureFixture[str]) -> None:
+                                            cli: CLI) -> None:
     bad = tmp_path / "bad.tum"
     bad.write_text(text)
-    code, _, err = run(capsys, "evaluate", sim_log, "-e", "laser", "--trajectory", f"x={bad}")
+    code, _, err = cli("evaluate", sim_log, "-e", "laser", "--trajectory", f"x={bad}")
     assert code == 2
     assert expected in err and len(err.strip().splitlines()) == 1
 
 
 def test_option_errors(sim_log: Path, files: Path, tmp_path: Path,
-                       capsys: pytest.CaptureFixture[str]) -> None:
+                       cli: CLI) -> None:
     tum = files / "tum" / "ekf.tum"
     cases = [
         (["--trajectory", str(tum)], "NAME=FILE"),
@@ -77,16 +69,16 @@ def test_option_errors(sim_log: Path, files: Path, tmp_path: Path,
         (["--trajectory", f"a={tmp_path / 'x.json'}"], "unknown trajectory file type"),
     ]
     for extra, expected in cases:
-        code, _, err = run(capsys, "evaluate", sim_log, "-e", "ekf", *extra)
+        code, _, err = cli("evaluate", sim_log, "-e", "ekf", *extra)
         assert code == 2 and expected in err, (extra, err)
         assert len(err.strip().splitlines()) == 1
-    code, _, err = run(capsys, "evaluate", sim_log, sim_log, "--trajectory", f"a={tum}")
+    code, _, err = cli("evaluate", sim_log, sim_log, "--trajectory", f"a={tum}")
     assert code == 2 and "one LOG" in err
 
 
 def test_stamps_outside_the_log_are_refused(sim_log: Path, tmp_path: Path,
-                                            capsys: pytest.CaptureFixture[str]) -> None:
+                                            cli: CLI) -> None:
     rel = tmp_path / "relative.tum"
     rel.write_text("".join(f"{0.1 * i:.1f} 11 9 0 0 0 0 1\n" for i in range(50)))
-    code, _, err = run(capsys, "evaluate", sim_log, "-e", "laser", "--trajectory", f"r={rel}")
+    code, _, err = cli("evaluate", sim_log, "-e", "laser", "--trajectory", f"r={rel}")
     assert code == 2 and "outside" in err and "log's time" in err

@@ -5,27 +5,19 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 from ros2_bags import Bag, bag_from_log
 
-from lgvtool.cli import main
 from lgvtool.commands.evaluate import evaluate_log
 from lgvtool.config import to_toml
 from lgvtool.interop.ros2_import import import_bag
 from lgvtool.log import LogReader, topics
 
-
-def run(capsys: pytest.CaptureFixture[str], *args: object) -> tuple[int, str, str]:
-    code = 0
-    try:
-        main([str(a) for a in args])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
+CLI = Callable[..., tuple[int, str, str]]
 
 
 @pytest.fixture(scope="module")
@@ -116,16 +108,16 @@ def test_the_gyro_gives_the_yaw_rate(mcap_bag: Path, imported: Path, folder: Pat
 
 
 def test_a_single_sqlite_file_with_twist_odometry(sim_log: Path, hall: Path, folder: Path,
-                                                  capsys: pytest.CaptureFixture[str]) -> None:
+                                                  cli: CLI) -> None:
     bag = bag_from_log(sim_log, folder / "sqlite_bag", storage="sqlite3", odometry="twist")
     db3 = next(bag.glob("*.db3"))
     out = folder / "from_db3.mcap"
-    code, text, err = run(capsys, "import", "ros2", db3, "-o", out, "--config", hall, "--json")
+    code, text, err = cli("import", "ros2", db3, "-o", out, "--config", hall, "--json")
     assert code == 0, err
     assert '"odom"' in text and "TwistStamped" in text
     result = evaluate_log(out, estimators=["laser", "ekf"])
     assert result.estimators["ekf"].truth is not None
-    code, _, err = run(capsys, "replay", out, "-e", "ekf", "-o", folder / "replayed.mcap")
+    code, _, err = cli("replay", out, "-e", "ekf", "-o", folder / "replayed.mcap")
     assert code == 0, err
 
 
@@ -155,28 +147,28 @@ def _tiny(path: Path, *, odom: int = 1, nav: bool = True, storage: str = "mcap")
     ({}, ["--topic", "truth=/vicon"], "no such topic"),
     ({}, ["--topic", "odom"], "ROLE=/name"),
 ])
-def test_bad_bags_and_options(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+def test_bad_bags_and_options(tmp_path: Path, cli: CLI,
                               kwargs: dict[str, object], options: list[str],
                               expected: str) -> None:
     bag = _tiny(tmp_path / "bag", **kwargs)  # type: ignore[arg-type]
-    code, _, err = run(capsys, "import", "ros2", bag, "-o", tmp_path / "out.mcap", *options)
+    code, _, err = cli("import", "ros2", bag, "-o", tmp_path / "out.mcap", *options)
     assert code == 2
     assert expected in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "out.mcap").exists()
 
 
 def test_a_good_tiny_bag_and_the_overwrite_policy(tmp_path: Path,
-                                                  capsys: pytest.CaptureFixture[str]) -> None:
+                                                  cli: CLI) -> None:
     bag = _tiny(tmp_path / "bag")
     out = tmp_path / "out.mcap"
-    code, text, err = run(capsys, "import", "ros2", bag, "-o", out)
+    code, text, err = cli("import", "ros2", bag, "-o", out)
     assert code == 0, err
     assert "/nav_pose" in text and "no --config" in text
     before = out.read_bytes()
-    code, _, err = run(capsys, "import", "ros2", bag, "-o", out)
+    code, _, err = cli("import", "ros2", bag, "-o", out)
     assert code == 2 and "--force" in err and out.read_bytes() == before
-    assert run(capsys, "import", "ros2", bag, "-o", out, "--force")[0] == 0
-    code, _, err = run(capsys, "import", "ros2", bag, "-o", bag / "inside.mcap")
+    assert cli("import", "ros2", bag, "-o", out, "--force")[0] == 0
+    code, _, err = cli("import", "ros2", bag, "-o", bag / "inside.mcap")
     assert code == 2 and "inside the input" in err
     nav = LogReader(out).dataframe(topics.NAV_POSE)
     assert len(nav) == 20 and nav["heading"].iloc[-1] == pytest.approx(0.19, abs=1e-9)
@@ -184,7 +176,7 @@ def test_a_good_tiny_bag_and_the_overwrite_policy(tmp_path: Path,
 
 
 def test_files_that_are_not_bags(tmp_path: Path, imported: Path,
-                                 capsys: pytest.CaptureFixture[str]) -> None:
+                                 cli: CLI) -> None:
     cases = [
         (imported, "not a readable rosbag2 bag"),    # an lgvtool log: JSON, not CDR
         (tmp_path / "empty", "without metadata.yaml"),
@@ -197,14 +189,14 @@ def test_files_that_are_not_bags(tmp_path: Path, imported: Path,
     broken.write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 40)
     cases.append((broken, "not a readable rosbag2 bag"))
     for path, expected in cases:
-        code, _, err = run(capsys, "import", "ros2", path, "-o", tmp_path / "o.mcap")
+        code, _, err = cli("import", "ros2", path, "-o", tmp_path / "o.mcap")
         assert code == 2 and expected in err, (path, err)
         assert len(err.strip().splitlines()) == 1
 
 
 def test_without_rosbags_the_extra_is_named(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                            capsys: pytest.CaptureFixture[str]) -> None:
+                                            cli: CLI) -> None:
     bag = _tiny(tmp_path / "bag")
     monkeypatch.setitem(sys.modules, "rosbags", None)
-    code, _, err = run(capsys, "import", "ros2", bag, "-o", tmp_path / "o.mcap")
+    code, _, err = cli("import", "ros2", bag, "-o", tmp_path / "o.mcap")
     assert code == 2 and "lgvtool[ros2]" in err
