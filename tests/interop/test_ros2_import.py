@@ -86,6 +86,22 @@ def test_the_log_holds_the_contract_channels_and_the_mounting_of_tf(imported: Pa
         assert sum(1 for _ in make_reader(f).iter_messages()) > 0
 
 
+def test_every_imported_message_validates_against_its_schema(imported: Path) -> None:
+    import json
+
+    import jsonschema
+
+    from lgvtool.log.schemas import schema_json
+
+    validators: dict[str, jsonschema.Draft202012Validator] = {}
+    for m in LogReader(imported).raw_messages():
+        if m.schema not in validators:
+            validators[m.schema] = jsonschema.Draft202012Validator(schema_json(m.schema))
+        validators[m.schema].validate(json.loads(m.data))
+    assert {"lgvtool.Odometry", "lgvtool.NavPose", "lgvtool.ReflectorScan",
+            "foxglove.PoseInFrame"} <= set(validators)
+
+
 def _yaw_rate_ratio(log: Path) -> float:
     """Median of the logged yaw rate over the true one while turning."""
     reader = LogReader(log)
@@ -124,10 +140,22 @@ def test_a_single_sqlite_file_with_twist_odometry(sim_log: Path, hall: Path, fol
 # ----------------------------------------------------------------------- bad input
 
 
-def _tiny(path: Path, *, odom: int = 1, nav: bool = True, storage: str = "mcap") -> Path:
-    """A few messages: ``odom`` Odometry topics and a PoseStamped NAV pose."""
+WHEELS = "acme_msgs/msg/WheelSpeeds"
+
+
+def _tiny(path: Path, *, odom: int = 1, nav: bool = True, storage: str = "mcap",
+          write_extra: bool = False) -> Path:
+    """A few messages: ``odom`` Odometry topics, a PoseStamped NAV pose and, with
+    ``write_extra``, a vendor's message type on /wheels."""
+    from rosbags.typesys import get_types_from_msg
+
     with Bag(path, storage) as bag:
+        if write_extra:
+            bag.store.register(get_types_from_msg("float64 left\nfloat64 right\n", WHEELS))
         for k in range(20):
+            if write_extra:
+                ns = 1_700_000_000_000_000_000 + k * 100_000_000
+                bag.write("/wheels", WHEELS, bag.T[WHEELS](left=0.2, right=0.21), ns)
             ns = 1_700_000_000_000_000_000 + k * 100_000_000
             for i in range(odom):
                 bag.write(f"/odom{i or ''}", "nav_msgs/msg/Odometry", bag.odometry(ns, 0.2, 0.1),
@@ -155,6 +183,16 @@ def test_bad_bags_and_options(tmp_path: Path, cli: CLI,
     assert code == 2
     assert expected in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "out.mcap").exists()
+
+
+def test_a_custom_message_type_on_a_chosen_topic(tmp_path: Path, cli: CLI) -> None:
+    """A type defined only in the bag (here a vendor's wheel message) plays no role."""
+    bag_path = _tiny(tmp_path / "bag", write_extra=True)
+    code, _, err = cli("import", "ros2", bag_path, "-o", tmp_path / "o.mcap", "--topic",
+                       "odom=/wheels")
+    assert code == 2 and "acme_msgs/WheelSpeeds is not a type the odom role reads" in err
+    code, _, err = cli("import", "ros2", bag_path, "-o", tmp_path / "o.mcap")
+    assert code == 0, err
 
 
 def test_a_good_tiny_bag_and_the_overwrite_policy(tmp_path: Path,
