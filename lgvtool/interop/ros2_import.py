@@ -42,7 +42,6 @@ from lgvtool.errors import InputError, MissingDataError
 from lgvtool.interop import ros2_roles as R
 from lgvtool.interop.ros2_types import (
     NAV_POSE_DATA,
-    register_from_bag,
     require_rosbags,
     typestore,
 )
@@ -265,10 +264,9 @@ def read_content(reader: Reader, chosen: Mapping[str, Sequence[str]]) -> BagCont
 
     :raises InputError: a message that does not decode as its topic's type.
     """
-    store = typestore()
     role_of = {t: role for role, ts in chosen.items() for t in ts}
     conns = [c for c in reader.connections if c.topic in role_of]
-    register_from_bag(store, conns)
+    store = typestore(conns)
     for conn in conns:
         if conn.msgtype not in store.types:
             raise InputError(f"topic {conn.topic}: message type {conn.msgtype} is unknown "

@@ -87,25 +87,19 @@ def require_rosbags() -> None:
                          f"{ROS2_EXTRA}") from None
 
 
-def typestore() -> Typestore:
-    """The ROS 2 Humble types with sick_scan_xd's NAV350 messages registered."""
+def typestore(connections: Iterable[Any] = ()) -> Typestore:
+    """The ROS 2 Humble types, then the ``.msg`` definitions that the bag's ``connections``
+    carry for types the store lacks (a bag's own definition of a sick_scan_xd message wins),
+    then sick_scan_xd's NAV350 messages as :data:`SICK_MSGS` defines them.
+
+    :raises InputError: a definition in the bag that cannot be read.
+    """
     require_rosbags()
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    types: dict[str, Any] = {}
-    for name, text in SICK_MSGS.items():
-        types.update(get_types_from_msg(text, name))
-    store.register(types)
-    return store
-
-
-def register_from_bag(store: Typestore, connections: Iterable[Any]) -> None:
-    """Register the ``.msg`` definitions a bag carries for types ``store`` does not know."""
     from rosbags.interfaces import MessageDefinitionFormat
-    from rosbags.typesys import get_types_from_msg
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
     from rosbags.typesys.base import TypesysError
 
+    store = get_typestore(Stores.ROS2_HUMBLE)
     for conn in connections:
         if conn.msgtype in store.types or conn.msgdef.format != MessageDefinitionFormat.MSG:
             continue
@@ -114,3 +108,10 @@ def register_from_bag(store: Typestore, connections: Iterable[Any]) -> None:
         except (TypesysError, ValueError, KeyError) as exc:
             raise InputError(f"topic {conn.topic}: the bag's definition of {conn.msgtype} "
                              f"cannot be read ({exc})") from None
+    types: dict[str, Any] = {}
+    for name, text in SICK_MSGS.items():
+        if name not in store.types:
+            types.update((k, v) for k, v in get_types_from_msg(text, name).items()
+                         if k not in store.types)
+    store.register(types)
+    return store
