@@ -94,11 +94,18 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
             warnings.append("--start-at-truth has no effect: the log's own estimates are "
                             "exported")
         return {n: reader.dataframe(topics.estimate_pose(n)) for n in chosen}, "log"
+    from lgvtool.errors import MissingDataError
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
 
-    run = run_replay(reader, list(names) if names else list(DEFAULT_ESTIMATORS), config=cfg,
-                     seed=seed, settings=dict(settings),
-                     initial_pose="truth" if start_at_truth else None)
+    try:
+        run = run_replay(reader, list(names) if names else list(DEFAULT_ESTIMATORS), config=cfg,
+                         seed=seed, settings=dict(settings),
+                         initial_pose="truth" if start_at_truth else None)
+    except MissingDataError as exc:
+        if names:
+            raise MissingDataError(f"{reader.path}: {exc}") from None
+        warnings.append(f"no estimator exported: {exc}")
+        return {}, "none"
     for name, reason in run.skipped.items():
         if names:
             raise InputError(f"{reader.path}: {reason}")

@@ -160,3 +160,20 @@ def test_tum_reader_tells_the_bad_line(tmp_path: Path) -> None:
     df = trajfile.read_trajectory(p)
     assert df["heading"].iloc[1] == pytest.approx(1.0, abs=1e-12)
     assert df["x"].iloc[1] == 1.0 and df["y"].iloc[1] == 2.0
+
+
+def test_a_log_without_observations_exports_its_truth(tmp_path: Path, cli: CLI) -> None:
+    from lgvtool.log import LogWriter, topics
+    from lgvtool.log.messages import pose_in_frame
+
+    log = tmp_path / "truth_only.mcap"
+    with LogWriter(log, source="test") as w:
+        for i in range(50):
+            ns = 1_700_000_000_000_000_000 + i * 100_000_000
+            w.write(topics.TRUTH, pose_in_frame(ns, 1.0 + 0.01 * i, 2.0, 0.1), ns)
+    code, out, err = cli("export", log, "--format", "csv", "-o", tmp_path / "o")
+    assert code == 0 and "no estimator exported" in err
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["truth.csv"]
+    assert len(pd.read_csv(tmp_path / "o" / "truth.csv")) == 50
+    code, _, err = cli("export", log, "-e", "pf", "-o", tmp_path / "o2")
+    assert code == 2 and "no observations" in err and str(log) in err
