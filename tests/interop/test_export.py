@@ -171,7 +171,7 @@ def test_a_log_without_observations_exports_its_truth(tmp_path: Path, cli: CLI) 
         for i in range(50):
             ns = 1_700_000_000_000_000_000 + i * 100_000_000
             w.write(topics.TRUTH, pose_in_frame(ns, 1.0 + 0.01 * i, 2.0, 0.1), ns)
-    code, out, err = cli("export", log, "--format", "csv", "-o", tmp_path / "o")
+    code, _, err = cli("export", log, "--format", "csv", "-o", tmp_path / "o")
     assert code == 0 and "no estimator exported" in err
     assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["truth.csv"]
     assert len(pd.read_csv(tmp_path / "o" / "truth.csv")) == 50
