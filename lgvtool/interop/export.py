@@ -16,6 +16,7 @@ the log time (s since the Unix epoch), as ``lgvtool evaluate`` scores them
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +37,7 @@ NAV = "nav"
 TRUTH = "truth"
 """File name of the ground truth."""
 TRUTH_AT = "truth-at-"
+_SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
 """Prefix of the ground truth resampled at a trajectory's stamps."""
 
 
@@ -146,6 +148,9 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
     estimates, source = _estimates(reader, estimators, cfg, seed, settings or {},
                                    start_at_truth, warnings)
     for name in estimates:
+        if not _SAFE_NAME.match(name):
+            raise InputError(f"estimator name '{name}' cannot name a file (letters, digits and "
+                             f"_ . + - only)")
         if name in (NAV, TRUTH) or name.startswith(TRUTH_AT):
             raise InputError(f"estimator name '{name}' clashes with an exported file name "
                              f"({NAV}, {TRUTH}, {TRUTH_AT}*)")
