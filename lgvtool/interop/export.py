@@ -16,7 +16,6 @@ the log time (s since the Unix epoch), as ``lgvtool evaluate`` scores them
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
+from lgvtool.interop.options import SAFE_NAME
 from lgvtool.outputs import atomic_output, guard_output
 
 if TYPE_CHECKING:
@@ -37,7 +37,6 @@ NAV = "nav"
 TRUTH = "truth"
 """File name of the ground truth."""
 TRUTH_AT = "truth-at-"
-_SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
 """Prefix of the ground truth resampled at a trajectory's stamps."""
 
 
@@ -148,7 +147,7 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
     estimates, source = _estimates(reader, estimators, cfg, seed, settings or {},
                                    start_at_truth, warnings)
     for name in estimates:
-        if not _SAFE_NAME.match(name):
+        if not SAFE_NAME.match(name):
             raise InputError(f"estimator name '{name}' cannot name a file (letters, digits and "
                              f"_ . + - only)")
         if name in (NAV, TRUTH) or name.startswith(TRUTH_AT):

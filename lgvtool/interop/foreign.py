@@ -8,19 +8,15 @@ report.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from lgvtool.errors import InputError
-from lgvtool.interop.options import parse_pairs
+from lgvtool.interop.options import SAFE_NAME, parse_pairs
 from lgvtool.interop.trajfile import read_trajectory
 
 if TYPE_CHECKING:
     import pandas as pd
-
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
-
 
 def parse_trajectory_options(items: Sequence[str]) -> dict[str, str]:
     """``NAME=FILE`` options -> ``{NAME: FILE}``.
@@ -28,7 +24,7 @@ def parse_trajectory_options(items: Sequence[str]) -> dict[str, str]:
     :raises InputError: no ``=``, an empty or unusable name, a name given twice.
     """
     def check(name: str) -> None:
-        if not _NAME.match(name):
+        if not SAFE_NAME.match(name):
             raise InputError(f"--trajectory name '{name}' must be letters, digits and _ . + - "
                              f"(it names a Table 1 column)")
 

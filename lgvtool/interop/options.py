@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Sequence
 
 from lgvtool.errors import InputError
+
+SAFE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
+"""A trajectory name that can name a file and a Table 1 column."""
 
 
 def parse_pairs(items: Sequence[str], option: str, form: str,
