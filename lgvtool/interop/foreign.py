@@ -18,6 +18,7 @@ from lgvtool.interop.trajfile import read_trajectory
 if TYPE_CHECKING:
     import pandas as pd
 
+
 def parse_trajectory_options(items: Sequence[str]) -> dict[str, str]:
     """``NAME=FILE`` options -> ``{NAME: FILE}``.
 
