@@ -229,7 +229,8 @@ def evaluate(
     fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
     tolerance: str, seed: int, config_path: str | None, shared_centre: bool,
     free_radius: bool, png: bool, workers: int | None, scheduler: str | None,
-    start_at_truth: bool, foreign: tuple[str, ...],
+    start_at_truth: bool,
+    foreign: tuple[str, ...] = (),
 ) -> None:
     """Evaluate the localization in LOG... against the kinematic reference circle (R = h /
     tan(delta), centre fitted by least squares) and, where the log has it, ground truth.
@@ -279,7 +280,8 @@ def evaluate(
 
         if len(logs) > 1:
             raise InputError("--trajectory scores a file against one log; give one LOG")
-        options["trajectories"] = load_trajectories(foreign)
+        trajectories: Any = load_trajectories(foreign)
+        options["trajectories"] = trajectories
     results = _evaluate_all(logs, options, scheduler=scheduler, workers=workers)
     for res in results:
         for w in res.warnings:
