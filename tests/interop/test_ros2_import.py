@@ -127,9 +127,11 @@ def test_a_single_sqlite_file_with_twist_odometry(sim_log: Path, hall: Path, fol
                                                   cli: CLI) -> None:
     bag = bag_from_log(sim_log, folder / "sqlite_bag", storage="sqlite3", odometry="twist")
     db3 = next(bag.glob("*.db3"))
+    before = {p.name: p.read_bytes() for p in bag.iterdir()}
     out = folder / "from_db3.mcap"
     code, text, err = cli("import", "ros2", db3, "-o", out, "--config", hall, "--json")
     assert code == 0, err
+    assert {p.name: p.read_bytes() for p in bag.iterdir()} == before  # the bag is untouched
     assert '"odom"' in text and "TwistStamped" in text
     result = evaluate_log(out, estimators=["laser", "ekf"])
     assert result.estimators["ekf"].truth is not None
