@@ -240,3 +240,29 @@ def test_without_rosbags_the_extra_is_named(tmp_path: Path, monkeypatch: pytest.
     monkeypatch.setitem(sys.modules, "rosbags", None)
     code, _, err = cli("import", "ros2", bag, "-o", tmp_path / "o.mcap")
     assert code == 2 and "lgvtool[ros2]" in err
+
+
+def test_the_mounting_follows_a_chain_of_transforms() -> None:
+    from lgvtool.interop.ros2_import import BagContent, mounting
+
+    content = BagContent(transforms={"laser": ("mount", 0.1, 0.0, 0.0),
+                                     "mount": ("base_link", 0.9, 0.2, math.pi / 2),
+                                     "base_link": ("odom", 5.0, 5.0, 0.0)},
+                         vehicle_frames=["base_link"], sensor_frames=["laser"])
+    found = mounting(content, None)
+    assert found is not None
+    x, y, yaw, chain = found
+    assert (x, y, yaw) == pytest.approx((0.9, 0.3, math.pi / 2), abs=1e-12)
+    assert chain == "base_link->laser"
+    assert mounting(content, "elsewhere") is None
+
+
+def test_the_gyro_mean_over_each_odometry_interval() -> None:
+    from lgvtool.interop.ros2_import import fused_yaw_rate
+
+    odom_t = np.array([0.0, 1.0, 2.0, 3.0])
+    gyro_t = np.array([0.2, 0.4, 1.5, 3.2])
+    gyro_w = np.array([1.0, 3.0, 5.0, 7.0])
+    got = fused_yaw_rate(odom_t, np.full(4, -1.0), gyro_t, gyro_w)
+    # [0,1): mean 2; [1,2): 5; [2,3): none, interpolated at 2.5 between 5 and 7; [3,4): 7
+    assert got == pytest.approx([2.0, 5.0, 5.0 + 2.0 * (1.0 / 1.7), 7.0], abs=1e-12)
