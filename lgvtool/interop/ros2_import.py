@@ -30,61 +30,28 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from lgvtool.config import Area, Config, Reference, default_config, load_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.interop import ros2_roles as R
-from lgvtool.interop.ros2_types import (
-    NAV_POSE_DATA,
-    require_rosbags,
-    typestore,
-)
+from lgvtool.interop.ros2_bag import BagContent, frame_name, open_bag, read_content
 from lgvtool.localize.geometry import wrap_scalar
 from lgvtool.log import LogWriter, topics
-from lgvtool.log.messages import pose_in_frame, stamp, yaw_from_quaternion
+from lgvtool.log.messages import pose_in_frame, stamp
 from lgvtool.outputs import atomic_output, guard_output
 
-if TYPE_CHECKING:
-    from rosbags.rosbag2 import Reader
-
-MDEG = math.pi / 180000.0
-"""rad per mdeg (NAV350 angles)."""
-NAV350_PERIOD_S = 0.125
-"""Revolution of the NAV350 head, s (8 Hz): the scan period when reflector times are known."""
 AREA_MARGIN_M = 2.0
 """Margin of the work area around the poses when no --config gives one, m."""
 VALID_QUALITY, INVALID_QUALITY = 100, 255
 """/nav/pose quality written for a valid and an invalid pose (ROS poses carry no quality)."""
 DEFAULT_VEHICLE_FRAME = "base_link"
 DEFAULT_SENSOR_FRAME = "nav"
-
-
-@dataclass
-class BagContent:
-    """What the chosen topics hold, decoded (times int ns; m, rad, m/s, rad/s)."""
-
-    odom: list[tuple[int, float, float]] = field(default_factory=list)
-    gyro: list[tuple[int, float]] = field(default_factory=list)
-    nav: list[tuple[int, float, float, float, int, bool]] = field(default_factory=list)
-    """t, x, y, heading, reflectors used, valid."""
-    scans: list[tuple[int, float, list[dict[str, Any]]]] = field(default_factory=list)
-    truth: list[tuple[int, float, float, float]] = field(default_factory=list)
-    transforms: dict[str, tuple[str, float, float, float]] = field(default_factory=dict)
-    """child frame -> (parent frame, x m, y m, yaw rad), first seen."""
-    vehicle_frames: list[str] = field(default_factory=list)
-    sensor_frames: list[str] = field(default_factory=list)
-    counts: dict[str, int] = field(default_factory=dict)
-    """Messages read per role and what was dropped (``dropped_*``)."""
-
-    def count(self, key: str, n: int = 1) -> None:
-        """Add ``n`` to counter ``key``."""
-        self.counts[key] = self.counts.get(key, 0) + n
 
 
 @dataclass(frozen=True)
@@ -125,175 +92,6 @@ class Ros2ImportSummary:
         return "\n".join(lines)
 
 
-# ------------------------------------------------------------------------------ the bag
-
-
-def open_bag(path: Path) -> Reader:
-    """An open rosbags reader of a bag folder, ``.mcap`` or ``.db3`` file.
-
-    :raises InputError: no such path, not a rosbag2 bag, a bag rosbags cannot read.
-    """
-    require_rosbags()
-    from rosbags.rosbag2 import Reader, ReaderError
-
-    if not path.exists():
-        raise InputError(f"{path}: no such file or folder")
-    if path.is_dir() and not (path / "metadata.yaml").is_file():
-        raise InputError(f"{path}: a folder without metadata.yaml, not a rosbag2 bag")
-    if path.is_file() and path.suffix not in (".mcap", ".db3"):
-        raise InputError(f"{path}: not a rosbag2 bag (expected a bag folder, a .mcap or a .db3 "
-                         f"file)")
-    try:
-        reader = Reader(path)
-        reader.open()
-    except (ReaderError, KeyError, ValueError, TypeError, OSError) as exc:
-        text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"{path}: not a readable rosbag2 bag ({text})") from None
-    except Exception as exc:  # the storage readers raise what their parsers raise
-        raise InputError(f"{path}: not a readable rosbag2 bag ({type(exc).__name__}: "
-                         f"{exc})") from None
-    return reader
-
-
-def _ns(header: Any, bag_ns: int) -> int:
-    """A header's stamp in ns, or the bag time when it is zero."""
-    ns = int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
-    return ns if ns > 0 else int(bag_ns)
-
-
-def _yaw(q: Any) -> float:
-    return yaw_from_quaternion({"x": q.x, "y": q.y, "z": q.z, "w": q.w})
-
-
-def _finite(*values: float) -> bool:
-    return all(math.isfinite(v) for v in values)
-
-
-def _frame(name: str) -> str:
-    return name.strip().lstrip("/")
-
-
-# ------------------------------------------------------------------ one reader per role
-
-
-def _read_odom(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
-    twist = msg.twist.twist if msgtype == R.ODOMETRY else msg.twist
-    v, w = float(twist.linear.x), float(twist.angular.z)
-    frame = msg.child_frame_id if msgtype == R.ODOMETRY else msg.header.frame_id
-    if frame and _frame(frame) not in c.vehicle_frames:
-        c.vehicle_frames.append(_frame(frame))
-    if not _finite(v, w):
-        c.count("dropped_odom_not_finite")
-        return
-    c.odom.append((_ns(msg.header, ns), v, w))
-
-
-def _read_gyro(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
-    w = float(msg.angular_velocity.z)
-    if not _finite(w):
-        c.count("dropped_gyro_not_finite")
-        return
-    c.gyro.append((_ns(msg.header, ns), w))
-
-
-def _read_nav(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
-    if msgtype == NAV_POSE_DATA:
-        x, y, h = msg.x / 1000.0, msg.y / 1000.0, wrap_scalar(msg.phi * MDEG)
-        used = int(msg.quant_used_reflectors) if msg.opt_pose_data_valid else 0
-        valid = int(msg.pose_valid) > 0
-        if msg.header.frame_id and _frame(msg.header.frame_id) not in c.sensor_frames:
-            c.sensor_frames.append(_frame(msg.header.frame_id))
-    else:
-        pose = msg.pose.pose if msgtype == R.POSE_COV else msg.pose
-        x, y, h = float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)
-        used, valid = 0, True
-    if not _finite(x, y, h):
-        c.count("dropped_nav_not_finite")
-        return
-    c.nav.append((_ns(msg.header, ns), x, y, wrap_scalar(h), min(used, 255), valid))
-
-
-def _read_reflectors(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
-    if msg.header.frame_id and _frame(msg.header.frame_id) not in c.sensor_frames:
-        c.sensor_frames.append(_frame(msg.header.frame_id))
-    seen: list[tuple[float, float, int, int | None]] = []
-    for r in msg.reflectors:
-        if not r.polar_data_valid:
-            c.count("dropped_reflectors_without_polar_data")
-            continue
-        rng, bearing = r.dist / 1000.0, wrap_scalar(r.phi * MDEG)
-        ident = int(r.global_id) if r.opt_reflector_data_valid else -1
-        tick = int(r.timestamp) if r.opt_reflector_data_valid and r.timestamp else None
-        seen.append((rng, bearing, ident, tick))
-    ticks = [s[3] for s in seen if s[3] is not None]
-    timed = len(ticks) == len(seen) and bool(seen)
-    first = min(ticks) if timed else 0
-    obs = [{"range": rng, "bearing": b, "id": i,
-            "time_in_scan": (tick - first) / 1000.0 if timed and tick is not None else 0.0}
-           for rng, b, i, tick in seen]
-    period = max([NAV350_PERIOD_S, *(o["time_in_scan"] for o in obs)]) if timed else 0.0
-    c.scans.append((_ns(msg.header, ns), period, obs))
-
-
-def _read_truth(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
-    pose = msg.pose.pose if msgtype in (R.POSE_COV, R.ODOMETRY) else msg.pose
-    x, y, h = float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)
-    if not _finite(x, y, h):
-        c.count("dropped_truth_not_finite")
-        return
-    c.truth.append((_ns(msg.header, ns), x, y, h))
-
-
-def _read_tf(c: BagContent, msg: Any, _msgtype: str, _ns_: int) -> None:
-    for tr in msg.transforms:
-        child = _frame(tr.child_frame_id)
-        if child in c.transforms:
-            continue
-        t, q = tr.transform.translation, tr.transform.rotation
-        c.transforms[child] = (_frame(tr.header.frame_id), float(t.x), float(t.y), _yaw(q))
-
-
-_READERS: dict[str, Callable[[BagContent, Any, str, int], None]] = {
-    "odom": _read_odom, "gyro": _read_gyro, "nav": _read_nav, "reflectors": _read_reflectors,
-    "truth": _read_truth, "tf": _read_tf,
-}
-
-
-def read_content(reader: Reader, chosen: Mapping[str, Sequence[str]]) -> BagContent:
-    """Decode every message of the chosen topics (CDR, with the bag's and SICK's types).
-
-    :raises InputError: a message that does not decode as its topic's type.
-    """
-    role_of = {t: role for role, ts in chosen.items() for t in ts}
-    conns = [c for c in reader.connections if c.topic in role_of]
-    store = typestore(conns)
-    for conn in conns:
-        if conn.msgtype not in store.types:
-            raise InputError(f"topic {conn.topic}: message type {conn.msgtype} is unknown "
-                             f"(neither a standard ROS 2 type nor defined in the bag)")
-    content = BagContent()
-    for conn, bag_ns, raw in _messages(reader, conns):
-        role = role_of[conn.topic]
-        try:
-            msg = store.deserialize_cdr(raw, conn.msgtype)
-        except Exception as exc:  # rosbags raises whatever a truncated buffer gives
-            raise InputError(f"topic {conn.topic}: a message at {bag_ns / 1e9:.3f} s is not a "
-                             f"valid {conn.msgtype} ({type(exc).__name__})") from None
-        _READERS[role](content, msg, conn.msgtype, bag_ns)
-        content.count(role)
-    return content
-
-
-def _messages(reader: Reader, conns: Sequence[Any]) -> Iterator[tuple[Any, int, bytes]]:
-    try:
-        yield from reader.messages(connections=conns)
-    except InputError:
-        raise
-    except Exception as exc:
-        raise InputError(f"{reader.path}: the bag is damaged ({type(exc).__name__}: "
-                         f"{exc})") from None
-
-
 # ------------------------------------------------------------------------ derived facts
 
 
@@ -326,7 +124,7 @@ def mounting(content: BagContent, sensor_frame: str | None
     sensors = [sensor_frame] if sensor_frame else [*content.sensor_frames, DEFAULT_SENSOR_FRAME]
     for sensor in sensors:
         chain: list[tuple[float, float, float]] = []
-        frame = _frame(sensor)
+        frame = frame_name(sensor)
         for _ in range(32):
             if frame in vehicles:
                 x = y = yaw = 0.0
@@ -334,7 +132,7 @@ def mounting(content: BagContent, sensor_frame: str | None
                     c, s = math.cos(yaw), math.sin(yaw)
                     x, y, yaw = x + c * dx - s * dy, y + s * dx + c * dy, yaw + dth
                 if chain:
-                    return x, y, wrap_scalar(yaw), f"{frame}->{_frame(sensor)}"
+                    return x, y, wrap_scalar(yaw), f"{frame}->{frame_name(sensor)}"
                 break
             edge = content.transforms.get(frame)
             if edge is None:

@@ -243,7 +243,8 @@ def test_without_rosbags_the_extra_is_named(tmp_path: Path, monkeypatch: pytest.
 
 
 def test_the_mounting_follows_a_chain_of_transforms() -> None:
-    from lgvtool.interop.ros2_import import BagContent, mounting
+    from lgvtool.interop.ros2_bag import BagContent
+    from lgvtool.interop.ros2_import import mounting
 
     content = BagContent(transforms={"laser": ("mount", 0.1, 0.0, 0.0),
                                      "mount": ("base_link", 0.9, 0.2, math.pi / 2),
