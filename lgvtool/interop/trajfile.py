@@ -199,12 +199,14 @@ def _column(header: list[str], key: str) -> int | None:
 
 def read_csv(path: Path) -> pd.DataFrame:
     """A CSV file with a header naming t (``t_s``, ``t``), x (``x_m``, ``x``), y (``y_m``,
-    ``y``) and optionally the heading (``heading_rad``, ``heading``, ``yaw``).
+    ``y``) and optionally the heading (``heading_rad``, ``heading``, ``yaw``); separated by
+    commas, or by semicolons when the header has no comma (a spreadsheet's export).
 
     :raises InputError: no header with those columns, a row that is not numbers, no pose.
     """
     lines = _text_lines(path)
-    reader = csv.reader(lines)
+    first = next((line for line in lines if line.strip()), "")
+    reader = csv.reader(lines, delimiter=";" if ";" in first and "," not in first else ",")
     try:
         header = next(reader)
     except StopIteration:
@@ -231,7 +233,7 @@ def read_csv(path: Path) -> pd.DataFrame:
 
 def _text_lines(path: Path) -> list[str]:
     try:
-        return path.read_text(encoding="utf-8").splitlines()
+        return path.read_text(encoding="utf-8-sig").splitlines()
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text file") from None
 

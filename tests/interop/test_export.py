@@ -177,3 +177,19 @@ def test_a_log_without_observations_exports_its_truth(tmp_path: Path, cli: CLI) 
     assert len(pd.read_csv(tmp_path / "o" / "truth.csv")) == 50
     code, _, err = cli("export", log, "-e", "pf", "-o", tmp_path / "o2")
     assert code == 2 and "no observations" in err and str(log) in err
+
+
+def test_csv_reader_takes_spreadsheet_exports_and_tells_the_bad_row(tmp_path: Path) -> None:
+    p = tmp_path / "sheet.csv"
+    p.write_text("\ufefftime;X;Y\n1.0;2.0;3.0\n1.5;2.5;3.5\n", encoding="utf-8")
+    df = trajfile.read_trajectory(p)
+    assert df["x"].tolist() == [2.0, 2.5] and df["heading"].isna().all()
+    p.write_text("t_s,x_m,y_m,heading_rad\n1,2,3,0\n\n2,2,x,0\n")
+    with pytest.raises(InputError, match=r"sheet\.csv:4: y_m 'x' is not a number"):
+        trajfile.read_trajectory(p)
+    p.write_text("a,b,c\n1,2,3\n")
+    with pytest.raises(InputError, match=r"sheet\.csv:1: the header names no t, x, y"):
+        trajfile.read_trajectory(p)
+    p.write_text("t_s,x_m,y_m\n1,2\n")
+    with pytest.raises(InputError, match=r"sheet\.csv:2: 2 field\(s\), the header has 3"):
+        trajfile.read_trajectory(p)
