@@ -162,10 +162,12 @@ def _read_reflectors(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
         seen.append((rng, bearing, ident, tick))
     ticks = [s[3] for s in seen if s[3] is not None]
     timed = len(ticks) == len(seen) and bool(seen)
-    first = min(ticks) if timed else 0
+    # ms ticks of a 32-bit counter: differences to the first one, across a wrap-around
+    rel = [(t - ticks[0] + 2**31) % 2**32 - 2**31 for t in ticks] if timed else []
+    start = min(rel, default=0)
     obs = [{"range": rng, "bearing": b, "id": i,
-            "time_in_scan": (tick - first) / 1000.0 if timed and tick is not None else 0.0}
-           for rng, b, i, tick in seen]
+            "time_in_scan": (rel[k] - start) / 1000.0 if timed else 0.0}
+           for k, (rng, b, i, _tick) in enumerate(seen)]
     period = max([NAV350_PERIOD_S, *(o["time_in_scan"] for o in obs)]) if timed else 0.0
     c.scans.append((_ns(msg.header, ns), period, obs))
 

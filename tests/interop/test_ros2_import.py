@@ -267,3 +267,20 @@ def test_the_gyro_mean_over_each_odometry_interval() -> None:
     got = fused_yaw_rate(odom_t, np.full(4, -1.0), gyro_t, gyro_w)
     # [0,1): mean 2; [1,2): 5; [2,3): none, interpolated at 2.5 between 5 and 7; [3,4): 7
     assert got == pytest.approx([2.0, 5.0, 5.0 + 2.0 * (1.0 / 1.7), 7.0], abs=1e-12)
+
+
+def test_reflector_times_across_the_tick_counter_wrap(tmp_path: Path) -> None:
+    from lgvtool.interop.ros2_bag import BagContent, _read_reflectors
+
+    bag = Bag(tmp_path / "unused")
+    ns = 1_700_000_000_000_000_000
+    msg = bag.landmarks(ns, [{"range": 5.0, "bearing": 0.5, "id": 3, "time_in_scan": 0.0},
+                             {"range": 6.0, "bearing": -0.5, "id": -1, "time_in_scan": 0.04}])
+    msg.reflectors[0].timestamp = 2**32 - 10     # 10 ms before the counter wraps
+    msg.reflectors[1].timestamp = 30             # 30 ms after it
+    content = BagContent()
+    _read_reflectors(content, msg, "", ns)
+    (_t, period, obs), = content.scans
+    assert [o["time_in_scan"] for o in obs] == pytest.approx([0.0, 0.04], abs=1e-12)
+    assert [o["id"] for o in obs] == [3, 0] and period == pytest.approx(0.125)
+    assert obs[1]["bearing"] == pytest.approx(-0.5, abs=1e-5)
