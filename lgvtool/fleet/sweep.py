@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from distributed import Client
 
     from lgvtool.config import Config
+    from lgvtool.fleet.connect import SchedulerSpec
 
 
 @dataclass
@@ -87,7 +88,7 @@ def run_sweep(
     estimators: Sequence[str] = (),
     config: Config | None = None,
     config_path: str | Path | None = None,
-    scheduler: str | None = None,
+    scheduler: str | SchedulerSpec | None = None,
     workers: int | None = None,
     client: Client | None = None,
     progress: bool = True,
