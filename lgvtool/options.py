@@ -50,13 +50,10 @@ class Number(click.ParamType):
             try:
                 value = parse_scalar(value, self.kind)
             except ValueError:
-                self.fail(f"{value!r} is not {'an integer' if self.kind is int else 'a number'}",
-                          param, ctx)
-        try:
-            return coerce(where, value, self.kind, minimum=self.minimum, maximum=self.maximum,
-                          min_open=self.min_open)
-        except ConfigError as exc:
-            self.fail(str(exc), param, ctx)
+                noun = "an integer" if self.kind is int else "a number"
+                raise ConfigError(f"{where} must be {noun}, got {value!r}") from None
+        return coerce(where, value, self.kind, minimum=self.minimum, maximum=self.maximum,
+                      min_open=self.min_open)
 
 
 def positive(maximum: float) -> Number:
@@ -120,3 +117,10 @@ def scheduler_options(f: F) -> F:
     return click.option("--scheduler", metavar="tls://HOST:PORT",
                         help="Run on this Dask scheduler instead of a local cluster; it and its "
                              "workers are trusted to run code here (docs/fleet.md).")(f)
+
+
+def warn(text: str) -> None:
+    """``lgvtool: warning: TEXT`` on stderr, control characters stripped (text from a log)."""
+    from lgvtool.outputs import printable
+
+    click.echo(f"lgvtool: warning: {printable(text)}", err=True)

@@ -83,6 +83,9 @@ def atomic_output(output: str | os.PathLike[str]) -> Iterator[Path]:
     out = Path(output)
     directory = out.parent if str(out.parent) else Path(".")
     fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".part", dir=directory)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.fchmod(fd, 0o666 & ~umask)  # mkstemp's 0600 would hide the output from its group
     os.close(fd)
     tmp = Path(tmp_name)
     try:

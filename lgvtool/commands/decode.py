@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from lgvtool.options import compression_option, force_option
+from lgvtool.options import compression_option, force_option, warn
 
 if TYPE_CHECKING:
     from lgvtool.log import LogReader, LogWriter
@@ -253,7 +253,7 @@ def decode(log: str, output: str, compression: str, force: bool, as_json: bool) 
     import warnings
 
     from lgvtool.log import LogReader
-    from lgvtool.outputs import atomic_output, guard_output
+    from lgvtool.outputs import atomic_output, guard_output, printable
 
     guard_output(output, [log], force=force)
     with warnings.catch_warnings():
@@ -261,8 +261,8 @@ def decode(log: str, output: str, compression: str, force: bool, as_json: bool) 
         reader = LogReader(log)
     if not as_json:
         for w in reader.warnings:
-            click.echo(f"lgvtool: warning: {w}", err=True)
+            warn(w)
     with atomic_output(output) as tmp:
         report = decode_log(reader, tmp, compression=compression)
     report.output = output
-    click.echo(json.dumps(report.as_dict(), indent=2) if as_json else report.summary())
+    click.echo(json.dumps(report.as_dict(), indent=2) if as_json else printable(report.summary()))

@@ -23,6 +23,7 @@ from lgvtool.options import (
     seed_option,
     set_option,
     split_names,
+    warn,
     workers_type,
 )
 
@@ -288,14 +289,16 @@ def evaluate(
     results = _evaluate_all(logs, options, scheduler=cluster, workers=workers)
     for res in results:
         for w in res.warnings:
-            click.echo(f"lgvtool: warning: {res.name}: {w}", err=True)
+            warn(f"{res.name}: {w}")
     _unique_names(results)
     doc = build_document(results)
 
     if as_json or fmt == "json":
         click.echo(to_json(doc), nl=False)
     else:
-        click.echo(render_tables(results, fmt), nl=False)
+        from lgvtool.outputs import printable
+
+        click.echo(printable(render_tables(results, fmt)), nl=False)
     if outdir:
         _write_outputs(Path(outdir), results, doc, png, force)
 
@@ -303,7 +306,7 @@ def evaluate(
     if base_doc is not None:
         more, notes = regress.check_baseline(doc, base_doc, tol, source=baseline or "baseline")
         for note in notes:
-            click.echo(f"lgvtool: warning: {note}", err=True)
+            warn(note)
         failures += more
     regress.raise_failures(failures)
 

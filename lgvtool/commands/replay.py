@@ -15,6 +15,7 @@ from lgvtool.options import (
     seed_option,
     set_option,
     split_names,
+    warn,
 )
 from lgvtool.values import MAX_COUNT, MAX_WALL_S
 
@@ -115,7 +116,7 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
         warnings.simplefilter("ignore")
         reader = LogReader(log)
     for w in reader.warnings:
-        click.echo(f"lgvtool: warning: {w}", err=True)
+        warn(w)
     cfg = load_config(config_path) if config_path else reader.config()
     data = load_log(reader, cfg.reflectors or None, truth=start_at_truth)
     t_read = time.perf_counter() - started
@@ -140,7 +141,7 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
             if n in result.skipped:
                 raise MissingDataError(f"{log}: {result.skipped[n]}")
     for why in result.skipped.values():
-        click.echo(f"lgvtool: warning: {why}; skipped", err=True)
+        warn(f"{why}; skipped")
 
     t1 = time.perf_counter()
     with atomic_output(output) as tmp:

@@ -11,6 +11,7 @@ from lgvtool.options import (
     scheduler_options,
     set_option,
     split_names,
+    warn,
     workers_type,
 )
 from lgvtool.values import MAX_SEEDS
@@ -93,12 +94,10 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
         progress=not no_progress, retry_failed=retry_failed)
     for i, f in enumerate(result.failures):
         if i == MAX_LISTED:
-            click.echo(f"lgvtool: warning: sweep: {len(result.failures) - MAX_LISTED} more failed "
-                       "task(s), see summary.csv", err=True)
+            warn(f"sweep: {len(result.failures) - MAX_LISTED} more failed task(s), see summary.csv")
             break
         setting = ",".join(f"{k}={v}" for k, v in f["setting"].items()) or "default"
-        click.echo(f"lgvtool: warning: sweep: {f['log']} ({setting}, seed {f['seed']}): "
-                   f"{f['error']}", err=True)
+        warn(f"sweep: {f['log']} ({setting}, seed {f['seed']}): {f['error']}")
     if as_json:
         click.echo(json.dumps(result.as_dict(), indent=2))
         return
