@@ -45,7 +45,7 @@ class Number(click.ParamType):
         from lgvtool.errors import ConfigError
         from lgvtool.values import coerce, parse_scalar
 
-        where = param.opts[-1] if param is not None and param.opts else "value"
+        where = max(param.opts, key=len) if param is not None and param.opts else "value"
         if isinstance(value, str):
             try:
                 value = parse_scalar(value, self.kind)

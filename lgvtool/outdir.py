@@ -33,6 +33,15 @@ def guard_directory(outdir: str | os.PathLike[str], names: Iterable[str],
     for src in sources:
         if out.exists() and src.exists() and out.resolve() == src.resolve():
             raise InputError(f"output directory {out} is the input {src}; choose another one")
+    if not out.exists():  # created by the command: only where it lies matters
+        for src in sources:
+            if src.is_dir() and out.resolve().is_relative_to(src.resolve()):
+                raise InputError(f"output directory {out} is inside the input {src}; "
+                                 "choose another one")
+        return out
+    names = list(names)
+    for name in names:  # an input first: that is the graver mistake
+        guard_output(out / name, sources, force=True)
     for name in names:
         guard_output(out / name, sources, force=force)
     return out

@@ -67,6 +67,8 @@ def guard_output(output: str | os.PathLike[str], inputs: Iterable[str | os.PathL
             raise InputError(f"{what} {out} is inside the input {src}; choose another {what}")
     if out.is_dir():
         raise InputError(f"{what} {out} is a directory")
+    if not out.parent.is_dir():
+        raise InputError(f"{what} {out}: no such directory {out.parent}")
     if (out.exists() or out.is_symlink()) and not force:
         raise InputError(f"{what} {out} exists; pass --force to replace it")
     return out

@@ -256,6 +256,10 @@ def evaluate(
         from lgvtool.evaluate.plots import require_kaleido
 
         require_kaleido()
+    if outdir:
+        from lgvtool.outdir import guard_directory
+
+        guard_directory(outdir, OUTPUT_FILES, [*logs, config_path, baseline], force=force)
     upper = [regress.parse_bound(b, "--max") for b in maxima]
     lower = [regress.parse_bound(b, "--min") for b in minima]
     tol = regress.parse_tolerance(tolerance)
@@ -268,10 +272,6 @@ def evaluate(
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise InputError(f"{baseline}: not JSON ({exc})") from None
         regress.validate_baseline(base_doc, baseline)
-    if outdir:
-        from lgvtool.outdir import guard_directory
-
-        guard_directory(outdir, OUTPUT_FILES, [*logs, config_path, baseline], force=force)
     cfg = load_config(config_path) if config_path else None
     names = split_names(estimators) or None
     settings = parse_set_options(sets)

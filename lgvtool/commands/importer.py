@@ -64,14 +64,17 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
         raise InputError(f"--landmark-radius must not be negative, got {landmark_radius}")
     if not area_margin >= 0:
         raise InputError(f"--area-margin must not be negative, got {area_margin}")
+    from pathlib import Path
+
     from lgvtool.importers.mrclam import ROBOT_SUBJECTS
     from lgvtool.outdir import guard_directory
     from lgvtool.outputs import guard_output
 
+    inputs = [dataset_dir, *(Path(dataset_dir).glob("*.dat") if Path(dataset_dir).is_dir() else [])]
     if robot is not None:
-        guard_output(output, [dataset_dir], force=force)
+        guard_output(output, inputs, force=force)
     else:
-        guard_directory(output, [f"robot{r}.mcap" for r in ROBOT_SUBJECTS], [dataset_dir], force=force)
+        guard_directory(output, [f"robot{r}.mcap" for r in ROBOT_SUBJECTS], inputs, force=force)
     settings = ImportSettings(gap_threshold_s=gap_threshold, landmark_radius_m=landmark_radius,
                               area_margin_m=area_margin,
                               odometry_delay_s=_delay(odometry_delay))

@@ -80,9 +80,10 @@ def scheduler_spec(address: str | None, ca_file: str | None = None, cert: str | 
     """
     tls_given = [n for n, v in (("--tls-ca-file", ca_file), ("--tls-cert", cert),
                                 ("--tls-key", key)) if v]
+    verb = "need" if len(tls_given) > 1 else "needs"
     if address is None:
         if tls_given:
-            raise InputError(f"{', '.join(tls_given)} need --scheduler tls://HOST:PORT")
+            raise InputError(f"{', '.join(tls_given)} {verb} --scheduler tls://HOST:PORT")
         return None
     require_fleet("--scheduler")
     scheme, sep, rest = address.partition("://")
@@ -91,7 +92,7 @@ def scheduler_spec(address: str | None, ca_file: str | None = None, cert: str | 
             or not 0 < int(port) < 65536:
         raise InputError(f"--scheduler expects tls://HOST:PORT or tcp://HOST:PORT, got {address!r}")
     if scheme == "tcp" and tls_given:
-        raise InputError(f"{', '.join(tls_given)} need a tls:// scheduler, got {address!r}")
+        raise InputError(f"{', '.join(tls_given)} {verb} a tls:// scheduler, got {address!r}")
     if scheme == "tls" and ca_file is None:
         raise InputError("a tls:// scheduler needs --tls-ca-file (and --tls-cert when it asks "
                          "for client certificates)")

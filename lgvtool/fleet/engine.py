@@ -145,6 +145,9 @@ def open_client(
                                                     security=spec.security()))
             except (OSError, TimeoutError, ValueError, TypeError) as exc:
                 raise InputError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+            except Exception as exc:  # not a Dask scheduler (its bytes make no Dask message)
+                raise InputError(f"{scheduler} does not answer as a Dask scheduler "
+                                 f"({type(exc).__name__})") from None
             try:
                 client.wait_for_workers(1, timeout=worker_timeout_s)
             except TimeoutError:
