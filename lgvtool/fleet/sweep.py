@@ -183,7 +183,9 @@ def run_sweep(
                  or "none", "lgvtool": __version__}
         page = render_report(tidy, grid=grid, metrics=metric_columns(tidy, grid_keys),
                              title="lgvtool sweep", facts=facts)
-        (out / "report.html").write_text(page, encoding="utf-8")
+        from lgvtool.outdir import write_text
+
+        write_text(out / "report.html", page)
         result.files.append(out / "report.html")
     manifest = {"format": "lgvtool.sweep", "format_version": 1, "lgvtool_version": __version__,
                 "grid": grid, "fixed": dict(fixed or {}), "seeds": seed_list,
