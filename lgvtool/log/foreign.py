@@ -111,7 +111,8 @@ def format_any(d: dict[str, Any]) -> str:
              f"{d['library'] or 'an unnamed library'}: not an lgvtool log (no lgvtool metadata "
              "and no lgvtool topics)",
              f"messages:  {d['message_count']}", ""]
-    rows = [("topic", "schema", "schema encoding", "message encoding", "count")]
+    rows: list[tuple[str, ...]] = [("topic", "schema", "schema encoding", "message encoding",
+                                    "count")]
     rows += [tuple(printable(str(v)) for v in (t, r["schema"], r["schema_encoding"],
                                               r["message_encoding"], r["count"]))
              for t, r in d["topics"].items()]
