@@ -637,3 +637,26 @@ def test_tcp_scheduler_on_another_machine_warns(capsys: pytest.CaptureFixture[st
     spec = scheduler_spec("tcp://10.0.0.5:8786")
     assert spec is not None and not spec.tls
     assert "neither encrypted nor authenticated" in capsys.readouterr().err
+
+
+def test_without_the_fleet_extra(world: Path, monkeypatch: pytest.MonkeyPatch,
+                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """sweep and evaluate --workers name the extra in one line; evaluate of several logs runs
+    them one after the other."""
+    import importlib.util
+
+    real = importlib.util.find_spec
+
+    def find_spec(name: str, *args: Any, **kw: Any) -> Any:
+        return None if name in ("dask", "distributed", "pyarrow") else real(name, *args, **kw)
+
+    monkeypatch.setattr(importlib.util, "find_spec", find_spec)
+    log = str(world / "log.mcap")
+    for argv in (["sweep", log, "-o", str(world / "never")],
+                 ["evaluate", log, "--workers", "2"],
+                 ["evaluate", log, "--scheduler", "tls://127.0.0.1:1"]):
+        code, _, err = _run(argv, capsys)
+        assert code == 2 and "pip install 'lgvtool[fleet]'" in err and err.count("\n") == 1
+    code, out, err = _run(["evaluate", log, log, "-e", "laser", "--json"], capsys)
+    assert code == 0, err
+    assert json.loads(out)["format"]

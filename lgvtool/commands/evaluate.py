@@ -116,9 +116,13 @@ def evaluate_log(
         trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
                                       start_at_truth)
         source = "replay"
-    elif start_at_truth:
-        warnings.append("--start-at-truth has no effect: the log's own estimates are scored "
-                        "(evaluate a log without /estimate/* channels to run the estimators)")
+    else:
+        if start_at_truth:
+            warnings.append("--start-at-truth has no effect: the log's own estimates are scored "
+                            "(evaluate a log without /estimate/* channels to run the estimators)")
+        if settings:
+            warnings.append("--set has no effect: the log's own estimates are scored (evaluate a "
+                            "log without /estimate/* channels to run the estimators)")
     truth = _pose_frame(reader, topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
     if truth is not None and truth.empty:
         truth = None
