@@ -594,23 +594,29 @@ def test_info_describes_a_foreign_mcap_and_strips_escapes(world: Path,
 def test_a_failed_write_leaves_the_old_output(world: Path, tmp_path: Path,
                                               monkeypatch: pytest.MonkeyPatch,
                                               capsys: pytest.CaptureFixture[str]) -> None:
-    """decode, recover and replay write through a temporary file: a run that fails half way
-    leaves an existing output as it was and no temporary file."""
+    """decode, recover, replay and simulate write through a temporary file: a run that fails
+    half way leaves an existing output as it was and no temporary file."""
     import lgvtool.commands.decode as decode_mod
     import lgvtool.log.salvage as salvage_mod
     from lgvtool.errors import InputError
 
     def half_then_fail(*args: Any, **kw: Any) -> Any:
-        Path(args[1]).write_bytes(b"half a log")
+        Path(args[1]).write_bytes(b"half a log")  # every writer's second argument: the output
         raise InputError("disk trouble")
+
+    import lgvtool.commands.replay as replay_mod
+    import lgvtool.sim.logfile as logfile_mod
 
     old = tmp_path / "out.mcap"
     old.write_bytes(b"the old output")
-    for module, name, command in ((decode_mod, "decode_log", "decode"),
-                                  (salvage_mod, "recover", "recover")):
+    log = str(world / "log.mcap")
+    for module, name, argv in (
+            (decode_mod, "decode_log", ["decode", log]),
+            (salvage_mod, "recover", ["recover", log]),
+            (replay_mod, "_write", ["replay", log, "-e", "laser"]),
+            (logfile_mod, "write_log", ["simulate", "-s", "paper-circle", "--duration", "10"])):
         monkeypatch.setattr(module, name, half_then_fail)
-        code, _, err = _run([command, str(world / "log.mcap"), "-o", str(old), "--force"],
-                            capsys)
+        code, _, err = _run([*argv, "-o", str(old), "--force"], capsys)
         assert code == 2 and "disk trouble" in err
         assert old.read_bytes() == b"the old output"
         assert not list(tmp_path.glob(".*.part"))
