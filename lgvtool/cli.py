@@ -67,6 +67,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "config",
         "Print or check a vehicle/reflector/filter configuration file.",
     ),
+    "completion": (
+        "lgvtool.commands.completion",
+        "completion",
+        "Print the shell completion script for bash, zsh or fish.",
+    ),
 }
 
 
@@ -102,15 +107,31 @@ def cli() -> None:
     """
 
 
+_JSON = {"on": False}
+"""Whether the running command was given --json (its errors then also go to stdout as JSON)."""
+
+
 def _fail(message: str, code: int) -> None:
+    from lgvtool.outputs import printable
+
+    message = printable(message)
     click.echo(f"lgvtool: error: {message}", err=True)
+    if _JSON["on"]:
+        import json
+
+        click.echo(json.dumps({"error": message, "exit_code": code}))
     sys.exit(code)
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Run the command line; map every failure to one line on stderr and an exit code."""
+    """Run the command line; map every failure to one line on stderr and an exit code.
+
+    With ``--json`` an error is also printed on stdout as ``{"error": ..., "exit_code": N}``.
+    """
     from lgvtool.errors import LgvError
 
+    args = sys.argv[1:] if argv is None else argv
+    _JSON["on"] = "--json" in args[: args.index("--") if "--" in args else len(args)]
     try:
         cli.main(args=argv, prog_name="lgvtool", standalone_mode=False)
     except click.exceptions.Abort:

@@ -16,6 +16,17 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from lgvtool.options import (
+    estimator_option,
+    force_option,
+    scheduler_options,
+    seed_option,
+    set_option,
+    split_names,
+    warn,
+    workers_type,
+)
+
 if TYPE_CHECKING:
     import pandas as pd
 
@@ -108,9 +119,13 @@ def evaluate_log(
         trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
                                       start_at_truth)
         source = "replay"
-    elif start_at_truth:
-        warnings.append("--start-at-truth has no effect: the log's own estimates are scored "
-                        "(evaluate a log without /estimate/* channels to run the estimators)")
+    else:
+        if start_at_truth:
+            warnings.append("--start-at-truth has no effect: the log's own estimates are scored "
+                            "(evaluate a log without /estimate/* channels to run the estimators)")
+        if settings:
+            warnings.append("--set has no effect: the log's own estimates are scored (evaluate a "
+                            "log without /estimate/* channels to run the estimators)")
     truth = _pose_frame(reader, topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
     if truth is not None and truth.empty:
         truth = None
@@ -156,15 +171,16 @@ def _evaluate_task(task: _LogTask) -> EvaluationResult:
         return evaluate_log(task.path, **task.options)
 
 
-def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: str | None,
+def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: Any,
                   workers: int | None) -> list[EvaluationResult]:
     """Evaluate every log: in this process for one log, else on the fleet engine (a local Dask
     cluster, or ``scheduler``); the first log that fails stops the command with its error."""
     from lgvtool.errors import InputError
+    from lgvtool.fleet.connect import fleet_available
 
     tasks = [_LogTask(log, options) for log in logs]
-    if len(tasks) == 1 and scheduler is None and workers is None:
-        return [_evaluate_task(tasks[0])]
+    if scheduler is None and workers is None and (len(tasks) == 1 or not fleet_available()):
+        return [_evaluate_task(t) for t in tasks]
     from lgvtool.fleet.engine import run_tasks
 
     results: list[EvaluationResult | None] = [None] * len(tasks)
@@ -179,18 +195,13 @@ def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: st
     return [r for r in results if r is not None]
 
 
-def _split_names(values: Sequence[str]) -> list[str]:
-    return [n.strip() for v in values for n in v.split(",") if n.strip()]
-
-
 @click.command()
 @click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=str))
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False, path_type=str),
               metavar="OUTDIR",
               help="Write table1.{md,csv,tex,json} and report.html (and PNGs) into OUTDIR.")
-@click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME",
-              help="Estimator to score or run (repeatable or comma-separated); default: the "
-                   "log's estimates, else laser, deadreckoning, ekf, pf-paper, pf.")
+@estimator_option("Estimator to score or run; default: the log's estimates, else laser, "
+                  "deadreckoning, ekf, pf-paper, pf")
 @click.option("--json", "as_json", is_flag=True, help="Print the JSON document (same as "
               "--format json).")
 @click.option("--format", "fmt", type=click.Choice(["text", "md", "csv", "tex", "json"]),
@@ -203,8 +214,9 @@ def _split_names(values: Sequence[str]) -> list[str]:
               help="A previous table1.json: fail (exit 1) if an error figure got worse.")
 @click.option("--tolerance", default="0%", show_default=True, metavar="P",
               help="Allowed worsening against --baseline, percent (e.g. 10%).")
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Seed of the estimators when evaluate runs them.")
+@seed_option("Seed of the estimators when evaluate runs them.")
+@set_option("Estimator parameter when evaluate runs the estimators, e.g. pf.particles=500 "
+            "(repeatable; docs/filter.md).")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
               help="Configuration TOML instead of the one stored in the log.")
 @click.option("--shared-centre", is_flag=True,
@@ -213,11 +225,11 @@ def _split_names(values: Sequence[str]) -> list[str]:
               help="Fit the radius too (geometric fit) instead of R = h / tan(delta).")
 @click.option("--png", is_flag=True, help="Also write every figure as PNG into OUTDIR "
               "(needs the optional kaleido package).")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
+@click.option("--workers", type=workers_type(), default=None,
               help="Evaluate several logs on a local Dask cluster of this many processes "
                    "(default with several logs: one per CPU).")
-@click.option("--scheduler", metavar="tcp://HOST:PORT", default=None,
-              help="Evaluate on an existing Dask cluster instead (docs/fleet.md).")
+@scheduler_options
+@force_option
 @click.option("--start-at-truth", is_flag=True,
               help="When evaluate runs the estimators: start every one at the log's ground "
                    "truth (/truth/pose) instead of letting it initialise itself.")
@@ -227,10 +239,10 @@ def _split_names(values: Sequence[str]) -> list[str]:
 def evaluate(
     logs: tuple[str, ...], outdir: str | None, estimators: tuple[str, ...], as_json: bool,
     fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
-    tolerance: str, seed: int, config_path: str | None, shared_centre: bool,
-    free_radius: bool, png: bool, workers: int | None, scheduler: str | None,
-    start_at_truth: bool,
-    foreign: tuple[str, ...] = (),
+    tolerance: str, seed: int, sets: tuple[str, ...], config_path: str | None,
+    shared_centre: bool, free_radius: bool, png: bool, workers: int | None,
+    scheduler: str | None, tls_ca_file: str | None, tls_cert: str | None, tls_key: str | None,
+    force: bool, start_at_truth: bool, foreign: tuple[str, ...] = (),
 ) -> None:
     """Evaluate the localization in LOG... against the kinematic reference circle (R = h /
     tan(delta), centre fitted by least squares) and, where the log has it, ground truth.
@@ -244,18 +256,26 @@ def evaluate(
     """
     import json
 
-    from lgvtool.config import load_config
+    from lgvtool.config import load_config, parse_set_options
     from lgvtool.errors import InputError
     from lgvtool.evaluate import regress
     from lgvtool.evaluate.document import build_document, to_json
     from lgvtool.evaluate.table import render_tables
 
+    if as_json and fmt not in ("text", "json"):
+        raise InputError(f"--json prints JSON; it cannot be combined with --format {fmt}")
     if png and not outdir:
         raise InputError("--png needs -o OUTDIR to write the images into")
     if png:
         from lgvtool.evaluate.plots import require_kaleido
 
         require_kaleido()
+    if outdir:
+        from lgvtool.outdir import guard_directory
+
+        trajectory_files = [spec.partition("=")[2] for spec in foreign]
+        guard_directory(outdir, OUTPUT_FILES, [*logs, config_path, baseline, *trajectory_files],
+                        force=force)
     upper = [regress.parse_bound(b, "--max") for b in maxima]
     lower = [regress.parse_bound(b, "--min") for b in minima]
     tol = regress.parse_tolerance(tolerance)
@@ -269,12 +289,19 @@ def evaluate(
             raise InputError(f"{baseline}: not JSON ({exc})") from None
         regress.validate_baseline(base_doc, baseline)
     cfg = load_config(config_path) if config_path else None
-    names = _split_names(estimators) or None
+    names = split_names(estimators) or None
+    settings = parse_set_options(sets)
 
     if workers is not None and scheduler is not None:
         raise InputError("give --workers or --scheduler, not both")
+    from lgvtool.fleet.connect import require_fleet, scheduler_spec
+
+    if workers is not None:
+        require_fleet("--workers")
+    cluster = scheduler_spec(scheduler, tls_ca_file, tls_cert, tls_key)
     options = {"estimators": names, "config": cfg, "seed": seed, "shared_centre": shared_centre,
-               "free_radius": free_radius, "start_at_truth": start_at_truth}
+               "free_radius": free_radius, "start_at_truth": start_at_truth,
+               "settings": settings or None}
     if foreign:
         from lgvtool.interop.foreign import load_trajectories
 
@@ -282,25 +309,27 @@ def evaluate(
             raise InputError("--trajectory scores a file against one log; give one LOG")
         trajectories: Any = load_trajectories(foreign)
         options["trajectories"] = trajectories
-    results = _evaluate_all(logs, options, scheduler=scheduler, workers=workers)
+    results = _evaluate_all(logs, options, scheduler=cluster, workers=workers)
     for res in results:
         for w in res.warnings:
-            click.echo(f"lgvtool: warning: {res.name}: {w}", err=True)
+            warn(f"{res.name}: {w}")
     _unique_names(results)
     doc = build_document(results)
 
     if as_json or fmt == "json":
         click.echo(to_json(doc), nl=False)
     else:
-        click.echo(render_tables(results, fmt), nl=False)
+        from lgvtool.outputs import printable
+
+        click.echo(printable(render_tables(results, fmt)), nl=False)
     if outdir:
-        _write_outputs(Path(outdir), results, doc, png)
+        _write_outputs(Path(outdir), results, doc, png, force)
 
     failures = regress.check_bounds(doc, upper, lower)
     if base_doc is not None:
         more, notes = regress.check_baseline(doc, base_doc, tol, source=baseline or "baseline")
         for note in notes:
-            click.echo(f"lgvtool: warning: {note}", err=True)
+            warn(note)
         failures += more
     regress.raise_failures(failures)
 
@@ -315,20 +344,28 @@ def _unique_names(results: list[EvaluationResult]) -> None:
             res.name = f"{res.name}-{count}"
 
 
+OUTPUT_FILES = ("table1.md", "table1.csv", "table1.tex", "table1.json", "report.html")
+"""Files that ``evaluate -o OUTDIR`` writes (and PNGs with --png)."""
+
+
 def _write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any],
-                   png: bool) -> None:
+                   png: bool, force: bool = False) -> None:
     from lgvtool.evaluate.document import to_json
     from lgvtool.evaluate.plots import write_png
     from lgvtool.evaluate.report import render_report
     from lgvtool.evaluate.table import render_tables
+    from lgvtool.outdir import write_text
+    from lgvtool.outputs import atomic_output, guard_output
 
     out.mkdir(parents=True, exist_ok=True)
-    (out / "table1.md").write_text(render_tables(results, "md"), encoding="utf-8")
-    (out / "table1.csv").write_text(render_tables(results, "csv"), encoding="utf-8")
-    (out / "table1.tex").write_text(render_tables(results, "tex"), encoding="utf-8")
-    (out / "table1.json").write_text(to_json(doc), encoding="utf-8")
+    write_text(out / "table1.md", render_tables(results, "md"))
+    write_text(out / "table1.csv", render_tables(results, "csv"))
+    write_text(out / "table1.tex", render_tables(results, "tex"))
+    write_text(out / "table1.json", to_json(doc))
     figures: list[Any] = []
-    (out / "report.html").write_text(render_report(results, figures=figures), encoding="utf-8")
+    write_text(out / "report.html", render_report(results, figures=figures))
     if png:
         for slug, fig in figures:
-            write_png(fig, out / f"{slug}.png")
+            target = guard_output(out / f"{slug}.png", [r.path for r in results], force=force)
+            with atomic_output(target) as tmp:
+                write_png(fig, tmp)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from lgvtool.options import Number, compression_option, force_option
+
 
 @click.group(name="import")
 def import_() -> None:
@@ -12,7 +14,7 @@ def import_() -> None:
 
 @import_.command(short_help="UTIAS MRCLAM: one robot (--robot N) or all (--all) into logs.")
 @click.argument("dataset_dir", type=click.Path(path_type=str))
-@click.option("--robot", "-r", type=int, default=None,
+@click.option("--robot", "-r", type=Number(int, 1, 1000), default=None,
               help="Robot number to import (1-5 in the published datasets).")
 @click.option("--all", "all_robots", is_flag=True,
               help="Import every robot; -o is then a folder that receives robot1.mcap ...")
@@ -20,22 +22,22 @@ def import_() -> None:
               help="Output .mcap file (with --robot) or folder (with --all).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print the summary as JSON (one object; a list with --all).")
-@click.option("--gap-threshold", type=float, default=0.5, show_default=True,
+@click.option("--gap-threshold", type=Number(float, 0.0, 1e6, min_open=True), default=0.5, show_default=True,
               help="Steps between odometry or ground-truth stamps longer than this are "
                    "reported as gaps, s.")
-@click.option("--landmark-radius", type=float, default=0.05, show_default=True,
+@click.option("--landmark-radius", type=Number(float, 0.0, 1e3), default=0.05, show_default=True,
               help="Radius given to every landmark in the map, m.")
-@click.option("--area-margin", type=float, default=1.5, show_default=True,
+@click.option("--area-margin", type=Number(float, 0.0, 1e6), default=1.5, show_default=True,
               help="Margin around the landmarks' bounding box that forms the work area, m.")
 @click.option("--odometry-delay", default="auto", show_default=True, metavar="S|auto",
               help="Write the odometry this many s after its stamps (the robots carry out a "
                    "command about 0.2 s late); auto measures the delay per robot from the "
                    "camera data, 0 keeps the file's stamps.")
-@click.option("--compression", type=click.Choice(["zstd", "lz4", "none"]), default="zstd",
-              show_default=True, help="MCAP chunk compression.")
+@compression_option()
+@force_option
 def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, as_json: bool,
            gap_threshold: float, landmark_radius: float, area_margin: float,
-           odometry_delay: str, compression: str) -> None:
+           odometry_delay: str, compression: str, force: bool) -> None:
     """Import the UTIAS MRCLAM dataset in DATASET_DIR (e.g. MRCLAM_Dataset6) into a log.
 
     Writes odometry (commanded v m/s, omega rad/s) to /odom/twist, each measurement time's
@@ -62,6 +64,17 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
         raise InputError(f"--landmark-radius must not be negative, got {landmark_radius}")
     if not area_margin >= 0:
         raise InputError(f"--area-margin must not be negative, got {area_margin}")
+    from pathlib import Path
+
+    from lgvtool.importers.mrclam import ROBOT_SUBJECTS
+    from lgvtool.outdir import guard_directory
+    from lgvtool.outputs import guard_output
+
+    inputs = [dataset_dir, *(Path(dataset_dir).glob("*.dat") if Path(dataset_dir).is_dir() else [])]
+    if robot is not None:
+        guard_output(output, inputs, force=force)
+    else:
+        guard_directory(output, [f"robot{r}.mcap" for r in ROBOT_SUBJECTS], inputs, force=force)
     settings = ImportSettings(gap_threshold_s=gap_threshold, landmark_radius_m=landmark_radius,
                               area_margin_m=area_margin,
                               odometry_delay_s=_delay(odometry_delay))

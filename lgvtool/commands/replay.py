@@ -7,6 +7,18 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from lgvtool.options import (
+    Number,
+    compression_option,
+    estimator_option,
+    force_option,
+    seed_option,
+    set_option,
+    split_names,
+    warn,
+)
+from lgvtool.values import MAX_COUNT, MAX_WALL_S
+
 # The filters' matrix products are tiny (at most particles x reflectors): BLAS threads only add
 # their start-up and their spinning between calls (about 0.1 s of an hour's replay). Set before
 # numpy is imported (the command imports it when it runs); an explicit setting wins.
@@ -24,32 +36,28 @@ LONG_LOG_S = 600.0
 @click.argument("log", type=click.Path(dir_okay=False, path_type=str))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str),
               help="Output log (MCAP): the input's messages plus the estimates.")
-@click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME",
-              help="Estimator to run (repeatable): laser, deadreckoning, ekf, pf-paper, pf. "
-                   "Default: all five.")
-@click.option("--particles", type=click.IntRange(min=1), default=None,
+@estimator_option("Estimator to run: laser, deadreckoning, ekf, pf-paper, pf; default: all five")
+@click.option("--particles", type=Number(int, 1, MAX_COUNT), default=None,
               help="Particle count of the particle filters run (pf-paper, pf).")
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Seed of every random draw; the same seed gives identical output.")
-@click.option("--set", "sets", multiple=True, metavar="EST.PARAM=VALUE",
-              help="Estimator parameter, e.g. pf.particles=500 or pf-paper.spread_m=0.3 "
-                   "(repeatable; docs/filter.md lists them).")
+@seed_option("Seed of every random draw; the same seed gives identical output.")
+@set_option()
 @click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
               default=None, help="Configuration file (TOML): vehicle, area, reflectors, "
                                  "[estimators.*]. Default: the one stored in the log.")
 @click.option("--start-at-truth", is_flag=True,
               help="Start every estimator at the log's ground truth (/truth/pose).")
-@click.option("--cloud-period", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
-              help="Keep one particle cloud per this many seconds, s.")
-@click.option("--cloud-size", type=click.IntRange(min=0), default=50, show_default=True,
+@click.option("--cloud-period", type=Number(float, 0.0, MAX_WALL_S), default=2.0,
+              show_default=True, help="Keep one particle cloud per this many seconds, s.")
+@click.option("--cloud-size", type=Number(int, 0, MAX_COUNT), default=50, show_default=True,
               help="At most this many particles per kept cloud (0: no clouds).")
-@click.option("--compression", type=click.Choice(["lz4", "zstd", "none"]), default="lz4",
-              show_default=True, help="Compression of the chunks holding the estimates (the "
-                                      "input's chunks are copied as they are).")
+@compression_option("Compression of the chunks holding the estimates (the input's chunks are "
+                    "copied as they are).")
+@force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | None,
            seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
-           cloud_period: float, cloud_size: int, compression: str, as_json: bool) -> None:
+           cloud_period: float, cloud_size: int, compression: str, as_json: bool,
+           force: bool) -> None:
     """Replay LOG through the localisation estimators and write OUTPUT.
 
     OUTPUT is a complete log: every message of LOG, plus per estimator NAME the pose of the
@@ -65,15 +73,18 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
     # collector's passes over them cost tens of ms and free nothing.
     collecting = gc.isenabled()
     gc.disable()
+    from lgvtool.outputs import guard_output
+
+    guard_output(output, [log, config_path], force=force)
     try:
-        _replay(log, output, estimators, particles, seed, sets, config_path, start_at_truth,
-                cloud_period, cloud_size, compression, as_json)
+        _replay(log, output, split_names(estimators), particles, seed, sets, config_path,
+                start_at_truth, cloud_period, cloud_size, compression, as_json)
     finally:
         if collecting:
             gc.enable()
 
 
-def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int | None,
+def _replay(log: str, output: str, estimators: list[str], particles: int | None,
             seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
             cloud_period: float, cloud_size: int, compression: str, as_json: bool) -> None:
     """The replay command (see :func:`replay`)."""
@@ -88,10 +99,9 @@ def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int |
     from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS, check_names
     from lgvtool.localize.replay import load_log, replay_data
     from lgvtool.log import LogReader
+    from lgvtool.outputs import atomic_output
 
     started = time.perf_counter()
-    if os.path.abspath(output) == os.path.abspath(log):
-        raise InputError("the output must not be the input log")
     names = check_names(list(estimators) if estimators else list(DEFAULT_ESTIMATORS))
     settings: dict[str, Any] = parse_set_options(sets)
     if particles is not None:
@@ -106,7 +116,7 @@ def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int |
         warnings.simplefilter("ignore")
         reader = LogReader(log)
     for w in reader.warnings:
-        click.echo(f"lgvtool: warning: {w}", err=True)
+        warn(w)
     cfg = load_config(config_path) if config_path else reader.config()
     data = load_log(reader, cfg.reflectors or None, truth=start_at_truth)
     t_read = time.perf_counter() - started
@@ -131,10 +141,12 @@ def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int |
             if n in result.skipped:
                 raise MissingDataError(f"{log}: {result.skipped[n]}")
     for why in result.skipped.values():
-        click.echo(f"lgvtool: warning: {why}; skipped", err=True)
+        warn(f"{why}; skipped")
 
     t1 = time.perf_counter()
-    written = _write(reader, output, result, cfg if config_path else None, log, compression)
+    with atomic_output(output) as tmp:
+        written = _write(reader, str(tmp), result, cfg if config_path else None, log,
+                         compression)
     t_write = time.perf_counter() - t1
     summary: dict[str, Any] = {
         "output": output,
@@ -157,7 +169,7 @@ def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int |
 
 
 def _write(reader: Any, output: str, result: Any, config: Any, source: str,
-           compression: str = "lz4") -> int:
+           compression: str = "zstd") -> int:
     """The input's messages (chunks copied verbatim), the metadata and the estimates, merged
     in time order (pose before state before cloud at one time, estimators in run order)."""
     from pathlib import Path
