@@ -4,6 +4,15 @@ from __future__ import annotations
 
 import click
 
+from lgvtool.options import (
+    estimator_option,
+    force_option,
+    seed_option,
+    set_option,
+    split_names,
+    warn,
+)
+
 
 @click.command()
 @click.argument("log", type=click.Path(dir_okay=False, path_type=str))
@@ -12,18 +21,15 @@ import click
               help="Folder that receives one file (set) per trajectory (created).")
 @click.option("--format", "fmt", type=click.Choice(["tum", "kitti", "csv", "parquet"]),
               default="tum", show_default=True, help="File format (docs/interop.md).")
-@click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME",
-              help="Estimator to export (repeatable or comma-separated); default: the log's "
-                   "estimates, else laser, deadreckoning, ekf, pf-paper, pf run over the log.")
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Seed of the estimators when export runs them.")
-@click.option("--set", "sets", multiple=True, metavar="EST.PARAM=VALUE",
-              help="Estimator parameter when export runs them, e.g. pf.particles=500.")
+@estimator_option("Estimator to export; default: the log's estimates, else laser, "
+                  "deadreckoning, ekf, pf-paper, pf run over the log")
+@seed_option("Seed of the estimators when export runs them.")
+@set_option("Estimator parameter when export runs them, e.g. pf.particles=500 (repeatable).")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
               help="Configuration TOML instead of the one stored in the log.")
 @click.option("--start-at-truth", is_flag=True,
               help="When export runs the estimators: start them at the log's ground truth.")
-@click.option("--force", is_flag=True, help="Replace files that exist in DIR.")
+@force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def export(log: str, outdir: str, fmt: str, estimators: tuple[str, ...], seed: int,
            sets: tuple[str, ...], config_path: str | None, start_at_truth: bool, force: bool,
@@ -43,11 +49,11 @@ def export(log: str, outdir: str, fmt: str, estimators: tuple[str, ...], seed: i
     from lgvtool.config import load_config, parse_set_options
     from lgvtool.interop.export import export_log
 
-    names = [n.strip() for v in estimators for n in v.split(",") if n.strip()] or None
+    names = split_names(estimators) or None
     summary = export_log(log, outdir, fmt, estimators=names,
                          config=load_config(config_path) if config_path else None, seed=seed,
                          settings=parse_set_options(sets), start_at_truth=start_at_truth,
                          force=force)
     for w in summary.warnings:
-        click.echo(f"lgvtool: warning: {w}", err=True)
+        warn(w)
     click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())

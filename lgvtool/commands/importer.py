@@ -117,9 +117,8 @@ def _delay(text: str) -> float | None:
 @click.option("--sensor-frame", default=None, metavar="FRAME",
               help="Frame of the navigation sensor in /tf (default: the NAV350 messages' "
                    "frame, else nav); the transform from the vehicle frame gives the mounting.")
-@click.option("--compression", type=click.Choice(["zstd", "lz4", "none"]), default="zstd",
-              show_default=True, help="MCAP chunk compression.")
-@click.option("--force", is_flag=True, help="Replace OUTPUT if it exists.")
+@compression_option()
+@force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def ros2(bag: str, output: str, topic_options: tuple[str, ...], config_path: str | None,
          sensor_frame: str | None, compression: str, force: bool, as_json: bool) -> None:

@@ -24,7 +24,8 @@ from typing import TYPE_CHECKING, Any
 from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
 from lgvtool.interop.options import SAFE_NAME
-from lgvtool.outputs import atomic_output, guard_output
+from lgvtool.outdir import guard_directory
+from lgvtool.outputs import atomic_output
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -199,8 +200,6 @@ def export_log(log: str | Path, directory: str | Path, fmt: str, *,
     if fmt == "parquet":
         trajfile.require_pyarrow()
     folder = Path(directory)
-    if folder.exists() and not folder.is_dir():
-        raise InputError(f"{folder}: is a file, expected an output folder")
     with pywarnings.catch_warnings():
         pywarnings.simplefilter("ignore")
         reader = LogReader(log)
@@ -210,9 +209,7 @@ def export_log(log: str | Path, directory: str | Path, fmt: str, *,
     if not trajectories:
         raise InputError(f"{log}: no trajectory to export (no estimate, NAV pose or truth)")
     plan = [(tr, [folder / n for n in trajfile.file_names(tr.name, fmt)]) for tr in trajectories]
-    for _tr, paths in plan:
-        for p in paths:
-            guard_output(p, [log], force=force)
+    guard_directory(folder, [p.name for _tr, paths in plan for p in paths], [log], force=force)
     folder.mkdir(parents=True, exist_ok=True)
     summary = ExportSummary(str(log), str(folder), fmt, source, warnings=warnings)
     name = Path(str(log)).name
