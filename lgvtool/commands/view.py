@@ -40,13 +40,13 @@ def view(log: str, live: str, speed: float, live_estimators: tuple[str, ...], se
     import warnings
 
     from lgvtool.config import parse_set_options
-    from lgvtool.progress import Progress
     from lgvtool.live.online import OnlineEstimator
-    from lgvtool.live.playback import play
+    from lgvtool.live.playback import play, prepare_channels
     from lgvtool.live.server import LiveServer, parse_address
     from lgvtool.live.tap import LiveFeed, describe
     from lgvtool.localize.registry import check_names
     from lgvtool.log import LogReader, topics
+    from lgvtool.progress import Progress
 
     address = parse_address(live)
     names = check_names(list(live_estimators))
@@ -64,7 +64,9 @@ def view(log: str, live: str, speed: float, live_estimators: tuple[str, ...], se
     starts = [i.start_ns for i in infos.values() if i.count]
     ends = [i.end_ns for i in infos.values() if i.count]
     span = (max(ends) - min(starts)) * 1e-9 if starts else 0.0
-    feed = LiveFeed(LiveServer(address), estimators,
+    server = LiveServer(address)
+    prepare_channels(server, reader, skip)
+    feed = LiveFeed(server, estimators,
                     warn=lambda text: click.echo(f"lgvtool: warning: {text}", err=True))
     stop = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *_: stop.set())

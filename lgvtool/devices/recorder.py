@@ -130,9 +130,14 @@ class Recorder:
         from lgvtool.live.online import OnlineEstimator
         from lgvtool.live.server import LiveServer
         from lgvtool.live.tap import LiveFeed
+        from lgvtool.log import topics
 
         estimators = [OnlineEstimator(n, self.config) for n in self.settings.live_estimators]
-        return LiveFeed(LiveServer(self.settings.live), estimators, warn=self._warn)
+        server = LiveServer(self.settings.live)
+        # the contract's fixed topics a recorder may write (not the simulator's or importers')
+        server.prepare({t: s for t, s in topics.FIXED.items()
+                        if t not in (topics.TRUTH, topics.ODOM)})
+        return LiveFeed(server, estimators, warn=self._warn)
 
     def stop(self, reason: str = "stopped") -> None:
         """Ask the recording to end (thread-safe, idempotent)."""

@@ -112,6 +112,11 @@ class OnlineEstimator:
         #: processing time of every observation applied, s
         self.update_seconds: list[float] = []
 
+    @property
+    def output_topics(self) -> tuple[str, ...]:
+        """The topics this estimator publishes: pose, state and (particle filters) cloud."""
+        return self._topics
+
     # ------------------------------------------------------------------ input
     def feed(self, topic: str, data: bytes, log_time_ns: int) -> list[Output]:
         """Take one message of the log (JSON bytes); return the estimate messages it caused."""

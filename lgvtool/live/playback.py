@@ -15,10 +15,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from lgvtool.live.server import LiveServer
     from lgvtool.live.tap import LiveFeed
     from lgvtool.log import LogReader
 
-__all__ = ["PlayResult", "play"]
+__all__ = ["PlayResult", "play", "prepare_channels"]
 
 #: how often the data's time is broadcast, wall s
 _TIME_PERIOD_S = 0.1
@@ -33,6 +34,12 @@ class PlayResult:
     log_seconds: float
     wall_seconds: float
     stop_reason: str
+
+
+def prepare_channels(server: LiveServer, reader: LogReader,
+                     skip_topics: frozenset[str] = frozenset()) -> None:
+    """Advertise every channel of the log (but ``skip_topics``) before playing it."""
+    server.prepare({t: i.schema for t, i in reader.topics().items() if t not in skip_topics})
 
 
 def play(reader: LogReader, feed: LiveFeed, *, speed: float = 1.0,

@@ -147,6 +147,16 @@ class LiveServer:
                     self._channels[topic] = ch
         return ch
 
+    def prepare(self, channels: dict[str, str]) -> None:
+        """Advertise ``{topic: schema name}`` now, before their first message.
+
+        A client that subscribes the moment a channel is advertised can be refused by the
+        server ("unknown channel") while the channel is being registered; channels made before
+        any client connects do not meet that race."""
+        for topic, schema in channels.items():
+            if schema:
+                self._channel(topic, schema)
+
     def publish(self, topic: str, schema_name: str, data: bytes, log_time_ns: int) -> None:
         """Publish one JSON-encoded message of schema ``schema_name`` on ``topic`` (thread-safe,
         never blocks)."""

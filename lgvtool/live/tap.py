@@ -93,6 +93,8 @@ class LiveFeed:
                  warn: Any = None) -> None:
         self.server = server
         self.estimators = list(estimators)
+        server.prepare({t: topics.schema_for_topic(t) or "" for e in self.estimators
+                        for t in e.output_topics})
         self._warn = warn
         self._warned: set[str] = set()
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()

@@ -47,7 +47,7 @@ async def _collect(url: str, topics: set[str] | None, *, until: float, wanted: i
         while time.monotonic() < until:
             try:
                 frame = await asyncio.wait_for(ws.recv(), max(0.01, until - time.monotonic()))
-            except TimeoutError:
+            except (TimeoutError, websockets.ConnectionClosed):
                 break
             if isinstance(frame, str):
                 msg = json.loads(frame)
