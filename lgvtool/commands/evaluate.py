@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from lgvtool.config import Config
     from lgvtool.evaluate.evaluation import EvaluationResult
     from lgvtool.log import LogReader
+    from lgvtool.progress import Progress
 
 def _pose_frame(reader: LogReader, topic: str) -> pd.DataFrame:
     df = reader.dataframe(topic)
@@ -51,11 +52,19 @@ def _estimates_from_log(
 def _run_estimators(
     reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
     settings: Mapping[str, Any] | None, warnings: list[str], start_at_truth: bool = False,
+    progress: Progress | None = None,
 ) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
+    from lgvtool.log import topics
 
     chosen = list(names) if names else list(DEFAULT_ESTIMATORS)
     start: dict[str, Any] = {"initial_pose": "truth"} if start_at_truth else {}
+    if progress is not None:
+        # at most every scan and every NAV pose, per estimator
+        infos = reader.topics()
+        per = sum(infos[t].count for t in (topics.NAV_REFLECTORS, topics.NAV_POSE) if t in infos)
+        progress.stage(f"{Path(str(reader.path)).name}: estimators", len(chosen) * per)
+        start["progress"] = progress.advance
     out = run_replay(reader, chosen, config=cfg, seed=seed, settings=dict(settings or {}),
                      **start)
     for name, reason in (getattr(out, "skipped", None) or {}).items():
@@ -75,6 +84,7 @@ def evaluate_log(
     lap_source: str | None = None,
     start_at_truth: bool = False,
     replay: bool = False,
+    progress: Progress | None = None,
 ) -> EvaluationResult:
     """Evaluate one log.
 
@@ -89,6 +99,7 @@ def evaluate_log(
     ``config.reference.steering_angle_deg``. Raises :class:`~lgvtool.errors.InputError` (or a
     subclass) for a log that cannot be evaluated. ``replay=True`` runs the estimators even when
     the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
+    ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress.
     """
     from lgvtool.evaluate.evaluation import evaluate_trajectories
     from lgvtool.evaluate.reference import steering_from_frames
@@ -103,7 +114,7 @@ def evaluate_log(
     used: dict[str, Any] = {}
     if trajs is None:
         trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
-                                      start_at_truth)
+                                      start_at_truth, progress)
         source = "replay"
     elif start_at_truth:
         warnings.append("--start-at-truth has no effect: the log's own estimates are scored "
@@ -150,19 +161,24 @@ def _evaluate_task(task: _LogTask) -> EvaluationResult:
 
 
 def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: str | None,
-                  workers: int | None) -> list[EvaluationResult]:
+                  workers: int | None, bar: Progress | None = None) -> list[EvaluationResult]:
     """Evaluate every log: in this process for one log, else on the fleet engine (a local Dask
-    cluster, or ``scheduler``); the first log that fails stops the command with its error."""
+    cluster, or ``scheduler``); the first log that fails stops the command with its error.
+    ``bar``: progress on stderr (the estimators of one log, or the logs done)."""
     from lgvtool.errors import InputError
 
     tasks = [_LogTask(log, options) for log in logs]
     if len(tasks) == 1 and scheduler is None and workers is None:
-        return [_evaluate_task(tasks[0])]
+        import warnings as pywarnings
+
+        with pywarnings.catch_warnings():
+            pywarnings.simplefilter("ignore")
+            return [evaluate_log(tasks[0].path, **tasks[0].options, progress=bar)]
     from lgvtool.fleet.engine import run_tasks
 
     results: list[EvaluationResult | None] = [None] * len(tasks)
     for out in run_tasks(_evaluate_task, tasks, scheduler=scheduler, workers=workers,
-                         progress=sys.stderr.isatty(), label="logs"):
+                         progress=bar is not None and bar.enabled, label="logs"):
         if not out.ok:
             error = out.error or "failed"
             if out.input_error:  # "LogFormatError: <path>: ..." already names the log
@@ -214,12 +230,14 @@ def _split_names(values: Sequence[str]) -> list[str]:
 @click.option("--start-at-truth", is_flag=True,
               help="When evaluate runs the estimators: start every one at the log's ground "
                    "truth (/truth/pose) instead of letting it initialise itself.")
+@click.option("--progress/--no-progress", "show_progress", default=True, show_default=True,
+              help="Progress on stderr once the work takes over a second.")
 def evaluate(
     logs: tuple[str, ...], outdir: str | None, estimators: tuple[str, ...], as_json: bool,
     fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
     tolerance: str, seed: int, config_path: str | None, shared_centre: bool,
     free_radius: bool, png: bool, workers: int | None, scheduler: str | None,
-    start_at_truth: bool,
+    start_at_truth: bool, show_progress: bool = True,
 ) -> None:
     """Evaluate the localization in LOG... against the kinematic reference circle (R = h /
     tan(delta), centre fitted by least squares) and, where the log has it, ground truth.
@@ -264,7 +282,16 @@ def evaluate(
         raise InputError("give --workers or --scheduler, not both")
     options = {"estimators": names, "config": cfg, "seed": seed, "shared_centre": shared_centre,
                "free_radius": free_radius, "start_at_truth": start_at_truth}
-    results = _evaluate_all(logs, options, scheduler=scheduler, workers=workers)
+    from lgvtool.progress import Progress
+
+    bar = Progress(0, "evaluate", enabled=show_progress, delay_s=1.0)
+    try:
+        results = _evaluate_all(logs, options, scheduler=scheduler, workers=workers, bar=bar)
+        if outdir:
+            bar.stage("report", len(results))
+    finally:
+        if not outdir:
+            bar.close()
     for res in results:
         for w in res.warnings:
             click.echo(f"lgvtool: warning: {res.name}: {w}", err=True)
@@ -276,7 +303,10 @@ def evaluate(
     else:
         click.echo(render_tables(results, fmt), nl=False)
     if outdir:
-        _write_outputs(Path(outdir), results, doc, png)
+        try:
+            _write_outputs(Path(outdir), results, doc, png, bar)
+        finally:
+            bar.close()
 
     failures = regress.check_bounds(doc, upper, lower)
     if base_doc is not None:
@@ -298,7 +328,7 @@ def _unique_names(results: list[EvaluationResult]) -> None:
 
 
 def _write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any],
-                   png: bool) -> None:
+                   png: bool, bar: Progress | None = None) -> None:
     from lgvtool.evaluate.document import to_json
     from lgvtool.evaluate.plots import write_png
     from lgvtool.evaluate.report import render_report
@@ -310,7 +340,9 @@ def _write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, An
     (out / "table1.tex").write_text(render_tables(results, "tex"), encoding="utf-8")
     (out / "table1.json").write_text(to_json(doc), encoding="utf-8")
     figures: list[Any] = []
-    (out / "report.html").write_text(render_report(results, figures=figures), encoding="utf-8")
+    (out / "report.html").write_text(render_report(
+        results, figures=figures, progress=None if bar is None else bar.advance),
+        encoding="utf-8")
     if png:
         for slug, fig in figures:
             write_png(fig, out / f"{slug}.png")

@@ -100,6 +100,8 @@ class LiveFeed:
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         #: s from a message reaching the feed to its estimate being published, per update
         self.latencies: list[float] = []
+        #: the same per estimator name
+        self.latency_of: dict[str, list[float]] = {e.name: [] for e in self.estimators}
         self.failures = 0
         self.backlog_max = 0
         self._thread: threading.Thread | None = None
@@ -139,13 +141,17 @@ class LiveFeed:
                     self.estimators.remove(est)
                     continue
                 if outs:
-                    self.latencies.append(time.perf_counter() - arrived)
+                    lag = time.perf_counter() - arrived
+                    self.latencies.append(lag)
+                    self.latency_of[est.name].append(lag)
 
     def stats(self) -> dict[str, Any]:
         """Published counts, estimator latency (ms) and failures, for the command's summary."""
         return {"url": self.server.url, "published": sum(self.server.counts.values()),
                 "estimators": [e.name for e in self.estimators],
                 "latency": latency_summary(self.latencies),
+                "latency_by_estimator": {n: latency_summary(v)
+                                         for n, v in self.latency_of.items()},
                 "update": {e.name: latency_summary(e.update_seconds) for e in self.estimators},
                 "backlog_max": self.backlog_max, "failures": self.failures}
 
