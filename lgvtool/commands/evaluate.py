@@ -8,7 +8,6 @@ Heavy imports stay inside the functions so that ``lgvtool --help`` stays instant
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path

@@ -16,9 +16,6 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
-#: logs longer than this (s of data) show a progress bar even when stderr is not a terminal
-LONG_LOG_S = 600.0
-
 
 @click.command()
 @click.argument("log", type=click.Path(dir_okay=False, path_type=str))
@@ -47,9 +44,12 @@ LONG_LOG_S = 600.0
               show_default=True, help="Compression of the chunks holding the estimates (the "
                                       "input's chunks are copied as they are).")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--progress/--no-progress", "show_progress", default=True, show_default=True,
+              help="Progress on stderr once the replay takes over a second.")
 def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | None,
            seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
-           cloud_period: float, cloud_size: int, compression: str, as_json: bool) -> None:
+           cloud_period: float, cloud_size: int, compression: str, as_json: bool,
+           show_progress: bool = True) -> None:
     """Replay LOG through the localisation estimators and write OUTPUT.
 
     OUTPUT is a complete log: every message of LOG, plus per estimator NAME the pose of the
@@ -67,7 +67,7 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
     gc.disable()
     try:
         _replay(log, output, estimators, particles, seed, sets, config_path, start_at_truth,
-                cloud_period, cloud_size, compression, as_json)
+                cloud_period, cloud_size, compression, as_json, show_progress)
     finally:
         if collecting:
             gc.enable()
@@ -75,10 +75,10 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
 
 def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int | None,
             seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
-            cloud_period: float, cloud_size: int, compression: str, as_json: bool) -> None:
+            cloud_period: float, cloud_size: int, compression: str, as_json: bool,
+            show_progress: bool = True) -> None:
     """The replay command (see :func:`replay`)."""
     import json
-    import sys
     import time
     import warnings
     from dataclasses import fields
@@ -111,20 +111,16 @@ def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int |
     data = load_log(reader, cfg.reflectors or None, truth=start_at_truth)
     t_read = time.perf_counter() - started
 
-    show = sys.stderr.isatty() or data.end > LONG_LOG_S
+    from lgvtool.progress import Progress
+
     total = len(names) * (len(data.scans) + (len(data.nav["t"]) if data.nav else 0))
     t0 = time.perf_counter()
-    if show:
-        with click.progressbar(length=max(total, 1), label="replay", file=sys.stderr) as bar:
-            result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
-                                 initial_pose="truth" if start_at_truth else None,
-                                 progress=bar.update, cloud_period_s=cloud_period,
-                                 cloud_size=cloud_size)
-            bar.update(max(0, total - bar.pos))
-    else:
+    with Progress(max(total, 1), "replay", enabled=show_progress, delay_s=1.0) as bar:
         result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
                              initial_pose="truth" if start_at_truth else None,
-                             cloud_period_s=cloud_period, cloud_size=cloud_size)
+                             progress=bar.advance, cloud_period_s=cloud_period,
+                             cloud_size=cloud_size)
+        bar.set(max(total, 1))
     t_filter = time.perf_counter() - t0
     if estimators:
         for n in names:

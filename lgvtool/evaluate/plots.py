@@ -45,13 +45,14 @@ CIRCLE_COLOUR = "#888888"
 
 ESTIMATOR_COLOURS = {
     "laser": "#0072B2",          # blue
-    "deadreckoning": "#CC79A7",  # reddish purple
-    "ekf": "#009E73",            # bluish green
+    "deadreckoning": "#E7298A",  # magenta
+    "ekf": "#2CA02C",            # green
     "pf-paper": "#E69F00",       # orange
     "pf": "#D62728",             # red
 }
-"""The colours of the built-in estimators: apart in hue and lightness (Okabe-Ito, readable by
-most colour-blind readers), none near the truth's black or the circle's grey."""
+"""The colours of the built-in estimators: apart in hue (laser and pf-paper, the pair compared
+most, at opposite ends: blue and orange), none near the truth's black or the circle's
+grey."""
 
 
 def colours(names: Sequence[str]) -> dict[str, str]:
@@ -208,7 +209,7 @@ def rotation_bars_figure(table: Table1, *, title: str = "RMSE per rotation") -> 
     fig.update_xaxes(title_text="rotation", rangeslider={"visible": True, "thickness": 0.07},
                      row=1, col=1)
     fig.update_yaxes(title_text="RMSE (mm)", row=1, col=1)
-    fig.update_layout(title=title, height=480, legend={"orientation": "h", "y": -0.35})
+    fig.update_layout(title=title, height=480)
     return fig
 
 

@@ -116,7 +116,7 @@ def summarise(diagnostics: Sequence[Mapping[str, Any]], *, t0: float, duration: 
         elif kind == "unanswered":
             q.nav_unanswered += n
     valid = np.asarray(nav_valid, dtype=bool)
-    q.nav_replies = int(len(valid))
+    q.nav_replies = len(valid)
     q.nav_no_position = int((~valid).sum())
     for topic, times in (topic_times or {}).items():
         for g in find_gaps(topic, np.asarray(times, dtype=np.float64)):
@@ -150,7 +150,7 @@ def read_quality(reader: LogReader, t0: float | None = None) -> DataQuality:
             continue
         if topic == topics.NAV_POSE:
             valid = np.array([bool(orjson.loads(b).get("valid")) for b in raw], dtype=bool)
-        times[topic] = np.sort(np.asarray(log_ns, dtype=np.int64)) * 1e-9
+        times[topic] = np.sort(np.asarray(log_ns, dtype=np.int64)).astype(np.float64) * 1e-9
     return summarise(diags, t0=start, duration=duration, nav_valid=valid, topic_times=times)
 
 

@@ -39,7 +39,10 @@ caption .sub { font-weight: normal; color: #555; }
 .scroll { max-height: 34em; overflow: auto; display: inline-block; max-width: 100%; }
 .scroll table { margin: 0; }
 .scroll th { position: sticky; top: 0; background: #f4f4f4; }
+.scroll tr.aggregate td { position: sticky; bottom: 0; background: #fff; }
 th { background: #f4f4f4; }
+table[data-table="diagnostics"] td:nth-child(2), table[data-table="diagnostics"] th:nth-child(2)
+  { text-align: left; }
 .warnings { color: #8a4b00; }
 .note { color: #555; }
 .figure { margin: 1.2em 0; }
