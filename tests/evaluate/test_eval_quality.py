@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from evaluate_synth import DELTA, H, T0, circle_drive
+from evaluate_synth import DELTA, T0, H, circle_drive
 
 from lgvtool.evaluate.evaluation import evaluate_trajectories
 from lgvtool.evaluate.quality import find_gaps, read_quality, summarise
