@@ -54,3 +54,18 @@ def test_stages_count_afresh_and_a_stopped_bar_says_so() -> None:
     assert lines[0].startswith("read [") and "4/4" in lines[0]
     assert lines[-1].startswith("write [") and "3/10" in lines[-1]
     assert lines[-1].endswith("(stopped)")
+
+
+def test_every_long_command_takes_no_progress(run_cli) -> None:
+    for cmd in (["evaluate"], ["import", "mrclam"], ["replay"], ["sweep"], ["view"]):
+        res = run_cli(*cmd, "--help", timeout=60)
+        assert res.returncode == 0 and "--no-progress" in res.stdout, cmd
+
+
+def test_no_progress_keeps_stderr_quiet(run_cli, tmp_path) -> None:
+    log = tmp_path / "c.mcap"
+    assert run_cli("simulate", "-s", "paper-circle", "--duration", "40", "-o", log,
+                   timeout=120).returncode == 0
+    res = run_cli("evaluate", log, "-o", tmp_path / "r", "--no-progress", timeout=300)
+    assert res.returncode == 0, res.stderr
+    assert "[#" not in res.stderr and "[." not in res.stderr

@@ -58,7 +58,7 @@ def _run_estimators(
 
     chosen = list(names) if names else list(DEFAULT_ESTIMATORS)
     start: dict[str, Any] = {"initial_pose": "truth"} if start_at_truth else {}
-    if progress is not None:
+    if progress is not None and progress.enabled:
         # at most every scan and every NAV pose, per estimator
         infos = reader.topics()
         per = sum(infos[t].count for t in (topics.NAV_REFLECTORS, topics.NAV_POSE) if t in infos)

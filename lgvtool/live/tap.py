@@ -6,12 +6,15 @@ online estimators fed from them on their own thread.
 writer puts in the log show live under the same topics, schemas and encoding. :class:`LiveFeed`
 is the tap: it publishes on a :class:`lgvtool.live.server.LiveServer` and queues the
 estimators' input topics for a worker thread, so neither a client nor a slow estimator ever
-holds up the writer. A failure of the live side is counted and reported, never raised into the
-recording.
+holds up the writer. When the estimators fall behind (a loaded machine), an observation that
+has waited over :data:`MAX_LAG_S` while a newer one is queued is skipped, so the live estimate
+stays current rather than complete (motion and the map are never skipped). A failure of the
+live side is counted and reported, never raised into the recording.
 """
 
 from __future__ import annotations
 
+import math
 import queue
 import threading
 import time
@@ -27,6 +30,10 @@ from lgvtool.log.writer import LogWriter
 __all__ = ["LiveFeed", "LogTap", "TappedLogWriter", "latency_summary"]
 
 _STOP = object()
+#: an observation that waited longer than this (s) is dropped when a newer one is queued
+MAX_LAG_S = 0.5
+#: observations the estimators may shed; motion and the map are always applied
+_SHEDDABLE = frozenset({topics.NAV_POSE, topics.NAV_REFLECTORS})
 
 
 class LogTap(Protocol):
@@ -103,6 +110,9 @@ class LiveFeed:
         #: the same per estimator name
         self.latency_of: dict[str, list[float]] = {e.name: [] for e in self.estimators}
         self.failures = 0
+        #: observations skipped because the estimators were behind
+        self.shed = 0
+        self._newest_observation = -math.inf
         self.backlog_max = 0
         self._thread: threading.Thread | None = None
         if self.estimators:
@@ -123,7 +133,10 @@ class LiveFeed:
         except Exception as exc:
             self._fail("publishing", exc)
         if self._thread is not None and topic in INPUT_TOPICS:
-            self._queue.put((topic, data, log_time_ns, time.perf_counter()))
+            now = time.perf_counter()
+            if topic in _SHEDDABLE:
+                self._newest_observation = now
+            self._queue.put((topic, data, log_time_ns, now))
 
     def _run(self) -> None:
         while True:
@@ -131,6 +144,10 @@ class LiveFeed:
             if item is _STOP:
                 return
             topic, data, t_ns, arrived = item
+            if (topic in _SHEDDABLE and time.perf_counter() - arrived > MAX_LAG_S
+                    and arrived < self._newest_observation):
+                self.shed += 1
+                continue
             for est in list(self.estimators):
                 try:
                     outs = est.feed(topic, data, t_ns)
@@ -153,7 +170,7 @@ class LiveFeed:
                 "latency_by_estimator": {n: latency_summary(v)
                                          for n, v in self.latency_of.items()},
                 "update": {e.name: latency_summary(e.update_seconds) for e in self.estimators},
-                "backlog_max": self.backlog_max, "failures": self.failures}
+                "backlog_max": self.backlog_max, "shed": self.shed, "failures": self.failures}
 
     def close(self, timeout: float = 5.0) -> None:
         """Let the estimators finish what is queued (at most ``timeout`` s), stop the server."""
@@ -171,6 +188,8 @@ def describe(stats: dict[str, Any]) -> str:
     if lat.get("count"):
         text += (f"; estimate latency median {lat['median_ms']:.1f} ms, p95 {lat['p95_ms']:.1f} ms"
                  f" over {lat['count']} updates")
+    if stats.get("shed"):
+        text += f"; {stats['shed']} observations skipped to keep up"
     if stats.get("failures"):
         text += f"; {stats['failures']} live failures (the log is complete)"
     return text

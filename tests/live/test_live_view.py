@@ -160,3 +160,55 @@ def test_tapped_writer_hands_on_exactly_what_it_writes(tmp_path: Path, circle_lo
     assert sorted(tap.seen) == sorted(back)
     assert {t for t, *_ in tap.seen} >= {topics.MAP, topics.MAP_SCENE, topics.DIAGNOSTICS,
                                           topics.DIAGNOSTICS_LOG, topics.NAV_POSE}
+
+
+class _StubServer:
+    url = "ws://stub"
+
+    def __init__(self) -> None:
+        self.counts: dict[str, int] = {}
+        self.published: list[str] = []
+
+    def prepare(self, channels: dict[str, str]) -> None:
+        pass
+
+    def publish(self, topic: str, schema: str, data: bytes, t_ns: int) -> None:
+        self.published.append(topic)
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    def close(self) -> None:
+        pass
+
+
+class _SlowEstimator:
+    name = "slow"
+    output_topics = ("/estimate/slow/pose",)
+    update_seconds: list[float] = []
+
+    def __init__(self) -> None:
+        self.seen: list[str] = []
+
+    def feed(self, topic: str, data: bytes, t_ns: int) -> list:
+        import time
+
+        from lgvtool.live.online import Output
+
+        self.seen.append(topic)
+        if topic != topics.NAV_REFLECTORS:
+            return []
+        time.sleep(0.3)
+        return [Output("/estimate/slow/pose", "foxglove.PoseInFrame", b"{}", t_ns)]
+
+
+def test_a_lagging_estimator_skips_stale_observations_but_never_motion() -> None:
+    est = _SlowEstimator()
+    feed = LiveFeed(_StubServer(), [est])  # type: ignore[arg-type,list-item]
+    for i in range(8):
+        feed.message(topics.NAV_REFLECTORS, "lgvtool.ReflectorScan", b"{}", i)
+        feed.message(topics.MCU_FRAME, "lgvtool.McuFrame", b"{}", i)
+    feed.close(timeout=30.0)
+    assert feed.shed >= 1
+    assert est.seen.count(topics.MCU_FRAME) == 8            # motion is never skipped
+    assert est.seen.count(topics.NAV_REFLECTORS) == 8 - feed.shed
+    assert est.seen[-2:] == [topics.NAV_REFLECTORS, topics.MCU_FRAME]   # the newest is used
+    assert feed.stats()["shed"] == feed.shed
