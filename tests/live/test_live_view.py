@@ -183,10 +183,9 @@ class _StubServer:
 class _SlowEstimator:
     name = "slow"
     output_topics = ("/estimate/slow/pose",)
-    update_seconds: list[float] = []
-
     def __init__(self) -> None:
         self.seen: list[str] = []
+        self.update_seconds: list[float] = []
 
     def feed(self, topic: str, data: bytes, t_ns: int) -> list:
         import time
