@@ -130,3 +130,22 @@ def test_degraded_sample_counts_match_its_diagnostics() -> None:
     invalid = sum(not m.data["valid"] for m in reader.messages([topics.NAV_POSE]))
     assert q.nav_no_position == invalid > 0
     assert q.dropped_frames > 0 and sum(q.corrupt_frames.values()) > 0
+
+
+def test_json_document_carries_the_figures_and_they_can_be_bounded(tmp_path: Path) -> None:
+    from lgvtool.evaluate.document import build_document
+    from lgvtool.evaluate.regress import check_bounds
+
+    log = tmp_path / "faults.mcap"
+    _write_log(log, faults=True)
+    doc = build_document([_evaluated(log)])
+    dq = doc["data_quality"]
+    assert dq["dropped_frames"] == 23 and dq["corrupt_frames"] == 3
+    assert dq["nav_no_position"] == 3 and dq["nav_replies"] == 130
+    assert dq["gaps"] >= 1 and dq["longest_gap_s"] == pytest.approx(2.1, abs=1e-6)
+    assert {"source": "nav200", "kind": "unanswered", "count": 4} in dq["by_kind"]
+    assert check_bounds(doc, [("data_quality.nav_no_position", 5.0)]) == []
+    (fail,) = check_bounds(doc, [("data_quality.dropped_frames", 0.0)])
+    assert "dropped_frames" in fail
+    res = _evaluated(tmp_path / "not-there.mcap")
+    assert build_document([res])["data_quality"] is None
