@@ -253,7 +253,7 @@ def run_tasks(
     with ExitStack() as stack:
         if client is None:
             client = stack.enter_context(open_client(scheduler, workers))
-        bar = Progress(len(items), label, delay_s=1.0) if progress else None
+        bar = Progress(len(items), label) if progress else None
         if bar is not None:
             stack.callback(bar.close)
         yield from _drive(client, fn, items, bar, chunk_target_s, max_chunk)
