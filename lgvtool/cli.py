@@ -62,6 +62,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "sweep",
         "Parameter sweeps over many logs and seeds on a Dask cluster.",
     ),
+    "view": (
+        "lgvtool.commands.view",
+        "view",
+        "Play a log to a live Foxglove view at N x speed.",
+    ),
     "config": (
         "lgvtool.commands.config",
         "config",

@@ -124,3 +124,10 @@ def warn(text: str) -> None:
     from lgvtool.outputs import printable
 
     click.echo(f"lgvtool: warning: {printable(text)}", err=True)
+
+
+def progress_option(help_text: str = "Progress on stderr once the work takes over a second.",
+                    ) -> Callable[[F], F]:
+    """``--progress/--no-progress`` (parameter ``show_progress``), on every long command."""
+    return click.option("--progress/--no-progress", "show_progress", default=True,
+                        show_default=True, help=help_text)

@@ -8,7 +8,6 @@ Heavy imports stay inside the functions so that ``lgvtool --help`` stays instant
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ import click
 from lgvtool.options import (
     estimator_option,
     force_option,
+    progress_option,
     scheduler_options,
     seed_option,
     set_option,
@@ -33,6 +33,8 @@ if TYPE_CHECKING:
     from lgvtool.config import Config
     from lgvtool.evaluate.evaluation import EvaluationResult
     from lgvtool.log import LogReader
+    from lgvtool.progress import Progress
+
 
 def _pose_frame(reader: LogReader, topic: str) -> pd.DataFrame:
     df = reader.dataframe(topic)
@@ -62,11 +64,19 @@ def _estimates_from_log(
 def _run_estimators(
     reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
     settings: Mapping[str, Any] | None, warnings: list[str], start_at_truth: bool = False,
+    progress: Progress | None = None,
 ) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
+    from lgvtool.log import topics
 
     chosen = list(names) if names else list(DEFAULT_ESTIMATORS)
     start: dict[str, Any] = {"initial_pose": "truth"} if start_at_truth else {}
+    if progress is not None and progress.enabled:
+        # at most every scan and every NAV pose, per estimator
+        infos = reader.topics()
+        per = sum(infos[t].count for t in (topics.NAV_REFLECTORS, topics.NAV_POSE) if t in infos)
+        progress.stage(f"{Path(str(reader.path)).name}: estimators", len(chosen) * per)
+        start["progress"] = progress.advance
     out = run_replay(reader, chosen, config=cfg, seed=seed, settings=dict(settings or {}),
                      **start)
     for name, reason in (getattr(out, "skipped", None) or {}).items():
@@ -87,6 +97,7 @@ def evaluate_log(
     start_at_truth: bool = False,
     replay: bool = False,
     trajectories: Mapping[str, pd.DataFrame] | None = None,
+    progress: Progress | None = None,
 ) -> EvaluationResult:
     """Evaluate one log.
 
@@ -103,6 +114,7 @@ def evaluate_log(
     the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
     ``trajectories`` (name -> DataFrame t, x, y, heading of O) are scored beside them
     (``--trajectory``, :mod:`lgvtool.interop.foreign`).
+    ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress.
     """
     from lgvtool.evaluate.evaluation import evaluate_trajectories
     from lgvtool.evaluate.reference import steering_from_frames
@@ -117,7 +129,7 @@ def evaluate_log(
     used: dict[str, Any] = {}
     if trajs is None:
         trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
-                                      start_at_truth)
+                                      start_at_truth, progress)
         source = "replay"
     else:
         if start_at_truth:
@@ -172,20 +184,25 @@ def _evaluate_task(task: _LogTask) -> EvaluationResult:
 
 
 def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: Any,
-                  workers: int | None) -> list[EvaluationResult]:
+                  workers: int | None, bar: Progress | None = None) -> list[EvaluationResult]:
     """Evaluate every log: in this process for one log, else on the fleet engine (a local Dask
-    cluster, or ``scheduler``); the first log that fails stops the command with its error."""
+    cluster, or ``scheduler``); the first log that fails stops the command with its error.
+    ``bar``: progress on stderr (the estimators of one log, or the logs done)."""
     from lgvtool.errors import InputError
     from lgvtool.fleet.connect import fleet_available
 
     tasks = [_LogTask(log, options) for log in logs]
     if scheduler is None and workers is None and (len(tasks) == 1 or not fleet_available()):
-        return [_evaluate_task(t) for t in tasks]
+        import warnings as pywarnings
+
+        with pywarnings.catch_warnings():
+            pywarnings.simplefilter("ignore")
+            return [evaluate_log(t.path, **t.options, progress=bar) for t in tasks]
     from lgvtool.fleet.engine import run_tasks
 
     results: list[EvaluationResult | None] = [None] * len(tasks)
     for out in run_tasks(_evaluate_task, tasks, scheduler=scheduler, workers=workers,
-                         progress=sys.stderr.isatty(), label="logs"):
+                         progress=bar is not None and bar.enabled, label="logs"):
         if not out.ok:
             error = out.error or "failed"
             if out.input_error:  # "LogFormatError: <path>: ..." already names the log
@@ -236,6 +253,7 @@ def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: An
 @click.option("--trajectory", "foreign", multiple=True, metavar="NAME=FILE",
               help="Also score a trajectory of O made by another tool: a TUM (.tum, .txt) or "
                    "CSV (.csv) file stamped in the log's time (repeatable; one LOG only).")
+@progress_option()
 def evaluate(
     logs: tuple[str, ...], outdir: str | None, estimators: tuple[str, ...], as_json: bool,
     fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
@@ -243,6 +261,7 @@ def evaluate(
     shared_centre: bool, free_radius: bool, png: bool, workers: int | None,
     scheduler: str | None, tls_ca_file: str | None, tls_cert: str | None, tls_key: str | None,
     force: bool, start_at_truth: bool, foreign: tuple[str, ...] = (),
+    show_progress: bool = True,
 ) -> None:
     """Evaluate the localization in LOG... against the kinematic reference circle (R = h /
     tan(delta), centre fitted by least squares) and, where the log has it, ground truth.
@@ -309,7 +328,16 @@ def evaluate(
             raise InputError("--trajectory scores a file against one log; give one LOG")
         trajectories: Any = load_trajectories(foreign)
         options["trajectories"] = trajectories
-    results = _evaluate_all(logs, options, scheduler=cluster, workers=workers)
+    from lgvtool.progress import Progress
+
+    bar = Progress(0, "evaluate", enabled=show_progress, delay_s=1.0)
+    try:
+        results = _evaluate_all(logs, options, scheduler=cluster, workers=workers, bar=bar)
+        if outdir:
+            bar.stage("report", len(results))
+    finally:
+        if not outdir:
+            bar.close()
     for res in results:
         for w in res.warnings:
             warn(f"{res.name}: {w}")
@@ -323,7 +351,10 @@ def evaluate(
 
         click.echo(printable(render_tables(results, fmt)), nl=False)
     if outdir:
-        _write_outputs(Path(outdir), results, doc, png, force)
+        try:
+            _write_outputs(Path(outdir), results, doc, png, force, bar)
+        finally:
+            bar.close()
 
     failures = regress.check_bounds(doc, upper, lower)
     if base_doc is not None:
@@ -349,7 +380,7 @@ OUTPUT_FILES = ("table1.md", "table1.csv", "table1.tex", "table1.json", "report.
 
 
 def _write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any],
-                   png: bool, force: bool = False) -> None:
+                   png: bool, force: bool = False, bar: Progress | None = None) -> None:
     from lgvtool.evaluate.document import to_json
     from lgvtool.evaluate.plots import write_png
     from lgvtool.evaluate.report import render_report
@@ -363,7 +394,8 @@ def _write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, An
     write_text(out / "table1.tex", render_tables(results, "tex"))
     write_text(out / "table1.json", to_json(doc))
     figures: list[Any] = []
-    write_text(out / "report.html", render_report(results, figures=figures))
+    write_text(out / "report.html", render_report(
+        results, figures=figures, progress=None if bar is None else bar.advance))
     if png:
         for slug, fig in figures:
             target = guard_output(out / f"{slug}.png", [r.path for r in results], force=force)

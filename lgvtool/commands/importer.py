@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from lgvtool.options import Number, compression_option, force_option
+from lgvtool.options import Number, compression_option, force_option, progress_option
 
 
 @click.group(name="import")
@@ -35,9 +35,10 @@ def import_() -> None:
                    "camera data, 0 keeps the file's stamps.")
 @compression_option()
 @force_option
+@progress_option("Progress on stderr once the import takes over a second.")
 def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, as_json: bool,
            gap_threshold: float, landmark_radius: float, area_margin: float,
-           odometry_delay: str, compression: str, force: bool) -> None:
+           odometry_delay: str, compression: str, force: bool, show_progress: bool = True) -> None:
     """Import the UTIAS MRCLAM dataset in DATASET_DIR (e.g. MRCLAM_Dataset6) into a log.
 
     Writes odometry (commanded v m/s, omega rad/s) to /odom/twist, each measurement time's
@@ -78,12 +79,18 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
     settings = ImportSettings(gap_threshold_s=gap_threshold, landmark_radius_m=landmark_radius,
                               area_margin_m=area_margin,
                               odometry_delay_s=_delay(odometry_delay))
+    from lgvtool.progress import Progress
+
+    with Progress(0, "import", enabled=show_progress, delay_s=1.0) as bar:
+        if robot is not None:
+            summary = import_robot(dataset_dir, robot, output, settings=settings,
+                                   compression=compression, progress=bar)
+        else:
+            summaries = import_all(dataset_dir, output, settings=settings,
+                                   compression=compression, progress=bar)
     if robot is not None:
-        summary = import_robot(dataset_dir, robot, output, settings=settings,
-                               compression=compression)
         click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())
         return
-    summaries = import_all(dataset_dir, output, settings=settings, compression=compression)
     if as_json:
         click.echo(json.dumps([s.to_dict() for s in summaries], indent=2))
     else:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from lgvtool.options import force_option, positive
+from lgvtool.options import force_option, positive, split_names
 from lgvtool.values import MAX_BYTES, MAX_WALL_S
 
 _POSITIVE = positive(MAX_WALL_S)
@@ -51,6 +51,13 @@ _METRES = positive(1000.0)
                    "turns odometry into speed input.")
 @click.option("--status/--no-status", default=True, show_default=True,
               help="Live status line on stderr.")
+@click.option("--live", "live", metavar="[HOST:]PORT",
+              help="Also serve the recording as it happens over the Foxglove WebSocket "
+                   "protocol on PORT (host 127.0.0.1 unless given; 0.0.0.0 for every "
+                   "interface). See docs/live.md.")
+@click.option("--live-estimator", "live_estimators", multiple=True, metavar="NAME[,NAME]",
+              help="Online estimate shown live (repeatable or comma-separated): laser, "
+                   "deadreckoning, ekf, pf-paper, pf. Needs --live.")
 @force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def record(nav_url: str | None, mcu_url: str | None, output: str, duration: float | None,
@@ -58,7 +65,8 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
            action_radii: tuple[float, float] | None, nearest: int | None, layer: int,
            no_map_upload: bool, reply_timeout: float, split_size: float | None,
            split_duration: float | None, config_file: str | None, status: bool, force: bool,
-           as_json: bool) -> None:
+           as_json: bool, live: str | None = None, live_estimators: tuple[str, ...] = ()
+           ) -> None:
     """Record the MCU frame stream and the NAV200 (polled for its pose) into OUTPUT.
 
     Logged: raw bytes both ways (/mcu/rx, /nav200/tx, /nav200/rx), decoded frames (/mcu/frame)
@@ -88,6 +96,7 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
         raise InputError("record: --speed-input needs the MCU's odometry (--mcu URL)")
     if action_radii is not None and action_radii[0] >= action_radii[1]:
         raise InputError("record: --action-radii RMIN must be below RMAX")
+    live_at = _live_options(live, live_estimators)
     nav = Nav200Settings(
         poll_period=poll_period, reply_timeout=reply_timeout, layer=layer,
         sliding_mean=sliding_mean, action_radii=action_radii, nearest_reflectors=nearest,
@@ -100,6 +109,7 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
         split_bytes=None if split_size is None else int(split_size * 1e6),
         split_seconds=split_duration, config=load_config(config_file), status=status,
         overwrite=force, command=shlex.join(["lgvtool", *sys.argv[1:]]),
+        live=live_at, live_estimators=tuple(split_names(live_estimators)),
     )
     result = do_record(settings)
     if as_json:
@@ -107,7 +117,26 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
             "files": [str(p) for p in result.files], "counts": result.counts,
             "errors": result.errors, "elapsed_s": round(result.elapsed, 3),
             "bytes": result.bytes, "stop_reason": result.stop_reason,
-            "devices": result.devices,
+            "devices": result.devices, "live": result.live,
         }, indent=2))
     else:
         click.echo(result.summary())
+        if result.live is not None:
+            from lgvtool.live.tap import describe
+
+            click.echo(describe(result.live), err=True)
+
+
+def _live_options(live: str | None, estimators: tuple[str, ...]) -> object:
+    """The live server's address (None without --live); checks --live-estimator names."""
+    from lgvtool.errors import InputError
+
+    if live is None:
+        if estimators:
+            raise InputError("record: --live-estimator needs --live [HOST:]PORT")
+        return None
+    from lgvtool.live.server import parse_address
+    from lgvtool.localize.registry import check_names
+
+    check_names(split_names(estimators))
+    return parse_address(live)

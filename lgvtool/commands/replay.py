@@ -12,6 +12,7 @@ from lgvtool.options import (
     compression_option,
     estimator_option,
     force_option,
+    progress_option,
     seed_option,
     set_option,
     split_names,
@@ -27,9 +28,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
-
-#: logs longer than this (s of data) show a progress bar even when stderr is not a terminal
-LONG_LOG_S = 600.0
 
 
 @click.command()
@@ -54,10 +52,11 @@ LONG_LOG_S = 600.0
                     "copied as they are).")
 @force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@progress_option("Progress on stderr once the replay takes over a second.")
 def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | None,
            seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
            cloud_period: float, cloud_size: int, compression: str, as_json: bool,
-           force: bool) -> None:
+           force: bool, show_progress: bool = True) -> None:
     """Replay LOG through the localisation estimators and write OUTPUT.
 
     OUTPUT is a complete log: every message of LOG, plus per estimator NAME the pose of the
@@ -78,7 +77,7 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
     guard_output(output, [log, config_path], force=force)
     try:
         _replay(log, output, split_names(estimators), particles, seed, sets, config_path,
-                start_at_truth, cloud_period, cloud_size, compression, as_json)
+                start_at_truth, cloud_period, cloud_size, compression, as_json, show_progress)
     finally:
         if collecting:
             gc.enable()
@@ -86,10 +85,10 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
 
 def _replay(log: str, output: str, estimators: list[str], particles: int | None,
             seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
-            cloud_period: float, cloud_size: int, compression: str, as_json: bool) -> None:
+            cloud_period: float, cloud_size: int, compression: str, as_json: bool,
+            show_progress: bool = True) -> None:
     """The replay command (see :func:`replay`)."""
     import json
-    import sys
     import time
     import warnings
     from dataclasses import fields
@@ -121,20 +120,16 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
     data = load_log(reader, cfg.reflectors or None, truth=start_at_truth)
     t_read = time.perf_counter() - started
 
-    show = sys.stderr.isatty() or data.end > LONG_LOG_S
+    from lgvtool.progress import Progress
+
     total = len(names) * (len(data.scans) + (len(data.nav["t"]) if data.nav else 0))
     t0 = time.perf_counter()
-    if show:
-        with click.progressbar(length=max(total, 1), label="replay", file=sys.stderr) as bar:
-            result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
-                                 initial_pose="truth" if start_at_truth else None,
-                                 progress=bar.update, cloud_period_s=cloud_period,
-                                 cloud_size=cloud_size)
-            bar.update(max(0, total - bar.pos))
-    else:
+    with Progress(max(total, 1), "replay", enabled=show_progress, delay_s=1.0) as bar:
         result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
                              initial_pose="truth" if start_at_truth else None,
-                             cloud_period_s=cloud_period, cloud_size=cloud_size)
+                             progress=bar.advance, cloud_period_s=cloud_period,
+                             cloud_size=cloud_size)
+        bar.set(max(total, 1))
     t_filter = time.perf_counter() - t0
     if estimators:
         for n in names:
