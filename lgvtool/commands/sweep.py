@@ -8,6 +8,7 @@ from lgvtool.options import (
     Number,
     estimator_option,
     force_option,
+    progress_option,
     scheduler_options,
     set_option,
     split_names,
@@ -44,13 +45,13 @@ OUTPUT_FILES = ("results.parquet", "results.csv", "summary.parquet", "summary.cs
               help="Configuration TOML used instead of the one stored in each log.")
 @click.option("--retry-failed", is_flag=True,
               help="Run again the tasks whose log failed before (corrupt, missing channels).")
-@click.option("--no-progress", is_flag=True, help="No progress bar on stderr.")
+@progress_option("Progress bar on stderr.")
 @click.option("--json", "as_json", is_flag=True, help="Print the outcome as JSON.")
 def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
           grid_items: tuple[str, ...], sets: tuple[str, ...], seeds: int,
           scheduler: str | None, tls_ca_file: str | None, tls_cert: str | None,
           tls_key: str | None, force: bool, workers: int | None, config_path: str | None,
-          retry_failed: bool, no_progress: bool, as_json: bool) -> None:
+          retry_failed: bool, show_progress: bool, as_json: bool) -> None:
     """Run the estimators over every log in LOG_OR_DIR... (files, or directories searched for
     *.mcap) for every setting of the grid and every seed, and evaluate each run as
     lgvtool evaluate does: one task per (log, setting, seed).
@@ -91,7 +92,7 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
     result = run_sweep(
         logs, Path(outdir), grid=grid, fixed=fixed, seeds=seeds, estimators=names,
         config=config, config_path=config_path, scheduler=cluster, workers=workers,
-        progress=not no_progress, retry_failed=retry_failed)
+        progress=show_progress, retry_failed=retry_failed)
     for i, f in enumerate(result.failures):
         if i == MAX_LISTED:
             warn(f"sweep: {len(result.failures) - MAX_LISTED} more failed task(s), see summary.csv")
