@@ -383,6 +383,7 @@ class McapWriter:
         self._metadata_indexes: list[MetadataIndex] = []
         self._counts: dict[int, int] = {}
         self._message_count = 0
+        self._timed = False  # whether _start and _end hold a message's time yet
         self._start = 0
         self._end = 0
         self._chunk = _OpenChunk()
@@ -395,25 +396,31 @@ class McapWriter:
         self._pos += len(data)
 
     # ------------------------------------------------------------------ registration
-    def add_schema(self, name: str, encoding: str, data: bytes, schema_id: int | None = None) -> int:
-        """Register a schema (written into the next chunk and the summary); returns its id."""
+    def add_schema(self, name: str, encoding: str, data: bytes, schema_id: int | None = None,
+                   *, in_data: bool = True) -> int:
+        """Register a schema (written into the next chunk and the summary); returns its id.
+        ``in_data=False``: the summary only (chunks copied from another file carry it)."""
         sid = schema_id if schema_id is not None else max(self._schemas, default=0) + 1
         if sid in self._schemas:
             raise ValueError(f"schema id {sid} is taken")
         schema = Schema(sid, name, encoding, data)
         self._schemas[sid] = schema
-        self._chunk.buf += schema_record(schema)
+        if in_data:
+            self._chunk.buf += schema_record(schema)
         return sid
 
     def add_channel(self, topic: str, message_encoding: str, schema_id: int,
-                    channel_id: int | None = None, metadata: dict[str, str] | None = None) -> int:
-        """Register a channel (written into the next chunk and the summary); returns its id."""
+                    channel_id: int | None = None, metadata: dict[str, str] | None = None,
+                    *, in_data: bool = True) -> int:
+        """Register a channel (written into the next chunk and the summary); returns its id.
+        ``in_data=False``: the summary only (chunks copied from another file carry it)."""
         cid = channel_id if channel_id is not None else max(self._channels, default=0) + 1
         if cid in self._channels:
             raise ValueError(f"channel id {cid} is taken")
         channel = Channel(cid, topic, message_encoding, schema_id, dict(metadata or {}))
         self._channels[cid] = channel
-        self._chunk.buf += channel_record(channel)
+        if in_data:
+            self._chunk.buf += channel_record(channel)
         return cid
 
     # ------------------------------------------------------------------ messages
@@ -518,8 +525,10 @@ class McapWriter:
         self._chunk = _OpenChunk()
 
     def _note_times(self, start: int, end: int, count: int) -> None:
-        if self._message_count == 0:
+        """Widen the file's message time span (ns) by a chunk's and add its message count."""
+        if not self._timed:
             self._start, self._end = start, end
+            self._timed = True
         else:
             self._start = min(self._start, start)
             self._end = max(self._end, end)
@@ -530,7 +539,10 @@ class McapWriter:
         """Copy whole chunks of another MCAP file verbatim, with their message indexes.
 
         The caller must have registered the source's schemas and channels here under the same
-        ids; ``channel_counts`` (from the source's statistics) adds to this file's statistics.
+        ids, with ``in_data=False`` (the copied chunks hold their records); ``channel_counts``
+        (from the source's statistics) adds to this file's statistics. Messages written after
+        the copy should not be older than the copied ones (readers of the reference CLI warn
+        of every message older than one before it in the file).
         Chunks that follow each other in the source (each with its message indexes right
         after it, as this writer lays them out) are copied as one run of bytes.
         """
@@ -561,7 +573,7 @@ class McapWriter:
                 {k: v - mi_old + new_mi for k, v in ci.message_index_offsets.items()},
                 ci.message_index_length, ci.compression, ci.compressed_size,
                 ci.uncompressed_size))
-            if ci.message_index_offsets:
+            if ci.message_index_offsets or ci.message_start_time or ci.message_end_time:
                 self._note_times(ci.message_start_time, ci.message_end_time, 0)
         for a, b, at in runs:
             assert at == self._pos

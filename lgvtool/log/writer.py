@@ -34,8 +34,10 @@ if TYPE_CHECKING:
 FORMAT_VERSION = "1.0"
 """Version of the log contract written. A reader refuses a newer major version."""
 
-PROFILE = "lgvtool"
-"""MCAP header profile of lgvtool logs."""
+PROFILE = ""
+"""MCAP header profile of lgvtool logs: none (the reference checker warns of any profile but
+the well-known 'ros1' and 'ros2'); the header's library and the 'lgvtool' metadata record say
+what wrote the file."""
 
 _COMPRESSION = ("zstd", "lz4", "none")
 
@@ -186,39 +188,66 @@ class LogWriter:
         self._chunk_first_ns = None
 
     def copy_from(self, reader: LogReader, *, skip_topics: frozenset[str] = frozenset(),
-                  metadata: bool = True) -> int:
+                  metadata: bool = True,
+                  extra: tuple[Sequence[str], Sequence[bytes], Sequence[int]] | None = None
+                  ) -> int:
         """Copy every message of ``reader`` (except ``skip_topics``) into this log, and its
         metadata records other than 'lgvtool'. Returns the number of messages copied.
 
-        A complete input copied into a fresh writer has its chunks copied verbatim (no decoding);
-        otherwise messages are copied one by one.
+        ``extra``: (topics, JSON datas, log times in ns) of further messages, sorted by time,
+        merged with the copied ones so that the file is in log-time order (a copied message
+        first at equal times). Without it, a complete input copied into a fresh writer has its
+        chunks copied verbatim (no decoding); otherwise messages are copied one by one.
         """
         if metadata:
             for name, record in reader.metadata.items():
                 if name != "lgvtool":
                     self.add_metadata(name, record)
-        plan = reader.verbatim_plan(skip_topics)
+        plan = reader.verbatim_plan(skip_topics) if extra is None else None
         if plan is not None and not self._channels and not self._schemas:
             schemas, channels, chunk_indexes, counts = plan
             for sid, (name, encoding, data) in schemas.items():
-                self._writer.add_schema(name, encoding, data, schema_id=sid)
+                self._writer.add_schema(name, encoding, data, schema_id=sid, in_data=False)
                 self._schemas[name] = sid
             for cid, (topic, encoding, sid) in channels.items():
-                self._writer.add_channel(topic, encoding, sid, channel_id=cid)
+                self._writer.add_channel(topic, encoding, sid, channel_id=cid, in_data=False)
                 self._channels[topic] = cid
             with open(reader.path, "rb") as source:
                 self._writer.copy_chunks(source, chunk_indexes, counts)
             n = sum(counts.values())
             self.message_count += n
             return n
-        n = 0
+        if extra is None:
+            extra = ((), (), ())
+        e_topics, e_datas, e_times = extra
+        n_extra = len(e_times)
+        batch: tuple[list[str], list[bytes], list[int]] = ([], [], [])
+        j = n = 0
+        registered: set[str] = set()
         for m in reader.raw_messages():
             if m.topic in skip_topics:
                 continue
-            if m.schema:
-                self.channel_id(m.topic, m.schema)
-            self.write_encoded(m.topic, m.data, m.log_time_ns, m.publish_time_ns)
+            t = m.log_time_ns
+            while j < n_extra and e_times[j] < t:
+                batch[0].append(e_topics[j])
+                batch[1].append(e_datas[j])
+                batch[2].append(e_times[j])
+                j += 1
+            if m.topic not in registered:
+                registered.add(m.topic)
+                if m.schema:
+                    self.channel_id(m.topic, m.schema)
+            batch[0].append(m.topic)
+            batch[1].append(m.data)
+            batch[2].append(t)
             n += 1
+            if len(batch[2]) >= 65536:
+                self.write_encoded_many(*batch)
+                batch = ([], [], [])
+        batch[0].extend(e_topics[j:])
+        batch[1].extend(e_datas[j:])
+        batch[2].extend(e_times[j:])
+        self.write_encoded_many(*batch)
         return n
 
     def write_config(self, config: Config) -> None:

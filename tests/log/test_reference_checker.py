@@ -1,0 +1,138 @@
+"""Every kind of file lgvtool writes passes the reference MCAP checker's checks (``mcap doctor``):
+no error, no warning a writer can avoid, and a Statistics record that matches the messages,
+all read with the ``mcap`` package (not lgvtool's reader)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import pytest
+from mcap_doctor import (
+    assert_reference_clean,
+    diagnose,
+    doctor_binary,
+    run_doctor,
+    statistics_errors,
+)
+
+from lgvtool.log import LogReader, LogWriter, topics
+from lgvtool.log.mcapio import McapWriter
+from lgvtool.log.messages import pose_in_frame
+
+T0 = 1_704_067_200_000_000_000
+
+
+def _many_chunks(path: Path, n: int = 3000) -> None:
+    """A log of ``n`` poses and odometry messages over ``n`` x 10 ms in chunks of about 8 KiB."""
+    with LogWriter(path, chunk_seconds=None, chunk_bytes=8192) as w:
+        for i in range(n):
+            ns = T0 + 5_000_000 + i * 10_000_000
+            w.write(topics.TRUTH, pose_in_frame(ns, 0.001 * i, 0.0, 0.0), ns)
+            if i % 3 == 0:
+                w.write(topics.ODOM, {"timestamp": {"sec": ns // 10**9, "nsec": ns % 10**9},
+                                      "v": 0.1, "omega": 0.0}, ns + 1)
+
+
+def test_written_log_is_clean(tmp_path: Path) -> None:
+    path = tmp_path / "a.mcap"
+    _many_chunks(path)
+    assert len(LogReader(path)._chunk_indexes) > 10
+    assert_reference_clean(path)
+
+
+def test_verbatim_copy_keeps_statistics_and_has_no_duplicate_records(tmp_path: Path) -> None:
+    """Copied chunks used to overwrite the file's first time with each chunk's (the copy
+    started at its last chunk) and their schemas and channels were written twice."""
+    src, out = tmp_path / "src.mcap", tmp_path / "out.mcap"
+    _many_chunks(src)
+    with LogWriter(out, chunk_seconds=None) as w:
+        assert w.copy_from(LogReader(src)) == 4000
+    assert_reference_clean(out)
+    d = diagnose(out)
+    assert d.statistics is not None and d.statistics.message_start_time == T0 + 5_000_000
+
+
+def test_merged_copy_is_in_log_time_order(tmp_path: Path) -> None:
+    src, out = tmp_path / "src.mcap", tmp_path / "out.mcap"
+    _many_chunks(src, n=1000)
+    extra_t = [T0 + i * 10_000_000 + 7 for i in range(0, 1000, 4)]
+    extra = ([topics.estimate_pose("pf")] * len(extra_t),
+             [b'{"timestamp":{"sec":0,"nsec":0},"frame_id":"map","pose":{"position":'
+              b'{"x":0,"y":0,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1}}}'] * len(extra_t),
+             extra_t)
+    with LogWriter(out, chunk_seconds=None, chunk_bytes=8192) as w:
+        assert w.copy_from(LogReader(src), extra=extra) == 1334
+    assert_reference_clean(out)
+    assert LogReader(out).topics()[topics.estimate_pose("pf")].count == len(extra_t)
+
+
+def test_checker_sees_disorder_and_wrong_statistics(tmp_path: Path) -> None:
+    """The checks can fail: a chunk older than the one before it, and statistics that do
+    not match, are reported."""
+    buf = io.BytesIO()
+    w = McapWriter(buf, compression="none", library="test")
+    sid = w.add_schema("x", "jsonschema", b"{}")
+    cid = w.add_channel("/x", "json", sid)
+    w.add_message(cid, T0 + 100, b"{}")
+    w.close_chunk()
+    w.add_message(cid, T0 + 50, b"{}")
+    w.finish()
+    path = tmp_path / "bad.mcap"
+    path.write_bytes(buf.getvalue())
+    d = diagnose(path)
+    assert any("less than the latest log time" in x for x in d.warnings)
+    assert d.errors == [] and statistics_errors(path) == []
+    # a Statistics record whose start time is not the first message's (what the old
+    # writer did with copied chunks)
+    buf3 = io.BytesIO()
+    w3 = McapWriter(buf3, compression="none", library="test")
+    sid = w3.add_schema("x", "jsonschema", b"{}")
+    cid = w3.add_channel("/x", "json", sid)
+    w3.add_message(cid, T0 + 10, b"{}")
+    w3.close_chunk()
+    w3._start = T0 + 20
+    w3.finish()
+    bad = tmp_path / "bad2.mcap"
+    bad.write_bytes(buf3.getvalue())
+    assert any("message start time" in e for e in diagnose(bad).errors)
+    assert statistics_errors(bad)
+
+
+@pytest.fixture(scope="module")
+def outputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A simulated run and what simulate, replay, decode and recover write of it."""
+    import subprocess
+    import sys
+
+    d = tmp_path_factory.mktemp("outputs")
+
+    def cli(*args: object) -> None:
+        p = subprocess.run([sys.executable, "-m", "lgvtool", *map(str, args)],
+                           capture_output=True, text=True, timeout=300, check=False)
+        assert p.returncode == 0, p.stderr
+
+    out = {k: d / f"{k}.mcap" for k in ("simulate", "replay", "decode", "recover")}
+    cli("simulate", "-s", "degraded", "--duration", 40, "-o", out["simulate"])
+    cli("replay", out["simulate"], "-o", out["replay"], "-e", "ekf", "-e", "pf",
+        "--particles", 200)
+    cli("decode", out["simulate"], "-o", out["decode"])
+    cut = d / "cut.mcap"
+    raw = out["simulate"].read_bytes()
+    cut.write_bytes(raw[: len(raw) * 2 // 3])
+    cli("recover", cut, "-o", out["recover"])
+    return out
+
+
+@pytest.mark.parametrize("kind", ["simulate", "replay", "decode", "recover"])
+def test_command_output_is_clean(outputs: dict[str, Path], kind: str) -> None:
+    assert_reference_clean(outputs[kind])
+
+
+@pytest.mark.skipif(doctor_binary() is None, reason="the reference mcap CLI is not on PATH")
+@pytest.mark.parametrize("kind", ["simulate", "replay", "decode", "recover"])
+def test_reference_doctor_binary(outputs: dict[str, Path], kind: str) -> None:
+    p = run_doctor(outputs[kind])
+    assert p.returncode == 0, p.stdout + p.stderr
+    text = p.stdout + p.stderr
+    assert "Duplicate" not in text and "less than the latest log time" not in text, text
