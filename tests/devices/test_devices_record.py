@@ -94,9 +94,10 @@ def test_record_a_run_byte_for_byte_and_evaluate(tmp_path: Path, procs: Procs) -
     assert abs(last.omega_raw - w * 32768 / math.pi) <= 15
     # the reference checker's checks (tests/log/mcap_doctor.py): no error, no warning
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "log"))
-    from mcap_doctor import assert_reference_clean
+    from mcap_doctor import assert_reference_clean, schema_errors
 
     assert_reference_clean(out)
+    assert schema_errors(out) == []
     if importlib.util.find_spec("lgvtool.commands.evaluate") is not None:
         ev = procs.lgvtool("evaluate", out, "-e", "laser", "-o", tmp_path / "report", "--json")
         ev_out, ev_err = ev.communicate(timeout=60)

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "log"))
-from mcap_doctor import assert_reference_clean
+from mcap_doctor import assert_reference_clean, schema_errors
 
 from lgvtool.cli import main
 
@@ -19,3 +19,4 @@ def test_imported_log_is_clean(synthetic: Any, tmp_path: Path) -> None:
     except SystemExit as exc:
         assert not exc.code
     assert_reference_clean(out)
+    assert schema_errors(out) == []

@@ -349,3 +349,26 @@ def assert_reference_clean(path: str | Path) -> None:
     assert d.errors == [] and d.warnings == [], (d.errors[:5], d.warnings[:5],
                                                  len(d.warnings))
     assert statistics_errors(path) == []
+
+
+def schema_errors(path: str | Path) -> list[str]:
+    """Messages of ``path`` that do not validate against the JSON Schema embedded with their
+    channel (one line each: topic, log time, the validator's message), via the ``mcap``
+    package's reader."""
+    import json
+
+    import jsonschema
+    from mcap.reader import make_reader
+
+    validators: dict[int, jsonschema.protocols.Validator] = {}
+    out = []
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages(log_time_order=False):
+            assert schema is not None and schema.encoding == "jsonschema"
+            v = validators.get(schema.id)
+            if v is None:
+                v = validators[schema.id] = jsonschema.Draft202012Validator(
+                    json.loads(schema.data))
+            for e in v.iter_errors(json.loads(message.data)):
+                out.append(f"{channel.topic} @ {message.log_time}: {e.message}")
+    return out

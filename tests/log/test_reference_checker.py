@@ -13,6 +13,7 @@ from mcap_doctor import (
     diagnose,
     doctor_binary,
     run_doctor,
+    schema_errors,
     statistics_errors,
 )
 
@@ -127,6 +128,15 @@ def outputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 @pytest.mark.parametrize("kind", ["simulate", "replay", "decode", "recover"])
 def test_command_output_is_clean(outputs: dict[str, Path], kind: str) -> None:
     assert_reference_clean(outputs[kind])
+
+
+@pytest.mark.parametrize("kind", ["simulate", "replay", "decode", "recover"])
+def test_command_output_validates_against_its_schemas(outputs: dict[str, Path],
+                                                      kind: str) -> None:
+    """Every message validates against the schema embedded with it (Foxglove's own for the
+    foxglove.* ones, required lists included), read with the ``mcap`` package."""
+    errors = schema_errors(outputs[kind])
+    assert errors == [], errors[:5]
 
 
 @pytest.mark.skipif(doctor_binary() is None, reason="the reference mcap CLI is not on PATH")
