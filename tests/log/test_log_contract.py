@@ -91,7 +91,6 @@ FOXGLOVE_REQUIRED = {
     "foxglove.SceneUpdate": ["deletions", "entities"],
     "foxglove.Log": ["timestamp", "level", "message", "name", "file", "line"],
     "foxglove.FrameTransforms": ["transforms"],
-    "foxglove.Odometry": ["timestamp", "frame_id", "body_frame_id", "pose"],
 }
 """The top-level required lists of Foxglove's published schemas (@foxglove/schemas 2.1.0)."""
 
