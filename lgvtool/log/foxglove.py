@@ -164,22 +164,32 @@ def covariance_ellipse(ns: int, source: str, x: float, y: float, covariance: Seq
     return scene(_entity(ns, MAP_FRAME, f"{source}/covariance", spheres=[sphere]))
 
 
-def scan_scene(ns: int, observations: Iterable[tuple[float, float, int]], source: str = "nav"
-               ) -> dict[str, Any]:
+def scan_scene(ns: int, observations: Iterable[tuple[float, float, int] |
+                                             tuple[float, float, int, float]],
+               source: str = "nav") -> dict[str, Any]:
     """A foxglove.SceneUpdate drawing one scan's reflector observations in ``source``'s head
-    frame: a sphere at each (range m, bearing rad counter-clockwise, id or -1) and a ray to it
-    from the head; known reflectors in the source's colour, unknown ones in grey."""
-    spheres, points = [], []
-    for rng, bearing, rid in observations:
+    frame, replacing the scan before (entities on the topic older than ``ns`` are deleted).
+    Each observation (range m, bearing rad counter-clockwise, id or -1, and optionally its
+    time after the scan start, s) is one entity stamped with its own time, so that the 3D
+    panel places it with the head's pose when it was measured: a sphere at the reflector and
+    a ray to it from the head; known reflectors in the source's colour, unknown ones grey."""
+    entities = []
+    for k, obs in enumerate(observations):
+        rng, bearing, rid = obs[0], obs[1], obs[2]
+        dt = obs[3] if len(obs) > 3 else 0.0
         px, py = rng * math.cos(bearing), rng * math.sin(bearing)
-        spheres.append({"pose": pose(px, py, 0.0),
-                        "size": {"x": SCAN_MARK, "y": SCAN_MARK, "z": SCAN_MARK},
-                        "color": color(source) if rid >= 0 else color("deadreckoning")})
-        points += [{"x": 0.0, "y": 0.0, "z": 0.0}, {"x": px, "y": py, "z": 0.0}]
-    lines = [{"type": 2, "pose": pose(0.0, 0.0, 0.0), "thickness": 1.5, "scale_invariant": True,
-              "points": points, "color": color(source, 0.5), "colors": [], "indices": []}]
-    return scene(_entity(ns, head_frame(source), f"{source}/scan", spheres=spheres,
-                         lines=lines if points else []))
+        sphere = {"pose": pose(px, py, 0.0),
+                  "size": {"x": SCAN_MARK, "y": SCAN_MARK, "z": SCAN_MARK},
+                  "color": color(source) if rid >= 0 else color("deadreckoning")}
+        ray = {"type": 2, "pose": pose(0.0, 0.0, 0.0), "thickness": 1.5,
+               "scale_invariant": True,
+               "points": [{"x": 0.0, "y": 0.0, "z": 0.0}, {"x": px, "y": py, "z": 0.0}],
+               "color": color(source, 0.5), "colors": [], "indices": []}
+        entities.append(_entity(ns + round(dt * 1e9), head_frame(source), f"{source}/scan/{k}",
+                                spheres=[sphere], lines=[ray]))
+    out = scene(*entities)
+    out["deletions"] = [{"timestamp": stamp(ns), "type": 1, "id": ""}]
+    return out
 
 
 def reference_circle(ns: int, cx: float, cy: float, r: float, n: int = 180,
@@ -209,8 +219,10 @@ def nav_pose_messages(ns: int, x: float, y: float, heading: float, m: Mounting
             encoded(topics.NAV_TF, frame_transforms(ns, "nav", ox, oy, oh, m))]
 
 
-def scan_messages(ns: int, observations: Iterable[tuple[float, float, int]]) -> list[Encoded]:
-    """The Foxglove message of one reflector scan (drawn in the frame nav/head)."""
+def scan_messages(ns: int, observations: Iterable[tuple[float, float, int, float]]
+                  ) -> list[Encoded]:
+    """The Foxglove message of one reflector scan starting at ``ns``: (range m, bearing rad,
+    id or -1, time in scan s) per observation, drawn in the frame nav/head."""
     return [encoded(topics.NAV_SCAN, scan_scene(ns, observations))]
 
 

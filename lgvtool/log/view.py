@@ -62,8 +62,8 @@ def nav_streams(reader: LogReader, m: fx.Mounting) -> list[Stream]:
     times, docs = _docs(reader, T.NAV_REFLECTORS)
     scans = Stream(T.NAV_SCAN, [], [])
     for t, d in zip(times, docs, strict=True):
-        obs = [(float(o["range"]), float(o["bearing"]), int(o.get("id", -1)))
-               for o in d.get("observations", [])]
+        obs = [(float(o["range"]), float(o["bearing"]), int(o.get("id", -1)),
+                float(o.get("time_in_scan", 0.0))) for o in d.get("observations", [])]
         stamp_ns = d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"]
         for e in fx.scan_messages(int(stamp_ns), obs):
             scans.times.append(t)

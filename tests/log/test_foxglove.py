@@ -45,10 +45,10 @@ def test_builders_validate_against_foxglove_schemas() -> None:
     _valid("foxglove.SceneUpdate", fx.covariance_ellipse(T0, "pf", 1.0, 2.0,
                                                          [0.01, 0.002, 0, 0.002, 0.004, 0, 0, 0,
                                                           0.001]))
-    _valid("foxglove.SceneUpdate", fx.scan_scene(T0, [(5.0, 0.3, 4), (7.0, -1.0, -1)]))
+    _valid("foxglove.SceneUpdate", fx.scan_scene(T0, [(5.0, 0.3, 4, 0.0), (7.0, -1.0, -1, 0.1)]))
     _valid("foxglove.SceneUpdate", fx.scan_scene(T0, []))
     _valid("foxglove.SceneUpdate", fx.reference_circle(T0, 10.0, 9.0, 0.69))
-    for e in (fx.nav_pose_messages(T0, 1.0, 2.0, 0.5, M) + fx.scan_messages(T0, [(3.0, 0.1, 2)])
+    for e in (fx.nav_pose_messages(T0, 1.0, 2.0, 0.5, M) + fx.scan_messages(T0, [(3.0, 0.1, 2, 0.05)])
               + fx.estimate_messages("ekf", T0, 1.0, 2.0, 0.5, [1e-4, 0, 0, 0, 1e-4, 0, 0, 0,
                                                                 1e-3], M)):
         assert e.schema == topics.schema_for_topic(e.topic)
@@ -94,14 +94,18 @@ def test_covariance_ellipse_axes() -> None:
 
 
 def test_scan_points_are_range_and_bearing_in_the_head_frame() -> None:
-    msg = fx.scan_scene(T0, [(5.0, math.pi / 2, 3), (2.0, 0.0, -1)])
-    (e,) = msg["entities"]
-    assert e["frame_id"] == "nav/head"
-    p = [s["pose"]["position"] for s in e["spheres"]]
+    msg = fx.scan_scene(T0, [(5.0, math.pi / 2, 3, 0.01), (2.0, 0.0, -1, 0.1)])
+    assert msg["deletions"] == [{"timestamp": {"sec": T0 // 10**9, "nsec": 0}, "type": 1,
+                                 "id": ""}]
+    a, b = msg["entities"]
+    assert a["frame_id"] == b["frame_id"] == "nav/head"
+    assert a["timestamp"]["nsec"] == 10_000_000 and b["timestamp"]["nsec"] == 100_000_000
+    p = [e["spheres"][0]["pose"]["position"] for e in (a, b)]
     assert (p[0]["x"], p[0]["y"]) == pytest.approx((0.0, 5.0), abs=1e-12)
     assert (p[1]["x"], p[1]["y"]) == pytest.approx((2.0, 0.0), abs=1e-12)
-    assert e["spheres"][0]["color"] != e["spheres"][1]["color"]  # known vs unknown id
-    assert len(e["lines"][0]["points"]) == 4
+    assert a["spheres"][0]["color"] != b["spheres"][0]["color"]  # known vs unknown id
+    assert a["lines"][0]["points"][1] == p[0]
+    assert a["id"] != b["id"]
 
 
 def test_reference_circle_points_lie_on_it() -> None:
