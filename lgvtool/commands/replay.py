@@ -39,7 +39,7 @@ LONG_LOG_S = 600.0
               help="Keep one particle cloud per this many seconds, s.")
 @click.option("--cloud-size", type=click.IntRange(min=0), default=50, show_default=True,
               help="At most this many particles per kept cloud (0: no clouds).")
-@click.option("--compression", type=click.Choice(["lz4", "zstd", "none"]), default="lz4",
+@click.option("--compression", type=click.Choice(["lz4", "zstd", "none"]), default="zstd",
               show_default=True, help="Chunk compression of the output (the input's messages "
                                       "and the estimates, merged in time order).")
 @click.option("--view/--no-view", default=True, show_default=True,
@@ -161,7 +161,7 @@ def _replay(log: str, output: str, estimators: tuple[str, ...], particles: int |
 
 
 def _write(reader: Any, output: str, result: Any, config: Any, source: str,
-           compression: str = "lz4", view_config: Any = None) -> int:
+           compression: str = "zstd", view_config: Any = None) -> int:
     """The input's messages, the metadata, the estimates and the Foxglove view channels
     (lgvtool.log.view), merged in log-time order (an input message first at one time, then
     pose before state before cloud before the view channels, estimators in run order), so

@@ -91,11 +91,16 @@ def color(source: str, alpha: float = 1.0) -> dict[str, float]:
     return {"r": r, "g": g, "b": b, "a": alpha}
 
 
-def o_from_head(x: float, y: float, heading: float, m: Mounting) -> tuple[float, float, float]:
-    """Pose of O (m, m, rad) of a vehicle whose head is at (x, y, heading)."""
-    th = heading - m.yaw
-    c, s = math.cos(th), math.sin(th)
-    return x - c * m.x + s * m.y, y - s * m.x - c * m.y, math.atan2(math.sin(th), math.cos(th))
+def o_from_head(x: ArrayLike, y: ArrayLike, heading: ArrayLike, m: Mounting
+                ) -> tuple[Any, Any, Any]:
+    """Pose of O (m, m, rad in (-pi, pi]) of a vehicle whose head is at (x, y, heading):
+    scalars or arrays (numpy's)."""
+    import numpy as np
+
+    th = np.asarray(heading, dtype=np.float64) - m.yaw
+    c, s = np.cos(th), np.sin(th)
+    return (np.asarray(x) - c * m.x + s * m.y, np.asarray(y) - s * m.x - c * m.y,
+            np.arctan2(np.sin(th), np.cos(th)))
 
 
 def encoded(topic: str, message: dict[str, Any]) -> Encoded:
@@ -213,7 +218,7 @@ def nav_pose_messages(ns: int, x: float, y: float, heading: float, m: Mounting
                       ) -> list[Encoded]:
     """The Foxglove messages of one valid NAV head pose: the head as a pose in the map and
     the frames map -> nav/O -> nav/head."""
-    ox, oy, oh = o_from_head(x, y, heading, m)
+    ox, oy, oh = (float(v) for v in o_from_head(x, y, heading, m))
     return [encoded(topics.NAV_HEAD, {"timestamp": stamp(ns), "frame_id": MAP_FRAME,
                                       "pose": pose(x, y, heading)}),
             encoded(topics.NAV_TF, frame_transforms(ns, "nav", ox, oy, oh, m))]
@@ -391,3 +396,55 @@ def covariance_ellipse_many(source: str, t_ns: ArrayLike, x: ArrayLike, y: Array
     return t.tolist(), [template % row for row in zip(
         secs, nsecs, numbers(xa), numbers(ya), numbers(np.sin(h)), numbers(np.cos(h)),
         numbers(2.0 * SIGMAS * a), numbers(2.0 * SIGMAS * b), strict=True)]
+
+
+def _template(sample: bytes, slots: Sequence[tuple[bytes, bytes]]) -> bytes:
+    """A %-template of the JSON ``sample``: each sentinel text replaced by its format code."""
+    out = _lit(sample)
+    for sentinel, code in slots:
+        assert sentinel in out, sentinel
+        out = out.replace(sentinel, code)
+    return out
+
+
+_SEC, _NSEC, _K, _PX, _PY = 1111111111, 222222222, 987654321, 1234567.125, 7654321.125
+
+
+def scan_scenes_many(scans: Sequence[tuple[int, ArrayLike, ArrayLike, ArrayLike, ArrayLike]],
+                     source: str = "nav") -> list[bytes]:
+    """foxglove.SceneUpdate messages (JSON) of reflector scans ``(start ns, ranges m,
+    bearings rad, ids, times in scan s)``, as :func:`scan_scene`."""
+    import numpy as np
+
+    if not scans:
+        return []
+    ns0 = _SEC * 1_000_000_000 + _NSEC
+    slots = [(b'{"sec":%d,"nsec":%d}' % (_SEC, _NSEC), _STAMP), (b"%d" % _K, b"%d"),
+             (orjson.dumps(_PX), b"%b"), (orjson.dumps(_PY), b"%b")]
+    entity = {}
+    for known in (True, False):
+        sample = scan_scene(ns0, [(math.hypot(_PX, _PY), math.atan2(_PY, _PX), 0 if known
+                                   else -1, 0.0)], source)["entities"][0]
+        sample["id"] = f"{source}/scan/{_K}"
+        sample["spheres"][0]["pose"]["position"].update(x=_PX, y=_PY)
+        sample["lines"][0]["points"][1].update(x=_PX, y=_PY)
+        entity[known] = _template(orjson.dumps(sample), slots)
+    head = _template(orjson.dumps({"deletions": scan_scene(ns0, [])["deletions"]})[:-1],
+                     slots[:1]) + b',"entities":['
+    sizes = [len(np.asarray(sc[1])) for sc in scans]
+    rng = np.concatenate([np.asarray(sc[1], dtype=np.float64) for sc in scans])
+    brg = np.concatenate([np.asarray(sc[2], dtype=np.float64) for sc in scans])
+    ids = np.concatenate([np.asarray(sc[3], dtype=np.int64) for sc in scans]).tolist()
+    start = np.repeat(np.array([sc[0] for sc in scans], dtype=np.int64), sizes)
+    dts = np.concatenate([np.asarray(sc[4], dtype=np.float64) for sc in scans])
+    secs, nsecs = stamps(start + np.rint(dts * 1e9).astype(np.int64))
+    px, py = numbers(rng * np.cos(brg)), numbers(rng * np.sin(brg))
+    s0, n0 = stamps([sc[0] for sc in scans])
+    out: list[bytes] = []
+    at = 0
+    for j, n in enumerate(sizes):
+        parts = [entity[ids[i] >= 0] % (secs[i], nsecs[i], i - at, px[i], py[i], px[i], py[i])
+                 for i in range(at, at + n)]
+        out.append(head % (s0[j], n0[j]) + b",".join(parts) + b"]}")
+        at += n
+    return out

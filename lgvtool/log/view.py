@@ -43,47 +43,54 @@ def _docs(reader: LogReader, topic: str) -> tuple[list[int], list[dict[str, Any]
     return [int(v) for v in t.tolist()], [loads(d) for d in raw]
 
 
+def _floats(docs: list[dict[str, Any]], key: str) -> Any:
+    import numpy as np
+
+    return np.array([v if isinstance(v := d.get(key), int | float) else math.nan
+                     for d in docs], dtype=np.float64)
+
+
 def nav_streams(reader: LogReader, m: fx.Mounting) -> list[Stream]:
     """/nav/head and /nav/tf of every valid NAV pose, /nav/scan of every reflector scan."""
+    import numpy as np
+
     out: list[Stream] = []
     times, docs = _docs(reader, T.NAV_POSE)
-    head, tf = Stream(T.NAV_HEAD, [], []), Stream(T.NAV_TF, [], [])
-    for t, d in zip(times, docs, strict=True):
-        pose = [d.get(k) for k in ("x", "y", "heading")]
-        if not d.get("valid") or not all(isinstance(v, int | float) and math.isfinite(v)
-                                         for v in pose):
-            continue
-        x, y, h = (float(v) for v in pose)  # type: ignore[arg-type]
-        for e in fx.nav_pose_messages(t, x, y, h, m):
-            s = head if e.topic == T.NAV_HEAD else tf
-            s.times.append(t)
-            s.datas.append(e.data)
-    out += [s for s in (head, tf) if s.times]
+    if docs:
+        x, y, h = (_floats(docs, k) for k in ("x", "y", "heading"))
+        ok = np.array([bool(d.get("valid")) for d in docs]) & np.isfinite(x + y + h)
+        t = np.asarray(times, dtype=np.int64)[ok]
+        x, y, h = x[ok], y[ok], h[ok]
+        if len(t):
+            out.append(Stream(T.NAV_HEAD, t.tolist(), fx.pose_in_frame_many(t, x, y, h)))
+            ox, oy, oh = fx.o_from_head(x, y, h, m)
+            out.append(Stream(T.NAV_TF, *fx.frame_transforms_many("nav", t, ox, oy, oh, m)))
     times, docs = _docs(reader, T.NAV_REFLECTORS)
-    scans = Stream(T.NAV_SCAN, [], [])
-    for t, d in zip(times, docs, strict=True):
-        obs = [(float(o["range"]), float(o["bearing"]), int(o.get("id", -1)),
-                float(o.get("time_in_scan", 0.0))) for o in d.get("observations", [])]
-        stamp_ns = d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"]
-        for e in fx.scan_messages(int(stamp_ns), obs):
-            scans.times.append(t)
-            scans.datas.append(e.data)
-    if scans.times:
-        out.append(scans)
+    scans = []
+    for d in docs:
+        obs = d.get("observations", [])
+        scans.append((d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"],
+                      [float(o["range"]) for o in obs], [float(o["bearing"]) for o in obs],
+                      [int(o.get("id", -1)) for o in obs],
+                      [float(o.get("time_in_scan", 0.0)) for o in obs]))
+    if scans:
+        out.append(Stream(T.NAV_SCAN, times, fx.scan_scenes_many(scans)))
     return out
 
 
 def truth_stream(reader: LogReader, m: fx.Mounting) -> list[Stream]:
     """/truth/tf of every ground-truth pose of O."""
+    import numpy as np
+
     times, docs = _docs(reader, T.TRUTH)
-    s = Stream(T.TRUTH_TF, [], [])
-    for t, d in zip(times, docs, strict=True):
-        p, q = d["pose"]["position"], d["pose"]["orientation"]
-        yaw = 2.0 * math.atan2(float(q.get("z", 0.0)), float(q.get("w", 1.0)))
-        s.times.append(t)
-        s.datas.append(orjson.dumps(fx.frame_transforms(t, "truth", float(p["x"]),
-                                                        float(p["y"]), yaw, m)))
-    return [s] if s.times else []
+    if not docs:
+        return []
+    a = np.array([(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
+                   d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
+                  for d in docs], dtype=np.float64)
+    yaw = 2.0 * np.arctan2(a[:, 2], a[:, 3])
+    return [Stream(T.TRUTH_TF, *fx.frame_transforms_many("truth", times, a[:, 0], a[:, 1],
+                                                         yaw, m))]
 
 
 def steering_angle(reader: LogReader) -> float | None:

@@ -146,6 +146,19 @@ def test_fast_paths_equal_the_builders() -> None:
                 orjson.loads(text))
 
 
+def test_scan_fast_path_equals_the_builder() -> None:
+    rng = np.random.default_rng(2)
+    scans = []
+    for j in range(6):
+        n = int(rng.integers(0, 7))
+        scans.append((T0 + j * 125_000_000, rng.uniform(1, 20, n), rng.uniform(-3, 3, n),
+                      rng.integers(-1, 30, n), np.sort(rng.uniform(0, 0.125, n))))
+    for sc, text in zip(scans, fx.scan_scenes_many(scans), strict=True):
+        obs = list(zip(sc[1].tolist(), sc[2].tolist(), sc[3].tolist(), sc[4].tolist(),
+                       strict=True))
+        _approx(fx.scan_scene(sc[0], obs), orjson.loads(text))
+
+
 def test_fast_paths_leave_out_rows_that_are_not_finite() -> None:
     t = np.array([T0, T0 + 1, T0 + 2])
     x = np.array([1.0, math.nan, 2.0])
