@@ -352,16 +352,67 @@ def decompress(kind: str, data: bytes | memoryview, size: int) -> bytes:
 
 
 class _OpenChunk:
-    """The chunk being filled: records, time span (ns), message count, per-channel index."""
+    """The chunk being filled: records, time span (ns), message count, per-channel index, the
+    last message's log time and whether the messages are in log-time order so far."""
 
-    __slots__ = ("buf", "count", "end", "index", "start")
+    __slots__ = ("buf", "count", "end", "index", "last", "ordered", "start")
 
     def __init__(self) -> None:
         self.buf = bytearray()
         self.start = 0
         self.end = 0
         self.count = 0
+        self.last = 0
+        self.ordered = True
         self.index: dict[int, list[tuple[int, int]]] = {}
+
+    def sort(self) -> None:
+        """Put the messages in log-time order (stable), after the schema and channel records
+        (which move to the front, so each still precedes its channel's messages)."""
+        buf = self.buf
+        msgs = sorted(e for entries in self.index.values() for e in entries)
+        out = bytearray()
+        pos = 0
+        while pos + 9 <= len(buf):
+            opcode, length = _REC_HEAD.unpack_from(buf, pos)
+            if opcode != OP_MESSAGE:
+                out += buf[pos:pos + 9 + length]
+            pos += 9 + length
+        index: dict[int, list[tuple[int, int]]] = {}
+        for t, at in msgs:
+            (length,) = _U64.unpack_from(buf, at + 1)
+            (cid,) = _U16.unpack_from(buf, at + 9)
+            index.setdefault(cid, []).append((t, len(out)))
+            out += buf[at:at + 9 + length]
+        self.buf, self.index, self.ordered = out, index, True
+
+    def split_after(self, cutoff: int) -> _OpenChunk | None:
+        """Move the messages newer than ``cutoff`` (ns), with every record after the first of
+        them, into a new chunk and return it; None (nothing moved) when none is newer or none
+        would stay. The messages must be in log-time order."""
+        at = min((o for entries in self.index.values() for t, o in entries if t > cutoff),
+                 default=None)
+        if at is None or not any(t <= cutoff for entries in self.index.values()
+                                 for t, _o in entries):
+            return None
+        tail = _OpenChunk()
+        tail.buf = self.buf[at:]
+        del self.buf[at:]
+        kept: dict[int, list[tuple[int, int]]] = {}
+        for cid, entries in self.index.items():
+            for t, o in entries:
+                if o < at:
+                    kept.setdefault(cid, []).append((t, o))
+                else:
+                    tail.index.setdefault(cid, []).append((t, o - at))
+        self.index = kept
+        self.count = sum(len(e) for e in kept.values())
+        tail.count = sum(len(e) for e in tail.index.values())
+        self.start = min(e[0][0] for e in kept.values())
+        self.end = max(e[-1][0] for e in kept.values())
+        tail.start = min(e[0][0] for e in tail.index.values())
+        tail.end = tail.last = max(e[-1][0] for e in tail.index.values())
+        return tail
 
 
 class McapWriter:
@@ -434,6 +485,9 @@ class McapWriter:
             c.start = log_time
         elif log_time > c.end:
             c.end = log_time
+        if c.count and log_time < c.last:
+            c.ordered = False
+        c.last = log_time
         entries = c.index.get(channel_id)
         if entries is None:
             entries = c.index[channel_id] = []
@@ -480,6 +534,11 @@ class McapWriter:
             parts[1::2] = datas[i:j]
             c.buf += b"".join(parts)
             lo, hi = min(log_times[i:j]), max(log_times[i:j])
+            if c.ordered and ((c.count and log_times[i] < c.last) or any(
+                    a > b for a, b in zip(log_times[i:j - 1], log_times[i + 1:j],
+                                          strict=True))):
+                c.ordered = False
+            c.last = log_times[j - 1]
             if c.count == 0:
                 c.start, c.end = lo, hi
             else:
@@ -494,11 +553,21 @@ class McapWriter:
         """Whether the open chunk holds any message."""
         return self._chunk.count > 0
 
-    def close_chunk(self) -> None:
-        """Compress and write the open chunk and its message indexes (no-op when empty)."""
+    def close_chunk(self, hold_ns: int = 0) -> None:
+        """Compress and write the open chunk and its message indexes (no-op when empty).
+
+        ``hold_ns``: keep the messages less than this much older than the newest one (ns) in
+        the open chunk, unless that would keep all of them: a live recorder's threads hand
+        over messages slightly out of order, and a message a little older than the newest
+        written one then still lands in log-time order (the reference checker warns of any
+        message older than one before it in the file)."""
         c = self._chunk
         if c.count == 0:
             return
+        if not c.ordered:
+            # readers (the reference checker among them) expect log-time order in a chunk
+            c.sort()
+        held = c.split_after(c.end - hold_ns) if hold_ns > 0 else None
         data = bytes(c.buf)
         compressed = _compress(self._compression, data)
         start_offset = self._pos
@@ -522,7 +591,12 @@ class McapWriter:
             message_index_length=self._pos - mi_start, compression=self._compression,
             compressed_size=len(compressed), uncompressed_size=len(data)))
         self._note_times(c.start, c.end, c.count)
-        self._chunk = _OpenChunk()
+        self._chunk = held if held is not None else _OpenChunk()
+
+    @property
+    def open_chunk_start(self) -> int | None:
+        """Log time (ns) of the oldest message in the open chunk; None when it holds none."""
+        return self._chunk.start if self._chunk.count else None
 
     def _note_times(self, start: int, end: int, count: int) -> None:
         """Widen the file's message time span (ns) by a chunk's and add its message count."""

@@ -41,6 +41,11 @@ what wrote the file."""
 
 _COMPRESSION = ("zstd", "lz4", "none")
 
+REORDER_NS = 50_000_000
+"""How much older than the newest message (ns) a message may reach a time-chunked writer
+(a recorder's threads) and still be written in log-time order: the newest 50 ms of a closing
+chunk go into the next one."""
+
 
 def _dumps(data: Any) -> bytes:
     return orjson.dumps(data)
@@ -265,12 +270,14 @@ class LogWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Write the chunk in progress to the file now."""
-        self._writer.close_chunk()
+        """Write the chunk in progress to the file now (a time-chunked writer keeps its last
+        :data:`REORDER_NS` of messages for the next chunk, so that messages handed over a
+        little out of order still land in log-time order)."""
+        self._writer.close_chunk(REORDER_NS if self._chunk_ns is not None else 0)
         self._stream.flush()
         if self._fsync and self._owns_stream:
             os.fsync(self._stream.fileno())
-        self._chunk_first_ns = None
+        self._chunk_first_ns = self._writer.open_chunk_start
         self._chunk_wall = time.monotonic()
 
     # ------------------------------------------------------------------ lifecycle

@@ -172,6 +172,12 @@ def test_split_files_lose_nothing(tmp_path: Path, procs: Procs) -> None:
         assert r.metadata["device.nav200"]["serial"] == 20417
     joined = b"".join(raw_stream(r.path, topics.MCU_RX) for r in readers)
     assert joined == server.sent("mcu")
+    # every part passes the reference checker's checks (tests/log/mcap_doctor.py)
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "log"))
+    from mcap_doctor import assert_reference_clean
+
+    for f in files:
+        assert_reference_clean(f)
 
 
 def _limit_file_size() -> None:

@@ -68,6 +68,55 @@ def test_merged_copy_is_in_log_time_order(tmp_path: Path) -> None:
     assert LogReader(out).topics()[topics.estimate_pose("pf")].count == len(extra_t)
 
 
+def test_disorder_within_a_chunk_is_sorted_out(tmp_path: Path) -> None:
+    """Messages a recorder's threads hand over slightly out of order (and a channel first
+    used by a late message) are written in log-time order within their chunk."""
+    import random
+
+    path = tmp_path / "local.mcap"
+    times = [T0 + i * 1_000_000 for i in range(2000)]
+    rng = random.Random(5)
+    shuffled = times[:]
+    for i in range(0, len(shuffled) - 5, 5):
+        block = shuffled[i:i + 5]
+        rng.shuffle(block)
+        shuffled[i:i + 5] = block
+    with LogWriter(path, chunk_seconds=None) as w:
+        for k, ns in enumerate(shuffled):
+            w.write(topics.ODOM, {"timestamp": {"sec": ns // 10**9, "nsec": ns % 10**9},
+                                  "v": 0.0, "omega": 0.0}, ns)
+            if k == 1000:  # a new channel, its first message older than the one before
+                w.write(topics.TRUTH, pose_in_frame(ns - 500, 0.0, 0.0, 0.0), ns - 500)
+        # the batched path too
+        w.flush()
+        w._chunk_ns = None
+        w.write_encoded_many([topics.ODOM] * 3, [b'{"timestamp":{"sec":0,"nsec":0},"v":0.0,'
+                                                 b'"omega":0.0}'] * 3,
+                             [times[-1] + 30, times[-1] + 10, times[-1] + 20])
+    assert_reference_clean(path)
+    got = [m.log_time_ns for m in LogReader(path).raw_messages()]
+    assert got == sorted(got) and len(got) == 2004
+
+
+def test_a_recorder_s_disorder_across_chunk_closes_is_sorted_out(tmp_path: Path) -> None:
+    """A time-chunked writer (a recorder) closing a chunk every 0.1 s keeps its newest
+    messages for the next chunk, so messages handed over up to 50 ms late stay in order."""
+    import random
+
+    path = tmp_path / "rec.mcap"
+    rng = random.Random(6)
+    times = [T0 + i * 3_000_000 for i in range(3000)]  # 9 s at 333 Hz
+    late = [t + rng.choice((0, 0, 0, 20_000_000, 45_000_000)) for t in times]  # handed late
+    order = sorted(range(len(times)), key=lambda i: late[i])
+    with LogWriter(path, chunk_seconds=0.1) as w:
+        for i in order:
+            ns = times[i]
+            w.write(topics.ODOM, {"timestamp": {"sec": ns // 10**9, "nsec": ns % 10**9},
+                                  "v": 0.0, "omega": 0.0}, ns)
+    assert len(LogReader(path)._chunk_indexes) > 50
+    assert_reference_clean(path)
+
+
 def test_checker_sees_disorder_and_wrong_statistics(tmp_path: Path) -> None:
     """The checks can fail: a chunk older than the one before it, and statistics that do
     not match, are reported."""
