@@ -14,6 +14,7 @@ import subprocess
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import lz4.frame
 import zstandard
@@ -60,6 +61,27 @@ class _Doctor:
         self.summary_channels: set[int] = set()
         self.chunk_channels: dict[int, set[int]] = {}
         self.in_summary = False
+        self._content: dict[str, dict[int, tuple[Any, ...]]] = {}
+
+    def _seen(self, kind: str, rec: Any, content: tuple[Any, ...], data: dict[int, Any],
+              summary: set[int]) -> None:
+        """A schema or channel record: same content as an earlier one of its id, and once in
+        the data section (a duplicate there is warned of), again in the summary."""
+        d = self.d
+        prev = data.get(rec.id)
+        key = self._content.setdefault(kind, {})
+        if prev is not None and key[rec.id] != content:
+            d.errors.append(f"Two {kind} records with same ID {rec.id} but different content")
+        if self.in_summary:
+            if prev is None:
+                d.errors.append(f"{kind.title()} with ID {rec.id} in summary section does not "
+                                "exist in data section")
+            summary.add(rec.id)
+        else:
+            if prev is not None:
+                d.warnings.append(f"Duplicate {kind} records in data section with ID {rec.id}")
+            data[rec.id] = rec
+            key[rec.id] = content
 
     def schema(self, s: Schema) -> None:
         d = self.d
@@ -70,36 +92,13 @@ class _Doctor:
                 d.warnings.append(f"Schema with ID: {s.id} has empty Encoding and Data fields")
         if s.id == 0:
             d.errors.append("Schema.ID 0 is reserved")
-        prev = self.schemas.get(s.id)
-        if prev is not None and (prev.name, prev.encoding, prev.data) != (s.name, s.encoding,
-                                                                          s.data):
-            d.errors.append(f"Two schema records with same ID {s.id} but different content")
-        if self.in_summary:
-            if prev is None:
-                d.errors.append(f"Schema with id {s.id} in summary section does not exist in "
-                                "data section")
-            self.summary_schemas.add(s.id)
-        else:
-            if prev is not None:
-                d.warnings.append(f"Duplicate schema records in data section with ID {s.id}")
-            self.schemas[s.id] = s
+        self._seen("schema", s, (s.name, s.encoding, s.data), self.schemas,
+                   self.summary_schemas)
 
     def channel(self, c: Channel) -> None:
         d = self.d
-        prev = self.channels.get(c.id)
-        if prev is not None and (prev.schema_id, prev.topic, prev.message_encoding,
-                                 prev.metadata) != (c.schema_id, c.topic, c.message_encoding,
-                                                    c.metadata):
-            d.errors.append(f"Two channel records with same ID {c.id} but different content")
-        if self.in_summary:
-            if prev is None:
-                d.errors.append(f"Channel with ID {c.id} in summary section does not exist in "
-                                "data section")
-            self.summary_channels.add(c.id)
-        else:
-            if prev is not None:
-                d.warnings.append(f"Duplicate channel records in data section with ID {c.id}")
-            self.channels[c.id] = c
+        self._seen("channel", c, (c.schema_id, c.topic, c.message_encoding, c.metadata),
+                   self.channels, self.summary_channels)
         if c.schema_id != 0 and c.schema_id not in self.schemas:
             d.errors.append(f"Encountered Channel ({c.id}) with unknown Schema ({c.schema_id})")
 

@@ -77,10 +77,9 @@ def test_disorder_within_a_chunk_is_sorted_out(tmp_path: Path) -> None:
     times = [T0 + i * 1_000_000 for i in range(2000)]
     rng = random.Random(5)
     shuffled = times[:]
-    for i in range(0, len(shuffled) - 5, 5):
-        block = shuffled[i:i + 5]
-        rng.shuffle(block)
-        shuffled[i:i + 5] = block
+    for i in rng.sample(range(len(times) - 3), 400):  # a message handed over 1-3 places late
+        j = i + rng.randint(1, 3)
+        shuffled[i], shuffled[j] = shuffled[j], shuffled[i]
     with LogWriter(path, chunk_seconds=None) as w:
         for k, ns in enumerate(shuffled):
             w.write(topics.ODOM, {"timestamp": {"sec": ns // 10**9, "nsec": ns % 10**9},
@@ -117,34 +116,34 @@ def test_a_recorder_s_disorder_across_chunk_closes_is_sorted_out(tmp_path: Path)
     assert_reference_clean(path)
 
 
+def _two_chunks(path: Path, first: int, second: int, start: int | None = None) -> None:
+    """A file of one message at ``first`` and one at ``second`` (ns), in two chunks; with
+    ``start``, a Statistics record claiming that first time instead of the true one."""
+    buf = io.BytesIO()
+    w = McapWriter(buf, compression="none", library="test")
+    cid = w.add_channel("/x", "json", w.add_schema("x", "jsonschema", b"{}"))
+    w.add_message(cid, first, b"{}")
+    w.close_chunk()
+    w.add_message(cid, second, b"{}")
+    w.close_chunk()
+    if start is not None:
+        w._start = start
+    w.finish()
+    path.write_bytes(buf.getvalue())
+
+
 def test_checker_sees_disorder_and_wrong_statistics(tmp_path: Path) -> None:
     """The checks can fail: a chunk older than the one before it, and statistics that do
     not match, are reported."""
-    buf = io.BytesIO()
-    w = McapWriter(buf, compression="none", library="test")
-    sid = w.add_schema("x", "jsonschema", b"{}")
-    cid = w.add_channel("/x", "json", sid)
-    w.add_message(cid, T0 + 100, b"{}")
-    w.close_chunk()
-    w.add_message(cid, T0 + 50, b"{}")
-    w.finish()
     path = tmp_path / "bad.mcap"
-    path.write_bytes(buf.getvalue())
+    _two_chunks(path, T0 + 100, T0 + 50)
     d = diagnose(path)
     assert any("less than the latest log time" in x for x in d.warnings)
     assert d.errors == [] and statistics_errors(path) == []
-    # a Statistics record whose start time is not the first message's (what the old
-    # writer did with copied chunks)
-    buf3 = io.BytesIO()
-    w3 = McapWriter(buf3, compression="none", library="test")
-    sid = w3.add_schema("x", "jsonschema", b"{}")
-    cid = w3.add_channel("/x", "json", sid)
-    w3.add_message(cid, T0 + 10, b"{}")
-    w3.close_chunk()
-    w3._start = T0 + 20
-    w3.finish()
+    # a Statistics record whose start time is not the first message's (what the old writer
+    # did with copied chunks)
     bad = tmp_path / "bad2.mcap"
-    bad.write_bytes(buf3.getvalue())
+    _two_chunks(bad, T0 + 10, T0 + 30, start=T0 + 20)
     assert any("message start time" in e for e in diagnose(bad).errors)
     assert statistics_errors(bad)
 
