@@ -231,11 +231,27 @@ def scan_messages(ns: int, observations: Iterable[tuple[float, float, int, float
     return [encoded(topics.NAV_SCAN, scan_scene(ns, observations))]
 
 
+def pose_estimate(ns: int, name: str, x: float, y: float, heading: float,
+                  covariance: Sequence[float], particles: int = 0, ess: float = 0.0
+                  ) -> dict[str, Any]:
+    """A lgvtool.PoseEstimate (the exact estimate): pose of O (m, m, rad), row-major 3x3
+    covariance of (x, y, heading), particle count and effective sample size."""
+    return {"timestamp": stamp(ns), "estimator": name, "x": x, "y": y, "heading": heading,
+            "covariance": [float(v) for v in covariance], "particles": int(particles),
+            "ess": float(ess)}
+
+
 def estimate_messages(name: str, ns: int, x: float, y: float, heading: float,
-                      covariance: Sequence[float], m: Mounting) -> list[Encoded]:
-    """The Foxglove messages of one estimate of O by ``name`` (besides its pose and state):
-    the frames map -> NAME/O -> NAME/head and the covariance ellipse."""
-    return [encoded(topics.estimate_tf(name), frame_transforms(ns, name, x, y, heading, m)),
+                      covariance: Sequence[float], m: Mounting, *, particles: int = 0,
+                      ess: float = 0.0) -> list[Encoded]:
+    """Every message of one estimate of O by ``name``: its pose (foxglove.PoseInFrame), the
+    exact estimate (lgvtool.PoseEstimate), the frames map -> NAME/O -> NAME/head and the
+    covariance ellipse."""
+    return [encoded(topics.estimate_pose(name), {"timestamp": stamp(ns), "frame_id": MAP_FRAME,
+                                                 "pose": pose(x, y, heading)}),
+            encoded(topics.estimate_state(name), pose_estimate(ns, name, x, y, heading,
+                                                               covariance, particles, ess)),
+            encoded(topics.estimate_tf(name), frame_transforms(ns, name, x, y, heading, m)),
             encoded(topics.estimate_covariance(name),
                     covariance_ellipse(ns, name, x, y, covariance))]
 

@@ -138,8 +138,21 @@ def test_fast_paths_equal_the_builders() -> None:
     for i, text in enumerate(ells):
         _approx(fx.covariance_ellipse(int(t[i]), "ekf", float(x[i]), float(y[i]),
                                       cov[i].ravel().tolist()), orjson.loads(text))
-    states = fx.pose_estimate_many("ekf", t, x, y, h, cov, np.zeros(n, int), np.zeros(n))
-    assert orjson.loads(states[3])["covariance"] == pytest.approx(cov[3].ravel(), rel=1e-15)
+    parts, ess = rng.integers(0, 500, n), rng.uniform(0, 500, n)
+    states = fx.pose_estimate_many("ekf", t, x, y, h, cov, parts, ess)
+    for i, text in enumerate(states):
+        _approx(fx.pose_estimate(int(t[i]), "ekf", float(x[i]), float(y[i]), float(h[i]),
+                                 cov[i].ravel().tolist(), int(parts[i]), float(ess[i])),
+                orjson.loads(text))
+    live = fx.estimate_messages("ekf", int(t[0]), float(x[0]), float(y[0]), float(h[0]),
+                                cov[0].ravel().tolist(), M, particles=int(parts[0]),
+                                ess=float(ess[0]))
+    assert [e.topic for e in live] == [topics.estimate_pose("ekf"), topics.estimate_state("ekf"),
+                                       topics.estimate_tf("ekf"),
+                                       topics.estimate_covariance("ekf")]
+    for e, fast in zip(live, (fx.pose_in_frame_many(t, x, y, h)[0], states[0], tfs[0],
+                              ells[0]), strict=True):
+        _approx(orjson.loads(fast), orjson.loads(e.data))
     clouds = [(int(t[0]), x[:5], y[:5], h[:5]), (int(t[1]), x[:0], y[:0], h[:0])]
     for c, text in zip(clouds, fx.poses_in_frame_many(clouds), strict=True):
         _approx(poses_in_frame(c[0], list(zip(c[1], c[2], c[3], strict=True))),
