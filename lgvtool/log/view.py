@@ -50,8 +50,11 @@ def _floats(docs: list[dict[str, Any]], key: str) -> Any:
                      for d in docs], dtype=np.float64)
 
 
-def nav_streams(reader: LogReader, m: fx.Mounting) -> list[Stream]:
-    """/nav/head and /nav/tf of every valid NAV pose, /nav/scan of every reflector scan."""
+def nav_streams(reader: LogReader, m: fx.Mounting, fallback: str = "truth") -> list[Stream]:
+    """/nav/head and /nav/tf of every valid NAV pose, /nav/scan of every reflector scan,
+    drawn in the frame nav/head when the log has a valid NAV pose, else in the head frame of
+    ``fallback`` (an imported dataset's sensor reports no pose: its scans ride on the head of
+    the ground truth, or of an estimator)."""
     import numpy as np
 
     out: list[Stream] = []
@@ -74,7 +77,8 @@ def nav_streams(reader: LogReader, m: fx.Mounting) -> list[Stream]:
                       [int(o.get("id", -1)) for o in obs],
                       [float(o.get("time_in_scan", 0.0)) for o in obs]))
     if scans:
-        out.append(Stream(T.NAV_SCAN, times, fx.scan_scenes_many(scans)))
+        source = "nav" if out else fallback
+        out.append(Stream(T.NAV_SCAN, times, fx.scan_scenes_many(scans, source)))
     return out
 
 
@@ -164,8 +168,9 @@ def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any]) -> l
     """Every Foxglove view channel of a replayed log: from the log (NAV, truth, reference
     circle) and from the estimators' ``tables`` (frames and covariance ellipses)."""
     m = fx.mounting_of(config.vehicle)
-    out = nav_streams(reader, m) + truth_stream(reader, m) + reference_stream(reader, config,
-                                                                              tables)
+    fallback = "truth" if reader.has_topic(T.TRUTH) else next(iter(tables), "nav")
+    out = (nav_streams(reader, m, fallback) + truth_stream(reader, m)
+           + reference_stream(reader, config, tables))
     for name, tab in tables.items():
         out += estimate_streams(name, tab, m)
     return out
