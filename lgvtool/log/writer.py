@@ -107,21 +107,30 @@ class LogWriter:
         })
 
     # ------------------------------------------------------------------ registration
-    def _schema_id(self, name: str) -> int:
+    def _schema_id(self, name: str, own: tuple[str, bytes] | None = None) -> int:
         sid = self._schemas.get(name)
         if sid is None:
-            sid = self._writer.add_schema(name, "jsonschema", schema_bytes(name))
+            try:
+                encoding, data = "jsonschema", schema_bytes(name)
+            except KeyError:
+                if own is None:
+                    raise
+                encoding, data = own
+            sid = self._writer.add_schema(name, encoding, data)
             self._schemas[name] = sid
         return sid
 
-    def channel_id(self, topic: str, schema: str | None = None) -> int:
-        """The channel id of ``topic``, registering its schema and channel on first use."""
+    def channel_id(self, topic: str, schema: str | None = None,
+                   own: tuple[str, bytes] | None = None) -> int:
+        """The channel id of ``topic``, registering its schema and channel on first use;
+        ``own``: (encoding, data) of the schema when lgvtool has none of that name (a copied
+        log's foreign channel)."""
         cid = self._channels.get(topic)
         if cid is None:
             name = schema or topics.schema_for_topic(topic)
             if name is None:
                 raise ValueError(f"topic {topic!r} is not part of the lgvtool log contract")
-            cid = self._writer.add_channel(topic, "json", self._schema_id(name))
+            cid = self._writer.add_channel(topic, "json", self._schema_id(name, own))
             self._channels[topic] = cid
         return cid
 
@@ -229,6 +238,7 @@ class LogWriter:
         batch: tuple[list[str], list[bytes], list[int]] = ([], [], [])
         j = n = 0
         registered: set[str] = set()
+        own = {s.name: (s.encoding, s.data) for s in getattr(reader, "_schemas", {}).values()}
         for m in reader.raw_messages():
             if m.topic in skip_topics:
                 continue
@@ -241,7 +251,7 @@ class LogWriter:
             if m.topic not in registered:
                 registered.add(m.topic)
                 if m.schema:
-                    self.channel_id(m.topic, m.schema)
+                    self.channel_id(m.topic, m.schema, own.get(m.schema))
             batch[0].append(m.topic)
             batch[1].append(m.data)
             batch[2].append(t)

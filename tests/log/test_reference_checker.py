@@ -68,6 +68,24 @@ def test_merged_copy_is_in_log_time_order(tmp_path: Path) -> None:
     assert LogReader(out).topics()[topics.estimate_pose("pf")].count == len(extra_t)
 
 
+def test_merged_copy_keeps_a_foreign_channel_and_its_schema(tmp_path: Path) -> None:
+    src, out = tmp_path / "src.mcap", tmp_path / "out.mcap"
+    with LogWriter(src, chunk_seconds=None) as w:
+        w.write(topics.TRUTH, pose_in_frame(T0, 0.0, 0.0, 0.0), T0)
+        raw = w._writer
+        cid = raw.add_channel("/x/thing", "json", raw.add_schema("x.Thing", "jsonschema",
+                                                                 b'{"type":"object"}'))
+        raw.add_message(cid, T0 + 5, b'{"a":1}')
+    with LogWriter(out, chunk_seconds=None) as w:
+        w.copy_from(LogReader(src), extra=([topics.estimate_pose("pf")], [
+            b'{"timestamp":{"sec":0,"nsec":0},"frame_id":"map","pose":{"position":'
+            b'{"x":0,"y":0,"z":0},"orientation":{"x":0,"y":0,"z":0,"w":1}}}'], [T0 + 3]))
+    assert_reference_clean(out)
+    got = [(m.topic, m.schema, m.data) for m in LogReader(out).raw_messages()]
+    assert got[-1] == ("/x/thing", "x.Thing", b'{"a":1}')
+    assert [t for t, _s, _d in got] == [topics.TRUTH, topics.estimate_pose("pf"), "/x/thing"]
+
+
 def test_disorder_within_a_chunk_is_sorted_out(tmp_path: Path) -> None:
     """Messages a recorder's threads hand over slightly out of order (and a channel first
     used by a late message) are written in log-time order within their chunk."""
