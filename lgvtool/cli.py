@@ -52,15 +52,30 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "evaluate",
         "Table 1, error metrics, plots and report for one or more logs.",
     ),
+    "export": (
+        "lgvtool.commands.export",
+        "export",
+        "Write a log's trajectories as TUM, KITTI, CSV or Parquet files.",
+    ),
     "sweep": (
         "lgvtool.commands.sweep",
         "sweep",
         "Parameter sweeps over many logs and seeds on a Dask cluster.",
     ),
+    "view": (
+        "lgvtool.commands.view",
+        "view",
+        "Play a log to a live Foxglove view at N x speed.",
+    ),
     "config": (
         "lgvtool.commands.config",
         "config",
         "Print or check a vehicle/reflector/filter configuration file.",
+    ),
+    "completion": (
+        "lgvtool.commands.completion",
+        "completion",
+        "Print the shell completion script for bash, zsh or fish.",
     ),
 }
 
@@ -97,15 +112,31 @@ def cli() -> None:
     """
 
 
+_JSON = {"on": False}
+"""Whether the running command was given --json (its errors then also go to stdout as JSON)."""
+
+
 def _fail(message: str, code: int) -> None:
+    from lgvtool.outputs import printable
+
+    message = printable(message)
     click.echo(f"lgvtool: error: {message}", err=True)
+    if _JSON["on"]:
+        import json
+
+        click.echo(json.dumps({"error": message, "exit_code": code}))
     sys.exit(code)
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Run the command line; map every failure to one line on stderr and an exit code."""
+    """Run the command line; map every failure to one line on stderr and an exit code.
+
+    With ``--json`` an error is also printed on stdout as ``{"error": ..., "exit_code": N}``.
+    """
     from lgvtool.errors import LgvError
 
+    args = sys.argv[1:] if argv is None else argv
+    _JSON["on"] = "--json" in args[: args.index("--") if "--" in args else len(args)]
     try:
         cli.main(args=argv, prog_name="lgvtool", standalone_mode=False)
     except click.exceptions.Abort:

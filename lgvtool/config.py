@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from lgvtool.errors import ConfigError
+from lgvtool.values import coerce
 
 
 @dataclass(frozen=True)
@@ -203,6 +204,11 @@ def _check_section(name: str, table: Any, cls: type) -> dict[str, Any]:
     return out
 
 
+#: upper ends of configuration values, in their units; any other number is at most 10^6
+_MAXIMA: dict[str, float] = {"encoder_ppr": 10**7, "id": 2**31 - 1, "layer": 255}
+_MAGNITUDE = 1e6
+
+
 def _coerce(where: str, value: Any, type_name: Any) -> Any:
     t = str(type_name)
     if value is False and "None" in t and "float" in t:
@@ -211,17 +217,11 @@ def _coerce(where: str, value: Any, type_name: Any) -> Any:
         if "None" in t:
             return None
         raise ConfigError(f"missing value for {where}")
-    if t.startswith("int"):
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where} must be an integer, got {value!r}")
-        return value
-    if t.startswith("float"):
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ConfigError(f"{where} must be a number, got {value!r}")
-        if not math.isfinite(float(value)):
-            raise ConfigError(f"{where} must be finite, got {value!r}")
-        return float(value)
-    return value
+    kind = {"int": int, "float": float, "bool": bool, "str": str}.get(t.split(" ")[0])
+    if kind in (int, float):
+        top = _MAXIMA.get(where.rpartition(".")[2], _MAGNITUDE)
+        return coerce(where, value, kind, minimum=-_MAGNITUDE, maximum=top)
+    return value if kind is None else coerce(where, value, kind)
 
 
 _POSITIVE_VEHICLE = ("h", "track", "wheel_radius_left", "wheel_radius_right", "encoder_ppr",
@@ -283,10 +283,45 @@ def config_from_dict(data: Mapping[str, Any], base: Config | None = None) -> Con
         if section in data and not isinstance(data[section], dict):
             raise ConfigError(f"[{section}] must be a table")
     if "estimators" in data:
-        cfg = replace(cfg, estimators=dict(data["estimators"]))
+        cfg = replace(cfg, estimators=_check_estimators(data["estimators"]))
     if "simulator" in data:
-        cfg = replace(cfg, simulator=dict(data["simulator"]))
+        cfg = replace(cfg, simulator=_check_simulator(data["simulator"], cfg))
     return _validate(cfg)
+
+
+def _check_estimators(table: Mapping[str, Any]) -> dict[str, Any]:
+    """``[estimators.*]`` checked as a replay would check it: known estimators and parameters,
+    values of the right type and range."""
+    from lgvtool.localize.registry import ESTIMATORS, resolve_params
+
+    for name, params in table.items():
+        if name not in ESTIMATORS:
+            raise ConfigError(f"unknown estimator [estimators.{name}] (known: "
+                              f"{', '.join(ESTIMATORS)})")
+        if not isinstance(params, dict):
+            raise ConfigError(f"[estimators.{name}] must be a table")
+        resolve_params(name, None, params)
+    return dict(table)
+
+
+def _check_simulator(table: Mapping[str, Any], cfg: Config) -> dict[str, Any]:
+    """``[simulator]`` checked as ``lgvtool simulate`` would check it (keys, types, ranges)."""
+    from lgvtool.sim.scenarios import SCENARIOS
+    from lgvtool.sim.settings import SimSettings, apply_overrides, flatten
+
+    flat = flatten(table)
+    vehicle = {k.partition(".")[2]: v for k, v in flat.items() if k.startswith("vehicle.")}
+    if vehicle:
+        config_from_dict({"vehicle": vehicle}, base=cfg)
+    rest = {k: v for k, v in flat.items() if not k.startswith("vehicle.")}
+    settings = apply_overrides(SimSettings(), rest)
+    known = {k for sc in SCENARIOS.values() for k in sc.defaults}
+    for key, value in settings.scenario.items():
+        if key not in known:
+            raise ConfigError(f"unknown setting 'scenario.{key}' (known: {', '.join(sorted(known))})")
+        sc = next(sc for sc in SCENARIOS.values() if key in sc.defaults)
+        sc.parameters({key: value})
+    return dict(table)
 
 
 def load_config(path: str | Path | None) -> Config:

@@ -67,6 +67,8 @@ def guard_output(output: str | os.PathLike[str], inputs: Iterable[str | os.PathL
             raise InputError(f"{what} {out} is inside the input {src}; choose another {what}")
     if out.is_dir():
         raise InputError(f"{what} {out} is a directory")
+    if not out.parent.is_dir():
+        raise InputError(f"{what} {out}: no such directory {out.parent}")
     if (out.exists() or out.is_symlink()) and not force:
         raise InputError(f"{what} {out} exists; pass --force to replace it")
     return out
@@ -83,6 +85,9 @@ def atomic_output(output: str | os.PathLike[str]) -> Iterator[Path]:
     out = Path(output)
     directory = out.parent if str(out.parent) else Path(".")
     fd, tmp_name = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".part", dir=directory)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.fchmod(fd, 0o666 & ~umask)  # mkstemp's 0600 would hide the output from its group
     os.close(fd)
     tmp = Path(tmp_name)
     try:

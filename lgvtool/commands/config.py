@@ -16,6 +16,7 @@ def config(file: str | None, as_json: bool) -> None:
     import json
 
     from lgvtool.config import load_config, to_toml
+    from lgvtool.outputs import printable
 
     cfg = load_config(file)
-    click.echo(json.dumps(cfg.to_dict(), indent=2) if as_json else to_toml(cfg.to_dict()))
+    click.echo(json.dumps(cfg.to_dict(), indent=2) if as_json else printable(to_toml(cfg.to_dict())))

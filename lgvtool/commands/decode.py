@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from lgvtool.options import compression_option, force_option, warn
+
 if TYPE_CHECKING:
     from lgvtool.log import LogReader, LogWriter
     from lgvtool.wire.events import DecodeEvent
@@ -121,7 +123,7 @@ def _is_decoder_diagnostic(topic: str, data: bytes, sources: set[str]) -> bool:
     return isinstance(source, str) and source in sources
 
 
-def decode_log(reader: LogReader, output: str | Path) -> DecodeReport:
+def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd") -> DecodeReport:
     """Write ``output``: ``reader``'s log with its decoded channels rebuilt from its raw traffic.
 
     ``/mcu/rx`` is decoded into ``/mcu/frame``; ``/nav200/tx`` and ``/nav200/rx`` through a host
@@ -159,7 +161,7 @@ def decode_log(reader: LogReader, output: str | Path) -> DecodeReport:
     mcu = McuStreamDecoder()
     nav = Nav200HostSession()
     last_mcu_ns = last_nav_ns = 0
-    with LogWriter(output, source="decode") as writer:
+    with LogWriter(output, source="decode", compression=compression) as writer:
         for name, record in reader.metadata.items():
             if name != "lgvtool":
                 writer.add_metadata(name, record)
@@ -236,8 +238,10 @@ def decode_log(reader: LogReader, output: str | Path) -> DecodeReport:
     type=click.Path(dir_okay=False, path_type=str),
     help="The re-decoded log to write (must differ from LOG).",
 )
+@compression_option()
+@force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the counts as JSON.")
-def decode(log: str, output: str, as_json: bool) -> None:
+def decode(log: str, output: str, compression: str, force: bool, as_json: bool) -> None:
     """Re-decode the raw traffic of LOG (/mcu/rx, /nav200/tx, /nav200/rx) into fresh
     /mcu/frame, /nav/pose and /diagnostics channels in OUTPUT, copying every other channel and
     the metadata; print the frames decoded and the error counts per device (bad checksums,
@@ -248,16 +252,17 @@ def decode(log: str, output: str, as_json: bool) -> None:
     import json
     import warnings
 
-    from lgvtool.errors import InputError
     from lgvtool.log import LogReader
+    from lgvtool.outputs import atomic_output, guard_output, printable
 
-    if Path(log).resolve() == Path(output).resolve():
-        raise InputError("decode: OUTPUT must differ from LOG")
+    guard_output(output, [log], force=force)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = LogReader(log)
     if not as_json:
         for w in reader.warnings:
-            click.echo(f"lgvtool: warning: {w}", err=True)
-    report = decode_log(reader, output)
-    click.echo(json.dumps(report.as_dict(), indent=2) if as_json else report.summary())
+            warn(w)
+    with atomic_output(output) as tmp:
+        report = decode_log(reader, tmp, compression=compression)
+    report.output = output
+    click.echo(json.dumps(report.as_dict(), indent=2) if as_json else printable(report.summary()))

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from lgvtool.options import Number, compression_option, force_option, progress_option
+
 
 @click.group(name="import")
 def import_() -> None:
@@ -12,7 +14,7 @@ def import_() -> None:
 
 @import_.command(short_help="UTIAS MRCLAM: one robot (--robot N) or all (--all) into logs.")
 @click.argument("dataset_dir", type=click.Path(path_type=str))
-@click.option("--robot", "-r", type=int, default=None,
+@click.option("--robot", "-r", type=Number(int, 1, 1000), default=None,
               help="Robot number to import (1-5 in the published datasets).")
 @click.option("--all", "all_robots", is_flag=True,
               help="Import every robot; -o is then a folder that receives robot1.mcap ...")
@@ -20,22 +22,23 @@ def import_() -> None:
               help="Output .mcap file (with --robot) or folder (with --all).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print the summary as JSON (one object; a list with --all).")
-@click.option("--gap-threshold", type=float, default=0.5, show_default=True,
+@click.option("--gap-threshold", type=Number(float, 0.0, 1e6, min_open=True), default=0.5, show_default=True,
               help="Steps between odometry or ground-truth stamps longer than this are "
                    "reported as gaps, s.")
-@click.option("--landmark-radius", type=float, default=0.05, show_default=True,
+@click.option("--landmark-radius", type=Number(float, 0.0, 1e3), default=0.05, show_default=True,
               help="Radius given to every landmark in the map, m.")
-@click.option("--area-margin", type=float, default=1.5, show_default=True,
+@click.option("--area-margin", type=Number(float, 0.0, 1e6), default=1.5, show_default=True,
               help="Margin around the landmarks' bounding box that forms the work area, m.")
 @click.option("--odometry-delay", default="auto", show_default=True, metavar="S|auto",
               help="Write the odometry this many s after its stamps (the robots carry out a "
                    "command about 0.2 s late); auto measures the delay per robot from the "
                    "camera data, 0 keeps the file's stamps.")
-@click.option("--compression", type=click.Choice(["zstd", "lz4", "none"]), default="zstd",
-              show_default=True, help="MCAP chunk compression.")
+@compression_option()
+@force_option
+@progress_option("Progress on stderr once the import takes over a second.")
 def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, as_json: bool,
            gap_threshold: float, landmark_radius: float, area_margin: float,
-           odometry_delay: str, compression: str) -> None:
+           odometry_delay: str, compression: str, force: bool, show_progress: bool = True) -> None:
     """Import the UTIAS MRCLAM dataset in DATASET_DIR (e.g. MRCLAM_Dataset6) into a log.
 
     Writes odometry (commanded v m/s, omega rad/s) to /odom/twist, each measurement time's
@@ -62,15 +65,32 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
         raise InputError(f"--landmark-radius must not be negative, got {landmark_radius}")
     if not area_margin >= 0:
         raise InputError(f"--area-margin must not be negative, got {area_margin}")
+    from pathlib import Path
+
+    from lgvtool.importers.mrclam import ROBOT_SUBJECTS
+    from lgvtool.outdir import guard_directory
+    from lgvtool.outputs import guard_output
+
+    inputs = [dataset_dir, *(Path(dataset_dir).glob("*.dat") if Path(dataset_dir).is_dir() else [])]
+    if robot is not None:
+        guard_output(output, inputs, force=force)
+    else:
+        guard_directory(output, [f"robot{r}.mcap" for r in ROBOT_SUBJECTS], inputs, force=force)
     settings = ImportSettings(gap_threshold_s=gap_threshold, landmark_radius_m=landmark_radius,
                               area_margin_m=area_margin,
                               odometry_delay_s=_delay(odometry_delay))
+    from lgvtool.progress import Progress
+
+    with Progress(0, "import", enabled=show_progress, delay_s=1.0) as bar:
+        if robot is not None:
+            summary = import_robot(dataset_dir, robot, output, settings=settings,
+                                   compression=compression, progress=bar)
+        else:
+            summaries = import_all(dataset_dir, output, settings=settings,
+                                   compression=compression, progress=bar)
     if robot is not None:
-        summary = import_robot(dataset_dir, robot, output, settings=settings,
-                               compression=compression)
         click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())
         return
-    summaries = import_all(dataset_dir, output, settings=settings, compression=compression)
     if as_json:
         click.echo(json.dumps([s.to_dict() for s in summaries], indent=2))
     else:
@@ -90,3 +110,37 @@ def _delay(text: str) -> float | None:
     if not 0.0 <= value <= 5.0:
         raise InputError(f"--odometry-delay must be within 0 to 5 s, got '{text}'")
     return value
+
+
+@import_.command(short_help="A ROS 2 bag (rosbag2 MCAP or SQLite) into a log.")
+@click.argument("bag", type=click.Path(path_type=str))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str),
+              help="Output .mcap log.")
+@click.option("--topic", "topic_options", multiple=True, metavar="ROLE=/name",
+              help="Topic of a role instead of the automatic choice (repeatable): odom, gyro, "
+                   "nav, reflectors, truth, tf; ROLE=none leaves a role out.")
+@click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
+              help="Vehicle geometry and reflector map (TOML) stored in the log.")
+@click.option("--sensor-frame", default=None, metavar="FRAME",
+              help="Frame of the navigation sensor in /tf (default: the NAV350 messages' "
+                   "frame, else nav); the transform from the vehicle frame gives the mounting.")
+@compression_option()
+@force_option
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+def ros2(bag: str, output: str, topic_options: tuple[str, ...], config_path: str | None,
+         sensor_frame: str | None, compression: str, force: bool, as_json: bool) -> None:
+    """Import the rosbag2 BAG (a bag folder, or one .mcap or .db3 file) into a log.
+
+    Odometry (nav_msgs/Odometry, geometry_msgs/TwistStamped) and the gyro (sensor_msgs/Imu)
+    go to /odom/twist, the NAV pose (sick_scan_xd/NAVPoseData or a geometry_msgs pose of the
+    head) to /nav/pose, NAV350 reflectors (sick_scan_xd/NAVLandmarkData) to /nav/reflectors,
+    a ground-truth pose of O to /truth/pose; /tf gives the sensor mounting. Topics are chosen by
+    type (docs/interop.md). The imported log replays and evaluates like any lgvtool log.
+    """
+    import json
+
+    from lgvtool.interop.ros2_import import import_bag
+
+    summary = import_bag(bag, output, topic_options=topic_options, config=config_path,
+                         sensor_frame=sensor_frame, compression=compression, force=force)
+    click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())

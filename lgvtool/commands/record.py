@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import click
 
-_POSITIVE = click.FloatRange(min=0.0, min_open=True)
+from lgvtool.options import force_option, positive, split_names
+from lgvtool.values import MAX_BYTES, MAX_WALL_S
+
+_POSITIVE = positive(MAX_WALL_S)
+_PERIOD = positive(3600.0)
+_METRES = positive(1000.0)
 
 
 @click.command()
@@ -18,7 +23,7 @@ _POSITIVE = click.FloatRange(min=0.0, min_open=True)
               help="The log to write (MCAP). With splitting: OUT-YYYYmmddTHHMMSSZ.mcap files.")
 @click.option("--duration", type=_POSITIVE, metavar="S",
               help="Stop after S seconds (default: until Ctrl-C or SIGTERM).")
-@click.option("--poll-period", type=_POSITIVE, default=0.45, show_default=True, metavar="S",
+@click.option("--poll-period", type=_PERIOD, default=0.45, show_default=True, metavar="S",
               help="NAV200 pose request period, s.")
 @click.option("--speed-input", is_flag=True,
               help="Poll with Pw, sending the head's vehicle-frame speed (mm/s) and yaw rate "
@@ -28,16 +33,16 @@ _POSITIVE = click.FloatRange(min=0.0, min_open=True)
               help="Pw yaw-rate unit: 'rev' = 65536 per revolution per s, 'half-deg' = 0.5 deg/s.")
 @click.option("--sliding-mean", type=click.IntRange(1, 255), metavar="N",
               help="Enter positioning with PN N (sliding mean over N poses) instead of PA.")
-@click.option("--action-radii", type=(_POSITIVE, _POSITIVE), metavar="RMIN RMAX",
+@click.option("--action-radii", type=(_METRES, _METRES), metavar="RMIN RMAX",
               help="Set the NAV200 action radii (PO), m.")
 @click.option("--nearest", type=click.IntRange(1, 255), metavar="N",
               help="Use the N nearest reflectors (PC).")
 @click.option("--layer", type=click.IntRange(0, 255), default=0, show_default=True,
               help="Reflector layer to upload.")
 @click.option("--no-map-upload", is_flag=True, help="Do not upload the stored reflector map.")
-@click.option("--reply-timeout", type=_POSITIVE, default=1.0, show_default=True, metavar="S",
+@click.option("--reply-timeout", type=_PERIOD, default=1.0, show_default=True, metavar="S",
               help="NAV200 reply timeout, s.")
-@click.option("--split-size", type=_POSITIVE, metavar="MB",
+@click.option("--split-size", type=positive(MAX_BYTES / 1e6), metavar="MB",
               help="Start a new file once the current one holds MB megabytes (10^6 bytes).")
 @click.option("--split-duration", type=_POSITIVE, metavar="S",
               help="Start a new file every S seconds.")
@@ -46,14 +51,22 @@ _POSITIVE = click.FloatRange(min=0.0, min_open=True)
                    "turns odometry into speed input.")
 @click.option("--status/--no-status", default=True, show_default=True,
               help="Live status line on stderr.")
-@click.option("--force", is_flag=True, help="Overwrite OUTPUT if it exists.")
+@click.option("--live", "live", metavar="[HOST:]PORT",
+              help="Also serve the recording as it happens over the Foxglove WebSocket "
+                   "protocol on PORT (host 127.0.0.1 unless given; 0.0.0.0 for every "
+                   "interface). See docs/live.md.")
+@click.option("--live-estimator", "live_estimators", multiple=True, metavar="NAME[,NAME]",
+              help="Online estimate shown live (repeatable or comma-separated): laser, "
+                   "deadreckoning, ekf, pf-paper, pf. Needs --live.")
+@force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def record(nav_url: str | None, mcu_url: str | None, output: str, duration: float | None,
            poll_period: float, speed_input: bool, omega_units: str, sliding_mean: int | None,
            action_radii: tuple[float, float] | None, nearest: int | None, layer: int,
            no_map_upload: bool, reply_timeout: float, split_size: float | None,
            split_duration: float | None, config_file: str | None, status: bool, force: bool,
-           as_json: bool) -> None:
+           as_json: bool, live: str | None = None, live_estimators: tuple[str, ...] = ()
+           ) -> None:
     """Record the MCU frame stream and the NAV200 (polled for its pose) into OUTPUT.
 
     Logged: raw bytes both ways (/mcu/rx, /nav200/tx, /nav200/rx), decoded frames (/mcu/frame)
@@ -73,14 +86,17 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
     from lgvtool.devices.recorder import RecorderSettings
     from lgvtool.devices.recorder import record as do_record
     from lgvtool.errors import InputError
+    from lgvtool.outputs import guard_output
     from lgvtool.wire.units import OMEGA_UNITS_PER_RAD_S, OMEGA_UNITS_PER_RAD_S_HALF_DEG
 
+    guard_output(output, [config_file], force=force)
     if nav_url is None and mcu_url is None:
         raise InputError("record: give --nav URL, --mcu URL or both")
     if speed_input and mcu_url is None:
         raise InputError("record: --speed-input needs the MCU's odometry (--mcu URL)")
     if action_radii is not None and action_radii[0] >= action_radii[1]:
         raise InputError("record: --action-radii RMIN must be below RMAX")
+    live_at = _live_options(live, live_estimators)
     nav = Nav200Settings(
         poll_period=poll_period, reply_timeout=reply_timeout, layer=layer,
         sliding_mean=sliding_mean, action_radii=action_radii, nearest_reflectors=nearest,
@@ -93,6 +109,7 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
         split_bytes=None if split_size is None else int(split_size * 1e6),
         split_seconds=split_duration, config=load_config(config_file), status=status,
         overwrite=force, command=shlex.join(["lgvtool", *sys.argv[1:]]),
+        live=live_at, live_estimators=tuple(split_names(live_estimators)),
     )
     result = do_record(settings)
     if as_json:
@@ -100,7 +117,26 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
             "files": [str(p) for p in result.files], "counts": result.counts,
             "errors": result.errors, "elapsed_s": round(result.elapsed, 3),
             "bytes": result.bytes, "stop_reason": result.stop_reason,
-            "devices": result.devices,
+            "devices": result.devices, "live": result.live,
         }, indent=2))
     else:
         click.echo(result.summary())
+        if result.live is not None:
+            from lgvtool.live.tap import describe
+
+            click.echo(describe(result.live), err=True)
+
+
+def _live_options(live: str | None, estimators: tuple[str, ...]) -> object:
+    """The live server's address (None without --live); checks --live-estimator names."""
+    from lgvtool.errors import InputError
+
+    if live is None:
+        if estimators:
+            raise InputError("record: --live-estimator needs --live [HOST:]PORT")
+        return None
+    from lgvtool.live.server import parse_address
+    from lgvtool.localize.registry import check_names
+
+    check_names(split_names(estimators))
+    return parse_address(live)

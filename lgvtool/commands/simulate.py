@@ -9,6 +9,9 @@ from typing import Any
 
 import click
 
+from lgvtool.options import Number, compression_option, force_option, seed_option, set_option
+from lgvtool.values import MAX_SIM_DURATION_S
+
 #: subcommand name -> (module, attribute, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str, str]] = {
     "serve": ("lgvtool.sim.emulate.serve", "serve",
@@ -49,27 +52,25 @@ class LazySubcommands(click.Group):
 @click.group(cls=LazySubcommands, invoke_without_command=True)
 @click.option("--scenario", "-s", metavar="NAME",
               help="Scenario to simulate (see --list).")
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Seed of every random draw; the same seed gives the same messages.")
+@seed_option("Seed of every random draw; the same seed gives the same messages.")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), metavar="FILE",
               help="Vehicle, area, reflector map and [simulator] settings (TOML).")
-@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
-              help="Override a setting, e.g. nav.skew=false, nav.latency_s=0, "
-                   "vehicle.nav_x=0, scenario.speed=0.5 (repeatable; docs/simulator.md).")
-@click.option("--duration", type=float, metavar="S",
+@set_option("Override a setting, e.g. nav.skew=false, nav.latency_s=0, "
+            "vehicle.nav_x=0, scenario.speed=0.5 (repeatable; docs/simulator.md).")
+@click.option("--duration", type=Number(float, 0.0, MAX_SIM_DURATION_S, min_open=True), metavar="S",
               help="Length of the run in s (circles: drive until then; default: the "
                    "scenario's own).")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), metavar="OUT.mcap",
               help="Log file to write.")
-@click.option("--compression", type=click.Choice(["zstd", "lz4", "none"]), default="zstd",
-              show_default=True, help="MCAP chunk compression.")
+@compression_option()
+@force_option
 @click.option("--list", "list_scenarios", is_flag=True,
               help="Describe every scenario and its parameters, then exit.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary (or --list) as JSON.")
 @click.pass_context
 def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: str | None,
              sets: tuple[str, ...], duration: float | None, output: str | None,
-             compression: str, list_scenarios: bool, as_json: bool) -> None:
+             compression: str, list_scenarios: bool, as_json: bool, force: bool) -> None:
     """Simulate a laser-guided forklift in a reflector hall and write the log a recorder
     would have written: raw MCU and NAV200 traffic (/mcu/rx, /nav200/tx, /nav200/rx), the
     decoded frames and poses, the head's reflector scans, the reflector map, the ground truth
@@ -87,6 +88,12 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
     from lgvtool.errors import InputError
 
     if list_scenarios:
+        given = [name for name, v in (("--scenario", scenario), ("-o", output),
+                                      ("--duration", duration), ("--config", config_path),
+                                      ("--set", sets)) if v]
+        if given:
+            raise InputError(f"--list describes the scenarios and writes nothing; "
+                             f"drop {', '.join(given)}")
         from lgvtool.sim.scenarios import SCENARIOS
 
         if as_json:
@@ -113,22 +120,25 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
         raise InputError("simulate needs -o OUT.mcap")
 
     from lgvtool.config import load_config, parse_set_options
+    from lgvtool.outputs import atomic_output, guard_output
     from lgvtool.sim.logfile import write_log
     from lgvtool.sim.run import simulate as run_simulation
 
+    guard_output(output, [config_path], force=force)
     config = load_config(config_path)
     overrides = parse_set_options(sets)
     sim = run_simulation(scenario, seed=seed, config=config, overrides=overrides,
                          duration=duration)
-    summary = write_log(sim, output, compression=compression)
-    result = {"output": summary.path, "scenario": scenario, "seed": seed,
+    with atomic_output(output) as tmp:
+        summary = write_log(sim, tmp, compression=compression)
+    result = {"output": output, "scenario": scenario, "seed": seed,
               "duration_s": summary.duration_s, "messages": summary.messages,
               "faults": summary.faults}
     if as_json:
         click.echo(json.dumps(result, indent=2))
         return
     faults = ", ".join(f"{k} {v}" for k, v in summary.faults.items()) or "none"
-    click.echo(f"wrote {summary.path}: {scenario}, seed {seed}, {summary.duration_s:.1f} s, "
+    click.echo(f"wrote {output}: {scenario}, seed {seed}, {summary.duration_s:.1f} s, "
                f"{summary.messages} messages; injected faults: {faults}")
 
 

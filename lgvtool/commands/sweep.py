@@ -4,12 +4,24 @@ from __future__ import annotations
 
 import click
 
+from lgvtool.options import (
+    Number,
+    estimator_option,
+    force_option,
+    progress_option,
+    scheduler_options,
+    set_option,
+    split_names,
+    warn,
+    workers_type,
+)
+from lgvtool.values import MAX_SEEDS
+
 MAX_LISTED = 10
 """Failed tasks named one by one on stderr before the rest are only counted."""
-
-
-def _split_names(values: tuple[str, ...]) -> list[str]:
-    return [n.strip() for v in values for n in v.split(",") if n.strip()]
+OUTPUT_FILES = ("results.parquet", "results.csv", "summary.parquet", "summary.csv",
+                "report.html", "sweep.json")
+"""Files a sweep writes into OUTDIR (beside its tasks/ cache, which is always reused)."""
 
 
 @click.command()
@@ -18,30 +30,28 @@ def _split_names(values: tuple[str, ...]) -> list[str]:
 @click.option("-o", "--output", "outdir", required=True,
               type=click.Path(file_okay=False, path_type=str),
               help="Directory of the results (created; re-using it resumes the sweep).")
-@click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME",
-              help="Estimator to run (repeatable or comma-separated); default: laser, "
-                   "deadreckoning, ekf, pf-paper, pf.")
+@estimator_option("Estimator to run; default: laser, deadreckoning, ekf, pf-paper, pf")
 @click.option("--grid", "grid_items", multiple=True, metavar="KEY=V1,V2,...",
               help="Values of an estimator setting to sweep, as in replay --set "
                    "(e.g. pf.particles=100,300,1000); several --grid give their product.")
-@click.option("--set", "set_items", multiple=True, metavar="KEY=VALUE",
-              help="An estimator setting fixed for every task (e.g. pf.init=laser).")
-@click.option("--seeds", type=click.IntRange(min=1), default=1, show_default=True,
+@set_option("An estimator setting fixed for every task (e.g. pf.init=laser).")
+@click.option("--seeds", type=Number(int, 1, MAX_SEEDS), default=1, show_default=True,
               help="Seeds per log and setting: 0 .. N-1.")
-@click.option("--scheduler", metavar="tcp://HOST:PORT",
-              help="Run on this Dask scheduler instead of a local cluster (see docs/fleet.md).")
-@click.option("--workers", type=click.IntRange(min=1), default=None,
+@scheduler_options
+@force_option
+@click.option("--workers", type=workers_type(), default=None,
               help="Worker processes of the local cluster  [default: one per CPU]")
 @click.option("--config", "config_path", type=click.Path(exists=True, dir_okay=False, path_type=str),
               help="Configuration TOML used instead of the one stored in each log.")
 @click.option("--retry-failed", is_flag=True,
               help="Run again the tasks whose log failed before (corrupt, missing channels).")
-@click.option("--no-progress", is_flag=True, help="No progress bar on stderr.")
+@progress_option("Progress bar on stderr.")
 @click.option("--json", "as_json", is_flag=True, help="Print the outcome as JSON.")
 def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
-          grid_items: tuple[str, ...], set_items: tuple[str, ...], seeds: int,
-          scheduler: str | None, workers: int | None, config_path: str | None,
-          retry_failed: bool, no_progress: bool, as_json: bool) -> None:
+          grid_items: tuple[str, ...], sets: tuple[str, ...], seeds: int,
+          scheduler: str | None, tls_ca_file: str | None, tls_cert: str | None,
+          tls_key: str | None, force: bool, workers: int | None, config_path: str | None,
+          retry_failed: bool, show_progress: bool, as_json: bool) -> None:
     """Run the estimators over every log in LOG_OR_DIR... (files, or directories searched for
     *.mcap) for every setting of the grid and every seed, and evaluate each run as
     lgvtool evaluate does: one task per (log, setting, seed).
@@ -64,27 +74,31 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
 
     from lgvtool.config import load_config, parse_set_options
     from lgvtool.errors import InputError
+    from lgvtool.fleet.connect import require_fleet, scheduler_spec
+    from lgvtool.outdir import guard_directory
+
+    require_fleet("sweep", ("dask", "distributed", "pyarrow"))
     from lgvtool.fleet.sweep import run_sweep
     from lgvtool.fleet.tasks import check_settings, grid_settings, parse_grid
 
     if scheduler is not None and workers is not None:
         raise InputError("give --scheduler or --workers, not both")
+    guard_directory(outdir, OUTPUT_FILES, [*logs, config_path], force=force)
+    cluster = scheduler_spec(scheduler, tls_ca_file, tls_cert, tls_key)
     grid = parse_grid(grid_items)
-    fixed = parse_set_options(set_items)
+    fixed = parse_set_options(sets)
     config = load_config(config_path) if config_path else None
-    names = check_settings(_split_names(estimators), grid_settings(grid, fixed), config)
+    names = check_settings(split_names(estimators), grid_settings(grid, fixed), config)
     result = run_sweep(
         logs, Path(outdir), grid=grid, fixed=fixed, seeds=seeds, estimators=names,
-        config=config, config_path=config_path, scheduler=scheduler, workers=workers,
-        progress=not no_progress, retry_failed=retry_failed)
+        config=config, config_path=config_path, scheduler=cluster, workers=workers,
+        progress=show_progress, retry_failed=retry_failed)
     for i, f in enumerate(result.failures):
         if i == MAX_LISTED:
-            click.echo(f"lgvtool: warning: sweep: {len(result.failures) - MAX_LISTED} more failed "
-                       "task(s), see summary.csv", err=True)
+            warn(f"sweep: {len(result.failures) - MAX_LISTED} more failed task(s), see summary.csv")
             break
         setting = ",".join(f"{k}={v}" for k, v in f["setting"].items()) or "default"
-        click.echo(f"lgvtool: warning: sweep: {f['log']} ({setting}, seed {f['seed']}): "
-                   f"{f['error']}", err=True)
+        warn(f"sweep: {f['log']} ({setting}, seed {f['seed']}): {f['error']}")
     if as_json:
         click.echo(json.dumps(result.as_dict(), indent=2))
         return

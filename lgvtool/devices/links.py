@@ -35,6 +35,7 @@ __all__ = [
     "NAV200_SERIAL_DEFAULTS",
     "Link",
     "LinkDown",
+    "LinkFatal",
     "LinkSpec",
     "LinkURLError",
     "SerialLink",
@@ -59,6 +60,42 @@ class LinkURLError(InputError):
 
 class LinkDown(LgvError):
     """The link is not usable now (could not open, or failed while open); retry later."""
+
+
+class LinkFatal(InputError):
+    """The link can never work as given (not a serial device, permission denied, no such
+    host): retrying is pointless, the recording stops (exit 2)."""
+
+
+#: errors of opening a serial port that retrying cannot cure
+_FATAL_ERRNOS = frozenset({errno.EACCES, errno.EPERM, errno.ENOTTY, errno.EISDIR, errno.ENXIO})
+
+
+def _check_serial_target(path: str) -> None:
+    """LinkFatal when ``path`` exists but can never be a serial port; a missing path (an
+    unplugged USB adapter) is left to the retries."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        if exc.errno in _FATAL_ERRNOS:
+            raise LinkFatal(f"cannot open serial port {path}: {_reason(exc)}") from None
+        return
+    if not stat.S_ISCHR(st.st_mode):
+        kind = "a directory" if stat.S_ISDIR(st.st_mode) else "not a character device"
+        raise LinkFatal(f"serial port {path} is {kind}")
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    except OSError as exc:
+        if exc.errno in _FATAL_ERRNOS:
+            raise LinkFatal(f"cannot open serial port {path}: {_reason(exc)}") from None
+        return
+    try:
+        if not os.isatty(fd):
+            raise LinkFatal(f"serial port {path} is not a terminal device")
+    finally:
+        os.close(fd)
 
 
 @dataclass(frozen=True)
@@ -264,6 +301,7 @@ class SerialLink(Link):
     def open(self) -> None:
         if self._ser is not None:
             return
+        _check_serial_target(self.spec.target)
         try:
             self._ser = self._serial(self.spec.parity)
             self.note = ""
@@ -326,6 +364,11 @@ class TcpLink(Link):
         try:
             sock = socket.create_connection((self.spec.target, self.spec.port),
                                             timeout=self.spec.connect_timeout)
+        except socket.gaierror as exc:
+            if exc.errno == getattr(socket, "EAI_AGAIN", None):  # DNS not answering: retry
+                raise LinkDown(str(exc.strerror or exc)) from None
+            raise LinkFatal(f"cannot resolve host {self.spec.target!r}: "
+                            f"{exc.strerror or exc}") from None
         except OSError as exc:
             raise LinkDown(_reason(exc)) from None
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)

@@ -68,12 +68,13 @@ class LogSink:
     :param command: command line stored in every file.
     :param chunk_seconds: LogWriter chunk span, s (crash loss bound).
     :param fsync: fsync every chunk (power loss).
+    :param tap: also hand every message written to this (``lgvtool.live.tap.LogTap``).
     """
 
     def __init__(self, output: Path, *, split_bytes: int | None = None,
                  split_seconds: float | None = None, config: Config | None = None,
                  command: str | None = None, chunk_seconds: float = 1.0,
-                 fsync: bool = True) -> None:
+                 fsync: bool = True, tap: Any = None) -> None:
         self.output = Path(output)
         self.split_bytes = split_bytes
         self.split_seconds = split_seconds
@@ -82,6 +83,7 @@ class LogSink:
         self._command = command
         self._chunk_seconds = chunk_seconds
         self._fsync = fsync
+        self._tap = tap
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._thread = threading.Thread(target=self._run, name="log-writer", daemon=True)
         self._sticky_meta: dict[str, dict[str, Any]] = {}
@@ -232,8 +234,14 @@ class LogSink:
         started = datetime.now(UTC)
         path = split_name(self.output, started, set(self.files)) if self.splitting \
             else self.output
-        writer = LogWriter(path, chunk_seconds=self._chunk_seconds, fsync=self._fsync,
-                           source="record", command=self._command)
+        if self._tap is None:
+            writer = LogWriter(path, chunk_seconds=self._chunk_seconds, fsync=self._fsync,
+                               source="record", command=self._command)
+        else:
+            from lgvtool.live.tap import TappedLogWriter
+
+            writer = TappedLogWriter(path, tap=self._tap, chunk_seconds=self._chunk_seconds,
+                                     fsync=self._fsync, source="record", command=self._command)
         self._writer, self._path = writer, path
         self._opened_wall = time.monotonic()
         self.files.append(path)

@@ -61,6 +61,10 @@ class RecorderSettings:
     timing: LinkTiming = field(default_factory=LinkTiming)
     overwrite: bool = False
     command: str | None = None
+    live: Any = None
+    """Serve the recording live here (a ``lgvtool.live.server.LiveAddress``); None: not."""
+    live_estimators: tuple[str, ...] = ()
+    """Online estimators whose estimate the live view shows."""
 
 
 @dataclass
@@ -74,6 +78,8 @@ class RecordResult:
     bytes: int
     stop_reason: str
     devices: dict[str, str]
+    live: dict[str, Any] | None = None
+    """The live view's figures (URL, messages published, estimator latency), if served."""
 
     def summary(self) -> str:
         """One line for the terminal."""
@@ -111,11 +117,27 @@ class Recorder:
             raise InputError(f"record: {out} exists (use --force to overwrite it)")
         if not out.parent.is_dir():
             raise InputError(f"record: no such directory: {out.parent}")
+        self.live = None if settings.live is None else self._start_live()
         self.sink = LogSink(out, split_bytes=settings.split_bytes,
                             split_seconds=settings.split_seconds, config=self.config,
                             command=settings.command, chunk_seconds=settings.chunk_seconds,
-                            fsync=settings.fsync)
+                            fsync=settings.fsync, tap=self.live)
         self.workers: list[McuWorker | NavWorker] = []
+
+    def _start_live(self) -> Any:
+        """Bind the live server now, before anything is recorded (a port in use or a host
+        that does not resolve fails here, as bad input)."""
+        from lgvtool.live.online import OnlineEstimator
+        from lgvtool.live.server import LiveServer
+        from lgvtool.live.tap import LiveFeed
+        from lgvtool.log import topics
+
+        estimators = [OnlineEstimator(n, self.config) for n in self.settings.live_estimators]
+        server = LiveServer(self.settings.live)
+        # the contract's fixed topics a recorder may write (not the simulator's or importers')
+        server.prepare({t: s for t, s in topics.FIXED.items()
+                        if t not in (topics.TRUTH, topics.ODOM)})
+        return LiveFeed(server, estimators, warn=self._warn)
 
     def stop(self, reason: str = "stopped") -> None:
         """Ask the recording to end (thread-safe, idempotent)."""
@@ -160,6 +182,10 @@ class Recorder:
         restore = self._install_signals()
         status = StatusLine(self._stream) if self.settings.status else None
         t0 = time.monotonic()
+        if self.live is not None:
+            self._stream.write(f"lgvtool: live view on {self.live.server.url} "
+                               f"(Foxglove: open connection, Foxglove WebSocket)\n")
+            self._stream.flush()
         try:
             self.sink.start()
             self.sink.set_metadata("recorder", self._recording_metadata())
@@ -188,6 +214,8 @@ class Recorder:
                                  details={"reason": self._reason,
                                           "elapsed_s": round(time.monotonic() - t0, 3)})
             self.sink.close()
+            if self.live is not None:
+                self.live.close()
             restore()
         elapsed = time.monotonic() - t0
         if status is not None:
@@ -207,7 +235,8 @@ class Recorder:
         return RecordResult(files=list(self.sink.files), counts=dict(self.sink.counts),
                             errors=self.sink.errors, elapsed=elapsed,
                             bytes=self.sink.bytes_written(), stop_reason=self._reason,
-                            devices=self._device_states())
+                            devices=self._device_states(),
+                            live=None if self.live is None else self.live.stats())
 
     def _install_signals(self) -> Any:
         if threading.current_thread() is not threading.main_thread():

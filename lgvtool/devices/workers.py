@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from lgvtool.config import Reflector, Vehicle
-from lgvtool.devices.links import Link, LinkDown
+from lgvtool.devices.links import Link, LinkDown, LinkFatal
 from lgvtool.devices.logsink import LogSink
 from lgvtool.devices.mcu_link import McuLink, Motion, head_velocity
 from lgvtool.devices.nav200_session import (
@@ -73,6 +73,11 @@ class _Worker(threading.Thread):
     def run(self) -> None:
         try:
             self._loop()
+        except LinkFatal as exc:  # retrying cannot help: stop the recording with this line
+            self.crashed = LinkFatal(f"record: {self.device}: {exc}; recording stopped")
+            self.diag("link_failed", f"{self.device}: {exc}", level=ERROR,
+                      url=self.link.spec.url, error=str(exc))
+            self.stop_event.set()
         except BaseException as exc:  # a bug must stop the recording, not hang it
             self.crashed = exc
             self.diag("internal_error", f"{type(exc).__name__}: {exc}", level=ERROR)

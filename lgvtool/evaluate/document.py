@@ -15,6 +15,7 @@ from typing import Any
 from lgvtool import __version__
 from lgvtool.evaluate.evaluation import EvaluationResult
 from lgvtool.evaluate.metrics import RadialStats, TruthStats
+from lgvtool.evaluate.quality import DataQuality, quality_of_log
 from lgvtool.evaluate.table import MM, Table1, build_table
 
 FORMAT = "lgvtool.evaluation"
@@ -80,6 +81,30 @@ def _estimators(table: Table1) -> dict[str, Any]:
     return out
 
 
+def quality_dict(q: DataQuality) -> dict[str, Any]:
+    """The data-quality figures of a log (counts; gap times in s)."""
+    longest = max((g.length for g in q.gaps), default=None)
+    return {
+        "diagnostics": q.diagnostics,
+        "by_level": {_LEVEL_NAMES.get(k, str(k)): v for k, v in sorted(q.by_level.items())},
+        "by_kind": [{"source": s, "kind": k, "count": n}
+                    for (s, k), n in sorted(q.by_kind.items())],
+        "dropped_frames": q.dropped_frames,
+        "corrupt_frames": sum(q.corrupt_frames.values()),
+        "corrupt_frames_by_source": dict(sorted(q.corrupt_frames.items())),
+        "skipped_bytes": q.skipped_bytes,
+        "nav_replies": q.nav_replies,
+        "nav_no_position": q.nav_no_position,
+        "nav_unanswered": q.nav_unanswered,
+        "gaps": len(q.gaps),
+        "gaps_total_s": sum(g.length for g in q.gaps),
+        "longest_gap_s": longest,
+    }
+
+
+_LEVEL_NAMES = {1: "debug", 2: "info", 3: "warning", 4: "error", 5: "fatal"}
+
+
 def _log_doc(res: EvaluationResult) -> dict[str, Any]:
     table = build_table([res])
     ref = res.reference
@@ -96,6 +121,7 @@ def _log_doc(res: EvaluationResult) -> dict[str, Any]:
                             "radius_m": res.truth_circle.r, "fitted_radius_m": None,
                             "centre_offset_m": 0.0}
     estimators = _estimators(table)
+    quality = quality_of_log(res.path, res.t0) if res.path else None
     for n, block in estimators.items():
         if res.settings.get(n):
             block["settings"] = res.settings[n]
@@ -123,6 +149,7 @@ def _log_doc(res: EvaluationResult) -> dict[str, Any]:
         },
         "truth_path": radial_dict(res.truth_path) if res.truth_path is not None else None,
         "estimators": estimators,
+        "data_quality": None if quality is None else quality_dict(quality),
         "warnings": list(res.warnings),
     }
 

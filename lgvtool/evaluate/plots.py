@@ -3,10 +3,16 @@
 - :func:`trajectory_figure`: trajectories over the reference circle and the reflector map
   (Fig. 6a), as a hall overview beside a close-up of the drive;
 - :func:`radial_error_figure`: signed radial error against time per estimator (Fig. 6b);
-- :func:`rotation_bars_figure`: RMSE per rotation and estimator;
-- :func:`truth_error_figure`: position error against the ground truth over time.
+- :func:`rotation_bars_figure`: RMSE per rotation and estimator: grouped bars up to
+  :data:`MAX_BAR_ROTATIONS` rotations, beyond that a line per estimator over the rotations
+  (with a range slider) beside the distribution of the per-rotation RMSE (box plots), which
+  stay readable at hundreds of rotations;
+- :func:`truth_error_figure`: position error against the ground truth over time;
+- :func:`quality_timeline_figure`: the log's diagnostics and gaps over time.
 
-Axes are in m and s; errors are shown in mm.
+Axes are in m and s; errors are shown in mm. Every figure is built in time linear in the data:
+rotation boundaries are one list of shapes set at once (never one ``add_vline`` per rotation,
+which re-validates every shape so far), and drawn only up to :data:`MAX_BOUNDARY_LINES`.
 """
 
 from __future__ import annotations
@@ -23,19 +29,46 @@ from plotly.subplots import make_subplots
 from lgvtool.errors import InputError
 from lgvtool.evaluate.circle import Circle
 from lgvtool.evaluate.evaluation import EvaluationResult
+from lgvtool.evaluate.quality import DataQuality
 from lgvtool.evaluate.table import MM, Table1, estimator_order
 
 MAX_POINTS = 5000
 """Traces longer than this are decimated (every k-th sample) to keep the report small."""
 
-TRUTH_COLOUR = "#222222"
+MAX_BAR_ROTATIONS = 30
+"""Up to this many rotations the per-rotation figure shows grouped bars."""
+MAX_BOUNDARY_LINES = 60
+"""Rotation boundaries are drawn as lines up to this many rotations."""
+
+TRUTH_COLOUR = "#000000"
 CIRCLE_COLOUR = "#888888"
+
+ESTIMATOR_COLOURS = {
+    "laser": "#0072B2",          # blue
+    "deadreckoning": "#E7298A",  # magenta
+    "ekf": "#2CA02C",            # green
+    "pf-paper": "#E69F00",       # orange
+    "pf": "#D62728",             # red
+}
+"""The colours of the built-in estimators: apart in hue (laser and pf-paper, the pair compared
+most, at opposite ends: blue and orange), none near the truth's black or the circle's
+grey."""
 
 
 def colours(names: Sequence[str]) -> dict[str, str]:
-    """A fixed colour per estimator name, in ``estimator_order``."""
-    palette = qualitative.Plotly
-    return {n: palette[i % len(palette)] for i, n in enumerate(estimator_order(names))}
+    """A fixed colour per estimator name: the built-in ones their own, others from plotly's
+    palette (skipping colours already taken)."""
+    taken = {ESTIMATOR_COLOURS[n] for n in names if n in ESTIMATOR_COLOURS}
+    spare = [c for c in qualitative.Dark24 if c not in taken]
+    out: dict[str, str] = {}
+    k = 0
+    for n in estimator_order(names):
+        if n in ESTIMATOR_COLOURS:
+            out[n] = ESTIMATOR_COLOURS[n]
+        else:
+            out[n] = spare[k % len(spare)]
+            k += 1
+    return out
 
 
 def _decimate(n: int) -> slice:
@@ -70,12 +103,6 @@ def trajectory_figure(res: EvaluationResult, *, title: str | None = None) -> go.
                 x=cx, y=cy, mode="lines", name=f"reference circle (R = {circle.r:.3f} m)",
                 legendgroup="circle", showlegend=show,
                 line={"color": CIRCLE_COLOUR, "dash": "dash", "width": 2}), row=1, col=c)
-        if res.truth is not None:
-            s = _decimate(len(res.truth))
-            fig.add_trace(go.Scatter(
-                x=res.truth["x"].to_numpy()[s], y=res.truth["y"].to_numpy()[s], mode="lines",
-                name="truth", legendgroup="truth", showlegend=show,
-                line={"color": TRUTH_COLOUR, "width": 1}), row=1, col=c)
         for n in estimator_order(list(res.estimators)):
             df = res.estimators[n].trajectory
             s = _decimate(len(df))
@@ -83,6 +110,13 @@ def trajectory_figure(res: EvaluationResult, *, title: str | None = None) -> go.
                 x=df["x"].to_numpy()[s], y=df["y"].to_numpy()[s], mode="lines", name=n,
                 legendgroup=n, showlegend=show, line={"color": col[n], "width": 1.5}),
                 row=1, col=c)
+        if res.truth is not None:
+            # drawn last, so on top of the estimates, dotted so they show through
+            s = _decimate(len(res.truth))
+            fig.add_trace(go.Scatter(
+                x=res.truth["x"].to_numpy()[s], y=res.truth["y"].to_numpy()[s], mode="lines",
+                name="truth", legendgroup="truth", showlegend=show,
+                line={"color": TRUTH_COLOUR, "width": 1.5, "dash": "dot"}), row=1, col=c)
     if circle is not None:
         span = circle.r * 1.6
         fig.update_xaxes(range=[circle.cx - span, circle.cx + span], row=1, col=2)
@@ -97,8 +131,21 @@ def trajectory_figure(res: EvaluationResult, *, title: str | None = None) -> go.
 
 
 def _rotation_lines(fig: go.Figure, res: EvaluationResult) -> None:
-    for b in res.laps.boundaries:
-        fig.add_vline(x=b - res.t0, line={"color": "#bbbbbb", "dash": "dot", "width": 1})
+    """Dotted full-height lines at the rotation boundaries, all set at once (linear time);
+    none past :data:`MAX_BOUNDARY_LINES` rotations, where they would only grey the plot."""
+    bounds = list(res.laps.boundaries)
+    if not bounds or len(bounds) > MAX_BOUNDARY_LINES + 1:
+        return
+    line = {"color": "#bbbbbb", "dash": "dot", "width": 1}
+    fig.update_layout(shapes=[{"type": "line", "xref": "x", "yref": "paper", "x0": b - res.t0,
+                               "x1": b - res.t0, "y0": 0, "y1": 1, "line": line}
+                              for b in bounds])
+
+
+def _time_slider(fig: go.Figure, span_s: float) -> None:
+    """A range slider under the time axis of a long log (over ten minutes)."""
+    if span_s > 600.0:
+        fig.update_xaxes(rangeslider={"visible": True, "thickness": 0.07})
 
 
 def radial_error_figure(res: EvaluationResult, *, title: str | None = None) -> go.Figure:
@@ -115,6 +162,7 @@ def radial_error_figure(res: EvaluationResult, *, title: str | None = None) -> g
             x=rad["t"].to_numpy()[s] - res.t0, y=rad["error"].to_numpy()[s] * MM, mode="lines",
             name=n, line={"color": col[n], "width": 1.2}))
     _rotation_lines(fig, res)
+    _time_slider(fig, _span(res))
     fig.add_hline(y=0.0, line={"color": "#666666", "width": 1})
     fig.update_layout(title=title or f"{res.name}: radial error about the reference circle",
                       xaxis_title="time since start (s)", yaxis_title="radial error (mm)",
@@ -122,17 +170,46 @@ def radial_error_figure(res: EvaluationResult, *, title: str | None = None) -> g
     return fig
 
 
+def _span(res: EvaluationResult) -> float:
+    """Time covered by the estimates, s."""
+    ends = [float(ev.trajectory["t"].iloc[-1]) for ev in res.estimators.values()
+            if len(ev.trajectory)]
+    return max(ends, default=res.t0) - res.t0
+
+
 def rotation_bars_figure(table: Table1, *, title: str = "RMSE per rotation") -> go.Figure:
-    """Grouped bars: RMSE (mm) of every rotation (Table 1 row) per estimator."""
-    fig = go.Figure()
+    """RMSE (mm) of every rotation (Table 1 row) per estimator: grouped bars up to
+    :data:`MAX_BAR_ROTATIONS` rotations; beyond, one line per estimator over the rotation
+    number (range slider below) beside box plots of the per-rotation RMSE."""
     col = colours(list(table.estimators))
     labels = [f"{r.log} #{r.rotation}" if table.multi_log else str(r.number) for r in table.rows]
+    if len(table.rows) <= MAX_BAR_ROTATIONS:
+        fig = go.Figure()
+        for n in table.estimators:
+            y = [r.stats[n].rmse * MM if n in r.stats else None for r in table.rows]
+            fig.add_trace(go.Bar(x=labels, y=y, name=n, marker_color=col[n]))
+        fig.update_layout(title=title, barmode="group", xaxis_title="rotation",
+                          yaxis_title="RMSE (mm)", height=420)
+        fig.update_xaxes(type="category")
+        return fig
+    fig = make_subplots(rows=1, cols=2, column_widths=[0.74, 0.26], shared_yaxes=True,
+                        horizontal_spacing=0.02,
+                        subplot_titles=(f"per rotation ({len(table.rows)} rotations)",
+                                        "distribution over the rotations"))
+    x = list(range(1, len(table.rows) + 1))
     for n in table.estimators:
         y = [r.stats[n].rmse * MM if n in r.stats else None for r in table.rows]
-        fig.add_trace(go.Bar(x=labels, y=y, name=n, marker_color=col[n]))
-    fig.update_layout(title=title, barmode="group", xaxis_title="rotation",
-                      yaxis_title="RMSE (mm)", height=420)
-    fig.update_xaxes(type="category")
+        fig.add_trace(go.Scatter(x=x, y=y, name=n, legendgroup=n, mode="lines+markers",
+                                 line={"color": col[n], "width": 1}, marker={"size": 3},
+                                 text=labels, hovertemplate="rotation %{text}: %{y:.2f} mm"),
+                      row=1, col=1)
+        fig.add_trace(go.Box(y=[v for v in y if v is not None], name=n, legendgroup=n,
+                             showlegend=False, marker_color=col[n], boxpoints="outliers"),
+                      row=1, col=2)
+    fig.update_xaxes(title_text="rotation", rangeslider={"visible": True, "thickness": 0.07},
+                     row=1, col=1)
+    fig.update_yaxes(title_text="RMSE (mm)", row=1, col=1)
+    fig.update_layout(title=title, height=480)
     return fig
 
 
@@ -149,9 +226,47 @@ def truth_error_figure(res: EvaluationResult, *, title: str | None = None) -> go
             x=te["t"].to_numpy()[s] - res.t0, y=te["position_error"].to_numpy()[s] * MM,
             mode="lines", name=n, line={"color": col[n], "width": 1.2}))
     _rotation_lines(fig, res)
+    _time_slider(fig, _span(res))
     fig.update_layout(title=title or f"{res.name}: position error against ground truth",
                       xaxis_title="time since start (s)", yaxis_title="position error (mm)",
                       height=420)
+    return fig
+
+
+def quality_timeline_figure(q: DataQuality, *, title: str) -> go.Figure:
+    """The diagnostics (one row per source and kind, marker size by count) and the gaps of
+    the main topics (bars of their length) against time since the start (s)."""
+    fig = go.Figure()
+    palette = qualitative.Dark24
+    kinds = sorted({(e[1], e[2]) for e in q.events})
+    by: dict[tuple[str, str], list[tuple[float, int]]] = {k: [] for k in kinds}
+    for t, source, kind, _level, n in q.events:
+        by[(source, kind)].append((t, n))
+    for i, k in enumerate(kinds):
+        ts = [p[0] for p in by[k]]
+        counts = [p[1] for p in by[k]]
+        fig.add_trace(go.Scattergl(
+            x=ts, y=[f"{k[0]}: {k[1]}"] * len(ts), mode="markers", name=f"{k[0]}: {k[1]}",
+            marker={"color": palette[i % len(palette)], "size": 7, "symbol": "line-ns-open",
+                    "line": {"width": 2}},
+            customdata=counts, hovertemplate="%{y} at %{x:.2f} s (x%{customdata})<extra></extra>"))
+    gap_topics = sorted({g.topic for g in q.gaps})
+    for topic in gap_topics:
+        gs = [g for g in q.gaps if g.topic == topic]
+        fig.add_trace(go.Bar(
+            x=[g.length for g in gs], base=[g.start for g in gs],
+            y=[f"gap: {topic}"] * len(gs), orientation="h", name=f"gaps on {topic}",
+            marker={"color": "#555555"},
+            hovertemplate="gap of %{x:.2f} s from %{base:.2f} s<extra></extra>"))
+    rows = len(kinds) + len(gap_topics)
+    fig.update_layout(title=title, height=max(260, 120 + 26 * rows), showlegend=False,
+                      xaxis_title="time since start (s)", barmode="overlay",
+                      margin={"l": 260})
+    fig.update_xaxes(range=[0.0, max(q.duration, 1e-3)])
+    fig.update_yaxes(type="category", categoryorder="array",
+                     categoryarray=[f"gap: {t}" for t in reversed(gap_topics)]
+                     + [f"{k[0]}: {k[1]}" for k in reversed(kinds)])
+    _time_slider(fig, q.duration)
     return fig
 
 

@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from lgvtool.errors import InputError, LgvError
+from lgvtool.fleet.connect import SchedulerSpec
 from lgvtool.fleet.progress import Progress
 
 if TYPE_CHECKING:
@@ -106,7 +107,7 @@ def _lgvtool_version() -> str:
 
 @contextmanager
 def open_client(
-    scheduler: str | None = None,
+    scheduler: str | SchedulerSpec | None = None,
     workers: int | None = None,
     *,
     connect_timeout_s: float = CONNECT_TIMEOUT_S,
@@ -138,10 +139,15 @@ def open_client(
                 host="127.0.0.1", dashboard_address=None, silence_logs=logging.CRITICAL))
             client = stack.enter_context(Client(cluster))
         else:
+            spec = scheduler if isinstance(scheduler, SchedulerSpec) else SchedulerSpec(scheduler)
             try:
-                client = stack.enter_context(Client(scheduler, timeout=connect_timeout_s))
-            except (OSError, TimeoutError, ValueError) as exc:
+                client = stack.enter_context(Client(spec.address, timeout=connect_timeout_s,
+                                                    security=spec.security()))
+            except (OSError, TimeoutError, ValueError, TypeError) as exc:
                 raise InputError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+            except Exception as exc:  # not a Dask scheduler (its bytes make no Dask message)
+                raise InputError(f"{scheduler} does not answer as a Dask scheduler "
+                                 f"({type(exc).__name__})") from None
             try:
                 client.wait_for_workers(1, timeout=worker_timeout_s)
             except TimeoutError:
@@ -223,7 +229,7 @@ def run_tasks(
     fn: Callable[[T], R],
     tasks: Iterable[T],
     *,
-    scheduler: str | None = None,
+    scheduler: str | SchedulerSpec | None = None,
     workers: int | None = None,
     progress: bool = True,
     client: Client | None = None,

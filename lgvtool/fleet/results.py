@@ -248,7 +248,11 @@ def summary_table(tidy: pd.DataFrame, *, grid_keys: Sequence[str] = (),
 def write_table(df: pd.DataFrame, stem: Path) -> list[Path]:
     """Write ``df`` as ``<stem>.parquet`` and ``<stem>.csv``; return both paths."""
     stem.parent.mkdir(parents=True, exist_ok=True)
+    from lgvtool.outputs import atomic_output
+
     pq, csv = stem.with_suffix(".parquet"), stem.with_suffix(".csv")
-    df.to_parquet(pq, index=False)
-    df.to_csv(csv, index=False)
+    with atomic_output(pq) as tmp:
+        df.to_parquet(tmp, index=False)
+    with atomic_output(csv) as tmp:
+        df.to_csv(tmp, index=False)
     return [pq, csv]

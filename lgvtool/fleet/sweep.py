@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from distributed import Client
 
     from lgvtool.config import Config
+    from lgvtool.fleet.connect import SchedulerSpec
 
 
 @dataclass
@@ -87,7 +88,7 @@ def run_sweep(
     estimators: Sequence[str] = (),
     config: Config | None = None,
     config_path: str | Path | None = None,
-    scheduler: str | None = None,
+    scheduler: str | SchedulerSpec | None = None,
     workers: int | None = None,
     client: Client | None = None,
     progress: bool = True,
@@ -182,7 +183,9 @@ def run_sweep(
                  or "none", "lgvtool": __version__}
         page = render_report(tidy, grid=grid, metrics=metric_columns(tidy, grid_keys),
                              title="lgvtool sweep", facts=facts)
-        (out / "report.html").write_text(page, encoding="utf-8")
+        from lgvtool.outdir import write_text
+
+        write_text(out / "report.html", page)
         result.files.append(out / "report.html")
     manifest = {"format": "lgvtool.sweep", "format_version": 1, "lgvtool_version": __version__,
                 "grid": grid, "fixed": dict(fixed or {}), "seeds": seed_list,

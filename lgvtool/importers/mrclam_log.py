@@ -34,6 +34,7 @@ from lgvtool.importers.mrclam_profile import (
 from lgvtool.importers.mrclam_quirks import ImportSettings, PreparedRun, prepare_run
 from lgvtool.log import LogWriter, topics
 from lgvtool.log.messages import FRAME_ID, stamp
+from lgvtool.progress import Progress
 
 NS = 1_000_000_000
 SOURCE = "importer"
@@ -195,8 +196,9 @@ def _encode_truth(run: PreparedRun) -> list[bytes]:
     ]
 
 
-def _write_messages(w: LogWriter, run: PreparedRun, dataset: MrclamDataset) -> None:
-    """Every message of ``run`` in log-time order."""
+def _write_messages(w: LogWriter, run: PreparedRun, dataset: MrclamDataset,
+                    progress: Progress | None = None) -> None:
+    """Every message of ``run`` in log-time order (``progress`` counts them)."""
     scan_t, scans = _scan_groups(run)
     odo_t = run.odometry["t_ns"].to_numpy()
     tru_t = run.truth["t_ns"].to_numpy()
@@ -216,7 +218,11 @@ def _write_messages(w: LogWriter, run: PreparedRun, dataset: MrclamDataset) -> N
     odo_msg, tru_msg = _encode_odometry(run), _encode_truth(run)
     ot, tt, st = odo_t.tolist(), tru_t.tolist(), scan_t.tolist()
     write = w.write_encoded
-    for c, i in zip(code[order].tolist(), index[order].tolist(), strict=True):
+    if progress is not None:
+        progress.stage(f"robot {run.robot}: writing", len(order))
+    for k, (c, i) in enumerate(zip(code[order].tolist(), index[order].tolist(), strict=True)):
+        if progress is not None and k % 20_000 == 0:
+            progress.set(k)
         if c == _ODOM:
             write(topics.ODOM, odo_msg[i], ot[i])
         elif c == _TRUTH:
@@ -230,10 +236,13 @@ def _write_messages(w: LogWriter, run: PreparedRun, dataset: MrclamDataset) -> N
                                count=q.count, details=q.details)
         else:
             w.write_map(dataset.landmark_map(run.settings.landmark_radius_m), run.start_ns)
+    if progress is not None:
+        progress.set(len(order))
 
 
 def write_run(run: PreparedRun, dataset: MrclamDataset, out: str | Path, *,
-              compression: str = "zstd", started: float | None = None) -> ImportSummary:
+              compression: str = "zstd", started: float | None = None,
+              progress: Progress | None = None) -> ImportSummary:
     """Write ``run`` as a log at ``out`` (replaced atomically: a failed import leaves no file).
     Chunks are closed by size (4 MiB), as for every offline writer.
 
@@ -252,7 +261,7 @@ def write_run(run: PreparedRun, dataset: MrclamDataset, out: str | Path, *,
                        source="import mrclam") as w:
             w.add_metadata("importer", importer_record(run, dataset))
             w.write_config(mrclam_config(run, dataset))
-            _write_messages(w, run, dataset)
+            _write_messages(w, run, dataset, progress)
             messages = w.message_count
         os.replace(part, path)
     finally:
@@ -267,21 +276,29 @@ def write_run(run: PreparedRun, dataset: MrclamDataset, out: str | Path, *,
 
 
 def import_robot(dataset: str | Path | MrclamDataset, robot: int, out: str | Path, *,
-                 settings: ImportSettings | None = None, compression: str = "zstd"
-                 ) -> ImportSummary:
-    """Import robot ``robot`` of the MRCLAM dataset folder ``dataset`` into the log ``out``.
+                 settings: ImportSettings | None = None, compression: str = "zstd",
+                 progress: Progress | None = None) -> ImportSummary:
+    """Import robot ``robot`` of the MRCLAM dataset folder ``dataset`` into the log ``out``
+    (``progress``: stages reading, preparing and writing on stderr).
 
     :raises InputError: not a dataset, no such robot, an unusable file, a bad output path.
     """
     t0 = time.perf_counter()
     ds = dataset if isinstance(dataset, MrclamDataset) else MrclamDataset.open(dataset)
-    run = prepare_run(ds, ds.load_robot(robot), settings)
-    return write_run(run, ds, out, compression=compression, started=t0)
+    if progress is not None:
+        progress.stage(f"robot {robot}: reading and preparing", 2)
+    rec = ds.load_robot(robot)
+    if progress is not None:
+        progress.advance()
+    run = prepare_run(ds, rec, settings)
+    if progress is not None:
+        progress.advance()
+    return write_run(run, ds, out, compression=compression, started=t0, progress=progress)
 
 
 def import_all(dataset: str | Path | MrclamDataset, out_dir: str | Path, *,
-               settings: ImportSettings | None = None, compression: str = "zstd"
-               ) -> list[ImportSummary]:
+               settings: ImportSettings | None = None, compression: str = "zstd",
+               progress: Progress | None = None) -> list[ImportSummary]:
     """Import every robot of ``dataset`` into ``out_dir``/robotN.mcap (folder created).
 
     :raises InputError: as :func:`import_robot`, or ``out_dir`` is a file.
@@ -296,4 +313,4 @@ def import_all(dataset: str | Path | MrclamDataset, out_dir: str | Path, *,
         raise InputError(f"{ds.root}: no robot has all three files")
     folder.mkdir(parents=True, exist_ok=True)
     return [import_robot(ds, r, folder / f"robot{r}.mcap", settings=settings,
-                         compression=compression) for r in complete]
+                         compression=compression, progress=progress) for r in complete]

@@ -13,6 +13,7 @@ from dataclasses import MISSING, Field, field, fields, replace
 from typing import Any, TypeVar
 
 from lgvtool.errors import InputError
+from lgvtool.values import coerce
 
 P = TypeVar("P")
 
@@ -33,38 +34,11 @@ def param(default: Any, doc: str, *, choices: tuple[str, ...] | None = None,
 def _coerce(owner: str, f: Field[Any], value: Any) -> Any:
     kind = type(f.default) if f.default is not MISSING else str
     where = f"{owner}.{f.name}"
-    if kind is bool:
-        if isinstance(value, bool):
-            return value
-        if isinstance(value, str) and value.lower() in ("true", "false", "yes", "no", "1", "0"):
-            return value.lower() in ("true", "yes", "1")
-        if isinstance(value, int) and value in (0, 1):
-            return bool(value)
-        raise InputError(f"{where} must be true or false, got {value!r}")
-    if kind is int:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputError(f"{where} must be an integer, got {value!r}")
-        if isinstance(value, float) and not value.is_integer():
-            raise InputError(f"{where} must be an integer, got {value!r}")
-        value = int(value)
-    elif kind is float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise InputError(f"{where} must be a number, got {value!r}")
-        value = float(value)
-        if math.isnan(value):
-            raise InputError(f"{where} must be a number, got {value!r}")
-    elif kind is str:
-        value = str(value)
-        choices = f.metadata.get("choices")
-        if choices and value not in choices:
-            raise InputError(f"{where} must be one of {', '.join(choices)}, got {value!r}")
-        return value
-    lo, hi = f.metadata.get("minimum"), f.metadata.get("maximum")
-    if lo is not None and value < lo:
-        raise InputError(f"{where} must be at least {lo}, got {value}")
-    if hi is not None and value > hi:
-        raise InputError(f"{where} must be at most {hi}, got {value}")
-    return value
+    if kind is str:
+        return coerce(where, str(value), str, choices=f.metadata.get("choices"))
+    default_inf = isinstance(f.default, float) and math.isinf(f.default)
+    return coerce(where, value, kind, minimum=f.metadata.get("minimum"),
+                  maximum=f.metadata.get("maximum"), allow_inf=default_inf)
 
 
 def make_params(cls: type[P], owner: str, overrides: Mapping[str, Any] | None = None,

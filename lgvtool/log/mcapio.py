@@ -352,16 +352,67 @@ def decompress(kind: str, data: bytes | memoryview, size: int) -> bytes:
 
 
 class _OpenChunk:
-    """The chunk being filled: records, time span (ns), message count, per-channel index."""
+    """The chunk being filled: records, time span (ns), message count, per-channel index, the
+    last message's log time and whether the messages are in log-time order so far."""
 
-    __slots__ = ("buf", "count", "end", "index", "start")
+    __slots__ = ("buf", "count", "end", "index", "last", "ordered", "start")
 
     def __init__(self) -> None:
         self.buf = bytearray()
         self.start = 0
         self.end = 0
         self.count = 0
+        self.last = 0
+        self.ordered = True
         self.index: dict[int, list[tuple[int, int]]] = {}
+
+    def sort(self) -> None:
+        """Put the messages in log-time order (stable), after the schema and channel records
+        (which move to the front, so each still precedes its channel's messages)."""
+        buf = self.buf
+        msgs = sorted(e for entries in self.index.values() for e in entries)
+        out = bytearray()
+        pos = 0
+        while pos + 9 <= len(buf):
+            opcode, length = _REC_HEAD.unpack_from(buf, pos)
+            if opcode != OP_MESSAGE:
+                out += buf[pos:pos + 9 + length]
+            pos += 9 + length
+        index: dict[int, list[tuple[int, int]]] = {}
+        for t, at in msgs:
+            (length,) = _U64.unpack_from(buf, at + 1)
+            (cid,) = _U16.unpack_from(buf, at + 9)
+            index.setdefault(cid, []).append((t, len(out)))
+            out += buf[at:at + 9 + length]
+        self.buf, self.index, self.ordered = out, index, True
+
+    def split_after(self, cutoff: int) -> _OpenChunk | None:
+        """Move the messages newer than ``cutoff`` (ns), with every record after the first of
+        them, into a new chunk and return it; None (nothing moved) when none is newer or none
+        would stay. The messages must be in log-time order."""
+        at = min((o for entries in self.index.values() for t, o in entries if t > cutoff),
+                 default=None)
+        if at is None or not any(t <= cutoff for entries in self.index.values()
+                                 for t, _o in entries):
+            return None
+        tail = _OpenChunk()
+        tail.buf = self.buf[at:]
+        del self.buf[at:]
+        kept: dict[int, list[tuple[int, int]]] = {}
+        for cid, entries in self.index.items():
+            for t, o in entries:
+                if o < at:
+                    kept.setdefault(cid, []).append((t, o))
+                else:
+                    tail.index.setdefault(cid, []).append((t, o - at))
+        self.index = kept
+        self.count = sum(len(e) for e in kept.values())
+        tail.count = sum(len(e) for e in tail.index.values())
+        self.start = min(e[0][0] for e in kept.values())
+        self.end = max(e[-1][0] for e in kept.values())
+        tail.start = min(e[0][0] for e in tail.index.values())
+        tail.end = tail.last = max(e[-1][0] for e in tail.index.values())
+        return tail
 
 
 class McapWriter:
@@ -383,6 +434,7 @@ class McapWriter:
         self._metadata_indexes: list[MetadataIndex] = []
         self._counts: dict[int, int] = {}
         self._message_count = 0
+        self._timed = False  # whether _start and _end hold a message's time yet
         self._start = 0
         self._end = 0
         self._chunk = _OpenChunk()
@@ -395,25 +447,31 @@ class McapWriter:
         self._pos += len(data)
 
     # ------------------------------------------------------------------ registration
-    def add_schema(self, name: str, encoding: str, data: bytes, schema_id: int | None = None) -> int:
-        """Register a schema (written into the next chunk and the summary); returns its id."""
+    def add_schema(self, name: str, encoding: str, data: bytes, schema_id: int | None = None,
+                   *, in_data: bool = True) -> int:
+        """Register a schema (written into the next chunk and the summary); returns its id.
+        ``in_data=False``: the summary only (chunks copied from another file carry it)."""
         sid = schema_id if schema_id is not None else max(self._schemas, default=0) + 1
         if sid in self._schemas:
             raise ValueError(f"schema id {sid} is taken")
         schema = Schema(sid, name, encoding, data)
         self._schemas[sid] = schema
-        self._chunk.buf += schema_record(schema)
+        if in_data:
+            self._chunk.buf += schema_record(schema)
         return sid
 
     def add_channel(self, topic: str, message_encoding: str, schema_id: int,
-                    channel_id: int | None = None, metadata: dict[str, str] | None = None) -> int:
-        """Register a channel (written into the next chunk and the summary); returns its id."""
+                    channel_id: int | None = None, metadata: dict[str, str] | None = None,
+                    *, in_data: bool = True) -> int:
+        """Register a channel (written into the next chunk and the summary); returns its id.
+        ``in_data=False``: the summary only (chunks copied from another file carry it)."""
         cid = channel_id if channel_id is not None else max(self._channels, default=0) + 1
         if cid in self._channels:
             raise ValueError(f"channel id {cid} is taken")
         channel = Channel(cid, topic, message_encoding, schema_id, dict(metadata or {}))
         self._channels[cid] = channel
-        self._chunk.buf += channel_record(channel)
+        if in_data:
+            self._chunk.buf += channel_record(channel)
         return cid
 
     # ------------------------------------------------------------------ messages
@@ -427,6 +485,9 @@ class McapWriter:
             c.start = log_time
         elif log_time > c.end:
             c.end = log_time
+        if c.count and log_time < c.last:
+            c.ordered = False
+        c.last = log_time
         entries = c.index.get(channel_id)
         if entries is None:
             entries = c.index[channel_id] = []
@@ -473,6 +534,11 @@ class McapWriter:
             parts[1::2] = datas[i:j]
             c.buf += b"".join(parts)
             lo, hi = min(log_times[i:j]), max(log_times[i:j])
+            if c.ordered and ((c.count and log_times[i] < c.last) or any(
+                    a > b for a, b in zip(log_times[i:j - 1], log_times[i + 1:j],
+                                          strict=True))):
+                c.ordered = False
+            c.last = log_times[j - 1]
             if c.count == 0:
                 c.start, c.end = lo, hi
             else:
@@ -487,11 +553,21 @@ class McapWriter:
         """Whether the open chunk holds any message."""
         return self._chunk.count > 0
 
-    def close_chunk(self) -> None:
-        """Compress and write the open chunk and its message indexes (no-op when empty)."""
+    def close_chunk(self, hold_ns: int = 0) -> None:
+        """Compress and write the open chunk and its message indexes (no-op when empty).
+
+        ``hold_ns``: keep the messages less than this much older than the newest one (ns) in
+        the open chunk, unless that would keep all of them: a live recorder's threads hand
+        over messages slightly out of order, and a message a little older than the newest
+        written one then still lands in log-time order (the reference checker warns of any
+        message older than one before it in the file)."""
         c = self._chunk
         if c.count == 0:
             return
+        if not c.ordered:
+            # readers (the reference checker among them) expect log-time order in a chunk
+            c.sort()
+        held = c.split_after(c.end - hold_ns) if hold_ns > 0 else None
         data = bytes(c.buf)
         compressed = _compress(self._compression, data)
         start_offset = self._pos
@@ -515,11 +591,18 @@ class McapWriter:
             message_index_length=self._pos - mi_start, compression=self._compression,
             compressed_size=len(compressed), uncompressed_size=len(data)))
         self._note_times(c.start, c.end, c.count)
-        self._chunk = _OpenChunk()
+        self._chunk = held if held is not None else _OpenChunk()
+
+    @property
+    def open_chunk_start(self) -> int | None:
+        """Log time (ns) of the oldest message in the open chunk; None when it holds none."""
+        return self._chunk.start if self._chunk.count else None
 
     def _note_times(self, start: int, end: int, count: int) -> None:
-        if self._message_count == 0:
+        """Widen the file's message time span (ns) by a chunk's and add its message count."""
+        if not self._timed:
             self._start, self._end = start, end
+            self._timed = True
         else:
             self._start = min(self._start, start)
             self._end = max(self._end, end)
@@ -530,7 +613,10 @@ class McapWriter:
         """Copy whole chunks of another MCAP file verbatim, with their message indexes.
 
         The caller must have registered the source's schemas and channels here under the same
-        ids; ``channel_counts`` (from the source's statistics) adds to this file's statistics.
+        ids, with ``in_data=False`` (the copied chunks hold their records); ``channel_counts``
+        (from the source's statistics) adds to this file's statistics. Messages written after
+        the copy should not be older than the copied ones (readers of the reference CLI warn
+        of every message older than one before it in the file).
         Chunks that follow each other in the source (each with its message indexes right
         after it, as this writer lays them out) are copied as one run of bytes.
         """
@@ -561,7 +647,7 @@ class McapWriter:
                 {k: v - mi_old + new_mi for k, v in ci.message_index_offsets.items()},
                 ci.message_index_length, ci.compression, ci.compressed_size,
                 ci.uncompressed_size))
-            if ci.message_index_offsets:
+            if ci.message_index_offsets or ci.message_start_time or ci.message_end_time:
                 self._note_times(ci.message_start_time, ci.message_end_time, 0)
         for a, b, at in runs:
             assert at == self._pos

@@ -34,7 +34,7 @@ class RecoveryReport:
                 f"{self.intact_bytes} of {self.source_bytes} bytes ({state} input)")
 
 
-def recover(src: str | Path, dst: str | Path) -> RecoveryReport:
+def recover(src: str | Path, dst: str | Path, compression: str = "zstd") -> RecoveryReport:
     """Copy every intact message and metadata record of ``src`` into a complete log ``dst``."""
     src, dst = Path(src), Path(dst)
     if src.resolve() == dst.resolve():
@@ -45,7 +45,7 @@ def recover(src: str | Path, dst: str | Path) -> RecoveryReport:
     counts: dict[str, int] = {}
     first = last = None
     n = 0
-    with LogWriter(dst, chunk_seconds=None, source="recover",
+    with LogWriter(dst, chunk_seconds=None, source="recover", compression=compression,
                    command=f"lgvtool recover {src.name}") as w:
         for name, record in reader.metadata.items():
             if name == "lgvtool":

@@ -28,6 +28,16 @@ DIAGNOSTICS = "/diagnostics"
 """Structured events (lgvtool.Diagnostic)."""
 DIAGNOSTICS_LOG = "/diagnostics/log"
 """The same events for viewing (foxglove.Log)."""
+NAV_HEAD = "/nav/head"
+"""The NAV's reported head pose for viewing (foxglove.PoseInFrame, valid poses only)."""
+NAV_TF = "/nav/tf"
+"""Frames map -> nav/O -> nav/head from the NAV's reported pose (foxglove.FrameTransforms)."""
+NAV_SCAN = "/nav/scan"
+"""Each reflector scan drawn in the frame nav/head (foxglove.SceneUpdate)."""
+TRUTH_TF = "/truth/tf"
+"""Frames map -> truth/O -> truth/head from the ground truth (foxglove.FrameTransforms)."""
+REFERENCE = "/reference/circle"
+"""The reference circle of a circle drive (foxglove.SceneUpdate)."""
 
 ESTIMATE_PREFIX = "/estimate/"
 
@@ -45,6 +55,11 @@ FIXED: dict[str, str] = {
     TRUTH: "foxglove.PoseInFrame",
     DIAGNOSTICS: "lgvtool.Diagnostic",
     DIAGNOSTICS_LOG: "foxglove.Log",
+    NAV_HEAD: "foxglove.PoseInFrame",
+    NAV_TF: "foxglove.FrameTransforms",
+    NAV_SCAN: "foxglove.SceneUpdate",
+    TRUTH_TF: "foxglove.FrameTransforms",
+    REFERENCE: "foxglove.SceneUpdate",
 }
 """Topic -> schema name for every fixed topic."""
 
@@ -52,6 +67,8 @@ ESTIMATE_SUFFIXES: dict[str, str] = {
     "pose": "foxglove.PoseInFrame",
     "state": "lgvtool.PoseEstimate",
     "particles": "foxglove.PosesInFrame",
+    "tf": "foxglove.FrameTransforms",
+    "covariance": "foxglove.SceneUpdate",
 }
 """``/estimate/<name>/<suffix>`` -> schema name."""
 
@@ -78,6 +95,22 @@ def estimate_state(name: str) -> str:
 def estimate_particles(name: str) -> str:
     """Topic of estimator ``name``'s decimated particle cloud (foxglove.PosesInFrame)."""
     return f"{ESTIMATE_PREFIX}{name}/particles"
+
+
+def estimate_tf(name: str) -> str:
+    """Topic of estimator ``name``'s frames map -> NAME/O -> NAME/head
+    (foxglove.FrameTransforms)."""
+    return f"{ESTIMATE_PREFIX}{name}/tf"
+
+
+def estimate_covariance(name: str) -> str:
+    """Topic of estimator ``name``'s position covariance ellipse (foxglove.SceneUpdate)."""
+    return f"{ESTIMATE_PREFIX}{name}/covariance"
+
+
+VIEW_TOPICS = (NAV_HEAD, NAV_TF, NAV_SCAN, TRUTH_TF, REFERENCE)
+"""Topics that ``replay`` derives from a log's own data for Foxglove (replaced when the input
+already has them)."""
 
 
 def estimator_names(topic_names: list[str] | set[str] | tuple[str, ...]) -> list[str]:

@@ -34,10 +34,17 @@ if TYPE_CHECKING:
 FORMAT_VERSION = "1.0"
 """Version of the log contract written. A reader refuses a newer major version."""
 
-PROFILE = "lgvtool"
-"""MCAP header profile of lgvtool logs."""
+PROFILE = ""
+"""MCAP header profile of lgvtool logs: none (the reference checker warns of any profile but
+the well-known 'ros1' and 'ros2'); the header's library and the 'lgvtool' metadata record say
+what wrote the file."""
 
 _COMPRESSION = ("zstd", "lz4", "none")
+
+REORDER_NS = 50_000_000
+"""How much older than the newest message (ns) a message may reach a time-chunked writer
+(a recorder's threads) and still be written in log-time order: the newest 50 ms of a closing
+chunk go into the next one."""
 
 
 def _dumps(data: Any) -> bytes:
@@ -100,21 +107,30 @@ class LogWriter:
         })
 
     # ------------------------------------------------------------------ registration
-    def _schema_id(self, name: str) -> int:
+    def _schema_id(self, name: str, own: tuple[str, bytes] | None = None) -> int:
         sid = self._schemas.get(name)
         if sid is None:
-            sid = self._writer.add_schema(name, "jsonschema", schema_bytes(name))
+            try:
+                encoding, data = "jsonschema", schema_bytes(name)
+            except KeyError:
+                if own is None:
+                    raise
+                encoding, data = own
+            sid = self._writer.add_schema(name, encoding, data)
             self._schemas[name] = sid
         return sid
 
-    def channel_id(self, topic: str, schema: str | None = None) -> int:
-        """The channel id of ``topic``, registering its schema and channel on first use."""
+    def channel_id(self, topic: str, schema: str | None = None,
+                   own: tuple[str, bytes] | None = None) -> int:
+        """The channel id of ``topic``, registering its schema and channel on first use;
+        ``own``: (encoding, data) of the schema when lgvtool has none of that name (a copied
+        log's foreign channel)."""
         cid = self._channels.get(topic)
         if cid is None:
             name = schema or topics.schema_for_topic(topic)
             if name is None:
                 raise ValueError(f"topic {topic!r} is not part of the lgvtool log contract")
-            cid = self._writer.add_channel(topic, "json", self._schema_id(name))
+            cid = self._writer.add_channel(topic, "json", self._schema_id(name, own))
             self._channels[topic] = cid
         return cid
 
@@ -186,39 +202,67 @@ class LogWriter:
         self._chunk_first_ns = None
 
     def copy_from(self, reader: LogReader, *, skip_topics: frozenset[str] = frozenset(),
-                  metadata: bool = True) -> int:
+                  metadata: bool = True,
+                  extra: tuple[Sequence[str], Sequence[bytes], Sequence[int]] | None = None
+                  ) -> int:
         """Copy every message of ``reader`` (except ``skip_topics``) into this log, and its
         metadata records other than 'lgvtool'. Returns the number of messages copied.
 
-        A complete input copied into a fresh writer has its chunks copied verbatim (no decoding);
-        otherwise messages are copied one by one.
+        ``extra``: (topics, JSON datas, log times in ns) of further messages, sorted by time,
+        merged with the copied ones so that the file is in log-time order (a copied message
+        first at equal times). Without it, a complete input copied into a fresh writer has its
+        chunks copied verbatim (no decoding); otherwise messages are copied one by one.
         """
         if metadata:
             for name, record in reader.metadata.items():
                 if name != "lgvtool":
                     self.add_metadata(name, record)
-        plan = reader.verbatim_plan(skip_topics)
+        plan = reader.verbatim_plan(skip_topics) if extra is None else None
         if plan is not None and not self._channels and not self._schemas:
             schemas, channels, chunk_indexes, counts = plan
             for sid, (name, encoding, data) in schemas.items():
-                self._writer.add_schema(name, encoding, data, schema_id=sid)
+                self._writer.add_schema(name, encoding, data, schema_id=sid, in_data=False)
                 self._schemas[name] = sid
             for cid, (topic, encoding, sid) in channels.items():
-                self._writer.add_channel(topic, encoding, sid, channel_id=cid)
+                self._writer.add_channel(topic, encoding, sid, channel_id=cid, in_data=False)
                 self._channels[topic] = cid
             with open(reader.path, "rb") as source:
                 self._writer.copy_chunks(source, chunk_indexes, counts)
             n = sum(counts.values())
             self.message_count += n
             return n
-        n = 0
+        if extra is None:
+            extra = ((), (), ())
+        e_topics, e_datas, e_times = extra
+        n_extra = len(e_times)
+        batch: tuple[list[str], list[bytes], list[int]] = ([], [], [])
+        j = n = 0
+        registered: set[str] = set()
+        own = {s.name: (s.encoding, s.data) for s in getattr(reader, "_schemas", {}).values()}
         for m in reader.raw_messages():
             if m.topic in skip_topics:
                 continue
-            if m.schema:
-                self.channel_id(m.topic, m.schema)
-            self.write_encoded(m.topic, m.data, m.log_time_ns, m.publish_time_ns)
+            t = m.log_time_ns
+            while j < n_extra and e_times[j] < t:
+                batch[0].append(e_topics[j])
+                batch[1].append(e_datas[j])
+                batch[2].append(e_times[j])
+                j += 1
+            if m.topic not in registered:
+                registered.add(m.topic)
+                if m.schema:
+                    self.channel_id(m.topic, m.schema, own.get(m.schema))
+            batch[0].append(m.topic)
+            batch[1].append(m.data)
+            batch[2].append(t)
             n += 1
+            if len(batch[2]) >= 65536:
+                self.write_encoded_many(*batch)
+                batch = ([], [], [])
+        batch[0].extend(e_topics[j:])
+        batch[1].extend(e_datas[j:])
+        batch[2].extend(e_times[j:])
+        self.write_encoded_many(*batch)
         return n
 
     def write_config(self, config: Config) -> None:
@@ -236,12 +280,14 @@ class LogWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Write the chunk in progress to the file now."""
-        self._writer.close_chunk()
+        """Write the chunk in progress to the file now (a time-chunked writer keeps its last
+        :data:`REORDER_NS` of messages for the next chunk, so that messages handed over a
+        little out of order still land in log-time order)."""
+        self._writer.close_chunk(REORDER_NS if self._chunk_ns is not None else 0)
         self._stream.flush()
         if self._fsync and self._owns_stream:
             os.fsync(self._stream.fileno())
-        self._chunk_first_ns = None
+        self._chunk_first_ns = self._writer.open_chunk_start
         self._chunk_wall = time.monotonic()
 
     # ------------------------------------------------------------------ lifecycle

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from lgvtool.errors import ConfigError
 from lgvtool.sim.kinematics import Controls, FloatArray
 
 
@@ -144,7 +145,13 @@ def sample(profile: Profile, duration: float, rate_hz: float) -> Controls:
     the route's first or last angle. The drive speed of each step is its exact travel divided
     by the step, so the integrated path follows the route's geometry.
     """
-    n = max(1, round(duration * rate_hz))
+    from lgvtool.values import MAX_SIM_DURATION_S, MAX_SIM_STEPS
+
+    steps = duration * rate_hz
+    if not (math.isfinite(steps) and steps <= MAX_SIM_STEPS and duration <= MAX_SIM_DURATION_S):
+        raise ConfigError(f"the run would last {duration:g} s at {rate_hz:g} Hz; at most "
+                          f"{MAX_SIM_DURATION_S:g} s and {MAX_SIM_STEPS:g} integration steps fit")
+    n = max(1, round(steps))
     t = np.arange(n + 1, dtype=np.float64) / rate_hz
     p = np.interp(t, profile.t_nodes, profile.p_nodes)
     step = np.diff(p)

@@ -17,6 +17,12 @@ from lgvtool.config import Vehicle
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.sim.kinematics import Controls
 from lgvtool.sim.routes import Leg, lay_out, sample, straight, turn
+from lgvtool.values import coerce
+
+MAX_REPEATS = 10_000.0
+"""Most laps or rotations of a scenario (8 rotations of the paper's circle take 100 s)."""
+MAX_SCENARIO_VALUE = 1e6
+"""Largest magnitude of any other scenario parameter (m, s, m/s, deg)."""
 
 
 @dataclass(frozen=True)
@@ -54,11 +60,8 @@ class Scenario:
             if key not in out:
                 raise ConfigError(f"unknown setting 'scenario.{key}' for scenario {self.name} "
                                   f"(known: {', '.join(sorted(out))})")
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ConfigError(f"scenario.{key} must be a number, got {value!r}")
-            if not math.isfinite(float(value)):
-                raise ConfigError(f"scenario.{key} must be finite, got {value!r}")
-            out[key] = float(value)
+            limit = MAX_REPEATS if key in ("laps", "rotations") else MAX_SCENARIO_VALUE
+            out[key] = coerce(f"scenario.{key}", value, float, minimum=-limit, maximum=limit)
         return out
 
 

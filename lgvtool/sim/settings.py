@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
 from lgvtool.errors import ConfigError
+from lgvtool.values import MAX_COUNT, MAX_RATE_HZ, coerce
 
 
 @dataclass(frozen=True)
@@ -237,26 +238,28 @@ def _jsonable(v: Any) -> Any:
     return v
 
 
-def _coerce(key: str, value: Any, kind: type) -> Any:
-    if kind is bool:
-        if isinstance(value, bool):
-            return value
-        if isinstance(value, str) and value.lower() in ("true", "false"):
-            return value.lower() == "true"
-        raise ConfigError(f"{key} must be true or false, got {value!r}")
-    if kind is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{key} must be an integer, got {value!r}")
-        return value
-    if kind is float:
-        if value is None or (isinstance(value, str) and value.lower() == "nan"):
-            return math.nan
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ConfigError(f"{key} must be a number, got {value!r}")
-        return float(value)
+#: upper ends of settings beyond the generic maxima of :mod:`lgvtool.values`
+_MAXIMA: dict[str, float] = {
+    "sim.rate_hz": MAX_RATE_HZ, "sim.truth_rate_hz": MAX_RATE_HZ, "nav.rotation_hz": 100.0,
+    "sim.start_epoch_s": 7_258_118_400,  # 2200-01-01
+    "mcu.clock_offset_ms": 2**32 - 1, "mcu.baud": 4_000_000, "nav.baud": 4_000_000,
+    "mcu.gyro_scale_udeg_s": 0xFFFF, "nav.solver_iterations": 1000,
+    "nav.min_reflectors": 64, "nav.max_reflectors": 64, "faults.false_near_id": MAX_COUNT,
+}
+#: largest magnitude of any other number: lengths, times and noise levels of a hall-sized run
+_MAGNITUDE = 1e6
+
+
+def _coerce(key: str, value: Any, kind: type, default: Any = None) -> Any:
+    unset = isinstance(default, float) and math.isnan(default)  # NaN means "not set"
+    if unset and (value is None or (isinstance(value, str) and value.lower() == "nan")):
+        return math.nan
     if kind is str:
         return str(value)
-    raise ConfigError(f"{key}: unsupported setting type")
+    if kind in (int, float):
+        top = _MAXIMA.get(key, _MAGNITUDE)
+        return coerce(key, value, kind, minimum=-_MAGNITUDE, maximum=top, allow_nan=unset)
+    return coerce(key, value, kind)
 
 
 def _field_types(cls: type) -> dict[str, type]:
@@ -287,7 +290,8 @@ def apply_overrides(settings: SimSettings, overrides: Mapping[str, Any]) -> SimS
         if key not in types:
             raise ConfigError(f"unknown setting '{full_key}' (known in {section}: "
                               f"{', '.join(types)})")
-        grouped.setdefault(section, {})[key] = _coerce(full_key, value, types[key])
+        default = getattr(cls(), key)
+        grouped.setdefault(section, {})[key] = _coerce(full_key, value, types[key], default)
     out = replace(settings, scenario=scenario)
     for section, values in grouped.items():
         out = replace(out, **{section: replace(getattr(out, section), **values)})

@@ -10,6 +10,7 @@ import os
 import re
 import resource
 import signal
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -91,6 +92,12 @@ def test_record_a_run_byte_for_byte_and_evaluate(tmp_path: Path, procs: Procs) -
     # one encoder count in 0.1 s is 4.7 mm/s of speed
     assert abs(last.vx_mm_s - v * 1000) <= 6 and abs(last.vy_mm_s - w * 1000) <= 2
     assert abs(last.omega_raw - w * 32768 / math.pi) <= 15
+    # the reference checker's checks (tests/log/mcap_doctor.py): no error, no warning
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "log"))
+    from mcap_doctor import assert_reference_clean, schema_errors
+
+    assert_reference_clean(out)
+    assert schema_errors(out) == []
     if importlib.util.find_spec("lgvtool.commands.evaluate") is not None:
         ev = procs.lgvtool("evaluate", out, "-e", "laser", "-o", tmp_path / "report", "--json")
         ev_out, ev_err = ev.communicate(timeout=60)
@@ -165,6 +172,12 @@ def test_split_files_lose_nothing(tmp_path: Path, procs: Procs) -> None:
         assert r.metadata["device.nav200"]["serial"] == 20417
     joined = b"".join(raw_stream(r.path, topics.MCU_RX) for r in readers)
     assert joined == server.sent("mcu")
+    # every part passes the reference checker's checks (tests/log/mcap_doctor.py)
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "log"))
+    from mcap_doctor import assert_reference_clean
+
+    for f in files:
+        assert_reference_clean(f)
 
 
 def _limit_file_size() -> None:

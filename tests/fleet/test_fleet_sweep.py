@@ -82,7 +82,7 @@ def test_same_sweep_again_does_no_new_work(first_sweep, run_cli):
     assert proc.returncode == 0, proc.stderr
     before = {p.name: p.stat().st_mtime_ns for p in (out / "tasks").glob("*.json")}
     again = run_cli("sweep", _dir_of(out), *GRID,
-                    "--workers", "2", "-o", out, timeout=400)
+                    "--workers", "2", "-o", out, "--force", timeout=400)
     assert again.returncode == 0, again.stderr
     assert "8 task(s): 0 run now, 8 already done, 0 failed" in again.stdout
     assert "sweep [" not in again.stderr
@@ -107,7 +107,7 @@ def test_interrupted_sweep_resumes(first_sweep, run_cli, tmp_path):
         p.unlink()
     (copy / "results.parquet").unlink()
     again = run_cli("sweep", _dir_of(out), *GRID, "--workers", "1", "--no-progress", "--json",
-                    "-o", copy, timeout=400)
+                    "-o", copy, "--force", timeout=400)
     assert again.returncode == 0, again.stderr
     facts = json.loads(again.stdout)
     assert (facts["tasks"], facts["ran"], facts["reused"], facts["failed"]) == (8, 3, 5, 0)
@@ -134,7 +134,9 @@ def test_failing_logs_are_reported_and_the_others_finish(logs, run_cli, tmp_path
     assert pd.notna(summary.loc["a", "truth.position_rmse_m.mean"])
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "corrupt.mcap" in html and "not an MCAP file" in html
-    again = run_cli(*args, timeout=400)
+    refused = run_cli(*args, timeout=400)
+    assert refused.returncode == 2 and "pass --force" in refused.stderr
+    again = run_cli(*args, "--force", timeout=400)
     assert "0 run now, 4 already done, 2 failed" in again.stdout
 
 

@@ -64,7 +64,7 @@ def test_all_robots(synthetic: Any, tmp_path: Path, capsys: pytest.CaptureFixtur
     ("broken_file", "Robot1_Measurement.dat: 3 of 4 rows are broken"),
     ("no_robot_option", "give exactly one of --robot N and --all"),
     ("both_options", "give exactly one of --robot N and --all"),
-    ("bad_threshold", "--gap-threshold must be positive"),
+    ("bad_threshold", "--gap-threshold must be above 0"),
     ("bad_delay", "--odometry-delay expects seconds or auto"),
     ("negative_delay", "--odometry-delay must be within 0 to 5 s"),
     ("absent_folder", "no such folder"),

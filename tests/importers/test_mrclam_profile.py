@@ -75,7 +75,7 @@ def test_import_summary_names_the_profile(synthetic: Any, tmp_path: Path,
     assert code == 0
     assert f"profile   {PROFILE_NAME}" in text
     code, text, _ = run(["import", "mrclam", str(synthetic.root), "-r", "1", "-o",
-                         str(tmp_path / "r1.mcap"), "--json"], capsys)
+                         str(tmp_path / "r1.mcap"), "--json", "--force"], capsys)
     assert json.loads(text)["estimator_profile"] == PROFILE_NAME
 
 

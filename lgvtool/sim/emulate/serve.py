@@ -6,6 +6,9 @@ from typing import Any
 
 import click
 
+from lgvtool.options import Number, force_option, positive, set_option
+from lgvtool.values import MAX_SEED, MAX_SIM_DURATION_S, MAX_WALL_S
+
 _PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) or 'none'."
 
 
@@ -13,14 +16,14 @@ _PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) 
 @click.argument("log", required=False, type=click.Path(dir_okay=False, exists=True))
 @click.option("--scenario", "-s", metavar="NAME",
               help="Simulate this scenario and serve it (default when no LOG: paper-circle).")
-@click.option("--seed", type=int, help="Seed of the scenario and of injected garbage.")
-@click.option("--duration", type=click.FloatRange(min=0, min_open=True), metavar="S",
+@click.option("--seed", type=Number(int, 0, MAX_SEED),
+              help="Seed of the scenario and of injected garbage.")
+@click.option("--duration", type=positive(MAX_SIM_DURATION_S), metavar="S",
               help="Length of the simulated run, s.")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), metavar="FILE",
               help="Vehicle, reflector map and [simulator] settings (TOML) of the scenario.")
-@click.option("--set", "sets", multiple=True, metavar="KEY=VALUE",
-              help="Override a simulator setting (repeatable), as for 'lgvtool simulate'.")
-@click.option("--speed", type=click.FloatRange(min=0, min_open=True), default=1.0,
+@set_option("Override a simulator setting (repeatable), as for 'lgvtool simulate'.")
+@click.option("--speed", type=positive(1000.0), default=1.0,
               show_default=True, metavar="N", help="Play N times faster than real time.")
 @click.option("--nav", "nav", default="pty", show_default=True, metavar="PORT",
               help=f"Where the virtual NAV200 listens: {_PORT_HELP}")
@@ -37,14 +40,15 @@ _PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) 
 @click.option("--loop", is_flag=True, help="Play the run over and over.")
 @click.option("--start-now", is_flag=True,
               help="Start the run's clock at once instead of when the clients have connected.")
-@click.option("--exit-after", type=click.FloatRange(min=0), metavar="S",
+@force_option
+@click.option("--exit-after", type=Number(float, 0.0, MAX_WALL_S), metavar="S",
               help="Exit S seconds (wall clock) after the run has been played "
                    "(default: serve until Ctrl-C).")
 @click.pass_context
 def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int | None,
           duration: float | None, config_path: str | None, sets: tuple[str, ...],
           speed: float, nav: str, mcu: str, pty_dir: str | None, faults: tuple[str, ...],
-          transcript: str | None, loop: bool, start_now: bool,
+          transcript: str | None, loop: bool, start_now: bool, force: bool,
           exit_after: float | None) -> None:
     """Serve a run as devices for 'lgvtool record': a virtual NAV200 that answers the host
     protocol (modes, identity, the map upload, error replies to requests in the wrong mode)
@@ -54,7 +58,6 @@ def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int |
     line per device, 'nav200: URL' and 'mcu: URL', to pass to 'lgvtool record --nav URL
     --mcu URL'. Times of --fault and --duration are run time, s. See docs/recording.md.
     """
-    import signal
 
     from lgvtool.errors import InputError
 
@@ -66,11 +69,33 @@ def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int |
     sets = sets or tuple(group.get("sets") or ())
     if log is not None and scenario is not None:
         raise InputError("serve: give a LOG or --scenario, not both")
-    playback = _playback(log, scenario or "paper-circle", seed, duration, config_path, sets)
+    if transcript is not None:
+        from lgvtool.outputs import guard_output
 
-    from lgvtool.sim.emulate.server import EmulatorServer, parse_fault
+        guard_output(transcript, [log, config_path], force=force, what="transcript")
+    from lgvtool.sim.emulate.server import parse_fault
 
     fault_list = [parse_fault(f) for f in faults]
+    playback = _playback(log, scenario or "paper-circle", seed, duration, config_path, sets)
+    if transcript is None:
+        _serve(playback, nav, mcu, pty_dir, speed, fault_list, start_now, loop, None, seed,
+               exit_after)
+        return
+    from lgvtool.outputs import atomic_output
+
+    with atomic_output(transcript) as tmp:
+        _serve(playback, nav, mcu, pty_dir, speed, fault_list, start_now, loop, str(tmp), seed,
+               exit_after)
+
+
+def _serve(playback: Any, nav: str, mcu: str, pty_dir: str | None, speed: float,
+           fault_list: list[Any], start_now: bool, loop: bool, transcript: str | None,
+           seed: int, exit_after: float | None) -> None:
+    """Serve ``playback`` until it is played (``exit_after``) or stopped; print the counts."""
+    import signal
+
+    from lgvtool.sim.emulate.server import EmulatorServer
+
     server = EmulatorServer(playback, nav=None if nav == "none" else nav,
                             mcu=None if mcu == "none" else mcu, link_dir=pty_dir, speed=speed,
                             faults=fault_list, wait=not start_now, loop=loop,

@@ -32,6 +32,7 @@ from lgvtool.sim.emulate.endpoints import PTY_SETTLE, Endpoint, PtyEndpoint, Tcp
 from lgvtool.sim.emulate.playback import Playback
 from lgvtool.sim.emulate.virtual_mcu import VirtualMcu
 from lgvtool.sim.emulate.virtual_nav200 import VirtualNav200
+from lgvtool.values import MAX_GARBAGE_BYTES, MAX_SIM_DURATION_S, coerce, parse_scalar
 
 __all__ = ["DEVICES", "EmulatorServer", "Fault", "TranscriptEntry", "parse_fault"]
 
@@ -72,12 +73,14 @@ def parse_fault(text: str) -> Fault:
     if len(parts) != (4 if needs_arg else 3):
         raise InputError(usage)
     try:
-        at = float(parts[2])
-        arg = float(parts[3]) if needs_arg else 0.0
+        at = coerce(f"fault {text!r}: AT", parse_scalar(parts[2], float), float, minimum=0.0,
+                    maximum=MAX_SIM_DURATION_S)
+        top = MAX_GARBAGE_BYTES if kind == "garbage" else MAX_SIM_DURATION_S
+        arg = coerce(f"fault {text!r}: {'BYTES' if kind == 'garbage' else 'SECONDS'}",
+                     parse_scalar(parts[3], float), float, minimum=0.0, maximum=top,
+                     min_open=True) if needs_arg else 0.0
     except ValueError:
         raise InputError(usage) from None
-    if at < 0 or arg < 0 or (needs_arg and arg == 0):
-        raise InputError(f"fault {text!r}: times and sizes must be positive")
     if kind == "reset" and device == "mcu":
         raise InputError(f"fault {text!r}: only the NAV200 can be reset")
     return Fault(kind, device, at, arg)
@@ -126,21 +129,27 @@ class EmulatorServer:
         self.mcu = VirtualMcu(playback, loop=loop)
         self._rng = random.Random(seed)
         self._own_dir: Path | None = None
+        self._file: IO[str] | None = None
+        self.endpoints: dict[str, Endpoint] = {}
+        if nav is not None and nav == mcu and nav != "pty" and not nav.endswith(":0"):
+            raise InputError(f"serve: the NAV200 and the MCU cannot both listen on {nav}")
         if link_dir is None and "pty" in (nav, mcu):
             self._own_dir = Path(tempfile.mkdtemp(prefix="lgvtool-serve-"))
         self.link_dir = Path(link_dir) if link_dir is not None else self._own_dir
-        self.endpoints: dict[str, Endpoint] = {}
         try:
             for name, spec in (("nav200", nav), ("mcu", mcu)):
                 if spec is not None:
                     self.endpoints[name] = self._endpoint(name, spec)
+            if transcript is not None:
+                try:
+                    self._file = open(transcript, "w", encoding="utf-8")  # noqa: SIM115 - closed in close()
+                except OSError as exc:
+                    raise InputError(f"serve: cannot write the transcript {transcript}: "
+                                     f"{exc.strerror}") from None
         except BaseException:
             self.close()
             raise
         self.transcript: list[TranscriptEntry] = []
-        self._file: IO[str] | None = None
-        if transcript is not None:
-            self._file = open(transcript, "w", encoding="utf-8")  # noqa: SIM115 - closed in close()
         self._silent_until: dict[str, float] = {}
         self._restore_at: dict[str, float] = {}
         self._next_fault = 0
@@ -156,17 +165,23 @@ class EmulatorServer:
     def _endpoint(self, name: str, spec: str) -> Endpoint:
         if spec == "pty":
             assert self.link_dir is not None
-            # the NAV200 only answers requests, so it may answer at once
-            return PtyEndpoint(name, self.link_dir,
-                               settle=0.0 if name == "nav200" else PTY_SETTLE)
+            try:
+                # the NAV200 only answers requests, so it may answer at once
+                return PtyEndpoint(name, self.link_dir,
+                                   settle=0.0 if name == "nav200" else PTY_SETTLE)
+            except OSError as exc:
+                raise InputError(f"{name}: cannot create a pseudo-terminal link in "
+                                 f"{self.link_dir}: {exc.strerror or exc}") from None
         if spec.startswith("tcp://"):
             host, _, port = spec[len("tcp://"):].rpartition(":")
-            if not host or not port.isdigit():
-                raise InputError(f"{name}: expected tcp://HOST:PORT, got {spec!r}")
+            if not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+                raise InputError(f"{name}: expected tcp://HOST:PORT with a port 0-65535, "
+                                 f"got {spec!r}")
             try:
                 return TcpEndpoint(name, host.strip("[]"), int(port))
             except OSError as exc:
-                raise InputError(f"{name}: cannot listen on {spec}: {exc.strerror}") from None
+                reason = exc.strerror or str(exc)
+                raise InputError(f"{name}: cannot listen on {spec}: {reason}") from None
         raise InputError(f"{name}: expected 'pty' or tcp://HOST:PORT, got {spec!r}")
 
     # ------------------------------------------------------------------ public

@@ -1,0 +1,181 @@
+"""The data quality of a log: what went wrong while it was recorded, from its own records.
+
+Pure core (:func:`summarise`) over plain inputs, and one reader-side function
+(:func:`read_quality`) that gathers them from a log: the ``/diagnostics`` events, the NAV's
+valid/invalid pose flags and the receive times of the main topics.
+
+- events counted by ``(source, kind)`` and level (a diagnostic's ``count`` is honoured);
+- dropped MCU frames (``seq_gap`` events' ``missing_frames``), corrupt frames (bad checksum
+  or length), bytes skipped while resynchronising;
+- NAV poll replies without a position (``valid = false`` on ``/nav/pose``) and requests that
+  got no reply;
+- gaps: intervals between consecutive messages of a topic longer than
+  ``max(GAP_FACTOR x its median interval, GAP_MIN_S)``, with their start and length.
+
+Times are s after the log's start (``t0``).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from lgvtool.log import LogReader
+
+__all__ = ["GAP_FACTOR", "GAP_MIN_S", "DataQuality", "Gap", "find_gaps", "read_quality",
+           "summarise"]
+
+GAP_FACTOR = 3.0
+"""A gap is an interval longer than this many median intervals of its topic ..."""
+GAP_MIN_S = 0.25
+"""... and longer than this, s."""
+
+#: decoder kinds that mean a frame arrived corrupt
+CORRUPT_KINDS = frozenset({"bad_checksum", "bad_length", "bad_frame", "bad_version"})
+#: topics whose gaps are looked for
+GAP_TOPICS = ("/mcu/frame", "/odom/twist", "/nav/pose", "/nav/reflectors")
+
+
+@dataclass(frozen=True)
+class Gap:
+    """A silence on ``topic``: from ``start`` (s after t0) for ``length`` s."""
+
+    topic: str
+    start: float
+    length: float
+
+
+@dataclass
+class DataQuality:
+    """What :func:`summarise` finds (see the module docstring). ``events`` holds per event
+    ``(t s, source, kind, level, count)`` for the timeline."""
+
+    t0: float
+    duration: float
+    by_kind: dict[tuple[str, str], int] = field(default_factory=dict)
+    by_level: dict[int, int] = field(default_factory=dict)
+    dropped_frames: int = 0
+    corrupt_frames: dict[str, int] = field(default_factory=dict)
+    skipped_bytes: int = 0
+    nav_replies: int = 0
+    nav_no_position: int = 0
+    nav_unanswered: int = 0
+    gaps: list[Gap] = field(default_factory=list)
+    events: list[tuple[float, str, str, int, int]] = field(default_factory=list)
+
+    @property
+    def diagnostics(self) -> int:
+        """Events in all (each diagnostic's count included)."""
+        return sum(self.by_kind.values())
+
+    @property
+    def any(self) -> bool:
+        """True when there is anything to report."""
+        return bool(self.by_kind or self.nav_no_position or self.gaps)
+
+
+def find_gaps(topic: str, t: NDArray[np.float64], *, factor: float = GAP_FACTOR,
+              min_s: float = GAP_MIN_S) -> list[Gap]:
+    """The gaps of one topic given its message times (s, sorted)."""
+    if len(t) < 3:
+        return []
+    dt = np.diff(t)
+    limit = max(factor * float(np.median(dt)), min_s)
+    idx = np.nonzero(dt > limit)[0]
+    return [Gap(topic, float(t[i]), float(dt[i])) for i in idx.tolist()]
+
+
+def summarise(diagnostics: Sequence[Mapping[str, Any]], *, t0: float, duration: float,
+              nav_valid: Sequence[bool] | NDArray[np.bool_] = (),
+              topic_times: Mapping[str, NDArray[np.float64]] | None = None) -> DataQuality:
+    """The data quality from ``/diagnostics`` dicts, the NAV poses' ``valid`` flags and the
+    message times (s since the epoch) of the topics to look for gaps in."""
+    q = DataQuality(t0=t0, duration=duration)
+    for d in diagnostics:
+        source, kind = str(d.get("source", "?")), str(d.get("kind", "?"))
+        level = int(d.get("level", 0))
+        n = max(int(d.get("count", 1) or 1), 1)
+        details = d.get("details") or {}
+        ts = d.get("timestamp") or {}
+        t = (int(ts.get("sec", 0)) + int(ts.get("nsec", 0)) * 1e-9) - t0
+        q.by_kind[(source, kind)] = q.by_kind.get((source, kind), 0) + n
+        q.by_level[level] = q.by_level.get(level, 0) + n
+        q.events.append((t, source, kind, level, n))
+        if kind == "seq_gap":
+            q.dropped_frames += int(details.get("missing_frames", n))
+        elif kind in CORRUPT_KINDS:
+            q.corrupt_frames[source] = q.corrupt_frames.get(source, 0) + n
+        elif kind == "bytes_skipped":
+            q.skipped_bytes += int(details.get("skipped_bytes", 0))
+        elif kind == "unanswered":
+            q.nav_unanswered += n
+    valid = np.asarray(nav_valid, dtype=bool)
+    q.nav_replies = len(valid)
+    q.nav_no_position = int((~valid).sum())
+    for topic, times in (topic_times or {}).items():
+        for g in find_gaps(topic, np.asarray(times, dtype=np.float64)):
+            q.gaps.append(Gap(g.topic, g.start - t0, g.length))
+    q.gaps.sort(key=lambda g: g.start)
+    q.events.sort()
+    return q
+
+
+def read_quality(reader: LogReader, t0: float | None = None) -> DataQuality:
+    """Gather :func:`summarise`'s inputs from a log (``t0``: s since the epoch that times are
+    counted from; default: the log's first message)."""
+    import orjson
+
+    from lgvtool.log import topics
+
+    infos = reader.topics()
+    starts = [i.start_ns for i in infos.values() if i.count]
+    ends = [i.end_ns for i in infos.values() if i.count]
+    first = min(starts) * 1e-9 if starts else 0.0
+    start = first if t0 is None else t0
+    duration = (max(ends) * 1e-9 - start) if ends else 0.0
+    wanted = [t for t in (topics.DIAGNOSTICS, topics.NAV_POSE, *GAP_TOPICS) if t in infos]
+    cols = reader.raw_columns(wanted)
+    diags: list[dict[str, Any]] = []
+    valid: NDArray[np.bool_] = np.zeros(0, dtype=bool)
+    times: dict[str, NDArray[np.float64]] = {}
+    for topic, (log_ns, raw) in cols.items():
+        if topic == topics.DIAGNOSTICS:
+            diags = [orjson.loads(b) for b in raw]
+            continue
+        if topic == topics.NAV_POSE:
+            valid = np.array([bool(orjson.loads(b).get("valid")) for b in raw], dtype=bool)
+        times[topic] = np.sort(np.asarray(log_ns, dtype=np.int64)).astype(np.float64) * 1e-9
+    return summarise(diags, t0=start, duration=duration, nav_valid=valid, topic_times=times)
+
+
+def quality_of_log(path: str, t0: float | None = None) -> DataQuality | None:
+    """:func:`read_quality` of the log at ``path``, cached per file (path, size, mtime) and
+    ``t0``; None when ``path`` is not a readable lgvtool log."""
+    import os
+
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return _cached_quality(path, st.st_size, st.st_mtime_ns, t0)
+
+
+@functools.lru_cache(maxsize=16)
+def _cached_quality(path: str, size: int, mtime_ns: int, t0: float | None) -> DataQuality | None:
+    import warnings
+
+    from lgvtool.errors import LgvError
+    from lgvtool.log import LogReader
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return read_quality(LogReader(path), t0)
+    except (LgvError, OSError, ValueError, KeyError):
+        return None

@@ -1,0 +1,234 @@
+"""``lgvtool export``: every trajectory of a log into TUM, KITTI, CSV or Parquet files.
+
+One file set per trajectory, all of the target rotation centre O in the map frame, stamped with
+the log time (s since the Unix epoch), as ``lgvtool evaluate`` scores them
+(:func:`lgvtool.evaluate.evaluation.clean_trajectory`: sorted, finite, one pose per stamp):
+
+- ``NAME``: each estimator's estimate, read from the log's ``/estimate/NAME/pose`` channels if
+  it has any, else run over the log as ``evaluate`` runs them (same seed, same settings);
+- ``nav``: every valid NAV pose of the head converted to O with the mounting
+  (``vehicle.nav_x``, ``vehicle.nav_y``);
+- ``truth``: the ground truth of O (``/truth/pose``), where the log has it;
+- ``truth-at-NAME``: the ground truth interpolated at the stamps of ``NAME`` with the rules of
+  lgvtool's truth metrics (:func:`lgvtool.evaluate.metrics.associate_truth`), so that another
+  tool's absolute trajectory error on the pair equals lgvtool's true position RMSE.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from lgvtool.errors import InputError
+from lgvtool.interop import trajfile
+from lgvtool.interop.options import SAFE_NAME
+from lgvtool.outdir import guard_directory
+from lgvtool.outputs import atomic_output
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from lgvtool.config import Config
+    from lgvtool.log import LogReader
+
+NAV = "nav"
+"""File name of the NAV pose converted to O."""
+TRUTH = "truth"
+"""File name of the ground truth."""
+TRUTH_AT = "truth-at-"
+"""Prefix of the ground truth resampled at a trajectory's stamps."""
+
+
+@dataclass
+class Trajectory:
+    """One trajectory to export: its poses (t s, x m, y m, heading rad) and what it is."""
+
+    name: str
+    poses: pd.DataFrame
+    what: str
+
+
+@dataclass
+class ExportSummary:
+    """What :func:`export_log` wrote."""
+
+    log: str
+    directory: str
+    format: str
+    source: str
+    """'log': estimates read from the log; 'replay': estimators run by export; 'none'."""
+    trajectories: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """name -> {files, poses, what}."""
+    warnings: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict (stable keys)."""
+        return {"log": self.log, "directory": self.directory, "format": self.format,
+                "source": self.source, "trajectories": self.trajectories,
+                "warnings": list(self.warnings)}
+
+    def format_text(self) -> str:
+        """A few lines: the folder, then one line per trajectory."""
+        n = sum(len(v["files"]) for v in self.trajectories.values())
+        lines = [f"wrote {n} file(s) ({self.format}) into {self.directory}"]
+        width = max((len(k) for k in self.trajectories), default=0)
+        lines.extend(f"  {k:<{width}}  {v['poses']:>7} poses  {v['what']}"
+                     for k, v in self.trajectories.items())
+        return "\n".join(lines)
+
+
+def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
+               settings: Mapping[str, Any], start_at_truth: bool, warnings: list[str]
+               ) -> tuple[dict[str, pd.DataFrame], str]:
+    """The estimates of the log (source 'log'), else those of the estimators run over it."""
+    from lgvtool.log import topics
+
+    present = topics.estimator_names(reader.topic_names())
+    if present:
+        chosen = list(names) if names else present
+        missing = [n for n in chosen if n not in present]
+        if missing:
+            raise InputError(f"{reader.path}: no estimates of {', '.join(missing)} in the log "
+                             f"(it holds {', '.join(present)})")
+        if start_at_truth:
+            warnings.append("--start-at-truth has no effect: the log's own estimates are "
+                            "exported")
+        return {n: reader.dataframe(topics.estimate_pose(n)) for n in chosen}, "log"
+    from lgvtool.errors import MissingDataError
+    from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
+
+    try:
+        run = run_replay(reader, list(names) if names else list(DEFAULT_ESTIMATORS), config=cfg,
+                         seed=seed, settings=dict(settings),
+                         initial_pose="truth" if start_at_truth else None)
+    except MissingDataError as exc:
+        if names:
+            raise MissingDataError(f"{reader.path}: {exc}") from None
+        warnings.append(f"no estimator exported: {exc}")
+        return {}, "none"
+    for name, reason in run.skipped.items():
+        if names:
+            raise InputError(f"{reader.path}: {reason}")
+        warnings.append(f"estimator '{name}' left out: {reason}")
+    return dict(run.trajectories), "replay"
+
+
+def nav_at_o(reader: LogReader, cfg: Config) -> pd.DataFrame | None:
+    """The valid NAV poses of the head converted to O (t s, x m, y m, heading rad)."""
+    import numpy as np
+    import pandas as pd
+
+    from lgvtool.localize.geometry import nav_to_o
+    from lgvtool.log import topics
+
+    if not reader.has_topic(topics.NAV_POSE):
+        return None
+    df = reader.dataframe(topics.NAV_POSE)
+    if df.empty:
+        return None
+    df = df[df["valid"].astype(bool)]
+    x, y, h = nav_to_o(df["x"], df["y"], df["heading"], cfg.vehicle.nav_x, cfg.vehicle.nav_y)
+    out = pd.DataFrame({"t": df["t"].to_numpy(dtype=float), "x": x, "y": y, "heading": h})
+    return out[np.isfinite(out[["t", "x", "y", "heading"]]).all(axis=1)]
+
+
+def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
+            config: Config | None = None, seed: int = 0,
+            settings: Mapping[str, Any] | None = None, start_at_truth: bool = False
+            ) -> tuple[list[Trajectory], str, list[str]]:
+    """Every trajectory of the log to export, the estimates' source and warnings."""
+    from lgvtool.evaluate.evaluation import clean_trajectory
+    from lgvtool.evaluate.metrics import associate_truth
+    from lgvtool.log import topics
+
+    cfg = config if config is not None else reader.config()
+    warnings: list[str] = list(reader.warnings)
+    estimates, source = _estimates(reader, estimators, cfg, seed, settings or {},
+                                   start_at_truth, warnings)
+    for name in estimates:
+        if not SAFE_NAME.match(name):
+            raise InputError(f"estimator name '{name}' cannot name a file (letters, digits and "
+                             f"_ . + - only)")
+        if name in (NAV, TRUTH) or name.startswith(TRUTH_AT):
+            raise InputError(f"estimator name '{name}' clashes with an exported file name "
+                             f"({NAV}, {TRUTH}, {TRUTH_AT}*)")
+    how = "read from the log" if source == "log" else f"run by lgvtool export, seed {seed}"
+    out = [Trajectory(n, clean_trajectory(df, n), f"estimator '{n}' ({how})")
+           for n, df in estimates.items()]
+    nav = nav_at_o(reader, cfg)
+    if nav is not None and len(nav):
+        out.append(Trajectory(NAV, clean_trajectory(nav, NAV),
+                              f"NAV head pose converted to O (nav_x {cfg.vehicle.nav_x} m, "
+                              f"nav_y {cfg.vehicle.nav_y} m)"))
+    truth = reader.dataframe(topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
+    if truth is not None and len(truth):
+        true_df = clean_trajectory(truth, TRUTH)
+        resampled = []
+        for tr in out:
+            a = associate_truth(tr.poses, true_df)
+            frame = a[["t", "x_true", "y_true", "heading_true"]].set_axis(
+                ["t", "x", "y", "heading"], axis=1)
+            resampled.append(Trajectory(
+                TRUTH_AT + tr.name, frame,
+                f"ground truth of O interpolated at the {len(frame)} stamps of '{tr.name}' "
+                f"inside the truth"))
+        out.append(Trajectory(TRUTH, true_df, "ground truth of O"))
+        out.extend(resampled)
+    empty = [t.name for t in out if t.poses.empty]
+    for name in empty:
+        warnings.append(f"trajectory '{name}' has no pose: no file written")
+    return [t for t in out if not t.poses.empty], source, warnings
+
+
+def export_log(log: str | Path, directory: str | Path, fmt: str, *,
+               estimators: Sequence[str] | None = None, config: Config | None = None,
+               seed: int = 0, settings: Mapping[str, Any] | None = None,
+               start_at_truth: bool = False, force: bool = False) -> ExportSummary:
+    """Export every trajectory of ``log`` as ``fmt`` files into ``directory`` (created).
+
+    :raises InputError: unknown format, pyarrow missing for Parquet, an output that exists
+        (without ``force``) or is the log, a log without the estimates asked for.
+    """
+    import warnings as pywarnings
+
+    from lgvtool.log import LogReader
+
+    if fmt not in trajfile.FORMATS:
+        raise InputError(f"unknown format '{fmt}' (known: {', '.join(trajfile.FORMATS)})")
+    if fmt == "parquet":
+        trajfile.require_pyarrow()
+    folder = Path(directory)
+    with pywarnings.catch_warnings():
+        pywarnings.simplefilter("ignore")
+        reader = LogReader(log)
+    trajectories, source, warnings = collect(
+        reader, estimators=estimators, config=config, seed=seed, settings=settings,
+        start_at_truth=start_at_truth)
+    if not trajectories:
+        raise InputError(f"{log}: no trajectory to export (no estimate, NAV pose or truth)")
+    plan = [(tr, [folder / n for n in trajfile.file_names(tr.name, fmt)]) for tr in trajectories]
+    guard_directory(folder, [p.name for _tr, paths in plan for p in paths], [log], force=force)
+    folder.mkdir(parents=True, exist_ok=True)
+    summary = ExportSummary(str(log), str(folder), fmt, source, warnings=warnings)
+    name = Path(str(log)).name
+    for tr, paths in plan:
+        meta = {"lgvtool_export_of": name, "trajectory": tr.name, "content": tr.what,
+                "point": "target rotation centre O", "frame": "map",
+                "time": "log time, s since the Unix epoch",
+                "units": "t s, x m, y m, heading rad (counter-clockwise from the map x axis)"}
+        _write(tr.poses, paths, fmt, meta)
+        summary.trajectories[tr.name] = {"files": [p.name for p in paths],
+                                         "poses": len(tr.poses), "what": tr.what}
+    return summary
+
+
+def _write(df: pd.DataFrame, paths: list[Path], fmt: str, meta: Mapping[str, str]) -> None:
+    """Write one trajectory's files, each renamed into place only when complete."""
+    import contextlib
+
+    with contextlib.ExitStack() as stack:
+        temps = [stack.enter_context(atomic_output(p)) for p in paths]
+        trajfile.write_trajectory(df, temps, fmt, meta)
+

@@ -1,0 +1,231 @@
+"""Read the chosen topics of a rosbag2 bag into plain values (``lgvtool import ros2``).
+
+:func:`open_bag` opens a bag folder (``metadata.yaml``), a ``.mcap`` or a ``.db3`` file with
+rosbags; :func:`read_content` decodes every message of the topics chosen for each role
+(:mod:`lgvtool.interop.ros2_roles`) into a :class:`BagContent`: times in int ns (header stamps,
+the bag's receive time where a stamp is zero), positions m, angles rad, speeds m/s and rad/s.
+
+- ``nav_msgs/Odometry``, ``geometry_msgs/TwistStamped``: ``twist.linear.x``,
+  ``twist.angular.z``; the odometry's frame is the vehicle frame;
+- ``sensor_msgs/Imu``: ``angular_velocity.z``;
+- ``sick_scan_xd/NAVPoseData``: the telegram's own ``x``, ``y`` (mm) and ``phi`` (mdeg) in the
+  device's map frame, valid when ``pose_valid`` > 0; a ``geometry_msgs`` pose as it is;
+- ``sick_scan_xd/NAVLandmarkData``: each reflector with polar data as range ``dist`` (mm) and
+  bearing ``phi`` (mdeg, counter-clockwise from the head's x axis), id its ``global_id`` when the
+  optional block is present, else -1; with reflector times on all, ``time_in_scan`` after the
+  earliest and the NAV350's revolution as the scan period;
+- ``tf2_msgs/TFMessage``: the first transform seen for each child frame.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from lgvtool.errors import InputError
+from lgvtool.interop import ros2_roles as R
+from lgvtool.interop.ros2_types import NAV_POSE_DATA, require_rosbags, typestore
+from lgvtool.localize.geometry import wrap_scalar
+from lgvtool.log.messages import yaw_from_quaternion
+
+if TYPE_CHECKING:
+    from rosbags.rosbag2 import Reader
+
+MDEG = math.pi / 180000.0
+"""rad per mdeg (NAV350 angles)."""
+NAV350_PERIOD_S = 0.125
+"""Revolution of the NAV350 head, s (8 Hz): the scan period when reflector times are known."""
+
+
+@dataclass
+class BagContent:
+    """What the chosen topics hold, decoded (times int ns; m, rad, m/s, rad/s)."""
+
+    odom: list[tuple[int, float, float]] = field(default_factory=list)
+    gyro: list[tuple[int, float]] = field(default_factory=list)
+    nav: list[tuple[int, float, float, float, int, bool]] = field(default_factory=list)
+    """t, x, y, heading, reflectors used, valid."""
+    scans: list[tuple[int, float, list[dict[str, Any]]]] = field(default_factory=list)
+    truth: list[tuple[int, float, float, float]] = field(default_factory=list)
+    transforms: dict[str, tuple[str, float, float, float]] = field(default_factory=dict)
+    """child frame -> (parent frame, x m, y m, yaw rad), first seen."""
+    vehicle_frames: list[str] = field(default_factory=list)
+    sensor_frames: list[str] = field(default_factory=list)
+    counts: dict[str, int] = field(default_factory=dict)
+    """Messages read per role and what was dropped (``dropped_*``)."""
+
+    def count(self, key: str, n: int = 1) -> None:
+        """Add ``n`` to counter ``key``."""
+        self.counts[key] = self.counts.get(key, 0) + n
+
+
+def open_bag(path: Path) -> Reader:
+    """An open rosbags reader of a bag folder, ``.mcap`` or ``.db3`` file.
+
+    :raises InputError: no such path, not a rosbag2 bag, a bag rosbags cannot read.
+    """
+    require_rosbags()
+    from rosbags.rosbag2 import Reader, ReaderError
+
+    if not path.exists():
+        raise InputError(f"{path}: no such file or folder")
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        raise InputError(f"{path}: a folder without metadata.yaml, not a rosbag2 bag")
+    if path.is_file() and path.suffix not in (".mcap", ".db3"):
+        raise InputError(f"{path}: not a rosbag2 bag (expected a bag folder, a .mcap or a .db3 "
+                         f"file)")
+    try:
+        reader = Reader(path)
+        reader.open()
+    except (ReaderError, KeyError, ValueError, TypeError, OSError) as exc:
+        text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"{path}: not a readable rosbag2 bag ({text})") from None
+    except Exception as exc:  # the storage readers raise what their parsers raise
+        raise InputError(f"{path}: not a readable rosbag2 bag ({type(exc).__name__}: "
+                         f"{exc})") from None
+    return reader
+
+
+def _ns(header: Any, bag_ns: int) -> int:
+    """A header's stamp in ns, or the bag time when it is zero."""
+    ns = int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+    return ns if ns > 0 else int(bag_ns)
+
+
+def _yaw(q: Any) -> float:
+    return yaw_from_quaternion({"x": q.x, "y": q.y, "z": q.z, "w": q.w})
+
+
+def _finite(*values: float) -> bool:
+    return all(math.isfinite(v) for v in values)
+
+
+def frame_name(name: str) -> str:
+    """A tf frame name without blanks and a leading slash."""
+    return name.strip().lstrip("/")
+
+
+# ------------------------------------------------------------------ one reader per role
+
+
+def _read_odom(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+    twist = msg.twist.twist if msgtype == R.ODOMETRY else msg.twist
+    v, w = float(twist.linear.x), float(twist.angular.z)
+    frame = msg.child_frame_id if msgtype == R.ODOMETRY else msg.header.frame_id
+    if frame and frame_name(frame) not in c.vehicle_frames:
+        c.vehicle_frames.append(frame_name(frame))
+    if not _finite(v, w):
+        c.count("dropped_odom_not_finite")
+        return
+    c.odom.append((_ns(msg.header, ns), v, w))
+
+
+def _read_gyro(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
+    w = float(msg.angular_velocity.z)
+    if not _finite(w):
+        c.count("dropped_gyro_not_finite")
+        return
+    c.gyro.append((_ns(msg.header, ns), w))
+
+
+def _read_nav(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+    if msgtype == NAV_POSE_DATA:
+        x, y, h = msg.x / 1000.0, msg.y / 1000.0, wrap_scalar(msg.phi * MDEG)
+        used = int(msg.quant_used_reflectors) if msg.opt_pose_data_valid else 0
+        valid = int(msg.pose_valid) > 0
+        if msg.header.frame_id and frame_name(msg.header.frame_id) not in c.sensor_frames:
+            c.sensor_frames.append(frame_name(msg.header.frame_id))
+    else:
+        pose = msg.pose.pose if msgtype == R.POSE_COV else msg.pose
+        x, y, h = float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)
+        used, valid = 0, True
+    if not _finite(x, y, h):
+        c.count("dropped_nav_not_finite")
+        return
+    c.nav.append((_ns(msg.header, ns), x, y, wrap_scalar(h), min(used, 255), valid))
+
+
+def _read_reflectors(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
+    if msg.header.frame_id and frame_name(msg.header.frame_id) not in c.sensor_frames:
+        c.sensor_frames.append(frame_name(msg.header.frame_id))
+    seen: list[tuple[float, float, int, int | None]] = []
+    for r in msg.reflectors:
+        if not r.polar_data_valid:
+            c.count("dropped_reflectors_without_polar_data")
+            continue
+        rng, bearing = r.dist / 1000.0, wrap_scalar(r.phi * MDEG)
+        ident = int(r.global_id) if r.opt_reflector_data_valid else -1
+        tick = int(r.timestamp) if r.opt_reflector_data_valid and r.timestamp else None
+        seen.append((rng, bearing, ident, tick))
+    ticks = [s[3] for s in seen if s[3] is not None]
+    timed = len(ticks) == len(seen) and bool(seen)
+    # ms ticks of a 32-bit counter: differences to the first one, across a wrap-around
+    rel = [(t - ticks[0] + 2**31) % 2**32 - 2**31 for t in ticks] if timed else []
+    start = min(rel, default=0)
+    obs = [{"range": rng, "bearing": b, "id": i,
+            "time_in_scan": (rel[k] - start) / 1000.0 if timed else 0.0}
+           for k, (rng, b, i, _tick) in enumerate(seen)]
+    period = max([NAV350_PERIOD_S, *(o["time_in_scan"] for o in obs)]) if timed else 0.0
+    c.scans.append((_ns(msg.header, ns), period, obs))
+
+
+def _read_truth(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+    pose = msg.pose.pose if msgtype in (R.POSE_COV, R.ODOMETRY) else msg.pose
+    x, y, h = float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)
+    if not _finite(x, y, h):
+        c.count("dropped_truth_not_finite")
+        return
+    c.truth.append((_ns(msg.header, ns), x, y, h))
+
+
+def _read_tf(c: BagContent, msg: Any, _msgtype: str, _ns_: int) -> None:
+    for tr in msg.transforms:
+        child = frame_name(tr.child_frame_id)
+        if child in c.transforms:
+            continue
+        t, q = tr.transform.translation, tr.transform.rotation
+        c.transforms[child] = (frame_name(tr.header.frame_id), float(t.x), float(t.y), _yaw(q))
+
+
+_READERS: dict[str, Callable[[BagContent, Any, str, int], None]] = {
+    "odom": _read_odom, "gyro": _read_gyro, "nav": _read_nav, "reflectors": _read_reflectors,
+    "truth": _read_truth, "tf": _read_tf,
+}
+
+
+def read_content(reader: Reader, chosen: Mapping[str, Sequence[str]]) -> BagContent:
+    """Decode every message of the chosen topics (CDR, with the bag's and SICK's types).
+
+    :raises InputError: a message that does not decode as its topic's type.
+    """
+    role_of = {t: role for role, ts in chosen.items() for t in ts}
+    conns = [c for c in reader.connections if c.topic in role_of]
+    store = typestore(conns)
+    for conn in conns:
+        if conn.msgtype not in store.types:
+            raise InputError(f"topic {conn.topic}: message type {conn.msgtype} is unknown "
+                             f"(neither a standard ROS 2 type nor defined in the bag)")
+    content = BagContent()
+    for conn, bag_ns, raw in _messages(reader, conns):
+        role = role_of[conn.topic]
+        try:
+            msg = store.deserialize_cdr(raw, conn.msgtype)
+        except Exception as exc:  # rosbags raises whatever a truncated buffer gives
+            raise InputError(f"topic {conn.topic}: a message at {bag_ns / 1e9:.3f} s is not a "
+                             f"valid {conn.msgtype} ({type(exc).__name__})") from None
+        _READERS[role](content, msg, conn.msgtype, bag_ns)
+        content.count(role)
+    return content
+
+
+def _messages(reader: Reader, conns: Sequence[Any]) -> Iterator[tuple[Any, int, bytes]]:
+    try:
+        yield from reader.messages(connections=conns)
+    except InputError:
+        raise
+    except Exception as exc:
+        raise InputError(f"{reader.path}: the bag is damaged ({type(exc).__name__}: "
+                         f"{exc})") from None

@@ -1,0 +1,292 @@
+"""Estimators fed message by message, as a recording arrives (the live view's estimate).
+
+:class:`OnlineEstimator` takes the log's own messages (``/mcu/frame`` or ``/odom/twist``,
+``/nav/pose``, ``/nav/reflectors``, ``/map/reflectors``) one at a time, in arrival order, and
+returns the messages replay would write for the estimate (``/estimate/NAME/pose``, ``/state``,
+``/particles``, same schemas and JSON layout). It uses the same estimators, parameters,
+motion integration and observation geometry as ``lgvtool replay``; what differs is what an online
+estimate cannot know:
+
+- the motion between two observations comes from the MCU frames received so far (those after
+  the last frame are not yet there; their motion is applied at the next observation, so none is
+  lost);
+- an observation older than the last one applied is applied at the last one's time;
+- ``observations = auto`` uses reflector scans once one has arrived (and a map is known), NAV
+  poses before;
+- the paper filter's ``scans = nav-poll`` takes, at each NAV pose, the last scan received before
+  it.
+
+Times are the messages' own stamps (ns), as in replay. Processing time per update (s) is kept
+in :attr:`OnlineEstimator.update_seconds`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import orjson
+
+from lgvtool.config import Config, Reflector
+from lgvtool.localize.estimator import Estimator, Motion, cloud_sample
+from lgvtool.localize.motion import (
+    MotionTrack,
+    increments_from_mcu,
+    increments_from_twist,
+)
+from lgvtool.localize.observations import PoseObservation, RawScan, scan_observation, sources
+from lgvtool.localize.registry import ESTIMATORS, check_names, resolve_params, split_settings
+from lgvtool.localize.replay import estimator_rng
+from lgvtool.log import messages, topics
+
+__all__ = ["INPUT_TOPICS", "OnlineEstimator", "Output"]
+
+#: the topics an online estimator reads
+INPUT_TOPICS = frozenset({topics.MCU_FRAME, topics.ODOM, topics.NAV_POSE, topics.NAV_REFLECTORS,
+                          topics.MAP})
+#: motion samples kept behind the last applied motion, s (covers a revolution's de-skew)
+_KEEP_S = 2.0
+
+
+@dataclass(frozen=True, slots=True)
+class Output:
+    """One message to publish: topic, schema name, JSON bytes, time (ns since the epoch)."""
+
+    topic: str
+    schema: str
+    data: bytes
+    t_ns: int
+
+
+def _stamp_ns(doc: Mapping[str, Any], log_ns: int) -> int:
+    """A message's own ``timestamp`` (ns), else its log time."""
+    ts = doc.get("timestamp")
+    if isinstance(ts, Mapping):
+        try:
+            return int(ts["sec"]) * 1_000_000_000 + int(ts["nsec"])
+        except (KeyError, TypeError, ValueError):
+            pass
+    return int(log_ns)
+
+
+class OnlineEstimator:
+    """One estimator run on messages as they arrive.
+
+    :param name: estimator name (``pf``, ``ekf``, ...; see ``lgvtool replay --help``).
+    :param config: vehicle, area, reflectors and ``[estimators.*]`` settings; without reflectors
+        the map is taken from ``/map/reflectors`` when it arrives.
+    :param seed: seed of the estimator's random draws (as in replay).
+    :param settings: ``{"<name>.<param>": value}`` overrides.
+    :param cloud_period_s: publish one particle cloud per this many seconds of data, s.
+    :param cloud_size: at most this many particles per cloud (0: none).
+    """
+
+    def __init__(self, name: str, config: Config, *, seed: int = 0,
+                 settings: Mapping[str, Any] | None = None, cloud_period_s: float = 0.5,
+                 cloud_size: int = 100) -> None:
+        check_names([name])
+        self.name = name
+        self.cls: type[Estimator] = ESTIMATORS[name]
+        self.params = resolve_params(name, config.estimators, split_settings(settings).get(name))
+        self.config = config
+        self.seed = seed
+        self.reflectors: tuple[Reflector, ...] = tuple(config.reflectors)
+        self.motion = self.params.motion_settings() if self.cls.uses_motion else None
+        self.cloud_period_s = cloud_period_s
+        self.cloud_size = cloud_size
+        self.est: Estimator | None = None
+        self._mcu: list[tuple[float, int, int, int, int, float]] = []
+        self._twist: list[tuple[float, float, float]] = []
+        self._t0_ns: int | None = None
+        self._motion_t: float | None = None
+        self._scans_seen = False
+        self._poses_seen = False
+        self._last_scan: RawScan | None = None
+        self._next_cloud = -math.inf
+        self._topics = (topics.estimate_pose(name), topics.estimate_state(name),
+                        topics.estimate_particles(name))
+        #: processing time of every observation applied, s
+        self.update_seconds: list[float] = []
+
+    @property
+    def output_topics(self) -> tuple[str, ...]:
+        """The topics this estimator publishes: pose, state and (particle filters) cloud."""
+        return self._topics
+
+    # ------------------------------------------------------------------ input
+    def feed(self, topic: str, data: bytes, log_time_ns: int) -> list[Output]:
+        """Take one message of the log (JSON bytes); return the estimate messages it caused."""
+        if topic not in INPUT_TOPICS:
+            return []
+        doc = orjson.loads(data)
+        t_ns = _stamp_ns(doc, log_time_ns)
+        if self._t0_ns is None:
+            self._t0_ns = t_ns
+        t = (t_ns - self._t0_ns) * 1e-9
+        if topic == topics.MCU_FRAME:
+            self._mcu.append((t, int(doc["seq"]), int(doc["mcu_time_ms"]), int(doc["enc_left"]),
+                              int(doc["enc_right"]), float(doc["gyro_rate"])))
+            return []
+        if topic == topics.ODOM:
+            self._twist.append((t, float(doc["v"]), float(doc["omega"])))
+            return []
+        if topic == topics.MAP:
+            if not self.reflectors:
+                self.reflectors = messages.reflectors_from_message(doc)
+            return []
+        if topic == topics.NAV_REFLECTORS:
+            return self._on_scan(doc, t, (log_time_ns - self._t0_ns) * 1e-9)
+        return self._on_pose(doc, t)
+
+    def _uses(self) -> tuple[bool, bool]:
+        has_scans = self.cls.uses_scans and self._scans_seen and bool(self.reflectors)
+        has_poses = self.cls.uses_poses and self._poses_seen
+        return sources(getattr(self.params, "observations", "both"), has_scans, has_poses)
+
+    def _on_scan(self, doc: Mapping[str, Any], t: float, received: float) -> list[Output]:
+        obs = doc.get("observations") or []
+        scan = RawScan(t, float(doc.get("scan_period", 0.0)),
+                       np.array([o["range"] for o in obs], dtype=np.float64),
+                       np.array([o["bearing"] for o in obs], dtype=np.float64),
+                       np.array([o["time_in_scan"] for o in obs], dtype=np.float64),
+                       np.array([o["id"] for o in obs], dtype=np.int64))
+        self._scans_seen = True
+        if getattr(self.params, "scans", "all") == "nav-poll":
+            self._last_scan = scan
+            return []
+        return self._apply_scan(scan)
+
+    def _apply_scan(self, scan: RawScan) -> list[Output]:
+        use_scans, _ = self._uses()
+        if not use_scans:
+            return []
+        started = time.perf_counter()
+        track = self._track()
+        p = self.params
+        o = scan_observation(scan, self.config.vehicle.nav_x, self.config.vehicle.nav_y,
+                             track=track, deskew=bool(getattr(p, "deskew", False)),
+                             min_range=float(getattr(p, "min_range_m", 0.0)),
+                             max_range=float(getattr(p, "max_range_m", math.inf)))
+        return self._apply(o, o.t, track, started)
+
+    def _on_pose(self, doc: Mapping[str, Any], t: float) -> list[Output]:
+        out: list[Output] = []
+        if self._last_scan is not None:
+            scan, self._last_scan = self._last_scan, None
+            out.extend(self._apply_scan(scan))
+        x, y, h = (float(doc.get(k) or math.nan) for k in ("x", "y", "heading"))
+        if not (doc.get("valid") and math.isfinite(x) and math.isfinite(y) and math.isfinite(h)):
+            return out
+        self._poses_seen = True
+        lat = float(getattr(self.params, "pose_latency_s", 0.0))
+        obs = PoseObservation(t - lat, x, y, h)
+        _, use_poses = self._uses()
+        if use_poses:
+            started = time.perf_counter()
+            out.extend(self._apply(obs, obs.t, self._track(), started))
+        elif self.reflectors or not self.cls.uses_scans:
+            # an estimator that does not update with NAV poses may still start from one
+            if self.est is None:
+                self.est = self._build()
+            if self.est.initialized:
+                return out
+            self.est.update(obs)
+            self._motion_t = min(obs.t, max(self._motion_end(), -1e300))
+        return out
+
+    # ------------------------------------------------------------------ motion
+    def _motion_end(self) -> float:
+        """Time of the last motion sample received, s (-inf if none)."""
+        if self._mcu:
+            return self._mcu[-1][0]
+        if self._twist:
+            return self._twist[-1][0]
+        return -math.inf
+
+    def _track(self) -> MotionTrack | None:
+        """The odometry of the motion samples kept, or None without motion input."""
+        ms = self.motion
+        if ms is None:
+            return None
+        if self._mcu:
+            a = np.array(self._mcu, dtype=np.float64)
+            inc = increments_from_mcu(a[:, 0], a[:, 1].astype(np.int64), a[:, 2].astype(np.int64),
+                                      a[:, 3].astype(np.int64), a[:, 4].astype(np.int64), a[:, 5],
+                                      self.config.vehicle, ms)
+        elif self._twist:
+            a = np.array(self._twist, dtype=np.float64)
+            inc = increments_from_twist(a[:, 0], a[:, 1], a[:, 2])
+        else:
+            return None
+        return MotionTrack(inc, ms.step_form) if len(inc.t) >= 2 else None
+
+    def _trim(self) -> None:
+        """Drop motion samples older than needed (keep :data:`_KEEP_S` behind the motion
+        applied, and always the two last)."""
+        if self._motion_t is None:
+            return
+        horizon = self._motion_t - _KEEP_S
+        for buf in (self._mcu, self._twist):
+            k = 0
+            while k < len(buf) - 2 and buf[k + 1][0] < horizon:
+                k += 1
+            if k:
+                del buf[:k]
+
+    # ------------------------------------------------------------------ update
+    def _build(self) -> Estimator:
+        return self.cls(self.params, vehicle=self.config.vehicle, reflectors=self.reflectors,
+                        area=self.config.area, rng=estimator_rng(self.seed, self.name))
+
+    def _apply(self, obs: Any, t_obs: float, track: MotionTrack | None,
+               started: float) -> list[Output]:
+        if self.est is None:
+            self.est = self._build()
+        est = self.est
+        if est.uses_motion and track is not None and self._motion_t is not None:
+            # all the motion received up to the observation (none beyond the last sample)
+            upto = max(self._motion_t, min(t_obs, self._motion_end()))
+            if upto > self._motion_t:
+                d = track.deltas(np.array([self._motion_t]), np.array([upto]))
+                est.predict(Motion(float(d.dx[0]), float(d.dy[0]), float(d.dth[0]),
+                                   float(d.dist[0]), float(d.rot[0])))
+                self._motion_t = upto
+        elif self._motion_t is None:
+            self._motion_t = min(t_obs, self._motion_end()) if track is not None else t_obs
+        est.update(obs)
+        self._trim()
+        out = self._outputs(max(t_obs, self._motion_t))
+        self.update_seconds.append(time.perf_counter() - started)
+        return out
+
+    def _outputs(self, t: float) -> list[Output]:
+        assert self.est is not None and self._t0_ns is not None
+        e = self.est.estimate()
+        if e is None:
+            return []
+        t_ns = self._t0_ns + round(t * 1e9)
+        heading = math.remainder(e.heading, 2.0 * math.pi)
+        pose_t, state_t, cloud_t = self._topics
+        out = [
+            Output(pose_t, "foxglove.PoseInFrame",
+                   orjson.dumps(messages.pose_in_frame(t_ns, e.x, e.y, heading)), t_ns),
+            Output(state_t, "lgvtool.PoseEstimate", orjson.dumps({
+                "timestamp": messages.stamp(t_ns), "estimator": self.name, "x": e.x, "y": e.y,
+                "heading": heading,
+                "covariance": np.asarray(e.covariance, dtype=np.float64).ravel().tolist(),
+                "particles": int(e.particles), "ess": float(e.ess)}), t_ns),
+        ]
+        if self.cloud_size > 0 and t >= self._next_cloud:
+            c = self.est.cloud()
+            if c is not None:
+                sel = cloud_sample(len(c[0]), self.cloud_size)
+                poses = zip(c[0][sel].tolist(), c[1][sel].tolist(), c[2][sel].tolist(),
+                            strict=True)
+                out.append(Output(cloud_t, "foxglove.PosesInFrame",
+                                  orjson.dumps(messages.poses_in_frame(t_ns, poses)), t_ns))
+                self._next_cloud = t + self.cloud_period_s
+        return out

@@ -1,0 +1,133 @@
+"""Command-line options shared by every command: one grammar for the whole tool.
+
+* ``-e/--estimator NAME`` is repeatable and takes comma-separated lists (``-e laser,pf -e ekf``);
+* ``--set KEY=VALUE`` wherever estimators (or the simulator) run;
+* ``-o`` never replaces an existing file without ``--force`` (:mod:`lgvtool.outputs`);
+* ``--compression`` defaults to :data:`DEFAULT_COMPRESSION` in every command that writes a log;
+* every number goes through :func:`lgvtool.values.coerce` (:class:`Number`), so an option and
+  the same value in a configuration file are refused alike;
+* ``--scheduler`` with ``--tls-ca-file/--tls-cert/--tls-key`` wherever a Dask cluster is used.
+
+Only click is imported here, so ``lgvtool --help`` stays instant.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
+
+import click
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+DEFAULT_COMPRESSION = "zstd"
+"""Chunk compression of every log lgvtool writes: zstd gives files about a third smaller than
+lz4 at a decompression speed that is never the bottleneck of a replay (docs/performance.md)."""
+COMPRESSIONS = ("zstd", "lz4", "none")
+
+
+class Number(click.ParamType):  # type: ignore[type-arg]  # generic only in newer click
+    """A number option checked by the one coercer (:func:`lgvtool.values.coerce`).
+
+    ``kind`` is int or float; the bounds are as for ``coerce`` (an int without ``maximum``
+    is at most :data:`lgvtool.values.MAX_COUNT`). NaN and infinity are refused.
+    """
+
+    def __init__(self, kind: type, minimum: float | None = None, maximum: float | None = None,
+                 *, min_open: bool = False) -> None:
+        self.kind = kind
+        self.minimum = minimum
+        self.maximum = maximum
+        self.min_open = min_open
+        self.name = "integer" if kind is int else "number"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        from lgvtool.errors import ConfigError
+        from lgvtool.values import coerce, parse_scalar
+
+        where = max(param.opts, key=len) if param is not None and param.opts else "value"
+        if isinstance(value, str):
+            try:
+                value = parse_scalar(value, self.kind)
+            except ValueError:
+                noun = "an integer" if self.kind is int else "a number"
+                raise ConfigError(f"{where} must be {noun}, got {value!r}") from None
+        return coerce(where, value, self.kind, minimum=self.minimum, maximum=self.maximum,
+                      min_open=self.min_open)
+
+
+def positive(maximum: float) -> Number:
+    """A number above 0 and at most ``maximum`` (a duration, a period, a size)."""
+    return Number(float, 0.0, maximum, min_open=True)
+
+
+def split_names(values: Sequence[str]) -> list[str]:
+    """``-e`` values, repeated and comma-separated, flattened in order (empty parts dropped)."""
+    return [n.strip() for v in values for n in v.split(",") if n.strip()]
+
+
+def force_option(f: F) -> F:
+    """``--force``: replace an existing output (one policy for every command)."""
+    return click.option("--force", is_flag=True,
+                        help="Replace an existing output (never an input).")(f)
+
+
+def estimator_option(help_text: str) -> Callable[[F], F]:
+    """``-e/--estimator NAME``: repeatable and comma-separated; flatten with :func:`split_names`."""
+    return click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME[,NAME]",
+                        help=f"{help_text} (repeatable or comma-separated).")
+
+
+def set_option(help_text: str = "Estimator parameter, e.g. pf.particles=500 or "
+               "pf-paper.spread_m=0.3 (repeatable; docs/filter.md lists them).") -> Callable[[F], F]:
+    """``--set KEY=VALUE`` (repeatable)."""
+    return click.option("--set", "sets", multiple=True, metavar="KEY=VALUE", help=help_text)
+
+
+def compression_option(help_text: str = "MCAP chunk compression.") -> Callable[[F], F]:
+    """``--compression`` with the one default :data:`DEFAULT_COMPRESSION`."""
+    return click.option("--compression", type=click.Choice(COMPRESSIONS),
+                        default=DEFAULT_COMPRESSION, show_default=True, help=help_text)
+
+
+def seed_option(help_text: str) -> Callable[[F], F]:
+    """``--seed N``: a non-negative integer."""
+    from lgvtool.values import MAX_SEED
+
+    return click.option("--seed", type=Number(int, 0, MAX_SEED), default=0, show_default=True,
+                        help=help_text)
+
+
+def workers_type() -> Number:
+    """Worker processes: 1 to :func:`lgvtool.values.max_workers`."""
+    from lgvtool.values import max_workers
+
+    return Number(int, 1, max_workers())
+
+
+def scheduler_options(f: F) -> F:
+    """``--scheduler URL`` and the TLS options of a remote Dask scheduler (docs/fleet.md)."""
+    f = click.option("--tls-key", type=click.Path(exists=True, dir_okay=False), metavar="PEM",
+                     help="Private key of --tls-cert, when not in that file.")(f)
+    f = click.option("--tls-cert", type=click.Path(exists=True, dir_okay=False), metavar="PEM",
+                     help="This client's certificate for a tls:// scheduler.")(f)
+    f = click.option("--tls-ca-file", type=click.Path(exists=True, dir_okay=False),
+                     metavar="PEM", help="CA certificate that signed the tls:// scheduler's "
+                                         "certificate.")(f)
+    return click.option("--scheduler", metavar="tls://HOST:PORT",
+                        help="Run on this Dask scheduler instead of a local cluster; it and its "
+                             "workers are trusted to run code here (docs/fleet.md).")(f)
+
+
+def warn(text: str) -> None:
+    """``lgvtool: warning: TEXT`` on stderr, control characters stripped (text from a log)."""
+    from lgvtool.outputs import printable
+
+    click.echo(f"lgvtool: warning: {printable(text)}", err=True)
+
+
+def progress_option(help_text: str = "Progress on stderr once the work takes over a second.",
+                    ) -> Callable[[F], F]:
+    """``--progress/--no-progress`` (parameter ``show_progress``), on every long command."""
+    return click.option("--progress/--no-progress", "show_progress", default=True,
+                        show_default=True, help=help_text)

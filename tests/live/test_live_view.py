@@ -1,0 +1,213 @@
+"""The live view: a log played to the Foxglove WebSocket server, seen by a protocol client."""
+
+from __future__ import annotations
+
+import json
+import math
+import socket
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("foxglove")
+pytest.importorskip("websockets")
+
+from foxglove_client import collect
+
+from lgvtool.errors import InputError
+from lgvtool.live.online import OnlineEstimator
+from lgvtool.live.playback import play, prepare_channels
+from lgvtool.live.server import LiveAddress, LiveServer, parse_address
+from lgvtool.live.tap import LiveFeed, TappedLogWriter
+from lgvtool.log import LogReader, topics
+from lgvtool.log.schemas import schema_bytes
+
+
+def test_address_parsing() -> None:
+    assert parse_address("8765") == LiveAddress("127.0.0.1", 8765)
+    assert parse_address("0.0.0.0:9000") == LiveAddress("0.0.0.0", 9000)
+    assert parse_address("[::1]:9001") == LiveAddress("::1", 9001)
+    assert parse_address("localhost:0") == LiveAddress("localhost", 0)
+    for bad in ("", "host:", ":80", "x:99999", "[::1]9", "abc"):
+        with pytest.raises(InputError):
+            parse_address(bad)
+
+
+def _busy_port() -> tuple[socket.socket, int]:
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    s.listen()
+    return s, s.getsockname()[1]
+
+
+def test_port_in_use_and_unknown_host_are_bad_input() -> None:
+    s, port = _busy_port()
+    try:
+        with pytest.raises(InputError, match="cannot listen"):
+            LiveServer(LiveAddress("127.0.0.1", port))
+    finally:
+        s.close()
+    with pytest.raises(InputError, match="does not resolve"):
+        LiveServer(LiveAddress("no-such-host.invalid", 0))
+
+
+@pytest.mark.parametrize("how", ["port", "host"])
+def test_record_live_fails_before_recording(tmp_path: Path, how: str) -> None:
+    """One line, exit 2, and no log file: the recording never started."""
+    s, port = _busy_port()
+    live = f"127.0.0.1:{port}" if how == "port" else "no-such-host.invalid:8765"
+    out = tmp_path / "run.mcap"
+    try:
+        p = subprocess.run([sys.executable, "-m", "lgvtool", "record", "--mcu",
+                            "tcp://127.0.0.1:9", "-o", str(out), "--duration", "1",
+                            "--no-status", "--live", live, "--live-estimator", "pf"],
+                           capture_output=True, text=True, timeout=60)
+    finally:
+        s.close()
+    assert p.returncode == 2, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("lgvtool: error: --live"), p.stderr
+    assert "Traceback" not in p.stderr
+    assert not out.exists()
+
+
+def test_view_live_port_in_use(circle_log: Path) -> None:
+    s, port = _busy_port()
+    try:
+        p = subprocess.run([sys.executable, "-m", "lgvtool", "view", str(circle_log), "--live",
+                            str(port)], capture_output=True, text=True, timeout=60)
+    finally:
+        s.close()
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+
+
+def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_log: Path
+                                                                         ) -> None:
+    reader = LogReader(circle_log)
+    server = LiveServer(LiveAddress("127.0.0.1", 0))
+    prepare_channels(server, reader)
+    feed = LiveFeed(server,
+                    [OnlineEstimator("pf", reader.config(), settings={"pf.particles": 500})])
+    done: dict[str, object] = {}
+    player = threading.Thread(target=lambda: done.update(r=play(reader, feed, speed=6.0)))
+    player.start()
+    try:
+        wanted = {topics.NAV_POSE, topics.MCU_FRAME, topics.NAV_REFLECTORS,
+                  topics.estimate_pose("pf"), topics.estimate_state("pf"), topics.MAP}
+        got = collect(feed.server.url, None, timeout=8.0)  # the 30 s log plays in 5 s
+    finally:
+        player.join(60)
+        feed.close()
+    assert got.subprotocol in ("foxglove.websocket.v1", "foxglove.sdk.v1")
+    assert got.server_info["op"] == "serverInfo" and "time" in got.server_info["capabilities"]
+    # the same topics, schemas and encoding as the log, plus the online estimate
+    log_topics = reader.topics()
+    assert set(log_topics) <= set(got.channels)
+    for topic, info in log_topics.items():
+        ch = got.channels[topic]
+        assert ch["encoding"] == "json" and ch["schemaEncoding"] == "jsonschema"
+        assert ch["schemaName"] == info.schema
+        assert json.loads(ch["schema"]) == json.loads(schema_bytes(info.schema))
+    assert got.channels[topics.estimate_pose("pf")]["schemaName"] == "foxglove.PoseInFrame"
+    # every subscribed topic received; the map (published once) reached the late subscriber
+    assert wanted <= set(got.messages)
+    (refl,) = {json.dumps(m) for _, m in got.messages[topics.MAP]}
+    assert len(json.loads(refl)["reflectors"]) == len(reader.reflector_map())
+    # the messages are the log's bytes, decoded
+    poses = [m for _, m in got.messages[topics.NAV_POSE]]
+    logged = {json.dumps(m.data, sort_keys=True) for m in reader.messages([topics.NAV_POSE])}
+    assert all(json.dumps(p, sort_keys=True) in logged for p in poses)
+    # the online pf follows the ground truth
+    truth = reader.dataframe(topics.TRUTH)
+    est = got.messages[topics.estimate_state("pf")]
+    t = np.array([ts for ts, _ in est]) * 1e-9
+    err = np.hypot(np.array([m["x"] for _, m in est]) - np.interp(t, truth.t, truth.x),
+                   np.array([m["y"] for _, m in est]) - np.interp(t, truth.t, truth.y))
+    assert len(est) > 50 and float(np.median(err[len(err) // 4:])) < 0.15
+    assert all(len(m["covariance"]) == 9 and math.isfinite(m["heading"]) for _, m in est)
+    assert got.times, "the playback broadcasts the data's time"
+    assert done["r"].messages == sum(i.count for i in log_topics.values())  # type: ignore[attr-defined]
+    stats = feed.stats()
+    assert stats["failures"] == 0 and stats["latency"]["count"] > 50
+
+
+class _Recorder:
+    def __init__(self) -> None:
+        self.seen: list[tuple[str, str, bytes, int]] = []
+
+    def message(self, topic: str, schema: str, data: bytes, log_time_ns: int) -> None:
+        self.seen.append((topic, schema, data, log_time_ns))
+
+
+@pytest.mark.parametrize("chunk_seconds", [1.0, None])
+def test_tapped_writer_hands_on_exactly_what_it_writes(tmp_path: Path, circle_log: Path,
+                                                       chunk_seconds: float | None) -> None:
+    tap = _Recorder()
+    out = tmp_path / "copy.mcap"
+    src = LogReader(circle_log)
+    msgs = list(src.raw_messages())
+    with TappedLogWriter(out, tap=tap, chunk_seconds=chunk_seconds) as w:
+        w.write_map(src.reflector_map(), msgs[0].log_time_ns)
+        w.write_diagnostic("test", "gap", "a gap", msgs[0].log_time_ns)
+        w.write_encoded_many([m.topic for m in msgs if m.topic.startswith("/nav")],
+                             [m.data for m in msgs if m.topic.startswith("/nav")],
+                             [m.log_time_ns for m in msgs if m.topic.startswith("/nav")])
+    back = [(m.topic, m.schema, m.data, m.log_time_ns) for m in LogReader(out).raw_messages()]
+    assert sorted(tap.seen) == sorted(back)
+    assert {t for t, *_ in tap.seen} >= {topics.MAP, topics.MAP_SCENE, topics.DIAGNOSTICS,
+                                          topics.DIAGNOSTICS_LOG, topics.NAV_POSE}
+
+
+class _StubServer:
+    url = "ws://stub"
+
+    def __init__(self) -> None:
+        self.counts: dict[str, int] = {}
+        self.published: list[str] = []
+
+    def prepare(self, channels: dict[str, str]) -> None:
+        pass
+
+    def publish(self, topic: str, schema: str, data: bytes, t_ns: int) -> None:
+        self.published.append(topic)
+        self.counts[topic] = self.counts.get(topic, 0) + 1
+
+    def close(self) -> None:
+        pass
+
+
+class _SlowEstimator:
+    name = "slow"
+    output_topics = ("/estimate/slow/pose",)
+    def __init__(self) -> None:
+        self.seen: list[str] = []
+        self.update_seconds: list[float] = []
+
+    def feed(self, topic: str, data: bytes, t_ns: int) -> list:
+        import time
+
+        from lgvtool.live.online import Output
+
+        self.seen.append(topic)
+        if topic != topics.NAV_REFLECTORS:
+            return []
+        time.sleep(0.3)
+        return [Output("/estimate/slow/pose", "foxglove.PoseInFrame", b"{}", t_ns)]
+
+
+def test_a_lagging_estimator_skips_stale_observations_but_never_motion() -> None:
+    est = _SlowEstimator()
+    feed = LiveFeed(_StubServer(), [est])  # type: ignore[arg-type,list-item]
+    for i in range(8):
+        feed.message(topics.NAV_REFLECTORS, "lgvtool.ReflectorScan", b"{}", i)
+        feed.message(topics.MCU_FRAME, "lgvtool.McuFrame", b"{}", i)
+    feed.close(timeout=30.0)
+    assert feed.shed >= 1
+    assert est.seen.count(topics.MCU_FRAME) == 8            # motion is never skipped
+    assert est.seen.count(topics.NAV_REFLECTORS) == 8 - feed.shed
+    assert est.seen[-2:] == [topics.NAV_REFLECTORS, topics.MCU_FRAME]   # the newest is used
+    assert feed.stats()["shed"] == feed.shed
