@@ -35,16 +35,16 @@ from lgvtool.devices.nav350.clock import ClockEstimate, ClockEstimator
 from lgvtool.devices.nav350.cola import BINARY
 from lgvtool.devices.nav350.stream import Nav350StreamDecoder
 from lgvtool.devices.nav350.telegrams import ERROR_CODES, LayoutLandmark, PoseData, Telegram
-from lgvtool.wire.events import ERROR, INFO, WARNING, DecodeEvent, DecoderStats
+from lgvtool.wire.events import ERROR, WARNING, DecodeEvent, DecoderStats
 
 __all__ = [
     "ClockRead",
     "DeviceSilent",
     "Identity",
     "LayoutUploaded",
-    "NavigationEntered",
     "Nav350Session",
     "Nav350Settings",
+    "NavigationEntered",
     "PoseDataReceived",
     "SessionFatal",
 ]
@@ -54,6 +54,11 @@ ADD_CHUNK = 50
 #: Fewest landmarks a layout must have to be uploaded.
 MIN_LAYOUT = 3
 _REPLY_KIND = {"sMN": "sAN", "sRN": "sRA", "sWN": "sWA", "sEN": "sEA"}
+#: sFA codes that mean "this device has no such telegram" (access denied, unknown method,
+#: unknown name, unknown CoLa command).
+_NOT_SUPPORTED = frozenset({1, 2, 11, 12})
+#: Clock reads at start, spaced this much apart (an estimate within a second), s.
+_FAST_CLOCK_READS, _FAST_CLOCK_PERIOD = 5, 0.1
 
 
 @dataclass(frozen=True)
@@ -271,7 +276,8 @@ class Nav350Session:
                                                         _clamp(sp.omega, 2 * math.pi), tick),
                                   now)
         if self._clock_by_telegram and now >= self._next_clock:
-            self._next_clock = now + s.clock_period
+            fast = self.clock.reads < _FAST_CLOCK_READS
+            self._next_clock = now + (_FAST_CLOCK_PERIOD if fast else s.clock_period)
             return self._send("clock", tg.request("sMN", "mNAVGetTimestamp"), now)
         self.pose_requests += 1
         return self._send("pose", tg.get_pose_data(1, s.mask), now)
@@ -367,7 +373,7 @@ class Nav350Session:
         if p is None or not self._answers(t, p):
             self.decoder.stats.unexpected_reply += 1
             self._diag("unexpected_reply", f"NAV350 {t.describe()} answers no pending request",
-                       level=WARNING, kind=t.kind, name=t.name)
+                       level=WARNING, telegram_kind=t.kind, name=t.name)
             return
         if t.kind == "sMA":
             p.acked = True
@@ -394,6 +400,10 @@ class Nav350Session:
         what = f"{p.request.kind} {p.request.name}"
         if step == "pose":
             self._pose_failure(now, f"{what} answered {t.describe()}")
+            return
+        if step == "clock" and code not in _NOT_SUPPORTED:
+            self._diag("clock_read_failed", f"{what} answered {t.describe()}",
+                       sopas_error=code)
             return
         if step == "clock":
             self._clock_by_telegram = False
@@ -527,5 +537,3 @@ class Nav350Session:
 def _clamp(value: float, limit: float) -> float:
     return max(-limit, min(limit, value))
 
-
-__all__ += ["INFO"]

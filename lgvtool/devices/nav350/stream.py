@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import re
 
-from lgvtool.devices.nav350.cola import ASCII, BINARY, ETX, MAX_PAYLOAD, Frame, split_payload, \
-    xor_checksum
+from lgvtool.devices.nav350.cola import ASCII, BINARY, ETX, MAX_PAYLOAD, Frame, split_payload, xor_checksum
 from lgvtool.devices.nav350.telegrams import SOPAS_ERRORS, Telegram, decode_frame
 from lgvtool.wire.errors import WireError
 from lgvtool.wire.events import ERROR
@@ -101,7 +100,7 @@ class Nav350StreamDecoder(StreamDecoder[Telegram]):
             if exc.kind == "unknown_command":
                 if self.deliver_unknown:
                     self.stats.unknown_command += 1
-                    self._event("unknown_command", str(exc), name=frame.name, kind=frame.kind)
+                    self._event("unknown_command", str(exc), name=frame.name, telegram_kind=frame.kind)
                     return Accept(Telegram(frame.kind, frame.name, None, frame.dialect, size),
                                   size)
                 return SkipFrame("unknown_command", size, str(exc))

@@ -15,8 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from lgvtool.devices.nav350.cola import BINARY, Frame, Reader, Writer, encode_frame, reader_for, \
-    writer_for
+from lgvtool.devices.nav350.cola import BINARY, Frame, Reader, Writer, encode_frame, reader_for, writer_for
 from lgvtool.wire.errors import BadLengthError, UnknownCommandError
 
 __all__ = [

@@ -22,8 +22,8 @@ from lgvtool.devices.nav350.session import (
     DeviceSilent,
     Identity,
     LayoutUploaded,
-    NavigationEntered,
     Nav350Session,
+    NavigationEntered,
     PoseDataReceived,
     SessionFatal,
 )
