@@ -30,6 +30,8 @@ from dataclasses import dataclass
 __all__ = ["ClockEstimate", "ClockEstimator", "unwrap_ms"]
 
 _WRAP = 1 << 32
+#: Reads must span this long before a drift is fitted, s.
+MIN_DRIFT_SPAN = 5.0
 
 
 def unwrap_ms(tick: int, previous: int | None) -> int:
@@ -141,10 +143,12 @@ class ClockEstimator:
         ym = sum(wi * r[1] for wi, r in zip(w, used, strict=True)) / sw
         sxx = sum(wi * (r[0] - xm) ** 2 for wi, r in zip(w, used, strict=True))
         sxy = sum(wi * (r[0] - xm) * (r[1] - ym) for wi, r in zip(w, used, strict=True))
-        slope = sxy / sxx if sxx > 1e-9 else 0.0
-        newest = reads[-1][0]
         span = max(1e-3, used[-1][0] - used[0][0])
-        slope_err = (0.5 * best + 0.0005) * math.sqrt(12.0 / len(used)) / span
+        # over a short span the 1 ms tick makes the slope meaningless: offset only
+        slope = sxy / sxx if sxx > 1e-9 and span >= MIN_DRIFT_SPAN else 0.0
+        newest = reads[-1][0]
+        slope_err = (0.5 * best + 0.0005) * math.sqrt(12.0 / len(used)) / span \
+            if slope else 2e-4
         bound = 0.5 * best + 0.0005 + slope_err * abs(newest - xm)
         return ClockEstimate(ym, slope, xm, bound, len(used), False)
 

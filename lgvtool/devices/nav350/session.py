@@ -283,9 +283,18 @@ class Nav350Session:
         return self._send("pose", tg.get_pose_data(1, s.mask), now)
 
     def feed(self, data: bytes, now: float) -> None:
-        """Bytes read from the device at ``now``."""
+        """Bytes read from the device at ``now``. A corrupt telegram while a request waits is
+        taken for its reply: the request is sent again at once instead of timing out."""
+        st = self.decoder.stats
+        corrupt = st.bad_checksum + st.bad_length
         for telegram in self.decoder.feed(data):
             self._on_telegram(telegram, now)
+        p = self._pending
+        if p is not None and st.bad_checksum + st.bad_length > corrupt and p.step in (
+                "pose", "clock", "speed"):
+            self._pending = None
+            self._diag("reply_corrupt", f"the reply to {p.request.kind} {p.request.name} "
+                       "was corrupt: asking again", level=WARNING, step=p.step)
 
     def pop_events(self) -> list[SessionEvent]:
         """Decoder events, then the session's own, oldest first."""
@@ -371,6 +380,8 @@ class Nav350Session:
     def _on_telegram(self, t: Telegram, now: float) -> None:
         p = self._pending
         if p is None or not self._answers(t, p):
+            if t.name == "mNPOSGetData" and isinstance(t.value, PoseData):
+                self._events.append(PoseDataReceived(t.value, now, now))  # late, still data
             self.decoder.stats.unexpected_reply += 1
             self._diag("unexpected_reply", f"NAV350 {t.describe()} answers no pending request",
                        level=WARNING, telegram_kind=t.kind, name=t.name)
