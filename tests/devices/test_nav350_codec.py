@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import random
+from array import array
 
 import pytest
 
@@ -74,8 +75,8 @@ def full_reply() -> tg.PoseData:
     marks = tuple(tg.Landmark((1000 * i, -2000 * i), (3000 + i, 45000 * i),
                               tg.LandmarkInfo(i, 10 + i, 1, 1, 90, 1000 + i, 80, 5, 200, 10, 12))
                   for i in range(3))
-    dist = tg.ScanChannel("DIST1", 1.0, 0.0, 0, 250, 1000, tuple(range(5000, 6440)))
-    rssi = tg.ScanChannel("RSSI1", 1.0, 0.0, 0, 250, 1000, tuple(i % 256 for i in range(1440)))
+    dist = tg.ScanChannel("DIST1", 1.0, 0.0, 0, 250, 1000, array("I", range(5000, 6440)))
+    rssi = tg.ScanChannel("RSSI1", 1.0, 0.0, 0, 250, 1000, array("H", (i % 256 for i in range(1440))))
     return tg.PoseData(1, 0, 1, 2, (1, -2, 359999), tg.PoseInfo(1, 2, -3, 4, 5, 3),
                        tg.LandmarkData(1, marks), (dist,), rssi)
 

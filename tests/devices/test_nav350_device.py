@@ -128,7 +128,7 @@ def run_session(dev: Nav350Device, settings: Nav350Settings, seconds: float,
                     inflight.append((t + 2 * latency, raw))
         for raw in dev.due(t):
             inflight.append((t + latency, raw))
-        for at, raw in [x for x in inflight if x[0] <= t]:
+        for _at, raw in [x for x in inflight if x[0] <= t]:
             session.feed(raw, t)
         inflight = [x for x in inflight if x[0] > t]
         events += session.pop_events()

@@ -21,6 +21,9 @@ The same body code serves both dialects: it reads and writes through a :class:`R
 from __future__ import annotations
 
 import struct
+import sys
+from array import array
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -63,6 +66,13 @@ def xor_checksum(data: bytes | bytearray | memoryview) -> int:
     n = len(data)
     if n == 0:
         return 0
+    if n >= 256:  # whole 8-byte words at C speed, then the rest
+        import numpy as np
+
+        words = n // 8
+        folded = int(np.bitwise_xor.reduce(np.frombuffer(data, dtype=np.uint64, count=words)))
+        tail = xor_checksum(bytes(data[words * 8:])) if n % 8 else 0
+        return xor_checksum(folded.to_bytes(8, "little")) ^ tail
     x = int.from_bytes(data, "big")
     width = 1
     while width < n:
@@ -146,6 +156,20 @@ def parse_frame(data: bytes) -> Frame:
 
 
 # ---------------------------------------------------------------------------------- cursors
+_LITTLE = sys.byteorder == "little"
+#: array typecodes of exactly 2 and 4 bytes
+_ARRAY_CODE = {"H": "H", "I": "I" if array("I").itemsize == 4 else "L"}
+_BY_LETTER = {"B": "u8", "H": "u16", "I": "u32", "h": "i16", "i": "i32", "f": "f32"}
+_STRUCTS: dict[str, struct.Struct] = {}
+
+
+def _struct(codes: str) -> struct.Struct:
+    st = _STRUCTS.get(codes)
+    if st is None:
+        st = _STRUCTS[codes] = struct.Struct(">" + codes)
+    return st
+
+
 class Reader:
     """Reads the argument values of one telegram body, in order."""
 
@@ -161,8 +185,16 @@ class Reader:
     def flex(self) -> str:
         """A string with its u16 length before it."""
         raise NotImplementedError
-    def u16s(self, n: int) -> tuple[int, ...]: raise NotImplementedError
-    def u32s(self, n: int) -> tuple[int, ...]: raise NotImplementedError
+    def u16s(self, n: int) -> array[int]:
+        """``n`` u16 values as an array."""
+        raise NotImplementedError
+    def u32s(self, n: int) -> array[int]:
+        """``n`` u32 values as an array."""
+        raise NotImplementedError
+    def group(self, codes: str) -> tuple[Any, ...]:
+        """Several values at once, one struct letter each (B u8, H u16, I u32, h i16, i i32,
+        f f32)."""
+        raise NotImplementedError
     def done(self) -> bool:
         """True when every argument has been read."""
         raise NotImplementedError
@@ -212,15 +244,27 @@ class BinaryReader(Reader):
     def flex(self) -> str:
         return self.text(self.u16())
 
-    def _array(self, code: str, size: int, n: int) -> tuple[int, ...]:
+    def _array(self, code: str, size: int, n: int) -> array[int]:
         p = self.pos
         if p + size * n > len(self.buf):
             raise BadLengthError("telegram ends inside its arguments")
         self.pos = p + size * n
-        return struct.unpack_from(f">{n}{code}", self.buf, p)
+        out = array(_ARRAY_CODE[code], self.buf[p:p + size * n])
+        if _LITTLE:
+            out.byteswap()
+        return out
 
-    def u16s(self, n: int) -> tuple[int, ...]: return self._array("H", 2, n)
-    def u32s(self, n: int) -> tuple[int, ...]: return self._array("I", 4, n)
+    def u16s(self, n: int) -> array[int]: return self._array("H", 2, n)
+    def u32s(self, n: int) -> array[int]: return self._array("I", 4, n)
+
+    def group(self, codes: str) -> tuple[Any, ...]:
+        st = _struct(codes)
+        p = self.pos
+        if p + st.size > len(self.buf):
+            raise BadLengthError("telegram ends inside its arguments")
+        self.pos = p + st.size
+        return st.unpack_from(self.buf, p)
+
     def done(self) -> bool: return self.pos >= len(self.buf)
 
 
@@ -267,8 +311,13 @@ class AsciiReader(Reader):
         n = self.u16()
         return "" if n == 0 else self._token().decode("ascii", "replace")
 
-    def u16s(self, n: int) -> tuple[int, ...]: return tuple(self.u16() for _ in range(n))
-    def u32s(self, n: int) -> tuple[int, ...]: return tuple(self.u32() for _ in range(n))
+    def u16s(self, n: int) -> array[int]: return array("H", (self.u16() for _ in range(n)))
+    def u32s(self, n: int) -> array[int]:
+        return array(_ARRAY_CODE["I"], (self.u32() for _ in range(n)))
+
+    def group(self, codes: str) -> tuple[Any, ...]:
+        return tuple(getattr(self, _BY_LETTER[c])() for c in codes)
+
     def done(self) -> bool: return self.pos >= len(self.tokens)
 
 
@@ -283,8 +332,8 @@ class Writer:
     def f32(self, v: float) -> Writer: raise NotImplementedError
     def text(self, s: str) -> Writer: raise NotImplementedError
     def flex(self, s: str) -> Writer: raise NotImplementedError
-    def u16s(self, vs: tuple[int, ...] | list[int]) -> Writer: raise NotImplementedError
-    def u32s(self, vs: tuple[int, ...] | list[int]) -> Writer: raise NotImplementedError
+    def u16s(self, vs: Sequence[int]) -> Writer: raise NotImplementedError
+    def u32s(self, vs: Sequence[int]) -> Writer: raise NotImplementedError
     def data(self) -> bytes: raise NotImplementedError
 
 
@@ -322,13 +371,15 @@ class BinaryWriter(Writer):
         self.u16(len(s))
         return self.text(s)
 
-    def u16s(self, vs: tuple[int, ...] | list[int]) -> Writer:
-        self._parts.append(struct.pack(f">{len(vs)}H", *vs))
+    def _array(self, code: str, vs: Sequence[int]) -> Writer:
+        a = array(_ARRAY_CODE[code], vs)
+        if _LITTLE:
+            a.byteswap()
+        self._parts.append(a.tobytes())
         return self
 
-    def u32s(self, vs: tuple[int, ...] | list[int]) -> Writer:
-        self._parts.append(struct.pack(f">{len(vs)}I", *vs))
-        return self
+    def u16s(self, vs: Sequence[int]) -> Writer: return self._array("H", vs)
+    def u32s(self, vs: Sequence[int]) -> Writer: return self._array("I", vs)
 
     def data(self) -> bytes:
         return b"".join(self._parts)
@@ -368,12 +419,12 @@ class AsciiWriter(Writer):
         self.u16(len(s))
         return self.text(s) if s else self
 
-    def u16s(self, vs: tuple[int, ...] | list[int]) -> Writer:
+    def u16s(self, vs: Sequence[int]) -> Writer:
         for v in vs:
             self.u16(v)
         return self
 
-    def u32s(self, vs: tuple[int, ...] | list[int]) -> Writer:
+    def u32s(self, vs: Sequence[int]) -> Writer:
         for v in vs:
             self.u32(v)
         return self

@@ -11,7 +11,7 @@ Units are the wire's: mm, mdeg (1/1000 deg), ms ticks of the NAV350 clock.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -174,7 +174,8 @@ class ScanChannel:
     start_angle_mdeg: int
     angle_res_mdeg: int
     timestamp_ms: int
-    data: tuple[int, ...]
+    data: Sequence[int]
+    """The values (an ``array`` when decoded: compare with ``list(...)``)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -217,14 +218,12 @@ class AddedLandmarks:
 
 # ---------------------------------------------------------------------------------- walkers
 def _read_landmarks(r: Reader) -> LandmarkData:
-    flt = r.u8()
-    n = r.u16()
+    flt, n = r.group("BH")
     out = []
     for _ in range(n):
-        cart = (r.i32(), r.i32()) if r.u16() else None
-        polar = (r.u32(), r.u32()) if r.u16() else None
-        info = LandmarkInfo(r.u16(), r.u16(), r.u8(), r.u16(), r.u16(), r.u32(), r.u16(),
-                            r.u16(), r.u16(), r.u16(), r.u16()) if r.u16() else None
+        cart = r.group("ii") if r.u16() else None
+        polar = r.group("II") if r.u16() else None
+        info = LandmarkInfo(*r.group("HHBHHIHHHHH")) if r.u16() else None
         out.append(Landmark(cart, polar, info))
     return LandmarkData(flt, tuple(out))
 
@@ -251,8 +250,7 @@ def _write_landmarks(w: Writer, block: LandmarkData) -> None:
 
 def _read_channel(r: Reader, rssi: bool) -> ScanChannel:
     content = r.text(5)
-    sf, so = r.f32(), r.f32()
-    start, res, ts, n = r.i32(), r.u16(), r.u32(), r.u16()
+    sf, so, start, res, ts, n = r.group("ffiHIH")
     data = r.u16s(n) if rssi else r.u32s(n)
     return ScanChannel(content, sf, so, start, res, ts, data)
 
@@ -293,11 +291,12 @@ def _write_tail(w: Writer, d: PoseData) -> None:
 
 
 def _read_pose_data(r: Reader) -> PoseData:
-    version, err, wait, mask = r.u16(), r.u8(), r.u8(), r.u8()
-    pose = (r.i32(), r.i32(), r.u32()) if r.u16() else None
-    info = PoseInfo(r.u8(), r.u32(), r.i32(), r.u8(), r.u32(), r.u8()) if r.u16() else None
+    version, err, wait, mask = r.group("HBBB")
+    pose = r.group("iiI") if r.u16() else None
+    info = PoseInfo(*r.group("BIiBIB")) if r.u16() else None
     landmarks, scans, remission = _read_tail(r)
-    return PoseData(version, err, wait, mask, pose, info, landmarks, scans, remission)
+    return PoseData(version, err, wait, mask, pose, info, landmarks, scans,
+                    remission)
 
 
 def _write_pose_data(w: Writer, d: PoseData) -> None:
@@ -330,7 +329,7 @@ def _read_add(r: Reader) -> tuple[LayoutLandmark, ...]:
     out = []
     for _ in range(r.u16()):
         x, y, typ, sub, size, n = r.i32(), r.i32(), r.u8(), r.u8(), r.u16(), r.u16()
-        out.append(LayoutLandmark(x, y, typ, sub, size, r.u16s(n)))
+        out.append(LayoutLandmark(x, y, typ, sub, size, tuple(r.u16s(n))))
     return tuple(out)
 
 
@@ -343,7 +342,7 @@ def _write_add(w: Writer, marks: tuple[LayoutLandmark, ...]) -> None:
 
 def _read_added(r: Reader) -> AddedLandmarks:
     err = r.u8()
-    return AddedLandmarks(err, r.u16s(r.u16()))
+    return AddedLandmarks(err, tuple(r.u16s(r.u16())))
 
 
 def _write_added(w: Writer, a: AddedLandmarks) -> None:
