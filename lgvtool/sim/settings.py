@@ -195,6 +195,10 @@ class FaultSettings:
     """Probability that the head sees the shiny object in a revolution."""
 
 
+ONLY_WHEN_SET: dict[tuple[str, str], Any] = {("sim", "nav_device"): "nav200"}
+"""Settings recorded only when they differ from this default, so that the logs of runs made
+before they existed are written again byte for byte."""
+
 SECTIONS: dict[str, type] = {
     "sim": RunSettings,
     "mcu": McuSettings,
@@ -216,10 +220,12 @@ class SimSettings:
     """Parameters of the scenario (validated by the scenario)."""
 
     def to_dict(self) -> dict[str, Any]:
-        """Every setting as a nested JSON-able dict (NaN written as None)."""
+        """Every setting as a nested JSON-able dict (NaN written as None); the settings of
+        :data:`ONLY_WHEN_SET` only when they differ from their default."""
         out: dict[str, Any] = {}
         for name in SECTIONS:
-            out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()}
+            out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()
+                         if (name, k) not in ONLY_WHEN_SET or v != ONLY_WHEN_SET[(name, k)]}
         out["scenario"] = {k: _jsonable(v) for k, v in self.scenario.items()}
         return out
 

@@ -30,6 +30,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
+from lgvtool.devices.nav200_session import DeviceSilent, PositioningEntered
 from lgvtool.devices.nav350 import telegrams as tg
 from lgvtool.devices.nav350.clock import ClockEstimate, ClockEstimator
 from lgvtool.devices.nav350.cola import BINARY
@@ -121,11 +122,9 @@ class LayoutUploaded:
     ids: tuple[int, ...]
 
 
-@dataclass(frozen=True)
-class NavigationEntered:
-    """The device confirmed navigation; ``settings`` lists what was applied."""
-
-    settings: dict[str, Any]
+#: The device confirmed navigation (the NAV350's positioning); ``settings`` lists what was
+#: applied.
+NavigationEntered = PositioningEntered
 
 
 @dataclass(frozen=True)
@@ -137,13 +136,6 @@ class ClockRead:
     sent: float | None
     received: float
     estimate: ClockEstimate | None
-
-
-@dataclass(frozen=True)
-class DeviceSilent:
-    """``timeouts`` replies in a row did not come."""
-
-    timeouts: int
 
 
 @dataclass(frozen=True)

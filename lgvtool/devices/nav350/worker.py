@@ -15,7 +15,6 @@ from typing import Any
 from lgvtool.config import Reflector, Vehicle
 from lgvtool.devices.links import Link
 from lgvtool.devices.logsink import LogSink
-from lgvtool.devices.mcu_link import head_velocity
 from lgvtool.devices.nav350.messages import pose_message, scan_message
 from lgvtool.devices.nav350.session import (
     ClockRead,
@@ -27,22 +26,21 @@ from lgvtool.devices.nav350.session import (
     PoseDataReceived,
     SessionFatal,
 )
-from lgvtool.devices.workers import LinkTiming, McuWorker, _Worker
+from lgvtool.devices.workers import LinkTiming, McuWorker, NavWorker
 from lgvtool.errors import LgvError
 from lgvtool.log import topics
 from lgvtool.wire.events import ERROR, INFO, DecodeEvent
 
 __all__ = ["Nav350Stopped", "Nav350Worker"]
 
-_READ_SLICE = 0.1
-
 
 class Nav350Stopped(LgvError):
     """The NAV350 cannot be recorded (e.g. it refused the login); the log holds what came."""
 
 
-class Nav350Worker(_Worker):
-    """One NAV350 link of a recording (see the module docstring)."""
+class Nav350Worker(NavWorker):
+    """One NAV350 link of a recording (see the module docstring): the NAV200 worker's
+    request/read cycle and speed input, with the NAV350 session's events."""
 
     device = "nav350"
 
@@ -50,11 +48,10 @@ class Nav350Worker(_Worker):
                  session: Nav350Session, *, vehicle: Vehicle,
                  known_map: tuple[Reflector, ...] = (), mcu: McuWorker | None = None,
                  warn: Any = None) -> None:
-        super().__init__(link, sink, stop, timing, warn)
-        self.session = session
-        self.vehicle = vehicle
+        super().__init__(link, sink, stop, timing, session,  # type: ignore[arg-type]
+                         vehicle=vehicle, known_map=known_map, mcu=mcu, warn=warn)
+        self.session: Nav350Session = session  # type: ignore[assignment]
         self._known = known_map
-        self._mcu = mcu
         self._map_id: dict[int, int] | None = None
         self._identity: dict[str, str] = {}
         self._applied: dict[str, Any] = {}
@@ -70,42 +67,9 @@ class Nav350Worker(_Worker):
         host = self.session.clock.host_time_of(tick)
         return None if host is None else self._host_ns(host)
 
-    def _opened(self, now: float) -> None:
-        self.session.link_up(now)
-
     def _lost(self) -> None:
         self.session.link_down(time.monotonic())
         self._handle(time.time_ns())
-
-    def _cycle(self) -> None:
-        now = time.monotonic()
-        self._speed_input(now)
-        request = self.session.poll(now)
-        if request is not None:
-            data = request.encode()
-            self.link.write(data)
-            self.sink.raw("nav350", "tx", data, time.time_ns())
-        self._handle(time.time_ns())
-        if not self.session.active:
-            return
-        wait = min(_READ_SLICE, max(0.0, self.session.next_deadline(now) - time.monotonic()))
-        data = self.link.read(wait)
-        if data:
-            t = time.time_ns()
-            self.sink.raw("nav350", "rx", data, t)
-            self.session.feed(data, time.monotonic())
-            self._handle(t)
-        self.state = self.session.state
-
-    def _speed_input(self, now: float) -> None:
-        if not self.session.settings.speed_input or self._mcu is None:
-            return
-        latest = self._mcu.motion
-        if latest is None:
-            return
-        at, motion = latest
-        vx, vy = head_velocity(motion, self.vehicle)
-        self.session.set_speed(vx, vy, motion.omega, at)
 
     def _handle(self, t: int) -> None:
         for event in self.session.pop_events():
