@@ -33,6 +33,10 @@ from typing import Any
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from pf_paper_convergence import seeds_of
+
 ESTIMATORS = ("laser", "deadreckoning", "ekf", "pf-paper", "pf")
 TABLES: dict[str, dict[str, Any]] = {
     "reflectors": {},
@@ -41,15 +45,6 @@ TABLES: dict[str, dict[str, Any]] = {
     "no-deskew": {"pf-paper.deskew": False},
 }
 """Table name -> estimator settings."""
-
-
-def seeds_of(text: str) -> list[int]:
-    """``"200-209"`` or ``"1,2,5"`` as a list of seeds."""
-    out: list[int] = []
-    for part in text.split(","):
-        a, _, b = part.partition("-")
-        out.extend(range(int(a), int(b) + 1) if b else [int(a)])
-    return out
 
 
 def measure(log: Path, settings: dict[str, Any]) -> dict[str, dict[str, float]]:
@@ -77,7 +72,7 @@ def markdown(title: str, runs: list[tuple[int, dict[str, dict[str, float]]]]) ->
     for n in ESTIMATORS:
         head += [f"{n} RMSE mm", f"{n} σ² mm²"]
     head += ["pf-paper/laser RMSE", "pf-paper/laser σ²", "pf/laser RMSE"]
-    head += [f"{n} true RMSE mm" for n in ESTIMATORS]
+    head += [f"{n} true RMSE in rotations mm" for n in ESTIMATORS]
     lines = [f"**{title}**", "", "| " + " | ".join(head) + " |",
              "|" + "---:|" * len(head)]
 

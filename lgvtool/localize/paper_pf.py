@@ -274,7 +274,10 @@ class PaperParticleFilter(ParticleSet):
         ``-D_m^2 / (2 sigma^2)``, into ``w`` (unnormalised), estimate with eq. 11
         (``self._mean``) and redistribute into ``out``. Returns what the estimate's covariance
         is computed from."""
-        # eq. 10 up to its constant factor, which the normalisation removes
+        # eq. 10 up to its constant factor, which the normalisation removes; taken relative to
+        # the best particle, so that the weights of far particles (the uniform start's) cannot
+        # all underflow and the covariance's sums stay finite
+        exponent -= exponent.max()
         np.exp(exponent, out=w)
         # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one product
         sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()

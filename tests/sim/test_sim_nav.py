@@ -172,3 +172,31 @@ def test_speed_input_compensation_removes_the_skew_and_a_wrong_speed_does_not(
     assert raw.mean() > 0.03
     assert error(1.0).max() < 0.001  # the true speed: the skew is gone
     assert error(0.5).mean() > 0.3 * raw.mean()  # half the speed: half the skew is left
+
+
+def test_the_head_sees_a_cylinder_about_11_mm_behind_its_centre_on_its_pulse_grid() -> None:
+    r = np.array([[2.0, 5.0, 10.0, 20.0]])
+    alpha = np.array([[0.3, -1.2, 2.0, 0.01]])
+    step = math.radians(0.1)
+    phases = np.linspace(0.0, 1.0, 40, endpoint=False)
+    behind = []
+    for phase in phases:
+        rng_, bearing, hits = nav_model.apparent_centre(r, alpha, 0.05, step, np.array([phase]))
+        width = 2 * np.arcsin(0.05 / r)
+        assert np.all(np.abs(hits - width / step) <= 1.0)  # the pulses within the width
+        assert np.all(np.abs(bearing - alpha) <= step / 2 + 1e-12)  # the edges on the grid
+        behind.append((rng_ - r)[0])
+    depth = np.array(behind)
+    assert np.all((depth > 0) & (depth < 0.05))
+    # many pulses: the mean depth of the surface across the cylinder, R (1 - pi/4)
+    assert depth[:, 0] == pytest.approx(0.05 * (1 - math.pi / 4), abs=1e-3)
+    # a few pulses at long range: where they fall decides
+    assert np.std(depth[:, 3]) > 3 * np.std(depth[:, 0])
+    same = nav_model.apparent_centre(r, alpha, 0.05, 0.0, np.array([0.5]))
+    assert np.array_equal(same[0], r) and np.array_equal(same[1], alpha)
+
+
+def test_detection_falls_off_beyond_its_range() -> None:
+    r = np.array([5.0, 12.0, 24.0])
+    assert nav_model.range_falloff(r, 12.0) == pytest.approx([1.0, 1.0, 0.25], rel=1e-12)
+    assert np.all(nav_model.range_falloff(r, 0.0) == 1.0)
