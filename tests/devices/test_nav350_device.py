@@ -216,3 +216,24 @@ def test_clock_estimator_bounds_and_unwrap() -> None:
     assert abs(e.host_time(150.0) - truth) < e.bound_s + 1e-4
     assert e.drift * 1e6 == pytest.approx(-50.0, abs=20.0)
     assert e.bound_s < 0.002
+
+
+class _StuckInStandby(Nav350Device):
+    """A device that answers every change to navigation with 'still in standby'."""
+
+    def _change(self, request: tg.Telegram, t: float) -> list[bytes]:
+        if int(request.fields[0]) == tg.MODE_NAVIGATION:
+            return [self._out(tg.reply("sMA", request.name), request.dialect),
+                    self._out(tg.reply("sAN", request.name, 1, tg.MODE_STANDBY),
+                              request.dialect)]
+        return super()._change(request, t)
+
+
+def test_a_device_that_never_leaves_standby_gets_one_diagnostic_per_attempt() -> None:
+    layout = {i: tg.LayoutLandmark(1000 * i, 0) for i in range(1, 5)}
+    dev = _StuckInStandby(revolutions(), layout)
+    events = run_session(dev, Nav350Settings(), 8.0)
+    refused = [e for e in events if getattr(e, "kind", "") == "mode_refused"]
+    assert 2 <= len(refused) <= 6  # retried with backoff, not hammered
+    assert not any(isinstance(e, NavigationEntered) for e in events)
+    assert not any(isinstance(e, PoseDataReceived) for e in events)

@@ -86,3 +86,25 @@ def test_record_rejects_a_serial_nav350_url(run_cli, tmp_path: Path) -> None:
     r = run_cli("record", "--nav350", "/dev/ttyS0", "-o", tmp_path / "x.mcap", "--duration", "1")
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and "tcp://HOST:2112" in r.stderr
+
+
+def test_speed_input_is_stamped_in_the_nav350_clock(tmp_path: Path) -> None:
+    pb = playback_from_scenario("paper-circle", seed=4, duration=20.0)
+    r = loopback(pb, tmp_path / "speed.mcap", seconds=4.0, speed_input=True, drift_ppm=50.0)
+    assert len(r.speed_tick_errors_ms) > 10
+    # the tick is the odometry's time: a little before the request reaches the device
+    assert all(-500.0 < e <= 2.0 for e in r.speed_tick_errors_ms)
+
+
+def test_a_refused_login_stops_the_recording_with_one_line(tmp_path: Path, monkeypatch) -> None:
+    from lgvtool.devices.nav350 import device as device_module
+    from lgvtool.devices.nav350.worker import Nav350Stopped
+
+    monkeypatch.setattr(device_module, "PASSWORD_CLIENT", 0x1)
+    pb = playback_from_scenario("paper-circle", seed=4, duration=10.0)
+    out = tmp_path / "refused.mcap"
+    with pytest.raises(Nav350Stopped, match="refused the login") as info:
+        loopback(pb, out, seconds=5.0)
+    assert "\n" not in str(info.value)
+    kinds = [m.data["kind"] for m in LogReader(out).messages(["/diagnostics"])]
+    assert "fatal" in kinds and "stopped" in kinds  # the log is complete

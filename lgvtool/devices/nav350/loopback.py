@@ -30,6 +30,8 @@ class LoopbackResult:
     clock_errors_ms: list[tuple[float, float]] = field(default_factory=list)
     reconnects: int = 0
     record: Any = None
+    speed_tick_errors_ms: list[float] = field(default_factory=list)
+    """Per mNPOSSetSpeed received: its tick minus the device clock on arrival, ms."""
 
     def clock_error_after(self, seconds: float) -> float:
         """Largest |error| (ms) of the poses logged ``seconds`` or more after the first."""
@@ -66,8 +68,13 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
         worker_box: list[Any] = []
         result_box: list[Any] = []
 
+        failed: list[BaseException] = []
+
         def run() -> None:
-            result_box.append(recorder.run())
+            try:
+                result_box.append(recorder.run())
+            except BaseException as exc:  # handed to the caller below
+                failed.append(exc)
 
         th = threading.Thread(target=run, name="loopback-record")
         th.start()
@@ -77,6 +84,8 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
         th.join(seconds + 30.0)
     finally:
         server.stop()
+    if failed:
+        raise failed[0]
     assert server.nav350 is not None
     device = server.nav350.device
     dec = Nav350StreamDecoder()
@@ -110,6 +119,9 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
                 true = start + device.time_of_tick(d["device_time_ms"] + 0.5, run_t) / server.speed
                 first = rx_mono if first is None else first
                 errors.append((rx_mono - first, (est_mono - true) * 1e3))
+    speed = [float((tick - device.tick(t) + 2**31) % 2**32 - 2**31)
+             for t, tick, _ in device.speed_inputs]
     return LoopbackResult(dev_poses, dev_marks, log_poses, log_marks,
                           [f"{t:.1f}s {f.kind}:{f.device}" for t, f in server.applied], diags,
-                          errors, diags.get("link_up", 0), result_box[0] if result_box else None)
+                          errors, diags.get("link_up", 0), result_box[0] if result_box else None,
+                          speed)
