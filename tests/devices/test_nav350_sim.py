@@ -80,3 +80,20 @@ def test_raw_topics_are_registered() -> None:
     assert topics.schema_for_topic(registration.RX) == "lgvtool.RawBytes"
     assert topics.raw_topic("nav350", "tx") == registration.TX
     assert registration.TX in topics.RAW_TOPICS
+
+
+def test_evaluate_and_the_reflector_filter_on_a_nav350_log(tmp_path: Path, run_cli) -> None:
+    import json
+
+    out = tmp_path / "circle350.mcap"
+    r = run_cli("simulate", "-s", "paper-circle", "--duration", "60", "--set",
+                "sim.nav_device=nav350", "-o", out)
+    assert r.returncode == 0, r.stderr
+    ev = run_cli("evaluate", out, "-e", "laser,pf-paper", "--json")
+    assert ev.returncode == 0, ev.stderr
+    doc = json.loads(ev.stdout)
+    assert doc["rotations"]["complete"] >= 2
+    laser = doc["estimators"]["laser"]["circle"]["rmse_mm"]
+    paper = doc["estimators"]["pf-paper"]["circle"]["rmse_mm"]
+    # the reflectors the NAV350 reports let the paper's filter beat the device's own pose
+    assert paper < 0.5 * laser
