@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 from pathlib import Path
 
@@ -108,3 +109,64 @@ def test_a_refused_login_stops_the_recording_with_one_line(tmp_path: Path, monke
     assert "\n" not in str(info.value)
     kinds = [m.data["kind"] for m in LogReader(out).messages(["/diagnostics"])]
     assert "fatal" in kinds and "stopped" in kinds  # the log is complete
+
+
+@pytest.mark.parametrize("dialect", ["binary", "ascii"])
+def test_served_nav350_answers_the_vendor_sequence_over_tcp(dialect: str) -> None:
+    """The vendor driver's start-up (protocol note section 2) against `simulate serve`, in
+    order, then pose requests whose scan start ticks advance with time (its clock lock)."""
+    import socket
+    import time
+
+    from lgvtool.devices.nav350 import telegrams as tg
+    from lgvtool.devices.nav350.stream import Nav350StreamDecoder
+    from lgvtool.sim.emulate.server import EmulatorServer
+
+    pb = playback_from_scenario("paper-circle", seed=2, duration=10.0)
+    server = EmulatorServer(pb, nav=None, mcu=None, nav350="tcp://127.0.0.1:0", wait=False)
+    server.start()
+    try:
+        host, port = server.urls["nav350"][len("tcp://"):].rsplit(":", 1)
+        sock = socket.create_connection((host, int(port)), timeout=2.0)
+        dec = Nav350StreamDecoder()
+
+        def ask(req: tg.Telegram, replies: int = 1) -> list[tg.Telegram]:
+            sock.sendall(req.encode(dialect))
+            got: list[tg.Telegram] = []
+            deadline = time.monotonic() + 2.0
+            while len(got) < replies and time.monotonic() < deadline:
+                got += dec.feed(sock.recv(65536))
+            return got
+
+        sequence = [
+            tg.request("sRN", "SCdevicestate"), tg.set_access_mode(),
+            tg.request("sWN", "EIHstCola", 1 if dialect == "binary" else 0),
+            tg.request("sRN", "FirmwareVersion"), tg.request("sRN", "SCdevicestate"),
+            tg.request("sRN", "ODoprh"), tg.request("sRN", "ODpwrc"),
+            tg.request("sRN", "LocationName"), tg.request("sRN", "LMDscandatacfg"),
+            tg.set_access_mode(), tg.change_state(1), tg.current_layer(0), *tg.data_formats(),
+            tg.change_state(4)]
+        for req in sequence:
+            replies = ask(req, 2 if req.name == "mNEVAChangeState" else 1)
+            assert replies and not replies[-1].is_error, req.name
+            assert replies[-1].name == req.name and replies[-1].dialect == dialect
+        starts = []
+        for _ in range(6):
+            (reply,) = ask(tg.get_pose_data(1, 2))
+            assert reply.value.error_code in (0, 4)
+            starts.append(reply.value.scans[0].timestamp_ms)
+        steps = [b - a for a, b in zip(starts, starts[1:], strict=False)]
+        assert all(120 <= s <= 130 for s in steps), steps  # one revolution per reply, 8 Hz
+        sock.close()
+    finally:
+        server.stop()
+
+
+def test_recording_in_cola_a(tmp_path: Path) -> None:
+    pb = playback_from_scenario("paper-circle", seed=5, duration=20.0)
+    r = loopback(pb, tmp_path / "ascii.mcap", seconds=4.0, dialect="ascii")
+    assert r.device_poses > 15 and r.log_poses == r.device_poses
+    assert r.log_landmarks == r.device_landmarks
+    raw = b"".join(base64.b64decode(m.data["data"])
+                   for m in LogReader(tmp_path / "ascii.mcap").messages(["/nav350/tx"]))
+    assert raw.startswith(b"\x02sMN SetAccessMode 3 F4724744\x03")
