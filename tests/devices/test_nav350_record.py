@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import json
+from itertools import pairwise
 from pathlib import Path
 
 import jsonschema
@@ -155,7 +156,7 @@ def test_served_nav350_answers_the_vendor_sequence_over_tcp(dialect: str) -> Non
             (reply,) = ask(tg.get_pose_data(1, 2))
             assert reply.value.error_code in (0, 4)
             starts.append(reply.value.scans[0].timestamp_ms)
-        steps = [b - a for a, b in zip(starts, starts[1:], strict=False)]
+        steps = [b - a for a, b in pairwise(starts)]
         assert all(120 <= s <= 130 for s in steps), steps  # one revolution per reply, 8 Hz
         sock.close()
     finally:
