@@ -1,9 +1,13 @@
 """``pf-paper``: the particle filter of the paper, section 3.2, step by step.
 
-1. Initialisation: ``particles`` (150) poses of O uniform over the work area, uniform heading.
+1. Initialisation: poses of O uniform over the work area, uniform heading: ``start_particles``
+   (20000) of them for the first ``start_updates`` (10) updates, then the ``particles`` (150)
+   heaviest go on (``start_updates = 0``: the paper's 150 from the start).
 2. Prediction (eq. 9): the encoder + gyro motion composed onto every particle.
-3. Correction: each measured reflector is put into the world at the particle's sensor pose
-   (the sensor sits at ``(nav_x, nav_y)`` in the vehicle frame) and associated with the
+3. Correction: each measured reflector is put into the world at the particle's sensor pose at
+   its own measurement time (``deskew``: the reflector carried by the odometry from its instant
+   in the revolution to the observation time; the sensor sits at ``(nav_x, nav_y)`` in the
+   vehicle frame) and associated with the
    nearest known reflector; the distances are summed, ``D_m = sum_k |L_j(k) - p_mk|``, and the
    weight is the Gaussian of eq. 10 with mean 0, ``w_m = (2 pi sigma^2)^(-1/2)
    exp(-D_m^2 / (2 sigma^2))``.
