@@ -151,6 +151,7 @@ class EmulatorServer:
             self._own_dir = Path(tempfile.mkdtemp(prefix="lgvtool-serve-"))
         self.link_dir = Path(link_dir) if link_dir is not None else self._own_dir
         self.endpoints: dict[str, Endpoint] = {}
+        self._file: IO[str] | None = None
         try:
             for name, spec in (("nav200", nav), ("nav350", nav350), ("mcu", mcu)):
                 if spec is not None:
@@ -159,7 +160,6 @@ class EmulatorServer:
             self.close()
             raise
         self.transcript: list[TranscriptEntry] = []
-        self._file: IO[str] | None = None
         if transcript is not None:
             self._file = open(transcript, "w", encoding="utf-8")  # noqa: SIM115 - closed in close()
         self._silent_until: dict[str, float] = {}
