@@ -102,7 +102,7 @@ def test_evaluate_and_the_reflector_filter_on_a_nav350_log(tmp_path: Path, run_c
 @pytest.mark.parametrize(("port", "expect"), [("bogus", "expected 'pty' or tcp://HOST:PORT"),
                                               ("tcp://127.0.0.1:0?foo=1", "unknown port")])
 def test_serve_rejects_a_bad_nav350_port_in_one_line(run_cli, port: str, expect: str) -> None:
-    r = run_cli("simulate", "serve", "--duration", "5", "--nav", "none", "--mcu", "none",
+    r = run_cli("simulate", "serve", "--duration", "12", "--nav", "none", "--mcu", "none",
                 "--nav350", port)
     assert r.returncode == 2
     assert expect in r.stderr and r.stderr.count("\n") == 1
