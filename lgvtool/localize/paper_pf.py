@@ -1,7 +1,7 @@
 """``pf-paper``: the particle filter of the paper, section 3.2, step by step.
 
 1. Initialisation: poses of O uniform over the work area, uniform heading: ``start_particles``
-   (20000) of them for the first ``start_updates`` (10) updates, then the ``particles`` (150)
+   (5000) of them for the first ``start_updates`` (10) updates, then the ``particles`` (150)
    heaviest go on (``start_updates = 0``: the paper's 150 from the start).
 2. Prediction (eq. 9): the encoder + gyro motion composed onto every particle.
 3. Correction: each measured reflector is put into the world at the particle's sensor pose at
@@ -100,7 +100,7 @@ class PaperPfParams(MotionParams, SourceParams, ParticleInitParams):
                          "odometry to its own measurement time in the revolution (eq. 9 "
                          "applied within the revolution); false: all reflectors of a "
                          "revolution at one instant, the NAV200's own skew kept")
-    start_particles: int = param(20000, "particles of the uniform start, kept for the first "
+    start_particles: int = param(5000, "particles of the uniform start, kept for the first "
                                  "start_updates updates, then the heaviest become the "
                                  "particles (the paper: 150, i.e. no separate start)",
                                  minimum=1)
