@@ -40,7 +40,8 @@ def main() -> None:
     print(f"poses:     device served {r.device_poses}, log holds {r.log_poses}")
     print(f"landmarks: device served {r.device_landmarks}, log holds {r.log_landmarks}")
     lost = (r.device_poses - r.log_poses, r.device_landmarks - r.log_landmarks)
-    print(f"lost: {lost[0]} poses, {lost[1]} landmarks; reconnects {r.reconnects}")
+    print(f"lost: {lost[0]} poses, {lost[1]} landmarks; reconnects {r.reconnects}; "
+          f"{r.in_flight} reply(ies) still in flight when the recording stopped")
     print("diagnostics: " + ", ".join(f"{k} {v}" for k, v in sorted(r.diagnostics.items())))
     at10 = [e for t, e in r.clock_errors_ms if 10.0 <= t < 11.0]
     print(f"clock error at 10-11 s: {max(map(abs, at10)):.3f} ms; max |error| after 10 s: "

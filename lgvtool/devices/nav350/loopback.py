@@ -32,6 +32,9 @@ class LoopbackResult:
     record: Any = None
     speed_tick_errors_ms: list[float] = field(default_factory=list)
     """Per mNPOSSetSpeed received: its tick minus the device clock on arrival, ms."""
+    in_flight: int = 0
+    """Pose replies the device sent after the recorder's last read (the recording had
+    stopped), not counted on either side."""
 
     def clock_error_after(self, seconds: float) -> float:
         """Largest |error| (ms) of the poses logged ``seconds`` or more after the first."""
@@ -88,15 +91,33 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
         raise failed[0]
     assert server.nav350 is not None
     device = server.nav350.device
-    dec = Nav350StreamDecoder()
-    dev_poses = dev_marks = 0
-    for t in dec.feed(server.sent("nav350")):
-        if t.name == "mNPOSGetData" and t.kind == "sAN":
-            if t.value.pose is not None:
-                dev_poses += 1
-            if t.value.landmarks is not None:
-                dev_marks += sum(1 for m in t.value.landmarks.landmarks if m.polar is not None)
     reader = LogReader(out)
+    with server._lock:
+        sent = [e for e in server.transcript if e.device == "nav350" and e.direction == "sent"]
+    cutoff = max((m.log_time_ns for m in reader.messages([topics.NAV350_RX])), default=0)
+    log_pose_ticks = {m.data.get("device_time_ms") for m in reader.messages([topics.NAV_POSE])}
+    log_scan_ticks = {m.data.get("device_time_ms")
+                      for m in reader.messages([topics.NAV_REFLECTORS])}
+    dec = Nav350StreamDecoder()
+    dev_poses = dev_marks = in_flight = 0
+    for entry in sent:
+        for t in dec.feed(entry.data):
+            if t.name != "mNPOSGetData" or t.kind != "sAN":
+                continue
+            d = t.value
+            pose_tick = None if d.info is None else d.info.timestamp_ms
+            scan_tick = d.scans[0].timestamp_ms if d.scans else None
+            missing = (d.pose is not None and pose_tick not in log_pose_ticks) or (
+                d.landmarks is not None and scan_tick not in log_scan_ticks)
+            # a reply sent as the recording stopped (after its last read) never arrived:
+            # reported, not counted on either side
+            if missing and entry.t_ns >= cutoff - 5_000_000:
+                in_flight += 1
+                continue
+            if d.pose is not None:
+                dev_poses += 1
+            if d.landmarks is not None:
+                dev_marks += sum(1 for m in d.landmarks.landmarks if m.polar is not None)
     log_poses = log_marks = 0
     errors: list[tuple[float, float]] = []
     diags: dict[str, int] = {}
@@ -124,4 +145,4 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
     return LoopbackResult(dev_poses, dev_marks, log_poses, log_marks,
                           [f"{t:.1f}s {f.kind}:{f.device}" for t, f in server.applied], diags,
                           errors, diags.get("link_up", 0), result_box[0] if result_box else None,
-                          speed)
+                          speed, in_flight)
