@@ -32,9 +32,9 @@ RUNS: tuple[tuple[str, str, dict[str, object]], ...] = (
     ("deadreckoning", "deadreckoning", {}),
     ("ekf", "ekf", {}),
     ("pf-paper", "pf-paper", {}),
-    ("pf-paper (start at NAV pose)", "pf-paper", {"pf-paper.init": "laser"}),
-    ("pf-paper (start at NAV pose, de-skew)", "pf-paper",
-     {"pf-paper.init": "laser", "pf-paper.deskew": True}),
+    ("pf-paper (one instant per revolution)", "pf-paper", {"pf-paper.deskew": False}),
+    ("pf-paper (the paper's literal start and reading)", "pf-paper",
+     {"pf-paper.start_updates": 0, "pf-paper.deskew": False}),
     ("pf", "pf", {}),
 )
 

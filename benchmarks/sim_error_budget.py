@@ -14,7 +14,7 @@ likewise for y) and measures, while the vehicle drives:
 Usage::
 
     python benchmarks/sim_error_budget.py [--scenario paper-circle] [--seed 1]
-                                          [--sweep mechanisms|start|weights] [--json]
+                                          [--sweep mechanisms|start|weights|fit] [--json]
 
 Prints a Markdown table (the one in docs/simulator.md) or JSON.
 """
@@ -37,16 +37,25 @@ from lgvtool.log.messages import from_stamp, yaw_from_quaternion
 from lgvtool.sim.logfile import write_log
 from lgvtool.sim.run import simulate
 
+IDEAL_HEAD: dict[str, Any] = {"nav.angle_step_deg": 0.0, "nav.map_sigma_mm": 0.0}
+"""Bearings and ranges to the reflectors' centres, and an exact map (systematic, not noise)."""
+
 CASES: list[tuple[str, dict[str, Any]]] = [
     ("all mechanisms (defaults)", {}),
     ("no head-rotation skew", {"nav.skew": False}),
     ("no latency", {"nav.latency_s": 0.0, "nav.reply_delay_s": 0.0}),
     ("no lever arm (head above O)", {"vehicle.nav_x": 0.0}),
+    ("all reflectors in the fit", {"nav.max_reflectors": 0}),
+    ("every reflector detected", {"nav.detection_probability": 1.0, "nav.detection_range_m": 0.0}),
+    ("no range growth of the noise", {"nav.sigma_range_per_m_mm": 0.0}),
+    ("centres, no pulse grid", {"nav.angle_step_deg": 0.0}),
+    ("exact map", {"nav.map_sigma_mm": 0.0}),
     ("no measurement noise", {"nav.noise": False}),
-    ("skew only", {"nav.noise": False, "nav.latency_s": 0.0, "nav.reply_delay_s": 0.0}),
+    ("skew only", {"nav.noise": False, "nav.latency_s": 0.0, "nav.reply_delay_s": 0.0,
+                   **IDEAL_HEAD}),
     ("noise only", {"nav.skew": False, "nav.latency_s": 0.0, "nav.reply_delay_s": 0.0}),
     ("none", {"nav.skew": False, "nav.noise": False, "nav.latency_s": 0.0,
-              "nav.reply_delay_s": 0.0}),
+              "nav.reply_delay_s": 0.0, **IDEAL_HEAD}),
 ]
 """(label, --set overrides) of each row."""
 
@@ -57,9 +66,16 @@ START_CASES: list[tuple[str, dict[str, Any]]] = [
 
 WEIGHT_CASES: list[tuple[str, dict[str, Any]]] = [
     (f"device weights bearings as {b} deg", {"nav.solver_sigma_bearing_deg": b})
-    for b in (0.025, 0.05, 0.1, 0.2)
+    for b in (0.025, 0.04, 0.05, 0.1, 0.2)
 ]
 """How much the device trusts its bearings decides how far the skew pulls the fit sideways."""
+
+FIT_CASES: list[tuple[str, dict[str, Any]]] = [
+    (f"device fits its {n} nearest reflectors" if n else "device fits every reflector it sees",
+     {"nav.max_reflectors": n})
+    for n in (4, 6, 8, 0)
+]
+"""The fewer reflectors the device fits, the more the fit changes with the set it sees."""
 
 
 def fit_centre(x: np.ndarray, y: np.ndarray, radius: float) -> tuple[float, float]:
@@ -157,13 +173,15 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenario", default="paper-circle")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--sweep", choices=["mechanisms", "start", "weights"], default="mechanisms",
-                    help="switch mechanisms off in turn, move the revolution start, or change "
-                         "the device's bearing weight")
+    ap.add_argument("--sweep", choices=["mechanisms", "start", "weights", "fit"],
+                    default="mechanisms",
+                    help="switch mechanisms off in turn, move the revolution start, change "
+                         "the device's bearing weight or how many reflectors it fits")
     ap.add_argument("--json", action="store_true", help="print JSON instead of Markdown")
     args = ap.parse_args(argv)
     started = time.perf_counter()
-    cases = {"mechanisms": CASES, "start": START_CASES, "weights": WEIGHT_CASES}[args.sweep]
+    cases = {"mechanisms": CASES, "start": START_CASES, "weights": WEIGHT_CASES,
+             "fit": FIT_CASES}[args.sweep]
     results = run(args.scenario, args.seed, cases)
     if args.json:
         print(json.dumps(results, indent=2))

@@ -1,9 +1,13 @@
 """``pf-paper``: the particle filter of the paper, section 3.2, step by step.
 
-1. Initialisation: ``particles`` (150) poses of O uniform over the work area, uniform heading.
+1. Initialisation: poses of O uniform over the work area, uniform heading: ``start_particles``
+   (5000) of them for the first ``start_updates`` (10) updates, then the ``particles`` (150)
+   heaviest go on (``start_updates = 0``: the paper's 150 from the start).
 2. Prediction (eq. 9): the encoder + gyro motion composed onto every particle.
-3. Correction: each measured reflector is put into the world at the particle's sensor pose
-   (the sensor sits at ``(nav_x, nav_y)`` in the vehicle frame) and associated with the
+3. Correction: each measured reflector is put into the world at the particle's sensor pose at
+   its own measurement time (``deskew``: the reflector carried by the odometry from its instant
+   in the revolution to the observation time; the sensor sits at ``(nav_x, nav_y)`` in the
+   vehicle frame) and associated with the
    nearest known reflector; the distances are summed, ``D_m = sum_k |L_j(k) - p_mk|``, and the
    weight is the Gaussian of eq. 10 with mean 0, ``w_m = (2 pi sigma^2)^(-1/2)
    exp(-D_m^2 / (2 sigma^2))``.
@@ -92,8 +96,16 @@ class PaperPfParams(MotionParams, SourceParams, ParticleInitParams):
                                    minimum=0.0)
     use_ids: bool = param(False, "use reflector ids for association (the paper associates "
                           "with the nearest known reflector)")
-    deskew: bool = param(False, "de-skew reflectors by their time in the revolution (not in "
-                         "the paper)")
+    deskew: bool = param(True, "weigh each reflector at the particle carried by the "
+                         "odometry to its own measurement time in the revolution (eq. 9 "
+                         "applied within the revolution); false: all reflectors of a "
+                         "revolution at one instant, the NAV200's own skew kept")
+    start_particles: int = param(5000, "particles of the uniform start, kept for the first "
+                                 "start_updates updates, then the heaviest become the "
+                                 "particles (the paper: 150, i.e. no separate start)",
+                                 minimum=1)
+    start_updates: int = param(10, "updates weighed with start_particles before the set "
+                               "shrinks to particles (the paper: 0)", minimum=0)
     scans: str = param("nav-poll", "which revolutions weigh the particles: nav-poll (the "
                        "paper: when the NAV is polled, every 450 ms, the last revolution "
                        "completed before the poll) or all", choices=("nav-poll", "all"))
@@ -136,10 +148,16 @@ class PaperParticleFilter(ParticleSet):
         self._map_z3 = self.map.z[:, None, None]
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
+        #: updates left before a large uniform start set shrinks to ``particles``
+        self._start_left = 0
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":
-            self._start_uniform(p.particles)
+            if p.start_updates > 0 and p.start_particles > p.particles:
+                self._start_uniform(p.start_particles)
+                self._start_left = p.start_updates
+            else:
+                self._start_uniform(p.particles)
 
     # ------------------------------------------------------------------ packed particles
     def _packed(self) -> ComplexArray:
@@ -243,6 +261,12 @@ class PaperParticleFilter(ParticleSet):
         s = self._packed()
         exponent = d * d
         exponent *= self._factor
+        if self._start_left > 0:
+            self._start_left -= 1
+            if self._start_left == 0:
+                # the start is over: the heaviest particles of the large set go on
+                keep = np.argsort(exponent, kind="stable")[len(s) - p.particles:]
+                s, exponent = s[keep], exponent[keep]
         new = np.empty_like(s)
         self._cov = self._correct(s, exponent, np.empty(len(s)), new)
         self._adopt(new)
@@ -254,7 +278,10 @@ class PaperParticleFilter(ParticleSet):
         ``-D_m^2 / (2 sigma^2)``, into ``w`` (unnormalised), estimate with eq. 11
         (``self._mean``) and redistribute into ``out``. Returns what the estimate's covariance
         is computed from."""
-        # eq. 10 up to its constant factor, which the normalisation removes
+        # eq. 10 up to its constant factor, which the normalisation removes; taken relative to
+        # the best particle, so that the weights of far particles (the uniform start's) cannot
+        # all underflow and the covariance's sums stay finite
+        exponent -= exponent.max()
         np.exp(exponent, out=w)
         # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one product
         sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
@@ -281,7 +308,7 @@ class PaperParticleFilter(ParticleSet):
             self._drawn = 0
         plan.apply_packed(s, w, draws, self._drawn, out)
         self._drawn += 1
-        self.w = self._uniform_w
+        self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
         return (s, w, total, complex(sx, sy), complex(sc, ss))
 
     # ------------------------------------------------------------------ estimate
@@ -361,7 +388,7 @@ class PaperParticleFilter(ParticleSet):
                     block = _Block(self._packed()) if len(self.z) else None
                     m = len(self.z)
             if o is not None:
-                if scan is not None and block is not None:
+                if scan is not None and block is not None and self._start_left == 0:
                     if pending:
                         copyto(block.current, block.spare)
                     s = block.current

@@ -32,6 +32,9 @@ class RunSettings:
     """Host time of simulation time 0, whole s since the Unix epoch (2024-01-01T00:00:00Z)."""
     noise: bool = True
     """Master switch: false turns off every random error (NAV, MCU, timing jitter)."""
+    nav_device: str = "nav200"
+    """The laser device of the log: 'nav200' (serial, polled PP) or 'nav350' (SOPAS over
+    Ethernet, pose and landmarks of every revolution; lgvtool.devices.nav350.simlink)."""
 
 
 @dataclass(frozen=True)
@@ -67,8 +70,9 @@ class McuSettings:
     """Constant gyro bias, deg/s."""
     gyro_bias_walk_dps: float = 0.002
     """Gyro bias random walk, deg/s per sqrt(s)."""
-    gyro_noise_dps: float = 0.03
-    """White noise on each frame's gyro rate (mean over the frame period), deg/s."""
+    gyro_noise_dps: float = 0.05
+    """White noise on each frame's gyro rate (mean over the frame period), deg/s: a rate noise
+    density of 0.015 deg/s/sqrt(Hz), typical of a +-300 deg/s MEMS gyro, averaged over 0.1 s."""
     gyro_scale_error: float = 0.003
     """Gyro scale factor error, dimensionless."""
     steering_noise_deg: float = 0.05
@@ -103,20 +107,36 @@ class NavSettings:
     """Range noise, standard deviation, mm."""
     sigma_bearing_deg: float = 0.05
     """Bearing noise, standard deviation, deg."""
-    detection_probability: float = 0.97
-    """Probability that a visible reflector is detected in a revolution."""
+    detection_probability: float = 0.9
+    """Probability that a visible reflector is detected in a revolution (within
+    detection_range_m; calibrated to the spread of the paper's Table 1)."""
+    sigma_range_per_m_mm: float = 1.0
+    """Growth of the range noise with range: its standard deviation is sigma_range_mm plus this
+    times the range in m, mm per m (the echo weakens with range)."""
+    detection_range_m: float = 12.0
+    """Beyond this range the detection probability falls as (detection_range_m / range)^2
+    (echo energy of a reflector narrower than the beam), m; 0: no fall-off."""
+    reflector_radius_mm: float = 50.0
+    """Radius of the reflector cylinders, mm (the paper's 10 cm diameter): the head measures
+    the surface it hits and adds this radius, so the apparent centre depends on which pulses hit."""
+    angle_step_deg: float = 0.1
+    """Angular step between the head's laser pulses, deg: the edges of each reflector's return
+    fall on this grid (its phase random per revolution); 0: continuous bearings and ranges to
+    the centre."""
     solver_sigma_range_mm: float = 12.0
     """Range standard deviation the device assumes when weighting its fit, mm."""
-    solver_sigma_bearing_deg: float = 0.05
-    """Bearing standard deviation the device assumes when weighting its fit, deg."""
+    solver_sigma_bearing_deg: float = 0.04
+    """Bearing standard deviation the device assumes when weighting its fit, deg (calibrated to
+    the bias of the paper's Table 1)."""
     solver_iterations: int = 6
     """Gauss-Newton iterations per revolution."""
     gate: float = 0.4
     """An observation is matched to the nearest stored reflector within this distance, m."""
     min_reflectors: int = 3
     """Fewest matched reflectors for a valid position."""
-    max_reflectors: int = 8
-    """The device fits only this many nearest matched reflectors (NAV200 PC command); 0: all."""
+    max_reflectors: int = 6
+    """The device fits only this many nearest matched reflectors (NAV200 PC command); 0: all
+    (calibrated to the spread of the paper's Table 1)."""
     quality_rms_mm: float = 250.0
     """Quality falls from 100 to 0 as the fit's RMS range residual grows to this, mm."""
     latency_s: float = 0.040
@@ -137,8 +157,9 @@ class NavSettings:
     """Extra read delay, uniform in [0, host_jitter_s], s."""
     split_probability: float = 0.3
     """Probability that a reply reaches the host in two reads instead of one."""
-    map_sigma_mm: float = 0.0
-    """Survey error of the device's stored reflector map (per reflector, per axis), mm."""
+    map_sigma_mm: float = 10.0
+    """Survey error of the device's stored reflector map (per reflector, per axis), mm: the map
+    every consumer of the log gets; the reflectors really stand this far off it."""
 
 
 @dataclass(frozen=True)
@@ -175,6 +196,10 @@ class FaultSettings:
     """Probability that the head sees the shiny object in a revolution."""
 
 
+ONLY_WHEN_SET: dict[tuple[str, str], Any] = {("sim", "nav_device"): "nav200"}
+"""Settings recorded only when they differ from this default, so that the logs of runs made
+before they existed are written again byte for byte."""
+
 SECTIONS: dict[str, type] = {
     "sim": RunSettings,
     "mcu": McuSettings,
@@ -196,10 +221,12 @@ class SimSettings:
     """Parameters of the scenario (validated by the scenario)."""
 
     def to_dict(self) -> dict[str, Any]:
-        """Every setting as a nested JSON-able dict (NaN written as None)."""
+        """Every setting as a nested JSON-able dict (NaN written as None); the settings of
+        :data:`ONLY_WHEN_SET` only when they differ from their default."""
         out: dict[str, Any] = {}
         for name in SECTIONS:
-            out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()}
+            out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()
+                         if (name, k) not in ONLY_WHEN_SET or v != ONLY_WHEN_SET[(name, k)]}
         out["scenario"] = {k: _jsonable(v) for k, v in self.scenario.items()}
         return out
 
@@ -299,6 +326,7 @@ def validate(s: SimSettings) -> SimSettings:
         (s.sim.truth_rate_hz > 0 and s.sim.truth_rate_hz <= s.sim.rate_hz,
          "sim.truth_rate_hz must be positive and at most sim.rate_hz"),
         (s.sim.start_epoch_s >= 0, "sim.start_epoch_s must not be negative"),
+        (s.sim.nav_device in ("nav200", "nav350"), "sim.nav_device must be nav200 or nav350"),
         (s.mcu.period_s > 0.005, "mcu.period_s must exceed 0.005"),
         (s.mcu.baud > 0 and s.nav.baud > 0, "baud rates must be positive"),
         (s.nav.rotation_hz > 0.5, "nav.rotation_hz must exceed 0.5"),
@@ -311,6 +339,10 @@ def validate(s: SimSettings) -> SimSettings:
         (s.nav.solver_sigma_range_mm > 0 and s.nav.solver_sigma_bearing_deg > 0,
          "nav.solver_sigma_* must be positive"),
         (s.nav.gate > 0, "nav.gate must be positive"),
+        (s.nav.sigma_range_per_m_mm >= 0, "nav.sigma_range_per_m_mm must not be negative"),
+        (s.nav.detection_range_m >= 0, "nav.detection_range_m must not be negative"),
+        (0 <= s.nav.reflector_radius_mm < 1000, "nav.reflector_radius_mm must be in [0, 1000)"),
+        (0 <= s.nav.angle_step_deg <= 5, "nav.angle_step_deg must be in [0, 5]"),
         (s.nav.quality_rms_mm > 0, "nav.quality_rms_mm must be positive"),
         (0 < s.mcu.gyro_scale_udeg_s <= 0xFFFF, "mcu.gyro_scale_udeg_s must be in 1..65535"),
         (s.faults.occlusion_mean_s > 0, "faults.occlusion_mean_s must be positive"),
