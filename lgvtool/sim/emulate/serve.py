@@ -84,17 +84,17 @@ def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int |
     fault_list = [parse_fault(f) for f in faults]
     playback = _playback(log, scenario or "paper-circle", seed, duration, config_path, sets)
     if transcript is None:
-        _serve(playback, nav, mcu, pty_dir, speed, fault_list, start_now, loop, None, seed,
-               exit_after)
+        _serve(playback, nav, nav350, mcu, pty_dir, speed, fault_list, start_now, loop, None,
+               seed, exit_after)
         return
     from lgvtool.outputs import atomic_output
 
     with atomic_output(transcript) as tmp:
-        _serve(playback, nav, mcu, pty_dir, speed, fault_list, start_now, loop, str(tmp), seed,
-               exit_after)
+        _serve(playback, nav, nav350, mcu, pty_dir, speed, fault_list, start_now, loop,
+               str(tmp), seed, exit_after)
 
 
-def _serve(playback: Any, nav: str, mcu: str, pty_dir: str | None, speed: float,
+def _serve(playback: Any, nav: str, nav350: str, mcu: str, pty_dir: str | None, speed: float,
            fault_list: list[Any], start_now: bool, loop: bool, transcript: str | None,
            seed: int, exit_after: float | None) -> None:
     """Serve ``playback`` until it is played (``exit_after``) or stopped; print the counts."""
