@@ -15,7 +15,7 @@ if TYPE_CHECKING:
     from lgvtool.wire.events import DecodeEvent
 
 #: Diagnostic sources that the decoders produce; their old events are replaced.
-DECODER_SOURCES = ("mcu", "nav200")
+DECODER_SOURCES = ("mcu", "nav200", "nav350")
 
 
 @dataclass
@@ -33,6 +33,8 @@ class DecodeReport:
     mcu_stats: dict[str, int] = field(default_factory=dict)
     nav_stats: dict[str, int] = field(default_factory=dict)
     nav_request_stats: dict[str, int] = field(default_factory=dict)
+    nav350: dict[str, Any] = field(default_factory=dict)
+    """NAV350: poses, scans, landmarks and the reply stream's stats (empty: no NAV350)."""
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-able report with stable keys."""
@@ -47,6 +49,7 @@ class DecodeReport:
                 "stats": self.nav_stats,
                 "request_stats": self.nav_request_stats,
             },
+            **({"nav350": self.nav350} if self.nav350 else {}),
             "diagnostics": self.diagnostics,
             "copied": self.copied,
         }
@@ -77,6 +80,10 @@ class DecodeReport:
                 if k not in ("bytes_received", "bytes_decoded", "frames")
             ):
                 lines.append(f"nav200 requests: errors: {errors(self.nav_request_stats)}")
+        if self.nav350:
+            n = self.nav350
+            lines.append(f"nav350: {n['poses']} poses, {n['scans']} scans ({n['landmarks']} "
+                         f"landmarks); errors: {errors(n['stats'])}")
         lines.append(f"{self.diagnostics} diagnostics written, {self.copied} messages copied")
         return "\n".join(lines)
 
@@ -143,7 +150,8 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
     present = set(reader.topic_names())
     has_mcu = topics.MCU_RX in present
     has_nav = topics.NAV_RX in present or topics.NAV_TX in present
-    if not (has_mcu or has_nav):
+    has_nav350 = topics.NAV350_RX in present
+    if not (has_mcu or has_nav or has_nav350):
         raise MissingDataError(
             f"{reader.path}: no raw device traffic to decode "
             f"({topics.MCU_RX}, {topics.NAV_RX}, {topics.NAV_TX})"
@@ -156,6 +164,14 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
     if has_nav:
         replaced.add(topics.NAV_POSE)
         sources.add("nav200")
+    if has_nav350:
+        from lgvtool.devices.nav350.logdecode import Nav350LogDecoder
+
+        ids = reader.metadata.get("device.nav350", {}).get("global_ids")
+        nav350 = Nav350LogDecoder(map_id=None if not isinstance(ids, dict) else
+                                  {int(k): int(v) for k, v in ids.items()})
+        replaced |= {topics.NAV_POSE, topics.NAV_REFLECTORS}
+        sources.add("nav350")
 
     report = DecodeReport(str(reader.path), str(output))
     mcu = McuStreamDecoder()
@@ -192,8 +208,18 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
                         report.nav_poses += 1
                 report.diagnostics += _write_events(writer, nav.pop_events(), t)
                 last_nav_ns = t
+            elif has_nav350 and m.topic in (topics.NAV350_TX, topics.NAV350_RX):
+                feed = nav350.sent if m.topic == topics.NAV350_TX else nav350.received
+                feed(_raw_bytes(m.data), t)
+                for topic, message, at in nav350.pop_messages():
+                    writer.write(topic, message, at)
+                report.diagnostics += _write_events(writer, nav350.pop_events(), t)
             else:
                 report.copied += 1
+        if has_nav350:
+            nav350.flush()
+            report.nav350 = {"poses": nav350.poses, "scans": nav350.scans,
+                             "landmarks": nav350.landmarks, "stats": nav350.stats.as_dict()}
         if has_mcu:
             for frame in mcu.flush():
                 writer.write(
@@ -224,6 +250,7 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
                 "mcu": report.mcu_stats,
                 "nav200": report.nav_stats,
                 "nav200_requests": report.nav_request_stats,
+                **({"nav350": report.nav350["stats"]} if report.nav350 else {}),
             },
         )
     return report

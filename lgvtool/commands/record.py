@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from lgvtool.devices.nav350.registration import record_options as nav350_options
 from lgvtool.options import force_option, positive, split_names
 from lgvtool.values import MAX_BYTES, MAX_WALL_S
 
@@ -60,13 +61,14 @@ _METRES = positive(1000.0)
                    "deadreckoning, ekf, pf-paper, pf. Needs --live.")
 @force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@nav350_options
 def record(nav_url: str | None, mcu_url: str | None, output: str, duration: float | None,
            poll_period: float, speed_input: bool, omega_units: str, sliding_mean: int | None,
            action_radii: tuple[float, float] | None, nearest: int | None, layer: int,
            no_map_upload: bool, reply_timeout: float, split_size: float | None,
            split_duration: float | None, config_file: str | None, status: bool, force: bool,
-           as_json: bool, live: str | None = None, live_estimators: tuple[str, ...] = ()
-           ) -> None:
+           as_json: bool, live: str | None = None, live_estimators: tuple[str, ...] = (),
+           nav350_url: str | None = None, nav350_cola: str = "binary") -> None:
     """Record the MCU frame stream and the NAV200 (polled for its pose) into OUTPUT.
 
     Logged: raw bytes both ways (/mcu/rx, /nav200/tx, /nav200/rx), decoded frames (/mcu/frame)
@@ -90,8 +92,8 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
     from lgvtool.wire.units import OMEGA_UNITS_PER_RAD_S, OMEGA_UNITS_PER_RAD_S_HALF_DEG
 
     guard_output(output, [config_file], force=force)
-    if nav_url is None and mcu_url is None:
-        raise InputError("record: give --nav URL, --mcu URL or both")
+    if nav_url is None and mcu_url is None and nav350_url is None:
+        raise InputError("record: give --nav URL, --nav350 URL, --mcu URL or several")
     if speed_input and mcu_url is None:
         raise InputError("record: --speed-input needs the MCU's odometry (--mcu URL)")
     if action_radii is not None and action_radii[0] >= action_radii[1]:
@@ -104,12 +106,19 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
         omega_scale=OMEGA_UNITS_PER_RAD_S if omega_units == "rev"
         else OMEGA_UNITS_PER_RAD_S_HALF_DEG,
     )
+    from lgvtool.devices.nav350.registration import recorder_settings
+
+    config = load_config(config_file)
+    nav350 = recorder_settings(nav350_url, nav350_cola, layer=layer, upload=not no_map_upload,
+                               speed_input=speed_input, reply_timeout=reply_timeout,
+                               config=config)
     settings = RecorderSettings(
         output=Path(output), nav_url=nav_url, mcu_url=mcu_url, duration=duration, nav=nav,
         split_bytes=None if split_size is None else int(split_size * 1e6),
-        split_seconds=split_duration, config=load_config(config_file), status=status,
+        split_seconds=split_duration, config=config, status=status,
         overwrite=force, command=shlex.join(["lgvtool", *sys.argv[1:]]),
         live=live_at, live_estimators=tuple(split_names(live_estimators)),
+        nav350_url=nav350_url, nav350=nav350,
     )
     result = do_record(settings)
     if as_json:

@@ -3,7 +3,7 @@
 ::
 
     NAV200 link ──► NavWorker (Nav200Session) ──┐
-                                                ├─► LogSink queue ──► writer thread ──► OUT.mcap
+    NAV350 link ──► Nav350Worker (Nav350Session)├─► LogSink queue ──► writer thread ──► OUT.mcap
     MCU link ─────► McuWorker (McuLink) ────────┘        (chunks closed every second, fsync)
 
 The main thread only watches: the duration, SIGINT/SIGTERM, a failed disk, and the status line
@@ -65,6 +65,10 @@ class RecorderSettings:
     """Serve the recording live here (a ``lgvtool.live.server.LiveAddress``); None: not."""
     live_estimators: tuple[str, ...] = ()
     """Online estimators whose estimate the live view shows."""
+    nav350_url: str | None = None
+    """The NAV350 (tcp://HOST:2112), recorded by lgvtool.devices.nav350."""
+    nav350: Any = None
+    """Its :class:`lgvtool.devices.nav350.session.Nav350Settings` (None: the defaults)."""
 
 
 @dataclass
@@ -99,8 +103,8 @@ class Recorder:
 
     def __init__(self, settings: RecorderSettings, *, status_stream: TextIO | None = None
                  ) -> None:
-        if settings.nav_url is None and settings.mcu_url is None:
-            raise InputError("record: give --nav URL, --mcu URL or both")
+        if settings.nav_url is None and settings.mcu_url is None and settings.nav350_url is None:
+            raise InputError("record: give --nav URL, --nav350 URL, --mcu URL or several")
         if settings.duration is not None and settings.duration <= 0:
             raise InputError("record: --duration must be positive")
         self.settings = settings
@@ -112,6 +116,8 @@ class Recorder:
             settings.nav_url, NAV200_SERIAL_DEFAULTS)
         self._mcu_link = None if settings.mcu_url is None else open_link(
             settings.mcu_url, MCU_SERIAL_DEFAULTS)
+        self._nav350_link = None if settings.nav350_url is None else open_link(
+            settings.nav350_url, NAV200_SERIAL_DEFAULTS)
         out = Path(settings.output)
         if out.exists() and not settings.overwrite:
             raise InputError(f"record: {out} exists (use --force to overwrite it)")
@@ -122,7 +128,7 @@ class Recorder:
                             split_seconds=settings.split_seconds, config=self.config,
                             command=settings.command, chunk_seconds=settings.chunk_seconds,
                             fsync=settings.fsync, tap=self.live)
-        self.workers: list[McuWorker | NavWorker] = []
+        self.workers: list[Any] = []
 
     def _start_live(self) -> Any:
         """Bind the live server now, before anything is recorded (a port in use or a host
@@ -161,11 +167,18 @@ class Recorder:
                             Nav200Session(s.nav), vehicle=self.config.vehicle,
                             known_map=self.config.reflectors, mcu=mcu, warn=self._warn)
             self.workers.append(nav)
+        if self._nav350_link is not None:
+            from lgvtool.devices.nav350.registration import recorder_worker
+
+            self.workers.append(recorder_worker(
+                self._nav350_link, self.sink, self._stop, timing, s.nav350, self.config,
+                mcu=mcu, warn=self._warn))
 
     def _recording_metadata(self) -> dict[str, Any]:
         s = self.settings
         return {
             "nav_url": s.nav_url, "mcu_url": s.mcu_url, "duration_s": s.duration,
+            "nav350_url": s.nav350_url,
             "poll_period_s": s.nav.poll_period if s.nav_url else None,
             "split_bytes": s.split_bytes, "split_seconds": s.split_seconds,
             "chunk_seconds": s.chunk_seconds, "fsync": s.fsync,

@@ -253,13 +253,13 @@ class NavWorker(_Worker):
         if request is not None:
             data = request.encode()
             self.link.write(data)
-            self.sink.raw("nav200", "tx", data, time.time_ns())
+            self.sink.raw(self.device, "tx", data, time.time_ns())
         self._handle(time.time_ns())
         wait = min(_READ_SLICE, max(0.0, self.session.next_deadline(now) - time.monotonic()))
         data = self.link.read(wait)
         if data:
             t = time.time_ns()
-            self.sink.raw("nav200", "rx", data, t)
+            self.sink.raw(self.device, "rx", data, t)
             self.session.feed(data, time.monotonic())
             self._handle(t)
         self.state = self.session.state

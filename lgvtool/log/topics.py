@@ -10,6 +10,10 @@ NAV_RX = "/nav200/rx"
 """Raw bytes received from the NAV200 (lgvtool.RawBytes)."""
 NAV_TX = "/nav200/tx"
 """Raw bytes sent to the NAV200 (lgvtool.RawBytes)."""
+NAV350_RX = "/nav350/rx"
+"""Raw bytes received from the NAV350 (lgvtool.RawBytes)."""
+NAV350_TX = "/nav350/tx"
+"""Raw bytes sent to the NAV350 (lgvtool.RawBytes)."""
 MCU_FRAME = "/mcu/frame"
 """Decoded MCU frames (lgvtool.McuFrame)."""
 ODOM = "/odom/twist"
@@ -46,6 +50,8 @@ FIXED: dict[str, str] = {
     MCU_TX: "lgvtool.RawBytes",
     NAV_RX: "lgvtool.RawBytes",
     NAV_TX: "lgvtool.RawBytes",
+    NAV350_RX: "lgvtool.RawBytes",
+    NAV350_TX: "lgvtool.RawBytes",
     MCU_FRAME: "lgvtool.McuFrame",
     ODOM: "lgvtool.Odometry",
     NAV_POSE: "lgvtool.NavPose",
@@ -72,11 +78,11 @@ ESTIMATE_SUFFIXES: dict[str, str] = {
 }
 """``/estimate/<name>/<suffix>`` -> schema name."""
 
-RAW_TOPICS = (MCU_RX, MCU_TX, NAV_RX, NAV_TX)
+RAW_TOPICS = (MCU_RX, MCU_TX, NAV_RX, NAV_TX, NAV350_RX, NAV350_TX)
 
 
 def raw_topic(device: str, direction: str) -> str:
-    """The raw-bytes topic of ``device`` ('mcu', 'nav200') in ``direction`` ('rx', 'tx')."""
+    """The raw-bytes topic of ``device`` ('mcu', 'nav200', 'nav350') in ``direction`` ('rx', 'tx')."""
     if direction not in ("rx", "tx"):
         raise ValueError(f"direction must be 'rx' or 'tx', not {direction!r}")
     return f"/{device}/{direction}"

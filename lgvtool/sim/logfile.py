@@ -63,15 +63,22 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
         add(fault.t, _FAULT, fault)
     for chunk in sim.mcu_traffic.rx:
         add(chunk.t, _MCU, chunk)
-    for chunk in sim.nav_traffic.tx:
-        add(chunk.t, _NAV_TX, chunk)
-    for chunk in sim.nav_traffic.rx:
-        add(chunk.t, _NAV_RX, chunk)
-    available = sim.solutions.available
-    for k, scan in enumerate(nav_scans(sim)):
-        if available[k] > sim.duration:
-            break
-        add(float(available[k]), _SCAN, scan)
+    nav350 = None
+    if sim.settings.sim.nav_device == "nav350":  # the host side of a NAV350 instead
+        from lgvtool.devices.nav350.simlink import nav350_traffic
+
+        for t, direction, data in nav350_traffic(sim):
+            add(t, _NAV_TX if direction == "tx" else _NAV_RX, data)
+    else:
+        for chunk in sim.nav_traffic.tx:
+            add(chunk.t, _NAV_TX, chunk)
+        for chunk in sim.nav_traffic.rx:
+            add(chunk.t, _NAV_RX, chunk)
+        available = sim.solutions.available
+        for k, scan in enumerate(nav_scans(sim)):
+            if available[k] > sim.duration:
+                break
+            add(float(available[k]), _SCAN, scan)
     records.sort(key=lambda r: (r[0], r[1], r[2]))
 
     mcu_decoder = McuStreamDecoder()
@@ -80,6 +87,10 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
         w.add_metadata("simulator", sim.metadata())
         w.write_config(sim.config)
         w.write_map(sim.config.reflectors, sim.start_ns)
+        if sim.settings.sim.nav_device == "nav350":
+            from lgvtool.devices.nav350.simlink import Nav350LogWriter
+
+            nav350 = Nav350LogWriter(w)
         for ns, order, _, payload in records:
             if order == _TRUTH:
                 w.write(topics.TRUTH, pose_in_frame(ns, payload.x, payload.y, payload.heading),
@@ -89,6 +100,8 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
                                    details=payload.details)
             elif order == _MCU:
                 _mcu_read(w, mcu_decoder, ns, payload.data)
+            elif nav350 is not None and order in (_NAV_TX, _NAV_RX):
+                nav350.chunk(ns, "tx" if order == _NAV_TX else "rx", payload)
             elif order == _NAV_TX:
                 _nav_write(w, session, ns, payload.data)
             elif order == _NAV_RX:

@@ -32,6 +32,9 @@ class RunSettings:
     """Host time of simulation time 0, whole s since the Unix epoch (2024-01-01T00:00:00Z)."""
     noise: bool = True
     """Master switch: false turns off every random error (NAV, MCU, timing jitter)."""
+    nav_device: str = "nav200"
+    """The laser device of the log: 'nav200' (serial, polled PP) or 'nav350' (SOPAS over
+    Ethernet, pose and landmarks of every revolution; lgvtool.devices.nav350.simlink)."""
 
 
 @dataclass(frozen=True)
@@ -193,6 +196,10 @@ class FaultSettings:
     """Probability that the head sees the shiny object in a revolution."""
 
 
+ONLY_WHEN_SET: dict[tuple[str, str], Any] = {("sim", "nav_device"): "nav200"}
+"""Settings recorded only when they differ from this default, so that the logs of runs made
+before they existed are written again byte for byte."""
+
 SECTIONS: dict[str, type] = {
     "sim": RunSettings,
     "mcu": McuSettings,
@@ -214,10 +221,12 @@ class SimSettings:
     """Parameters of the scenario (validated by the scenario)."""
 
     def to_dict(self) -> dict[str, Any]:
-        """Every setting as a nested JSON-able dict (NaN written as None)."""
+        """Every setting as a nested JSON-able dict (NaN written as None); the settings of
+        :data:`ONLY_WHEN_SET` only when they differ from their default."""
         out: dict[str, Any] = {}
         for name in SECTIONS:
-            out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()}
+            out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()
+                         if (name, k) not in ONLY_WHEN_SET or v != ONLY_WHEN_SET[(name, k)]}
         out["scenario"] = {k: _jsonable(v) for k, v in self.scenario.items()}
         return out
 
@@ -317,6 +326,7 @@ def validate(s: SimSettings) -> SimSettings:
         (s.sim.truth_rate_hz > 0 and s.sim.truth_rate_hz <= s.sim.rate_hz,
          "sim.truth_rate_hz must be positive and at most sim.rate_hz"),
         (s.sim.start_epoch_s >= 0, "sim.start_epoch_s must not be negative"),
+        (s.sim.nav_device in ("nav200", "nav350"), "sim.nav_device must be nav200 or nav350"),
         (s.mcu.period_s > 0.005, "mcu.period_s must exceed 0.005"),
         (s.mcu.baud > 0 and s.nav.baud > 0, "baud rates must be positive"),
         (s.nav.rotation_hz > 0.5, "nav.rotation_hz must exceed 0.5"),

@@ -71,6 +71,10 @@ class Playback:
     :attr:`poses`) by a device that compensates its motion within the revolution with the head
     velocity ``vx``, ``vy`` (m/s, along the vehicle's axes) and ``omega`` (rad/s). None when the
     poses are what a device reported (a log)."""
+    scans: tuple[Any, ...] = ()
+    """The head revolution of each pose solution (:class:`lgvtool.sim.events.NavScan`, same
+    index as :attr:`poses`), for devices that report their reflectors (NAV350); empty for a
+    log."""
 
     @property
     def per_revolution(self) -> bool:
@@ -104,7 +108,7 @@ def playback_from_scenario(name: str, *, seed: int = 0, duration: float | None =
     import numpy as np
 
     from lgvtool.sim import nav_model
-    from lgvtool.sim.events import mcu_sends, nav_solutions
+    from lgvtool.sim.events import mcu_sends, nav_scans, nav_solutions
     from lgvtool.sim.run import simulate
 
     sim = simulate(name, seed=seed, config=config, overrides=overrides, duration=duration)
@@ -121,7 +125,7 @@ def playback_from_scenario(name: str, *, seed: int = 0, duration: float | None =
 
     return Playback(mcu=mcu, poses=poses, reflectors=tuple(sim.config.reflectors),
                     duration=float(sim.duration), source=f"scenario {name} (seed {seed})",
-                    resolve=resolve)
+                    resolve=resolve, scans=tuple(nav_scans(sim)))
 
 
 def _frame_from_message(d: dict[str, Any]) -> bytes:

@@ -27,6 +27,10 @@ _PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) 
               show_default=True, metavar="N", help="Play N times faster than real time.")
 @click.option("--nav", "nav", default="pty", show_default=True, metavar="PORT",
               help=f"Where the virtual NAV200 listens: {_PORT_HELP}")
+@click.option("--nav350", "nav350", default="none", show_default=True, metavar="PORT",
+              help="Where a virtual NAV350 listens (SOPAS CoLa-A and CoLa-B): "
+                   "tcp://HOST:PORT, 'pty' or 'none'; '?drift_ppm=50&offset_ms=987654' sets "
+                   "its millisecond clock.")
 @click.option("--mcu", "mcu", default="pty", show_default=True, metavar="PORT",
               help=f"Where the virtual MCU streams: {_PORT_HELP}")
 @click.option("--pty-dir", type=click.Path(file_okay=False, exists=True), metavar="DIR",
@@ -34,7 +38,8 @@ _PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) 
 @click.option("--fault", "faults", multiple=True, metavar="SPEC",
               help="Inject a fault at a run time, s (repeatable): drop:DEVICE:AT:SECONDS, "
                    "silent:DEVICE:AT:SECONDS, garbage:DEVICE:AT:BYTES, reset:nav200:AT; "
-                   "DEVICE is nav200, mcu or all.")
+                   "NAV350: sfa:nav350:AT[:CODE], error:nav350:AT:SECONDS[:CODE], "
+                   "badsum:nav350:AT:COUNT; DEVICE is nav200, nav350, mcu or all.")
 @click.option("--transcript", type=click.Path(dir_okay=False), metavar="FILE",
               help="Write every byte the devices send and receive as JSON lines.")
 @click.option("--loop", is_flag=True, help="Play the run over and over.")
@@ -47,8 +52,9 @@ _PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) 
 @click.pass_context
 def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int | None,
           duration: float | None, config_path: str | None, sets: tuple[str, ...],
-          speed: float, nav: str, mcu: str, pty_dir: str | None, faults: tuple[str, ...],
-          transcript: str | None, loop: bool, start_now: bool, force: bool,
+          speed: float, nav: str, nav350: str, mcu: str, pty_dir: str | None,
+          faults: tuple[str, ...], transcript: str | None, loop: bool, start_now: bool,
+          force: bool,
           exit_after: float | None) -> None:
     """Serve a run as devices for 'lgvtool record': a virtual NAV200 that answers the host
     protocol (modes, identity, the map upload, error replies to requests in the wrong mode)
@@ -78,17 +84,17 @@ def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int |
     fault_list = [parse_fault(f) for f in faults]
     playback = _playback(log, scenario or "paper-circle", seed, duration, config_path, sets)
     if transcript is None:
-        _serve(playback, nav, mcu, pty_dir, speed, fault_list, start_now, loop, None, seed,
-               exit_after)
+        _serve(playback, nav, nav350, mcu, pty_dir, speed, fault_list, start_now, loop, None,
+               seed, exit_after)
         return
     from lgvtool.outputs import atomic_output
 
     with atomic_output(transcript) as tmp:
-        _serve(playback, nav, mcu, pty_dir, speed, fault_list, start_now, loop, str(tmp), seed,
-               exit_after)
+        _serve(playback, nav, nav350, mcu, pty_dir, speed, fault_list, start_now, loop,
+               str(tmp), seed, exit_after)
 
 
-def _serve(playback: Any, nav: str, mcu: str, pty_dir: str | None, speed: float,
+def _serve(playback: Any, nav: str, nav350: str, mcu: str, pty_dir: str | None, speed: float,
            fault_list: list[Any], start_now: bool, loop: bool, transcript: str | None,
            seed: int, exit_after: float | None) -> None:
     """Serve ``playback`` until it is played (``exit_after``) or stopped; print the counts."""
@@ -99,7 +105,8 @@ def _serve(playback: Any, nav: str, mcu: str, pty_dir: str | None, speed: float,
     server = EmulatorServer(playback, nav=None if nav == "none" else nav,
                             mcu=None if mcu == "none" else mcu, link_dir=pty_dir, speed=speed,
                             faults=fault_list, wait=not start_now, loop=loop,
-                            transcript=transcript, seed=seed)
+                            transcript=transcript, seed=seed,
+                            nav350=None if nav350 == "none" else nav350)
     try:
         for name, ep in server.endpoints.items():
             click.echo(f"{name}: {ep.url}")

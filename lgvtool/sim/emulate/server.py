@@ -8,9 +8,12 @@ faster than the wall clock. Faults are scheduled on the run's clock (s):
 ``silent:DEVICE:AT:FOR``   the device stays connected but sends nothing for FOR s
 ``garbage:DEVICE:AT:N``    N random bytes on the line at AT
 ``reset:nav200:AT``        the NAV200 restarts: back in standby, settings forgotten
+``sfa:nav350:AT[:CODE]``   the NAV350 answers the next request with ``sFA CODE``
+``error:nav350:AT:FOR[:C]`` NAV350 pose replies carry errorCode C (default 7) for FOR s
+``badsum:nav350:AT:N``     the next N NAV350 replies have a wrong checksum
 =========================  ===========================================================
 
-DEVICE is ``nav200``, ``mcu`` or ``all``. Everything the devices sent and received is kept in a
+DEVICE is ``nav200``, ``nav350``, ``mcu`` or ``all``. Everything the devices sent and received is kept in a
 transcript (in memory, and as JSON lines in a file if asked), so a recording can be compared
 with it byte for byte.
 """
@@ -36,8 +39,11 @@ from lgvtool.values import MAX_GARBAGE_BYTES, MAX_SIM_DURATION_S, coerce, parse_
 
 __all__ = ["DEVICES", "EmulatorServer", "Fault", "TranscriptEntry", "parse_fault"]
 
-DEVICES = ("nav200", "mcu")
-_KINDS = {"drop": True, "silent": True, "garbage": True, "reset": False}
+DEVICES = ("nav200", "mcu", "nav350")
+_KINDS = {"drop": True, "silent": True, "garbage": True, "reset": False, "sfa": None,
+          "error": True, "badsum": True}
+#: Faults only the NAV350 knows.
+_NAV350_ONLY = ("sfa", "error", "badsum")
 #: Longest sleep of the loop, s.
 _TICK = 0.005
 #: With a client on only one port for this long, the run's clock starts anyway, s.
@@ -53,6 +59,8 @@ class Fault:
     device: str
     at: float
     arg: float = 0.0
+    code: int = 0
+    """The NAV350 error code of an ``error`` fault (0: the default)."""
 
     def devices(self) -> tuple[str, ...]:
         """The devices it hits."""
@@ -62,15 +70,20 @@ class Fault:
 def parse_fault(text: str) -> Fault:
     """Parse ``KIND:DEVICE:AT[:ARG]`` (see the module docstring); InputError if malformed."""
     parts = text.strip().split(":")
-    usage = (f"fault {text!r}: expected drop|silent:DEVICE:AT:SECONDS, garbage:DEVICE:AT:BYTES "
-             f"or reset:nav200:AT (DEVICE: nav200, mcu, all)")
+    usage = (f"fault {text!r}: expected drop|silent:DEVICE:AT:SECONDS, garbage:DEVICE:AT:BYTES, "
+             f"reset:nav200|nav350:AT, sfa:nav350:AT[:CODE], error:nav350:AT:SECONDS[:CODE] "
+             f"or badsum:nav350:AT:COUNT (DEVICE: nav200, nav350, mcu, all)")
     if len(parts) < 3 or parts[0] not in _KINDS:
         raise InputError(usage)
     kind, device = parts[0], parts[1]
     if device not in (*DEVICES, "all"):
         raise InputError(usage)
     needs_arg = _KINDS[kind]
-    if len(parts) != (4 if needs_arg else 3):
+    allowed = {3, 4} if needs_arg is None else ({4, 5} if kind == "error" else
+                                                {4} if needs_arg else {3})
+    if len(parts) not in allowed:
+        raise InputError(usage)
+    if kind in _NAV350_ONLY and device != "nav350":
         raise InputError(usage)
     try:
         at = coerce(f"fault {text!r}: AT", parse_scalar(parts[2], float), float, minimum=0.0,
@@ -78,12 +91,15 @@ def parse_fault(text: str) -> Fault:
         top = MAX_GARBAGE_BYTES if kind == "garbage" else MAX_SIM_DURATION_S
         arg = coerce(f"fault {text!r}: {'BYTES' if kind == 'garbage' else 'SECONDS'}",
                      parse_scalar(parts[3], float), float, minimum=0.0, maximum=top,
-                     min_open=True) if needs_arg else 0.0
+                     min_open=bool(needs_arg)) if len(parts) > 3 else 0.0
+        code = int(parts[4]) if len(parts) > 4 else 0
     except ValueError:
         raise InputError(usage) from None
+    if not 0 <= code <= 7:
+        raise InputError(f"fault {text!r}: CODE must be 0..7")
     if kind == "reset" and device == "mcu":
-        raise InputError(f"fault {text!r}: only the NAV200 can be reset")
-    return Fault(kind, device, at, arg)
+        raise InputError(f"fault {text!r}: only the NAV200 and the NAV350 can be reset")
+    return Fault(kind, device, at, arg, code)
 
 
 @dataclass(frozen=True)
@@ -116,28 +132,40 @@ class EmulatorServer:
                  link_dir: str | Path | None = None, speed: float = 1.0,
                  faults: tuple[Fault, ...] | list[Fault] = (), wait: bool = True,
                  loop: bool = False, transcript: str | Path | None = None,
-                 seed: int = 0) -> None:
+                 seed: int = 0, nav350: str | None = None) -> None:
         if not speed > 0:
             raise InputError(f"speed must be positive, got {speed}")
-        if nav is None and mcu is None:
-            raise InputError("serve: at least one of the NAV200 and the MCU must be served")
+        if nav is None and mcu is None and nav350 is None:
+            raise InputError("serve: at least one of the NAV200, the NAV350 and the MCU must be "
+                             "served")
         self.playback = playback
         self.speed = float(speed)
         self.wait = wait
         self.faults = sorted(faults, key=lambda f: f.at)
         self.nav200 = VirtualNav200(playback)
+        self.nav350 = None
+        if nav350 is not None:
+            from lgvtool.devices.nav350.emulator import VirtualNav350, split_port_spec
+
+            nav350, clock = split_port_spec(nav350)
+            self.nav350 = VirtualNav350(playback, **clock)  # type: ignore[arg-type]
         self.mcu = VirtualMcu(playback, loop=loop)
         self._rng = random.Random(seed)
         self._own_dir: Path | None = None
         self._file: IO[str] | None = None
         self.endpoints: dict[str, Endpoint] = {}
-        if nav is not None and nav == mcu and nav != "pty" and not nav.endswith(":0"):
-            raise InputError(f"serve: the NAV200 and the MCU cannot both listen on {nav}")
+        specs = {"the NAV200": nav, "the NAV350": nav350, "the MCU": mcu}
+        named = [(who, spec) for who, spec in specs.items()
+                 if spec is not None and spec != "pty" and not spec.endswith(":0")]
+        for i, (who, spec) in enumerate(named):
+            for other, spec2 in named[i + 1:]:
+                if spec == spec2:
+                    raise InputError(f"serve: {who} and {other} cannot both listen on {spec}")
         if link_dir is None and "pty" in (nav, mcu):
             self._own_dir = Path(tempfile.mkdtemp(prefix="lgvtool-serve-"))
         self.link_dir = Path(link_dir) if link_dir is not None else self._own_dir
         try:
-            for name, spec in (("nav200", nav), ("mcu", mcu)):
+            for name, spec in (("nav200", nav), ("nav350", nav350), ("mcu", mcu)):
                 if spec is not None:
                     self.endpoints[name] = self._endpoint(name, spec)
             if transcript is not None:
@@ -266,6 +294,7 @@ class EmulatorServer:
         if t is not None:
             self._apply_faults(t, now)
         self._serve_nav(now, t)
+        self._serve_nav350(now, t)
         if t is not None:
             self._serve_mcu(now, t)
             if self.mcu.finished and t >= self.playback.duration:
@@ -322,6 +351,24 @@ class EmulatorServer:
                 if ep.write(reply, now):
                     self._log("nav200", "sent", reply, t)
 
+    def _serve_nav350(self, now: float, t: float | None) -> None:
+        ep, dev = self.endpoints.get("nav350"), self.nav350
+        if ep is None or dev is None:
+            return
+        rt = 0.0 if t is None else t
+        for _ in range(8):
+            data = ep.read()
+            if not data:
+                break
+            self._log("nav350", "received", data, t)
+            if not self._silent("nav350", t):
+                for reply in dev.feed(data, rt):
+                    if ep.write(reply, now):
+                        self._log("nav350", "sent", reply, t)
+        for reply in dev.due(rt):
+            if not self._silent("nav350", t) and ep.write(reply, now):
+                self._log("nav350", "sent", reply, t)
+
     def _serve_mcu(self, now: float, t: float) -> None:
         ep = self.endpoints.get("mcu")
         chunks = self.mcu.due(t)
@@ -358,6 +405,11 @@ class EmulatorServer:
                 self._log(device, "sent", junk, t)
         elif fault.kind == "reset" and device == "nav200":
             self.nav200.reset()
+        elif device == "nav350" and self.nav350 is not None and fault.kind != "drop":
+            if fault.kind == "reset":
+                self.nav350.reset()
+            elif fault.kind in _NAV350_ONLY:
+                self.nav350.fault(fault.kind, t, fault.arg, fault.code)
 
     def status(self) -> dict[str, Any]:
         """Counts for people: run time, bytes each way, connections, faults applied."""
