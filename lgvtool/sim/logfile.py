@@ -65,13 +65,14 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
         add(chunk.t, _MCU, chunk)
     for chunk in sim.nav_traffic.tx:
         add(chunk.t, _NAV_TX, chunk)
+    late = sim.settings.install.nav_time_offset_ms * 1e-3  # NAV-to-host time offset, s
     for chunk in sim.nav_traffic.rx:
-        add(chunk.t, _NAV_RX, chunk)
+        add(chunk.t + late, _NAV_RX, chunk)
     available = sim.solutions.available
     for k, scan in enumerate(nav_scans(sim)):
         if available[k] > sim.duration:
             break
-        add(float(available[k]), _SCAN, scan)
+        add(float(available[k]) + late, _SCAN, scan)
     records.sort(key=lambda r: (r[0], r[1], r[2]))
 
     mcu_decoder = McuStreamDecoder()
@@ -95,7 +96,7 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
                 _nav_read(w, session, ns, payload.data)
             else:
                 w.write(topics.NAV_REFLECTORS,
-                        _scan_message(sim.host_ns(payload.start), payload.period,
+                        _scan_message(sim.host_ns(payload.start + late), payload.period,
                                       payload.observations), ns)
         end_ns = sim.host_ns(sim.duration)
         for frame in mcu_decoder.flush():
