@@ -6,6 +6,8 @@ import json
 import shutil
 from pathlib import Path
 
+import pytest
+
 SAMPLE_LOGS = Path(__file__).resolve().parent.parent / "sample_logs"
 
 
@@ -24,8 +26,9 @@ def test_several_logs_on_the_engine_match_one_at_a_time(tmp_path: Path, run_cli)
         assert one.returncode == 0, one.stderr
         single = json.loads(one.stdout)
         for name in ("laser", "ekf"):
+            # a worker may run on another processor: the same figure to its last bits
             assert (per_log[path.stem]["estimators"][name]["circle"]["rmse_mm"]
-                    == single["estimators"][name]["circle"]["rmse_mm"])
+                    == pytest.approx(single["estimators"][name]["circle"]["rmse_mm"], rel=1e-9))
 
 
 def test_a_bad_log_among_several_is_one_line_exit_2(tmp_path: Path, run_cli) -> None:

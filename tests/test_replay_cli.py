@@ -13,6 +13,7 @@ sys.path.insert(0, str(Path(__file__).parent / "localize"))
 
 from localize_synth import circle_log, write_log
 
+from lgvtool.localize.paper_pf import PaperPfParams
 from lgvtool.log import LogReader, topics
 
 SCHEMAS = Path(__file__).resolve().parent.parent / "schemas"
@@ -80,7 +81,10 @@ def test_same_seed_gives_identical_output(logs: dict[str, Path], tmp_path: Path,
     assert outs[0] == outs[1]
     assert outs[0] != outs[2]
     states = [json.loads(d) for t, _, d in outs[0] if t == topics.estimate_state("pf-paper")]
-    assert states and all(s["particles"] == 80 for s in states)
+    counts = [s["particles"] for s in states]
+    start = PaperPfParams().start_particles  # the uniform start's large set, then 80
+    assert counts and counts[-1] == 80 and set(counts) <= {start, 80}
+    assert counts == sorted(counts, reverse=True)
 
 
 @pytest.mark.parametrize(("args", "message"), [

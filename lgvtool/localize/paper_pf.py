@@ -92,8 +92,16 @@ class PaperPfParams(MotionParams, SourceParams, ParticleInitParams):
                                    minimum=0.0)
     use_ids: bool = param(False, "use reflector ids for association (the paper associates "
                           "with the nearest known reflector)")
-    deskew: bool = param(False, "de-skew reflectors by their time in the revolution (not in "
-                         "the paper)")
+    deskew: bool = param(True, "weigh each reflector at the particle carried by the "
+                         "odometry to its own measurement time in the revolution (eq. 9 "
+                         "applied within the revolution); false: all reflectors of a "
+                         "revolution at one instant, the NAV200's own skew kept")
+    start_particles: int = param(20000, "particles of the uniform start, kept for the first "
+                                 "start_updates updates, then the heaviest become the "
+                                 "particles (the paper: 150, i.e. no separate start)",
+                                 minimum=1)
+    start_updates: int = param(10, "updates weighed with start_particles before the set "
+                               "shrinks to particles (the paper: 0)", minimum=0)
     scans: str = param("nav-poll", "which revolutions weigh the particles: nav-poll (the "
                        "paper: when the NAV is polled, every 450 ms, the last revolution "
                        "completed before the poll) or all", choices=("nav-poll", "all"))
@@ -136,10 +144,16 @@ class PaperParticleFilter(ParticleSet):
         self._map_z3 = self.map.z[:, None, None]
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
+        #: updates left before a large uniform start set shrinks to ``particles``
+        self._start_left = 0
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":
-            self._start_uniform(p.particles)
+            if p.start_updates > 0 and p.start_particles > p.particles:
+                self._start_uniform(p.start_particles)
+                self._start_left = p.start_updates
+            else:
+                self._start_uniform(p.particles)
 
     # ------------------------------------------------------------------ packed particles
     def _packed(self) -> ComplexArray:
@@ -243,6 +257,12 @@ class PaperParticleFilter(ParticleSet):
         s = self._packed()
         exponent = d * d
         exponent *= self._factor
+        if self._start_left > 0:
+            self._start_left -= 1
+            if self._start_left == 0:
+                # the start is over: the heaviest particles of the large set go on
+                keep = np.argsort(exponent, kind="stable")[len(s) - p.particles:]
+                s, exponent = s[keep], exponent[keep]
         new = np.empty_like(s)
         self._cov = self._correct(s, exponent, np.empty(len(s)), new)
         self._adopt(new)
@@ -281,7 +301,7 @@ class PaperParticleFilter(ParticleSet):
             self._drawn = 0
         plan.apply_packed(s, w, draws, self._drawn, out)
         self._drawn += 1
-        self.w = self._uniform_w
+        self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
         return (s, w, total, complex(sx, sy), complex(sc, ss))
 
     # ------------------------------------------------------------------ estimate
@@ -361,7 +381,7 @@ class PaperParticleFilter(ParticleSet):
                     block = _Block(self._packed()) if len(self.z) else None
                     m = len(self.z)
             if o is not None:
-                if scan is not None and block is not None:
+                if scan is not None and block is not None and self._start_left == 0:
                     if pending:
                         copyto(block.current, block.spare)
                     s = block.current

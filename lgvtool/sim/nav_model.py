@@ -133,20 +133,71 @@ def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmar
     u_detect = rng.random((s, m))
     n_range = rng.standard_normal((s, m))
     n_bearing = rng.standard_normal((s, m))
+    u_grid = rng.random(s)
     scale = 1.0 if noise else 0.0
-    meas_range = true_range + scale * nav.sigma_range_mm * 1e-3 * n_range
-    meas_bearing = wrap_pi(alpha + scale * math.radians(nav.sigma_bearing_deg) * n_bearing)
+    grid = u_grid if noise else np.zeros(s)
+    centre_range, centre_bearing, hits = apparent_centre(
+        true_range, alpha, nav.reflector_radius_mm * 1e-3, math.radians(nav.angle_step_deg),
+        grid)
+    sigma_r = (nav.sigma_range_mm + nav.sigma_range_per_m_mm * true_range) * 1e-3
+    meas_range = centre_range + scale * sigma_r * n_range
+    meas_bearing = wrap_pi(centre_bearing
+                           + scale * math.radians(nav.sigma_bearing_deg) * n_bearing)
     landmark = np.broadcast_to(np.arange(m)[None, :], (s, m))
     in_range = (true_range >= nav.range_min) & (true_range <= nav.range_max)
     hidden = in_range & occl.hidden(landmark, t)
-    p_real = nav.detection_probability if noise else 1.0
-    p_detect = np.where(marks.is_false, false_detection, p_real)[None, :]
-    detected = u_detect < p_detect
+    p_real = nav.detection_probability * range_falloff(true_range, nav.detection_range_m)
+    p_real = p_real if noise else np.ones((s, m))
+    p_detect = np.where(marks.is_false[None, :], false_detection, p_real)
+    detected = (u_detect < p_detect) & (hits > 0)
     seen = in_range & ~hidden & detected
     matched = _match(traj, vehicle, nav, marks, t, meas_range, meas_bearing, seen)
     return Scans(start=starts, period=period, seen=seen, time_in_scan=t - t0,
                  range=meas_range, bearing=meas_bearing, landmark=np.arange(m),
                  matched=matched, hidden=hidden)
+
+
+def range_falloff(r: FloatArray, full_range: float) -> FloatArray:
+    """Factor on the detection probability at range ``r`` (m): 1 up to ``full_range`` m, then
+    ``(full_range / r)^2``: the echo energy of a reflector narrower than the beam falls with
+    the square of the range, and ever more echoes stay below the detection threshold (0: no
+    fall-off)."""
+    if full_range <= 0.0:
+        return np.ones_like(r)
+    return np.minimum(1.0, (full_range / np.maximum(r, 1e-9)) ** 2)
+
+
+def apparent_centre(r: FloatArray, alpha: FloatArray, radius: float, step: float,
+                    phase: FloatArray) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
+    """Where the head puts a cylinder of ``radius`` m whose centre is at range ``r`` (m) and
+    bearing ``alpha`` (rad), when its pulses leave every ``step`` rad at the head angles
+    ``(k + phase) step`` (``phase`` in [0, 1) per revolution, one per row).
+
+    The pulses that hit the cylinder are those within its angular half width
+    ``w = asin(radius / r)`` of the centre. The bearing is the middle of the first and the last
+    of them (the edges of the return, quantised to the pulse grid); the range is the mean
+    distance to the surface each of them hits, plus ``radius``: the apparent centre lies a few
+    mm behind the true one at short range (many pulses hit the flanks), less at long range.
+    Returns (range m, bearing rad, number of pulses that hit). With ``step`` 0 the centre
+    itself (every cylinder hit).
+    """
+    if step <= 0.0 or radius <= 0.0:
+        return r, alpha, np.ones(r.shape, dtype=np.int64)
+    ph = phase[:, None]
+    w = np.arcsin(np.minimum(radius / np.maximum(r, radius), 1.0))
+    first = np.ceil((alpha - w) / step - ph)
+    last = np.floor((alpha + w) / step - ph)
+    hits = np.maximum(last - first + 1.0, 0.0).astype(np.int64)
+    bearing = np.where(hits > 0, 0.5 * (first + last + 2.0 * ph) * step, alpha)
+    total = np.zeros(r.shape)
+    for k in range(int(hits.max(initial=0))):
+        beta = (first + k + ph) * step - alpha
+        on = k < hits
+        p = r * np.sin(beta)
+        surface = r * np.cos(beta) - np.sqrt(np.maximum(radius * radius - p * p, 0.0))
+        total += np.where(on, surface, 0.0)
+    rng = np.where(hits > 0, total / np.maximum(hits, 1) + radius, r)
+    return rng, bearing, hits
 
 
 def _match(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmarks,

@@ -66,8 +66,9 @@ class McuSettings:
     """Constant gyro bias, deg/s."""
     gyro_bias_walk_dps: float = 0.002
     """Gyro bias random walk, deg/s per sqrt(s)."""
-    gyro_noise_dps: float = 0.03
-    """White noise on each frame's gyro rate (mean over the frame period), deg/s."""
+    gyro_noise_dps: float = 0.05
+    """White noise on each frame's gyro rate (mean over the frame period), deg/s: a rate noise
+    density of 0.015 deg/s/sqrt(Hz), typical of a +-300 deg/s MEMS gyro, averaged over 0.1 s."""
     gyro_scale_error: float = 0.003
     """Gyro scale factor error, dimensionless."""
     steering_noise_deg: float = 0.05
@@ -102,20 +103,36 @@ class NavSettings:
     """Range noise, standard deviation, mm."""
     sigma_bearing_deg: float = 0.05
     """Bearing noise, standard deviation, deg."""
-    detection_probability: float = 0.97
-    """Probability that a visible reflector is detected in a revolution."""
+    detection_probability: float = 0.9
+    """Probability that a visible reflector is detected in a revolution (within
+    detection_range_m; calibrated to the spread of the paper's Table 1)."""
+    sigma_range_per_m_mm: float = 1.0
+    """Growth of the range noise with range: its standard deviation is sigma_range_mm plus this
+    times the range in m, mm per m (the echo weakens with range)."""
+    detection_range_m: float = 12.0
+    """Beyond this range the detection probability falls as (detection_range_m / range)^2
+    (echo energy of a reflector narrower than the beam), m; 0: no fall-off."""
+    reflector_radius_mm: float = 50.0
+    """Radius of the reflector cylinders, mm (the paper's 10 cm diameter): the head measures
+    the surface it hits and adds this radius, so the apparent centre depends on which pulses hit."""
+    angle_step_deg: float = 0.1
+    """Angular step between the head's laser pulses, deg: the edges of each reflector's return
+    fall on this grid (its phase random per revolution); 0: continuous bearings and ranges to
+    the centre."""
     solver_sigma_range_mm: float = 12.0
     """Range standard deviation the device assumes when weighting its fit, mm."""
-    solver_sigma_bearing_deg: float = 0.05
-    """Bearing standard deviation the device assumes when weighting its fit, deg."""
+    solver_sigma_bearing_deg: float = 0.04
+    """Bearing standard deviation the device assumes when weighting its fit, deg (calibrated to
+    the bias of the paper's Table 1)."""
     solver_iterations: int = 6
     """Gauss-Newton iterations per revolution."""
     gate: float = 0.4
     """An observation is matched to the nearest stored reflector within this distance, m."""
     min_reflectors: int = 3
     """Fewest matched reflectors for a valid position."""
-    max_reflectors: int = 8
-    """The device fits only this many nearest matched reflectors (NAV200 PC command); 0: all."""
+    max_reflectors: int = 6
+    """The device fits only this many nearest matched reflectors (NAV200 PC command); 0: all
+    (calibrated to the spread of the paper's Table 1)."""
     quality_rms_mm: float = 250.0
     """Quality falls from 100 to 0 as the fit's RMS range residual grows to this, mm."""
     latency_s: float = 0.040
@@ -136,8 +153,9 @@ class NavSettings:
     """Extra read delay, uniform in [0, host_jitter_s], s."""
     split_probability: float = 0.3
     """Probability that a reply reaches the host in two reads instead of one."""
-    map_sigma_mm: float = 0.0
-    """Survey error of the device's stored reflector map (per reflector, per axis), mm."""
+    map_sigma_mm: float = 10.0
+    """Survey error of the device's stored reflector map (per reflector, per axis), mm: the map
+    every consumer of the log gets; the reflectors really stand this far off it."""
 
 
 @dataclass(frozen=True)
@@ -355,6 +373,10 @@ def validate(s: SimSettings) -> SimSettings:
         (s.nav.solver_sigma_range_mm > 0 and s.nav.solver_sigma_bearing_deg > 0,
          "nav.solver_sigma_* must be positive"),
         (s.nav.gate > 0, "nav.gate must be positive"),
+        (s.nav.sigma_range_per_m_mm >= 0, "nav.sigma_range_per_m_mm must not be negative"),
+        (s.nav.detection_range_m >= 0, "nav.detection_range_m must not be negative"),
+        (0 <= s.nav.reflector_radius_mm < 1000, "nav.reflector_radius_mm must be in [0, 1000)"),
+        (0 <= s.nav.angle_step_deg <= 5, "nav.angle_step_deg must be in [0, 5]"),
         (s.nav.quality_rms_mm > 0, "nav.quality_rms_mm must be positive"),
         (0 < s.mcu.gyro_scale_udeg_s <= 0xFFFF, "mcu.gyro_scale_udeg_s must be in 1..65535"),
         (s.faults.occlusion_mean_s > 0, "faults.occlusion_mean_s must be positive"),

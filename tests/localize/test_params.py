@@ -37,7 +37,10 @@ def test_unknown_and_bad_parameters() -> None:
 def test_paper_defaults() -> None:
     p = ESTIMATORS["pf-paper"].Params()
     assert (p.particles, p.top_fraction, p.local_fraction, p.spread_m) == (150, 0.25, 0.95, 0.25)
-    assert p.init == "uniform" and p.use_ids is False and p.deskew is False
+    # each reflector weighed at the particle carried to its own measurement time
+    assert p.init == "uniform" and p.use_ids is False and p.deskew is True
+    # a large uniform start for the first updates; 150 from then on
+    assert p.start_particles > p.particles and p.start_updates > 0
 
 
 def test_particle_filter_without_a_log() -> None:
