@@ -57,6 +57,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "sweep",
         "Parameter sweeps over many logs and seeds on a Dask cluster.",
     ),
+    "calibrate": (
+        "lgvtool.commands.calibrate",
+        "calibrate",
+        "Estimate the vehicle's installation (NAV mounting, wheels, gyro, timing) from logs.",
+    ),
     "config": (
         "lgvtool.commands.config",
         "config",
