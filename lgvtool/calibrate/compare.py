@@ -55,9 +55,10 @@ def _figure(result: Any, name: str) -> tuple[str, float, int] | None:
 
 
 def compare(paths: Sequence[str], estimators: Sequence[str], before: Config, after: Config,
-            seed: int = 0) -> tuple[list[Row], list[str]]:
+            seed: int = 0, start_at_truth: bool = False) -> tuple[list[Row], list[str]]:
     """Rows per log and estimator, then one per estimator over all logs (RMS over every
-    sample); warnings of the evaluations."""
+    sample); warnings of the evaluations. ``start_at_truth``: every estimator starts at the
+    ground truth (``lgvtool evaluate --start-at-truth``)."""
     import warnings as pywarnings
 
     from lgvtool.commands.evaluate import evaluate_log
@@ -71,7 +72,8 @@ def compare(paths: Sequence[str], estimators: Sequence[str], before: Config, aft
             with pywarnings.catch_warnings():
                 pywarnings.simplefilter("ignore")
                 results.append(evaluate_log(path, estimators=list(estimators), config=cfg,
-                                            seed=seed, replay=True))
+                                            seed=seed, replay=True,
+                                            start_at_truth=start_at_truth))
         for name in estimators:
             a, b = _figure(results[0], name), _figure(results[1], name)
             if a is None or b is None:

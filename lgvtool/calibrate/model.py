@@ -205,17 +205,22 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
             ds = 0.5 * k_count * (rl * nl + rr * nr)
             dds_rl, dds_rr = 0.5 * k_count * nl, 0.5 * k_count * nr
             c_rl, c_rr, c_tr = col("wheel_radius_left"), col("wheel_radius_right"), col("track")
-            q = k_count * 0.075 / math.sqrt(6.0)
-            slip = noise.slip_per_sqrt_m ** 2 * np.abs(ds)
+            # the noise follows the starting geometry, so that it does not move with the state
+            rl0, rr0, tr0 = (start["wheel_radius_left"], start["wheel_radius_right"],
+                             start["track"])
+            q = k_count * 0.5 * (rl0 + rr0) / math.sqrt(6.0)
+            ds0 = np.abs(0.5 * k_count * (rl0 * nl + rr0 * nr))
+            slip = noise.slip_per_sqrt_m ** 2 * ds0
             sig1 = np.sqrt(0.5 * q * q + 0.5 * slip + 1e-8) * sc["distance"]
-            sig2 = (5e-4 + 0.005 * np.abs(ds)) * sc["lateral"]
+            sig2 = (5e-4 + 0.005 * ds0) * sc["lateral"]
             scale_cols: list[tuple[int, FloatArray]] = [(c_rl, dds_rl), (c_rr, dds_rr)]
         else:
             sv, sw = _get(layout, "odom_scale_v"), _get(layout, "odom_scale_w")
             ds = sv * drive.dist
             scale_cols = [(col("odom_scale_v"), drive.dist)]
-            sig1 = (0.005 + noise.odom_dist_per_m * np.abs(ds)) * sc["distance"]
-            sig2 = (0.002 + 0.5 * noise.odom_dist_per_m * np.abs(ds)) * sc["lateral"]
+            dist0 = np.abs(start["odom_scale_v"] * drive.dist)
+            sig1 = (0.005 + noise.odom_dist_per_m * dist0) * sc["distance"]
+            sig2 = (0.002 + 0.5 * noise.odom_dist_per_m * dist0) * sc["lateral"]
         e1 = (dxb - ds * a_) / sig1
         rows.add(e1, g["distance"], t_mid, d, [
             (xk, -c / sig1), (yk, -s / sig1), (tk, (dyb + ds * da_) / sig1),
@@ -247,9 +252,9 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                 (col("gyro_scale"), (pred / sg / sig3)[ok]),
                 (c_b[ok], (gdt / sg / sig3)[ok])])
             enc = k_count * (rr * nr - rl * nl) / tr
-            wheel_l = noise.slip_per_sqrt_m ** 2 * np.abs(k_count * rl * nl)
-            wheel_r = noise.slip_per_sqrt_m ** 2 * np.abs(k_count * rr * nr)
-            sig4 = np.sqrt(2.0 * q * q + wheel_l + wheel_r + 1e-10) / tr * sc["encoder"]
+            wheel_l = noise.slip_per_sqrt_m ** 2 * np.abs(k_count * rl0 * nl)
+            wheel_r = noise.slip_per_sqrt_m ** 2 * np.abs(k_count * rr0 * nr)
+            sig4 = np.sqrt(2.0 * q * q + wheel_l + wheel_r + 1e-10) / tr0 * sc["encoder"]
             e4 = (dth - enc) / sig4
             rows.add(e4, g["encoder"], t_mid, d, [
                 (tk, -1.0 / sig4), (tk1, 1.0 / sig4),
@@ -269,8 +274,8 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
         else:
             sw = _get(layout, "odom_scale_w")
             pred = sw * drive.turn
-            sig3 = (0.005 + noise.odom_turn_per_rad * np.abs(pred)
-                    + 0.02 * np.abs(ds)) * sc["turn"]
+            sig3 = (0.005 + noise.odom_turn_per_rad * np.abs(start["odom_scale_w"] * drive.turn)
+                    + 0.02 * dist0) * sc["turn"]
             e3 = (dth - pred) / sig3
             rows.add(e3, g["turn"], t_mid, d, [
                 (tk, -1.0 / sig3), (tk1, 1.0 / sig3),
@@ -296,7 +301,8 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
             # constant in the Jacobian): exact for a quadratic motion
             p = (p0 + f[:, None] * (p1 - p0)
                  - 0.5 * acc[kk] * (f * (1.0 - f) * span * span)[:, None])
-            vel = (p1 - p0) / span[:, None]
+            vel = ((p1 - p0) / span[:, None]
+                   - 0.5 * acc[kk] * ((1.0 - 2.0 * f) * span)[:, None])  # d p / d t
             ct, st = np.cos(p[:, 2]), np.sin(p[:, 2])
             hx = p[:, 0] + ct * mx - st * my
             hy = p[:, 1] + st * mx + ct * my

@@ -97,7 +97,8 @@ def _names(estimate: Sequence[str] | None, fix: Sequence[str], motion: str, has_
 def calibrate(paths: Sequence[str], *, config: Config | None = None,
               estimate: Sequence[str] | None = None, fix: Sequence[str] = (),
               observations: str = "auto", allow_unobservable: bool = False,
-              compare_with: Sequence[str] = ("laser", "ekf"), seed: int = 0) -> Calibration:
+              compare_with: Sequence[str] = ("laser", "ekf"), seed: int = 0,
+              start_at_truth: bool = False) -> Calibration:
     """Calibrate the vehicle from the logs ``paths`` (see the module docstring).
 
     :param config: starting values, map and everything else of the output (default: the first
@@ -109,7 +110,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     :param allow_unobservable: hold the quantities the drives cannot observe at their starting
         values (with a warning) instead of refusing.
     :param compare_with: estimators to replay with the starting and the calibrated
-        configuration (empty: none).
+        configuration (empty: none); ``start_at_truth`` starts them at the ground truth.
     :raises InputError: unusable input (one line), unobservable quantities.
     """
     from lgvtool.calibrate.drive import log_mcu_baud, prepare
@@ -208,7 +209,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         from lgvtool.calibrate.compare import compare
 
         t0 = time.perf_counter()
-        rows, notes = compare(paths, compare_with, cfg, out_cfg, seed)
+        rows, notes = compare(paths, compare_with, cfg, out_cfg, seed, start_at_truth)
         result.comparison = rows
         result.warnings.extend(notes)
         result.timings["compare"] = time.perf_counter() - t0

@@ -29,11 +29,14 @@ def _names(value: str | None) -> list[str]:
               "configuration for the before/after table; 'none': no table.")
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seed of the estimators of the before/after table.")
+@click.option("--start-at-truth", is_flag=True, help="Start the estimators of the before/after "
+              "table at the logs' ground truth (as evaluate --start-at-truth).")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @click.option("--force", is_flag=True, help="Replace an existing output file.")
 def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
               estimate: str | None, fix: str | None, observations: str,
-              allow_unobservable: bool, compare_with: str, seed: int, as_json: bool,
+              allow_unobservable: bool, compare_with: str, seed: int, start_at_truth: bool,
+              as_json: bool,
               force: bool) -> None:
     """Estimate the NAV mounting (nav_x, nav_y mm; nav_yaw deg), the wheel radii and the track
     (mm), the gyro's scale and bias (deg/s), the NAV-to-host time offset and the NAV poses' age
@@ -58,7 +61,7 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
     result = run_calibration(list(logs), config=cfg, estimate=_names(estimate) or None,
                              fix=_names(fix), observations=observations,
                              allow_unobservable=allow_unobservable, compare_with=chosen,
-                             seed=seed)
+                             seed=seed, start_at_truth=start_at_truth)
     with atomic_output(out) as tmp:
         tmp.write_text(toml(result), encoding="utf-8")
     if as_json:
