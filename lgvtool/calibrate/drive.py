@@ -125,7 +125,7 @@ def _mcu_intervals(drive: Drive, mcu: dict[str, NDArray[Any]], baud: float) -> N
     drive.counts_right = unwrap_counter(er, 1 << 32, signed=True).astype(np.float64)
     dseq = unwrap_counter(seq, 1 << 16, signed=False)
     dt_mcu = unwrap_counter(ms, 1 << 32, signed=False) * 1e-3
-    dt = dt_mcu if clock == "mcu" else np.diff(t)
+    dt: FloatArray = np.asarray(dt_mcu if clock == "mcu" else np.diff(t), dtype=np.float64)
     # a frame's rate is the mean over the time since the MCU's previous sample
     drive.gyro = rate[1:] * dt
     drive.gyro_dt = dt

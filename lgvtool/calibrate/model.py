@@ -308,19 +308,13 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
             hy = p[:, 1] + st * mx + ct * my
             dhx_dth = -st * mx - ct * my
             dhy_dth = ct * mx - st * my
-            cols0 = [cx[kk], cx[kk] + 1, cx[kk] + 2]
-            cols1 = [cx[kk + 1], cx[kk + 1] + 1, cx[kk + 1] + 2]
+            ip = _Interp([cx[kk], cx[kk] + 1, cx[kk] + 2],
+                         [cx[kk + 1], cx[kk + 1] + 1, cx[kk + 1] + 2], f, vel, c_tau, c_yaw,
+                         d, t_obs)
 
             def add(e: FloatArray, grp: int, gx: FloatArray, gy: FloatArray, gth: FloatArray,
-                    gyaw: FloatArray | float, t_row: FloatArray = t_obs) -> None:
-                gp = (gx, gy, gth)
-                cols: list[tuple[IntArray | int, FloatArray | float]] = []
-                for i in range(3):
-                    cols.append((cols0[i], (1.0 - f) * gp[i]))
-                    cols.append((cols1[i], f * gp[i]))
-                cols.append((c_tau, -(gx * vel[:, 0] + gy * vel[:, 1] + gth * vel[:, 2])))
-                cols.append((c_yaw, gyaw))
-                rows.add(e, grp, t_row, d, cols)
+                    gyaw: FloatArray | float, ip: _Interp = ip) -> None:
+                _add_interpolated(rows, ip, e, grp, gx, gy, gth, gyaw)
 
             if kind == "scan":
                 lx, ly = drive.obs_lx[use], drive.obs_ly[use]
@@ -366,6 +360,35 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
         rows.add(np.array([(x[i] - start[name]) / sp0]), -1, np.zeros(1), -1,
                  [(i, 1.0 / sp0)])
     return rows.build(layout.size, jac)
+
+
+@dataclass(frozen=True)
+class _Interp:
+    """Measurements interpolated between two nodes: the nodes' columns, the fraction ``f``,
+    the pose's rate of change, the time offset's and the yaw's columns."""
+
+    cols0: list[IntArray]
+    cols1: list[IntArray]
+    f: FloatArray
+    vel: FloatArray
+    c_tau: int
+    c_yaw: int
+    drive: int
+    t: FloatArray
+
+
+def _add_interpolated(rows: Rows, ip: _Interp, e: FloatArray, grp: int, gx: FloatArray,
+                      gy: FloatArray, gth: FloatArray, gyaw: FloatArray | float) -> None:
+    """Rows of measurements whose derivatives by the interpolated pose are ``(gx, gy, gth)``
+    and by the mounting yaw ``gyaw``: chained onto the two nodes and the time offset."""
+    gp = (gx, gy, gth)
+    cols: list[tuple[IntArray | int, FloatArray | float]] = []
+    for i in range(3):
+        cols.append((ip.cols0[i], (1.0 - ip.f) * gp[i]))
+        cols.append((ip.cols1[i], ip.f * gp[i]))
+    cols.append((ip.c_tau, -(gx * ip.vel[:, 0] + gy * ip.vel[:, 1] + gth * ip.vel[:, 2])))
+    cols.append((ip.c_yaw, gyaw))
+    rows.add(e, grp, ip.t, ip.drive, cols)
 
 
 def interval_acceleration(t: FloatArray, ds: FloatArray, dth: FloatArray,

@@ -188,14 +188,15 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
             estimates[n] = Estimate(n, start[n], values[n], sigma.get(n), "estimated")
         else:
             estimates[n] = Estimate(n, start[n], start[n], None, "fixed")
-    vehicle = replace(v, **{n: e.value for n, e in estimates.items()})
+    calibrated: dict[str, Any] = {n: e.value for n, e in estimates.items()}
+    vehicle = replace(v, **calibrated)
     out_cfg = replace(cfg, vehicle=vehicle, simulator={})
     solve_s = time.perf_counter() - started - read_s
     logs = []
     for d, drive in enumerate(drives):
         info = dict(drive.info, path=drive.name, motion=drive.motion,
                     duration_s=drive.duration, nodes=len(drive.t),
-                    reflector_measurements=int(len(drive.obs_t)),
+                    reflector_measurements=len(drive.obs_t),
                     gyro_bias_deg_s=(math.degrees(sol.bias_per_log[d])
                                      if drive.motion == "mcu" else None))
         logs.append(info)

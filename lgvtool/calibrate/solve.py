@@ -17,6 +17,7 @@ measured with the same error for a while, unmodelled slip).
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -132,7 +133,7 @@ def _fixes(drive: Drive, v: dict[str, float]) -> FloatArray:
         # a scan: measurements less than 0.2 s apart
         cut = np.nonzero(np.diff(t) > 0.02)[0] + 1
         bounds = np.concatenate([[0], cut, [len(t)]])
-        for a, e in zip(bounds[:-1], bounds[1:], strict=True):
+        for a, e in itertools.pairwise(bounds.tolist()):
             if e - a < 2:
                 continue
             fix = pose_from_correspondences(qx[a:e], qy[a:e], lx[a:e], ly[a:e])
@@ -246,7 +247,7 @@ class Problem:
 
     def set_free(self, names: list[str], x: FloatArray | None = None) -> None:
         """Lay the state out for the free quantities ``names`` (moving ``x`` over if given)."""
-        old = getattr(self, "layout", None)
+        old: Layout | None = getattr(self, "layout", None)
         values = dict(self.start) if old is None else dict(old.values)
         glob = [n for n in names if n != "gyro_bias"]
         layout = Layout(glob, values)
@@ -277,7 +278,7 @@ class Problem:
                     new[layout.bias_offset[d]:layout.bias_offset[d] + nb] = values["gyro_bias"]
             self.x = new
         self.free = list(names)
-        self.layout = layout
+        self.layout: Layout = layout
 
     def relink(self) -> None:
         """Node of every measurement at the current time offset; re-associate unknown ids."""
@@ -451,8 +452,9 @@ def solve(problem: Problem, *, allow_unobservable: bool) -> Solution:
         iterations += problem.gauss_newton()
         problem.rescale_noise()
         if rnd == 1:
-            sig = _sigmas(problem)
-            bad = {n: s for n, s in sig.items() if s > QUANTITIES[n].max_sigma}
+            sig_f, sig_r = _sigmas(problem)
+            bad = {n: max(s, sig_r[n]) for n, s in sig_f.items()
+                   if max(s, sig_r[n]) > QUANTITIES[n].max_sigma}
             if bad and not allow_unobservable:
                 raise UnobservableError(bad)
             if bad:
@@ -462,7 +464,7 @@ def solve(problem: Problem, *, allow_unobservable: bool) -> Solution:
                     problem.layout.values[n] = problem.start[n]
     problem.relink()
     iterations += problem.gauss_newton()
-    sig_f, sig_r = _sigmas(problem, both=True)
+    sig_f, sig_r = _sigmas(problem)
     values = dict(problem.layout.values)
     total, per = problem.bias_mean_vector()
     biases = [float(v @ problem.x) if v.any() else values["gyro_bias"] for v in per]
@@ -491,7 +493,8 @@ class UnobservableError(Exception):
         self.sigma = sigma
 
 
-def _sigmas(problem: Problem, both: bool = False):  # type: ignore[no-untyped-def]
+def _sigmas(problem: Problem) -> tuple[dict[str, float], dict[str, float]]:
+    """Formal and cluster-robust 1-sigma of the free quantities (and of the mean gyro bias)."""
     names = list(problem.layout.names)
     total, _ = problem.bias_mean_vector()
     extra = [total] if "gyro_bias" in problem.free and total.any() else []
@@ -500,6 +503,4 @@ def _sigmas(problem: Problem, both: bool = False):  # type: ignore[no-untyped-de
         names.append("gyro_bias")
     f = {n: math.sqrt(max(formal[i, i], 0.0)) for i, n in enumerate(names)}
     r = {n: math.sqrt(max(robust[i, i], 0.0)) for i, n in enumerate(names)}
-    if both:
-        return f, r
-    return {n: max(f[n], r[n]) for n in names}
+    return f, r

@@ -88,7 +88,6 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
 
     if list_scenarios:
         from lgvtool.sim.scenarios import SCENARIOS
-
         from lgvtool.sim.settings import INSTALLATION, SimSettings, setting_value
 
         nominal = SimSettings()
