@@ -69,7 +69,7 @@ def resolve(scenario: str, *, config: Config | None = None,
         raise ConfigError("the configuration has no reflectors for the NAV200 to see")
     params = sc.parameters(settings.scenario)
     settings = replace(settings, scenario=params)
-    cfg = replace(cfg, simulator=settings.to_dict())
+    cfg = replace(cfg, simulator=settings.to_dict(installation=False))
     return Setup(scenario=sc, config=cfg, settings=settings, parameters=params,
                  duration=duration)
 

@@ -260,10 +260,14 @@ class SimSettings:
     scenario: Mapping[str, Any] = field(default_factory=dict)
     """Parameters of the scenario (validated by the scenario)."""
 
-    def to_dict(self) -> dict[str, Any]:
-        """Every setting as a nested JSON-able dict (NaN written as None)."""
+    def to_dict(self, installation: bool = True) -> dict[str, Any]:
+        """Every setting as a nested JSON-able dict (NaN written as None). The ``install``
+        section only when ``installation`` and some installation error is set (a log's stored
+        configuration leaves it out: the host does not know it)."""
         out: dict[str, Any] = {}
         for name in SECTIONS:
+            if name == "install" and not (installation and self.install != InstallSettings()):
+                continue
             out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()}
         out["scenario"] = {k: _jsonable(v) for k, v in self.scenario.items()}
         return out

@@ -40,6 +40,7 @@ def test_the_log_keeps_the_nominal_vehicle(tmp_path) -> None:
     assert true.nav_yaw == pytest.approx(math.radians(0.5), rel=1e-12)
     assert true.track == pytest.approx(0.605, rel=1e-12)
     assert reader.metadata["simulator"]["settings"]["install"]["nav_dx_mm"] == 20.0
+    assert "install" not in reader.config().simulator  # the host's configuration: nominal
 
 
 def test_time_offset_and_mounting_yaw_in_the_nav_data(tmp_path) -> None:
