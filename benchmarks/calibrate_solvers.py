@@ -23,10 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-ERRORS = {"install.nav_dx_mm": 20.0, "install.nav_dy_mm": -10.0, "install.nav_yaw_deg": 0.5,
-          "install.track_error_mm": 5.0, "install.nav_time_offset_ms": 30.0,
-          "mcu.wheel_radius_error_left": 0.004, "mcu.wheel_radius_error_right": -0.003,
-          "mcu.gyro_scale_error": 0.005}
+from calibrate_accuracy import ERRORS  # noqa: E402  (the same installation errors)
 
 
 def main() -> None:
