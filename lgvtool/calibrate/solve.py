@@ -81,7 +81,7 @@ class Solution:
     noise_scale: dict[str, float]
     """The re-estimated noise scale of each residual group (x the starting noise)."""
     rms: dict[str, float]
-    """RMS of each group's residual in its unit (m, rad)."""
+    """RMS of each group's normalised residual (1: as its noise model says)."""
     outliers: dict[str, int]
     """Residuals beyond 3 sigma, per group."""
     bias_per_log: list[float]
@@ -312,7 +312,7 @@ class Problem:
         w = np.where(a <= k, 1.0, k / np.maximum(a, 1e-12))
         return np.where(grp < 0, 1.0, w)
 
-    def cost(self, x: FloatArray, w: FloatArray | None = None) -> float:
+    def cost(self, x: FloatArray) -> float:
         """Huber cost at ``x``."""
         r, _, grp, _, _ = self.evaluate(x, jac=False)
         a = np.abs(r)
@@ -321,9 +321,9 @@ class Problem:
         rho = np.where(grp < 0, 0.5 * a * a, rho)
         return float(rho.sum())
 
-    def step(self, x: FloatArray, lam: float) -> tuple[FloatArray, float, float]:
-        """One damped Gauss-Newton step of the reweighted problem: new x, predicted and old
-        cost."""
+    def step(self, x: FloatArray, lam: float) -> FloatArray:
+        """One damped Gauss-Newton step of the reweighted problem (damping ``lam`` on the
+        column-scaled normal matrix): the new state."""
         r, j, grp, _, _ = self.evaluate(x)
         assert j is not None
         w = np.sqrt(self.robust_weights(r, grp))
@@ -336,7 +336,7 @@ class Problem:
         g = js.T @ rw
         h = h + sp.diags(np.full(h.shape[0], lam))
         delta = _factor(h).solve(-g)
-        return x + delta / norms, 0.0, 0.0
+        return np.asarray(x + delta / norms, dtype=np.float64)
 
     def gauss_newton(self) -> int:
         """Levenberg-Marquardt iterations at fixed links and noise; the number taken."""
@@ -345,7 +345,7 @@ class Problem:
         taken = 0
         for _ in range(self.settings.iterations):
             for _ in range(8):
-                x_new, _, _ = self.step(self.x, lam)
+                x_new = self.step(self.x, lam)
                 c_new = self.cost(x_new)
                 if c_new <= cost:
                     break
@@ -405,14 +405,13 @@ class Problem:
         return formal, robust
 
     def residual_figures(self) -> tuple[dict[str, float], dict[str, int]]:
-        """RMS of each group in its own unit and its residuals beyond 3 sigma."""
+        """RMS of each group's normalised residuals and how many lie beyond 3 sigma."""
         r, _, grp, _, _ = self.evaluate(self.x, jac=False)
         rms: dict[str, float] = {}
         out: dict[str, int] = {}
         for i, name in enumerate(GROUPS):
             sel = grp == i
             if sel.any():
-                # the normalised residual times the group's typical sigma: re-evaluate unnormalised
                 out[name] = int((np.abs(r[sel]) > 3.0).sum())
                 rms[name] = float(np.sqrt(np.mean(r[sel] ** 2)))
         return rms, out
