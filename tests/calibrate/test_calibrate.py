@@ -64,6 +64,9 @@ def test_cli_writes_a_usable_config(installed_logs: list[Path], tmp_path: Path, 
     assert rows[("all", "ekf")]["after_m"] < 0.7 * rows[("all", "ekf")]["before_m"]
     e = run_cli("evaluate", installed_logs[1], "--config", out, "-e", "laser", "--json")
     assert e.returncode == 0, e.stderr
+    r = run_cli("replay", installed_logs[1], "--config", out, "-e", "laser", "-o",
+                tmp_path / "replayed.mcap")
+    assert r.returncode == 0, r.stderr
 
 
 def test_cli_text_table(installed_logs: list[Path], tmp_path: Path, run_cli) -> None:
