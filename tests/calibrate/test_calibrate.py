@@ -134,3 +134,20 @@ def test_unknown_quantity(installed_logs: list[Path], tmp_path: Path, run_cli) -
     p = run_cli("calibrate", installed_logs[0], "-o", tmp_path / "v.toml",
                 "--estimate", "odom_scale_v")
     assert p.returncode == 2 and "odometry" in p.stderr
+
+
+def test_robust_to_a_false_reflector_and_bad_links(installed_logs: list[Path],
+                                                  tmp_path: Path) -> None:
+    from conftest import ERRORS
+
+    # the degraded hall: a shiny object the head takes for reflector 3, occlusions, lost and
+    # corrupted frames and replies
+    sim = simulate("degraded", seed=13, duration=70.0, overrides=ERRORS)
+    assert sim.fault_counts().get("false_reflector_used", 0) > 0
+    log = tmp_path / "degraded.mcap"
+    write_log(sim, log)
+    cal = calibrate([str(log), str(installed_logs[1])], compare_with=())
+    for name in ("nav_x", "nav_y", "nav_yaw", "track", "gyro_scale", "nav_time_offset"):
+        e = cal.estimates[name]
+        assert e.value == pytest.approx(TRUE[name], abs=TOLERANCE[name]), name
+    assert cal.residuals["beyond_3_sigma"]["range"] > 0  # the outliers were seen, and held off
