@@ -30,16 +30,19 @@ class Quantity:
 
 QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
     Quantity("nav_x", "mm", 1e3, "any", 0.02, 1.0,
-             "turning (a straight drive cannot tell it from a pose shift)"),
+             "turning, and changes of speed or of turn rate (a straight line cannot tell it "
+             "from a pose shift, one steady circle from the time offset and the yaw)"),
     Quantity("nav_y", "mm", 1e3, "any", 0.02, 1.0,
-             "turning (a straight drive cannot tell it from a pose shift)"),
+             "turning, and changes of speed or of turn rate (a straight line cannot tell it "
+             "from a pose shift, one steady circle from the time offset and the yaw)"),
     Quantity("nav_yaw", "deg", 180.0 / math.pi, "any", math.radians(0.5), math.radians(20.0),
-             "reflectors in several directions and some travel"),
+             "reflectors in several directions, travel, and changes of turn rate"),
     Quantity("wheel_radius_left", "mm", 1e3, "mcu", 0.075 * 0.005, 0.01,
-             "travel on straights and in turns"),
+             "travel at two curvatures at least (straights and turns)"),
     Quantity("wheel_radius_right", "mm", 1e3, "mcu", 0.075 * 0.005, 0.01,
-             "travel on straights and in turns"),
-    Quantity("track", "mm", 1e3, "mcu", 0.02, 0.3, "turning"),
+             "travel at two curvatures at least (straights and turns)"),
+    Quantity("track", "mm", 1e3, "mcu", 0.02, 0.3,
+             "travel at two curvatures at least (straights and turns)"),
     Quantity("gyro_scale", "", 1.0, "mcu", 0.005, 0.2, "turning"),
     Quantity("gyro_bias", "deg/s", 180.0 / math.pi, "mcu", math.radians(0.05),
              math.radians(5.0), "standing still or driving straight"),
