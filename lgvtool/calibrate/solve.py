@@ -149,6 +149,12 @@ def _fixes(drive: Drive, v: dict[str, float]) -> FloatArray:
     return np.array(out, dtype=np.float64).reshape(-1, 4)
 
 
+def _median5(a: FloatArray) -> FloatArray:
+    """Running median over five samples, the ends repeated."""
+    padded = np.concatenate([[a[0]] * 2, a, [a[-1]] * 2])
+    return np.asarray(np.median(np.lib.stride_tricks.sliding_window_view(padded, 5), axis=1))
+
+
 def initial_poses(drive: Drive, v: dict[str, float], ppr: int) -> FloatArray:
     """A first trajectory: the odometry, bent onto the fixes by a correction interpolated
     between them (median of five, against single bad fixes)."""
@@ -165,9 +171,7 @@ def initial_poses(drive: Drive, v: dict[str, float], ppr: int) -> FloatArray:
     tx = fixes[:, 1] - (c * ox - s * oy)
     ty = fixes[:, 2] - (s * ox + c * oy)
     if len(fixes) >= 5:
-        from scipy.ndimage import median_filter
-
-        dth, tx, ty = (median_filter(a, size=5, mode="nearest") for a in (dth, tx, ty))
+        dth, tx, ty = (_median5(a) for a in (dth, tx, ty))
     cd = np.interp(drive.t, fixes[:, 0], dth)
     cx = np.interp(drive.t, fixes[:, 0], tx)
     cy = np.interp(drive.t, fixes[:, 0], ty)
