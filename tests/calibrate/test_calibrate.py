@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 
 import pytest
-from conftest import TRUE
+from calibrate_cases import TRUE
 
 from lgvtool.calibrate.run import calibrate
 from lgvtool.config import load_config
@@ -138,7 +138,7 @@ def test_unknown_quantity(installed_logs: list[Path], tmp_path: Path, run_cli) -
 
 def test_robust_to_a_false_reflector_and_bad_links(installed_logs: list[Path],
                                                   tmp_path: Path) -> None:
-    from conftest import ERRORS
+    from calibrate_cases import ERRORS
 
     # the degraded hall: a shiny object the head takes for reflector 3, occlusions, lost and
     # corrupted frames and replies

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ERRORS
+from calibrate_cases import ERRORS
 
 from lgvtool.calibrate.drive import mcu_sample_times, prepare
 from lgvtool.calibrate.model import arc_terms
