@@ -67,6 +67,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "view",
         "Play a log to a live Foxglove view at N x speed.",
     ),
+    "calibrate": (
+        "lgvtool.commands.calibrate",
+        "calibrate",
+        "Estimate the vehicle's installation (NAV mounting, wheels, gyro, timing) from logs.",
+    ),
     "config": (
         "lgvtool.commands.config",
         "config",

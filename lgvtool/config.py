@@ -14,6 +14,7 @@ Example::
     gyro_range_dps = 360.0   # deg/s, full scale
     nav_x = 1.00             # m, NAV200 head position in the vehicle frame (forward)
     nav_y = 0.0              # m (left)
+    nav_yaw = 0.0            # rad, mounting yaw of the head (lgvtool calibrate estimates it)
 
     [area]                   # the work area, m (particle filters initialise over it)
     x_min = 0.0
@@ -69,6 +70,23 @@ class Vehicle:
     """NAV200 head position in the vehicle frame, left of O, m (d_y)."""
     nav_height: float = 1.9
     """NAV200 head height above the floor, m (not used in 2-D)."""
+    nav_yaw: float = 0.0
+    """Mounting yaw of the NAV200 head: its x axis is turned this much counter-clockwise from
+    the vehicle's, rad. The head measures bearings from, and reports the heading of, its axis."""
+    nav_time_offset: float = 0.0
+    """NAV-to-host time offset: NAV poses and scans are stamped this much later than they
+    happened on the motion data's clock, s (may be negative)."""
+    nav_pose_age: float = 0.0
+    """Age of a NAV pose when the host receives it, beyond ``nav_time_offset`` (the device's
+    own delay from the middle of the revolution to its reply), s; not negative."""
+    gyro_scale: float = 1.0
+    """Gyro scale factor: the MCU reports ``gyro_scale * rate + gyro_bias``, dimensionless."""
+    gyro_bias: float = 0.0
+    """Gyro bias, rad/s (see ``gyro_scale``)."""
+    odom_scale_v: float = 1.0
+    """Generic odometry (/odom/twist): the vehicle travels ``odom_scale_v * v``, dimensionless."""
+    odom_scale_w: float = 1.0
+    """Generic odometry: the vehicle turns ``odom_scale_w * omega``, dimensionless."""
 
     def circle_radius(self, steering_angle: float) -> float:
         """Radius of the circle that O drives at a fixed steering angle, m: R = h / tan(delta)."""
@@ -225,7 +243,7 @@ def _coerce(where: str, value: Any, type_name: Any) -> Any:
 
 
 _POSITIVE_VEHICLE = ("h", "track", "wheel_radius_left", "wheel_radius_right", "encoder_ppr",
-                     "gyro_range_dps")
+                     "gyro_range_dps", "gyro_scale", "odom_scale_v", "odom_scale_w")
 
 
 def _validate(cfg: Config) -> Config:
@@ -233,8 +251,9 @@ def _validate(cfg: Config) -> Config:
     for key in _POSITIVE_VEHICLE:
         if getattr(v, key) <= 0:
             raise ConfigError(f"vehicle.{key} must be positive, got {getattr(v, key)}")
-    if v.nav_height < 0:
-        raise ConfigError(f"vehicle.nav_height must not be negative, got {v.nav_height}")
+    for key in ("nav_height", "nav_pose_age"):
+        if getattr(v, key) < 0:
+            raise ConfigError(f"vehicle.{key} must not be negative, got {getattr(v, key)}")
     a = cfg.area
     if not (a.x_max > a.x_min and a.y_max > a.y_min):
         raise ConfigError("area: x_max must exceed x_min and y_max must exceed y_min")

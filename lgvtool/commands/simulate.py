@@ -95,12 +95,17 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
             raise InputError(f"--list describes the scenarios and writes nothing; "
                              f"drop {', '.join(given)}")
         from lgvtool.sim.scenarios import SCENARIOS
+        from lgvtool.sim.settings import INSTALLATION, SimSettings, setting_value
 
+        nominal = SimSettings()
         if as_json:
-            click.echo(json.dumps({name: {"description": sc.description,
-                                          "parameters": dict(sc.defaults),
-                                          "presets": dict(sc.presets)}
-                                   for name, sc in SCENARIOS.items()}, indent=2))
+            listing: dict[str, Any] = {name: {"description": sc.description,
+                                              "parameters": dict(sc.defaults),
+                                              "presets": dict(sc.presets)}
+                                       for name, sc in SCENARIOS.items()}
+            listing["installation"] = {k: {"default": setting_value(nominal, k),
+                                           "description": d} for k, d in INSTALLATION.items()}
+            click.echo(json.dumps(listing, indent=2))
             return
         for name, sc in SCENARIOS.items():
             click.echo(name)
@@ -113,6 +118,10 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
                 presets = " ".join(f"{k}={_text(v)}" for k, v in sc.presets.items())
                 click.echo(click.wrap_text(f"presets: {presets}", initial_indent="  ",
                                            subsequent_indent="    ", width=96))
+        click.echo("installation errors (--set; the log's configuration keeps the nominal "
+                   "vehicle; docs/calibration.md)")
+        for key, meaning in INSTALLATION.items():
+            click.echo(f"  {key}={_text(setting_value(nominal, key))}: {meaning}")
         return
     if scenario is None:
         raise InputError("simulate needs --scenario NAME (see lgvtool simulate --list)")

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from lgvtool.config import Config, default_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
+from lgvtool.localize.installation import apply_installation
 from lgvtool.localize.logdata import LazyScans, LogData, load_log, scan_batch
 from lgvtool.localize.motion import MotionSettings, MotionTrack
 from lgvtool.localize.observations import (
@@ -191,6 +192,7 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
                 cloud_period_s: float = 2.0, cloud_size: int = 50) -> ReplayResult:
     """Run the estimators ``names`` over ``data`` (see :func:`run_replay`)."""
     cfg = config or default_config()
+    data = apply_installation(data, cfg.vehicle)
     chosen = check_names(list(names) if names is not None else list(DEFAULT_ESTIMATORS))
     per_name = split_settings(settings)
     idle = [n for n in per_name if n not in chosen]

@@ -63,25 +63,27 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
         add(fault.t, _FAULT, fault)
     for chunk in sim.mcu_traffic.rx:
         add(chunk.t, _MCU, chunk)
-    nav350 = None
+    late = sim.settings.install.nav_time_offset_ms * 1e-3  # NAV-to-host time offset, s
     if sim.settings.sim.nav_device == "nav350":  # the host side of a NAV350 instead
         from lgvtool.devices.nav350.simlink import nav350_traffic
 
         for t, direction, data in nav350_traffic(sim):
-            add(t, _NAV_TX if direction == "tx" else _NAV_RX, data)
+            add(t + late if direction == "rx" else t, _NAV_TX if direction == "tx" else _NAV_RX,
+                data)
     else:
         for chunk in sim.nav_traffic.tx:
             add(chunk.t, _NAV_TX, chunk)
         for chunk in sim.nav_traffic.rx:
-            add(chunk.t, _NAV_RX, chunk)
+            add(chunk.t + late, _NAV_RX, chunk)
         available = sim.solutions.available
         for k, scan in enumerate(nav_scans(sim)):
             if available[k] > sim.duration:
                 break
-            add(float(available[k]), _SCAN, scan)
+            add(float(available[k]) + late, _SCAN, scan)
     records.sort(key=lambda r: (r[0], r[1], r[2]))
 
     mcu_decoder = McuStreamDecoder()
+    nav350 = None
     session = Nav200HostSession()
     with LogWriter(path, compression=compression, source="simulate", command=command) as w:
         w.add_metadata("simulator", sim.metadata())
@@ -108,7 +110,7 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
                 _nav_read(w, session, ns, payload.data)
             else:
                 w.write(topics.NAV_REFLECTORS,
-                        _scan_message(sim.host_ns(payload.start), payload.period,
+                        _scan_message(sim.host_ns(payload.start + late), payload.period,
                                       payload.observations), ns)
         end_ns = sim.host_ns(sim.duration)
         for frame in mcu_decoder.flush():

@@ -119,7 +119,7 @@ def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmar
     def bearing_at(times: FloatArray) -> tuple[FloatArray, FloatArray]:
         hx, hy, hth = traj.point_at(times, vehicle.nav_x, vehicle.nav_y)
         dx, dy = lx - hx, ly - hy
-        return np.hypot(dx, dy), np.arctan2(dy, dx) - hth
+        return np.hypot(dx, dy), np.arctan2(dy, dx) - (hth + vehicle.nav_yaw)
 
     t0 = np.broadcast_to(starts[:, None], (s, m))
     if nav.skew:
@@ -210,6 +210,7 @@ def _match(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmark
     the closer keeps it (a shiny object steals a reflector's match only when that reflector is
     missed or hidden, or when the object lies closer to where the reflector is expected)."""
     hx, hy, hth = traj.point_at(t, vehicle.nav_x, vehicle.nav_y)
+    hth = hth + vehicle.nav_yaw
     ox = hx + meas_range * np.cos(hth + meas_bearing)
     oy = hy + meas_range * np.sin(hth + meas_bearing)
     real = np.nonzero(~marks.is_false)[0]
@@ -278,7 +279,7 @@ def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
     valid = n_used >= nav.min_reflectors
     mid = scans.start + 0.5 * scans.period
     x, y, th = traj.point_at(mid, vehicle.nav_x, vehicle.nav_y)
-    x, y, th = x.copy(), y.copy(), th.copy()
+    x, y, th = x.copy(), y.copy(), th + vehicle.nav_yaw
     wr = 1.0 / (nav.solver_sigma_range_mm * 1e-3) ** 2
     wb = 1.0 / math.radians(nav.solver_sigma_bearing_deg) ** 2
     w = use.astype(np.float64)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from lgvtool.config import Config, config_from_dict, default_config
+from lgvtool.config import Config, Vehicle, config_from_dict, default_config
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.sim import events as ev
 from lgvtool.sim import faults as faultlib
@@ -29,7 +29,7 @@ from lgvtool.sim.mcu_model import McuOutput
 from lgvtool.sim.nav_device import Nav200Device
 from lgvtool.sim.nav_link import FaultEvent, NavTraffic
 from lgvtool.sim.scenarios import Plan, Scenario, get_scenario
-from lgvtool.sim.settings import SimSettings, apply_overrides, flatten
+from lgvtool.sim.settings import InstallSettings, SimSettings, apply_overrides, flatten
 
 STREAMS = ("landmarks", "mcu", "mcu_link", "nav", "nav_link", "faults")
 """Names of the random streams spawned from the seed, in spawn order."""
@@ -69,7 +69,7 @@ def resolve(scenario: str, *, config: Config | None = None,
         raise ConfigError("the configuration has no reflectors for the NAV200 to see")
     params = sc.parameters(settings.scenario)
     settings = replace(settings, scenario=params)
-    cfg = replace(cfg, simulator=settings.to_dict())
+    cfg = replace(cfg, simulator=settings.to_dict(installation=False))
     return Setup(scenario=sc, config=cfg, settings=settings, parameters=params,
                  duration=duration)
 
@@ -102,6 +102,11 @@ class Simulation:
     def config(self) -> Config:
         """The effective configuration (vehicle, map; ``simulator`` holds the settings)."""
         return self.setup.config
+
+    @property
+    def vehicle(self) -> Vehicle:
+        """The vehicle as built (:func:`true_vehicle`): the configuration's plus ``install.*``."""
+        return true_vehicle(self.config.vehicle, self.settings.install)
 
     @property
     def duration(self) -> float:
@@ -190,11 +195,22 @@ def simulate(scenario: str, *, seed: int = 0, config: Config | None = None,
     return run(setup, seed)
 
 
+def true_vehicle(vehicle: Vehicle, install: InstallSettings) -> Vehicle:
+    """The vehicle as it is built: the configured one with the ``install.*`` errors added (the
+    wheel radii's errors are applied by the MCU model, :mod:`lgvtool.sim.mcu_model`)."""
+    if install == InstallSettings():
+        return vehicle
+    return replace(vehicle, nav_x=vehicle.nav_x + install.nav_dx_mm * 1e-3,
+                   nav_y=vehicle.nav_y + install.nav_dy_mm * 1e-3,
+                   nav_yaw=vehicle.nav_yaw + math.radians(install.nav_yaw_deg),
+                   track=vehicle.track + install.track_error_mm * 1e-3)
+
+
 def run(setup: Setup, seed: int) -> Simulation:
     """Run a resolved setup with ``seed``."""
     s = setup.settings
     cfg = setup.config
-    vehicle = cfg.vehicle
+    vehicle = true_vehicle(cfg.vehicle, s.install)
     rngs = dict(zip(STREAMS, np.random.default_rng(seed).spawn(len(STREAMS)), strict=True))
     plan = setup.scenario.build(setup.parameters, vehicle, setup.duration, s.sim.rate_hz)
     truth = integrate(plan.controls, vehicle, plan.x0, plan.y0, plan.heading0)

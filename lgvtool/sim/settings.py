@@ -200,11 +200,59 @@ ONLY_WHEN_SET: dict[tuple[str, str], Any] = {("sim", "nav_device"): "nav200"}
 """Settings recorded only when they differ from this default, so that the logs of runs made
 before they existed are written again byte for byte."""
 
+
+@dataclass(frozen=True)
+class InstallSettings:
+    """Installation errors the host does not know: the true vehicle differs from the configured
+    (nominal) one by these amounts; the log's stored configuration keeps the nominal values.
+
+    The true wheel radii and the gyro's scale factor and bias are the ``mcu.wheel_radius_error_*``,
+    ``mcu.gyro_scale_error`` and ``mcu.gyro_bias_dps`` settings (see :data:`INSTALLATION`).
+    """
+
+    nav_dx_mm: float = 0.0
+    """True NAV head position minus the configured ``vehicle.nav_x`` (forward), mm."""
+    nav_dy_mm: float = 0.0
+    """True NAV head position minus the configured ``vehicle.nav_y`` (left), mm."""
+    nav_yaw_deg: float = 0.0
+    """True mounting yaw of the head minus the configured ``vehicle.nav_yaw`` (counter-clockwise),
+    deg: the head measures its bearings from, and reports the heading of, its own x axis."""
+    track_error_mm: float = 0.0
+    """True track between the encoder wheels minus the configured ``vehicle.track``, mm."""
+    nav_time_offset_ms: float = 0.0
+    """Constant NAV-to-host time offset: every NAV200 reply reaches the host, and every scan is
+    stamped on the host's clock, this much later than it happened, ms (may be negative)."""
+
+
+INSTALLATION: dict[str, str] = {
+    "install.nav_dx_mm": "true NAV head x minus the configured vehicle.nav_x (forward), mm",
+    "install.nav_dy_mm": "true NAV head y minus the configured vehicle.nav_y (left), mm",
+    "install.nav_yaw_deg": "true mounting yaw of the head minus the configured vehicle.nav_yaw, "
+                           "deg (counter-clockwise)",
+    "install.track_error_mm": "true encoder-wheel track minus the configured vehicle.track, mm",
+    "install.nav_time_offset_ms": "NAV replies and scans reach the host this much later than "
+                                  "they happened, ms",
+    "mcu.wheel_radius_error_left": "true left wheel radius = configured x (1 + this)",
+    "mcu.wheel_radius_error_right": "true right wheel radius = configured x (1 + this)",
+    "mcu.gyro_scale_error": "the gyro reports (1 + this) x the true yaw rate (+ bias)",
+    "mcu.gyro_bias_dps": "constant gyro bias, deg/s",
+}
+"""Every setting that makes the true vehicle differ from its configuration, with its meaning
+(``simulate --list`` shows them; the log's stored configuration keeps the nominal values)."""
+
+
+def setting_value(settings: SimSettings, key: str) -> Any:
+    """The value of a ``section.name`` setting."""
+    section, _, name = key.partition(".")
+    return getattr(getattr(settings, section), name)
+
+
 SECTIONS: dict[str, type] = {
     "sim": RunSettings,
     "mcu": McuSettings,
     "nav": NavSettings,
     "faults": FaultSettings,
+    "install": InstallSettings,
 }
 """Section name -> settings class (``scenario`` and ``vehicle`` are handled apart)."""
 
@@ -217,14 +265,19 @@ class SimSettings:
     mcu: McuSettings = field(default_factory=McuSettings)
     nav: NavSettings = field(default_factory=NavSettings)
     faults: FaultSettings = field(default_factory=FaultSettings)
+    install: InstallSettings = field(default_factory=InstallSettings)
     scenario: Mapping[str, Any] = field(default_factory=dict)
     """Parameters of the scenario (validated by the scenario)."""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self, installation: bool = True) -> dict[str, Any]:
         """Every setting as a nested JSON-able dict (NaN written as None); the settings of
-        :data:`ONLY_WHEN_SET` only when they differ from their default."""
+        :data:`ONLY_WHEN_SET` only when they differ from their default. The ``install``
+        section only when ``installation`` and some installation error is set (a log's stored
+        configuration leaves it out: the host does not know it)."""
         out: dict[str, Any] = {}
         for name in SECTIONS:
+            if name == "install" and not (installation and self.install != InstallSettings()):
+                continue
             out[name] = {k: _jsonable(v) for k, v in asdict(getattr(self, name)).items()
                          if (name, k) not in ONLY_WHEN_SET or v != ONLY_WHEN_SET[(name, k)]}
         out["scenario"] = {k: _jsonable(v) for k, v in self.scenario.items()}

@@ -118,7 +118,7 @@ def playback_from_scenario(name: str, *, seed: int = 0, duration: float | None =
 
     def resolve(k: int, vx: float, vy: float, omega: float) -> PoseFix:
         scans = nav_model.compensate(sim.scans, np.array([k]), vx, vy, omega)
-        s = nav_model.solve(scans, sim.truth, sim.config.vehicle, sim.settings.nav,
+        s = nav_model.solve(scans, sim.truth, sim.vehicle, sim.settings.nav,
                             sim.landmarks)
         return PoseFix(poses[k].t, float(s.x[0]), float(s.y[0]), float(s.heading[0]),
                        int(s.quality[0]), int(s.used[0]), bool(s.valid[0]))

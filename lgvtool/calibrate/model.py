@@ -1,0 +1,426 @@
+"""The factors of the calibration and their analytic Jacobians.
+
+State: the free calibration quantities (SI), then per drive the pose ``(x, y, theta)`` of O at
+every node (m, m, rad) and, for MCU drives with a free gyro bias, one bias per stretch of
+``bias_stretch_s`` (rad/s). Every residual is divided by its standard deviation, so the cost is
+the sum of squared normalised residuals.
+
+Factors of each interval between two nodes (body-frame motion ``(dx, dy)`` of O in the frame of
+the earlier node and heading change ``dtheta``):
+
+- distance and lateral: ``(dx, dy)`` against the chord of an arc of length ``ds`` turning
+  ``dtheta``: ``ds (sin a / a, (1 - cos a) / a)`` with ``a = dtheta``, where
+  ``ds = pi / ppr (r_l n_l + r_r n_r)`` (MCU, counts ``n``) or ``s_v * integral of v``;
+- gyro (MCU): ``dtheta = (integral of the rate - b T) / gyro_scale``;
+- encoder heading (MCU): ``dtheta = 2 pi / ppr (r_r n_r - r_l n_l) / track``;
+- turn (generic odometry): ``dtheta = s_w * integral of omega``.
+
+Factors of each reflector measurement, stamped ``t`` (scan start plus time in the scan): the
+pose at ``t - nav_time_offset`` interpolated between its two nodes, the head at
+``(nav_x, nav_y)`` turned by ``nav_yaw``; range and bearing to the map reflector. A NAV pose
+(when there are no scans) is a factor on the head's pose at its receive time minus
+``nav_time_offset``. Gyro bias stretches are tied by a random walk.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from lgvtool.calibrate.drive import Drive
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+GROUPS = ("distance", "lateral", "gyro", "encoder", "turn", "range", "bearing", "pose_xy",
+          "pose_heading")
+"""Residual groups; each has its own noise scale, re-estimated from its residuals."""
+
+
+def arc_terms(a: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """``A = sin a / a``, ``B = (1 - cos a) / a`` and their derivatives (series near 0)."""
+    small = np.abs(a) < 1e-4
+    safe = np.where(small, 1.0, a)
+    s, c = np.sin(safe), np.cos(safe)
+    a2 = a * a
+    big_a = np.where(small, 1.0 - a2 / 6.0, s / safe)
+    big_b = np.where(small, a / 2.0 - a * a2 / 24.0, (1.0 - c) / safe)
+    da = np.where(small, -a / 3.0, (safe * c - s) / (safe * safe))
+    db = np.where(small, 0.5 - a2 / 8.0, (safe * s - (1.0 - c)) / (safe * safe))
+    return big_a, big_b, da, db
+
+
+@dataclass
+class Layout:
+    """Where everything sits in the state vector."""
+
+    names: list[str]
+    """Free calibration quantities, in state order (columns 0..len-1)."""
+    values: dict[str, float]
+    """Every calibration quantity's current value (SI): free ones mirror the state."""
+    pose_offset: list[int] = field(default_factory=list)
+    bias_offset: list[int] = field(default_factory=list)
+    bias_count: list[int] = field(default_factory=list)
+    size: int = 0
+
+    def column(self, name: str) -> int:
+        """State column of a free quantity, -1 when held fixed."""
+        return self.names.index(name) if name in self.names else -1
+
+
+@dataclass
+class Factors:
+    """Per drive, what changes only between outer iterations: the node each measurement is
+    interpolated from, which measurements take part, the noise scales and robust weights."""
+
+    obs_k: list[IntArray]
+    obs_use: list[NDArray[np.bool_]]
+    pose_k: list[IntArray]
+    pose_use: list[NDArray[np.bool_]]
+    scale: dict[str, float]
+    """Multiplier of each group's standard deviation."""
+    acc: list[FloatArray] = field(default_factory=list)
+    """Mean acceleration over each interval (:func:`interval_acceleration`)."""
+
+
+class Rows:
+    """Accumulates residuals and Jacobian entries (COO triplets)."""
+
+    def __init__(self, jac: bool) -> None:
+        self.jac = jac
+        self.res: list[FloatArray] = []
+        self.group: list[IntArray] = []
+        self.time: list[FloatArray] = []
+        self.drive: list[IntArray] = []
+        self.ri: list[IntArray] = []
+        self.ci: list[IntArray] = []
+        self.vals: list[FloatArray] = []
+        self.n = 0
+
+    def add(self, e: FloatArray, group: int, t: FloatArray, drive: int,
+            cols: list[tuple[IntArray | int, FloatArray | float]]) -> None:
+        """Residuals ``e`` and their derivatives ``[(columns, values), ...]`` (a column -1 is a
+        fixed quantity and is left out)."""
+        m = len(e)
+        if m == 0:
+            return
+        self.res.append(e)
+        self.group.append(np.full(m, group, dtype=np.int64))
+        self.time.append(np.broadcast_to(t, (m,)).astype(np.float64))
+        self.drive.append(np.full(m, drive, dtype=np.int64))
+        if not self.jac:
+            self.n += m
+            return
+        rows = self.n + np.arange(m, dtype=np.int64)
+        for col, val in cols:
+            c = np.broadcast_to(np.asarray(col, dtype=np.int64), (m,))
+            v = np.broadcast_to(np.asarray(val, dtype=np.float64), (m,))
+            keep = c >= 0
+            if not keep.any():
+                continue
+            self.ri.append(rows[keep])
+            self.ci.append(c[keep])
+            self.vals.append(v[keep])
+        self.n += m
+
+    def build(self, size: int, jac: bool) -> tuple[FloatArray, sp.csr_matrix | None, IntArray,
+                                                    FloatArray, IntArray]:
+        """Residual vector, Jacobian (or None), group, time and drive of every row."""
+        res = np.concatenate(self.res) if self.res else np.zeros(0)
+        grp = np.concatenate(self.group) if self.group else np.zeros(0, dtype=np.int64)
+        tim = np.concatenate(self.time) if self.time else np.zeros(0)
+        drv = np.concatenate(self.drive) if self.drive else np.zeros(0, dtype=np.int64)
+        j = None
+        if jac:
+            j = sp.csr_matrix((np.concatenate(self.vals), (np.concatenate(self.ri),
+                                                           np.concatenate(self.ci))),
+                              shape=(self.n, size))
+        return res, j, grp, tim, drv
+
+
+@dataclass
+class Noise:
+    """Starting standard deviations of the factors (before the group scales)."""
+
+    range_m: float = 0.02
+    range_per_m: float = 0.0
+    bearing_rad: float = 0.005
+    pose_xy_m: float = 0.05
+    pose_heading_rad: float = 0.01
+    gyro_rad_s: float = 0.001
+    """Noise of a frame's mean gyro rate, rad/s."""
+    slip_per_sqrt_m: float = 0.0015
+    """Wheel slip, m per sqrt(m) of travel, each wheel."""
+    odom_dist_per_m: float = 0.05
+    """Generic odometry: distance noise per m travelled (plus 5 mm)."""
+    odom_turn_per_rad: float = 0.05
+    """Generic odometry: turn noise per rad turned (plus 0.005 rad and 0.02 rad per m)."""
+    bias_walk: float = math.radians(0.005)
+    """Gyro bias random walk, rad/s per sqrt(s)."""
+
+
+def _get(layout: Layout, name: str) -> float:
+    return layout.values[name]
+
+
+def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factors,
+             noise: Noise, start: dict[str, float], prior: dict[str, float],
+             bias_stretch_s: float, vehicle_ppr: int, jac: bool = True
+             ) -> tuple[FloatArray, sp.csr_matrix | None, IntArray, FloatArray, IntArray]:
+    """Residuals (normalised) and their Jacobian at state ``x``."""
+    for i, name in enumerate(layout.names):
+        layout.values[name] = float(x[i])
+    rows = Rows(jac)
+    sc = factors.scale
+    g = {n: GROUPS.index(n) for n in GROUPS}
+    col = layout.column
+    mx, my, myaw = _get(layout, "nav_x"), _get(layout, "nav_y"), _get(layout, "nav_yaw")
+    tau = _get(layout, "nav_time_offset")
+    c_mx, c_my, c_yaw, c_tau = col("nav_x"), col("nav_y"), col("nav_yaw"), col("nav_time_offset")
+    k_count = 2.0 * math.pi / vehicle_ppr
+    for d, drive in enumerate(drives):
+        po = layout.pose_offset[d]
+        n = len(drive.t)
+        pose = x[po:po + 3 * n].reshape(n, 3)
+        cx = po + 3 * np.arange(n, dtype=np.int64)
+        px, py, pth = pose[:, 0], pose[:, 1], pose[:, 2]
+        # ---------------------------------------------------------------- odometry
+        k0 = np.arange(n - 1)
+        c, s = np.cos(pth[:-1]), np.sin(pth[:-1])
+        ex, ey = px[1:] - px[:-1], py[1:] - py[:-1]
+        dxb, dyb = c * ex + s * ey, -s * ex + c * ey
+        dth = pth[1:] - pth[:-1]
+        a_, b_, da_, db_ = arc_terms(dth)
+        t_mid = 0.5 * (drive.t[:-1] + drive.t[1:])
+        xk, yk, tk = cx[k0], cx[k0] + 1, cx[k0] + 2
+        xk1, yk1, tk1 = cx[k0 + 1], cx[k0 + 1] + 1, cx[k0 + 1] + 2
+        if drive.motion == "mcu":
+            rl, rr, tr = (_get(layout, "wheel_radius_left"), _get(layout, "wheel_radius_right"),
+                          _get(layout, "track"))
+            nl, nr = drive.counts_left, drive.counts_right
+            ds = 0.5 * k_count * (rl * nl + rr * nr)
+            dds_rl, dds_rr = 0.5 * k_count * nl, 0.5 * k_count * nr
+            c_rl, c_rr, c_tr = col("wheel_radius_left"), col("wheel_radius_right"), col("track")
+            # the noise follows the starting geometry, so that it does not move with the state
+            rl0, rr0, tr0 = (start["wheel_radius_left"], start["wheel_radius_right"],
+                             start["track"])
+            q = k_count * 0.5 * (rl0 + rr0) / math.sqrt(6.0)
+            ds0 = np.abs(0.5 * k_count * (rl0 * nl + rr0 * nr))
+            slip = noise.slip_per_sqrt_m ** 2 * ds0
+            sig1 = np.sqrt(0.5 * q * q + 0.5 * slip + 1e-8) * sc["distance"]
+            sig2 = (5e-4 + 0.005 * ds0) * sc["lateral"]
+            scale_cols: list[tuple[int, FloatArray]] = [(c_rl, dds_rl), (c_rr, dds_rr)]
+        else:
+            sv, sw = _get(layout, "odom_scale_v"), _get(layout, "odom_scale_w")
+            ds = sv * drive.dist
+            scale_cols = [(col("odom_scale_v"), drive.dist)]
+            dist0 = np.abs(start["odom_scale_v"] * drive.dist)
+            sig1 = (0.005 + noise.odom_dist_per_m * dist0) * sc["distance"]
+            sig2 = (0.002 + 0.5 * noise.odom_dist_per_m * dist0) * sc["lateral"]
+        e1 = (dxb - ds * a_) / sig1
+        rows.add(e1, g["distance"], t_mid, d, [
+            (xk, -c / sig1), (yk, -s / sig1), (tk, (dyb + ds * da_) / sig1),
+            (xk1, c / sig1), (yk1, s / sig1), (tk1, -ds * da_ / sig1),
+            *[(cc, -v * a_ / sig1) for cc, v in scale_cols]])
+        e2 = (dyb - ds * b_) / sig2
+        rows.add(e2, g["lateral"], t_mid, d, [
+            (xk, s / sig2), (yk, -c / sig2), (tk, (-dxb + ds * db_) / sig2),
+            (xk1, -s / sig2), (yk1, c / sig2), (tk1, -ds * db_ / sig2),
+            *[(cc, -v * b_ / sig2) for cc, v in scale_cols]])
+        if drive.motion == "mcu":
+            ok = drive.gyro_ok
+            sg = _get(layout, "gyro_scale")
+            nb = layout.bias_count[d]
+            seg = np.minimum(((t_mid - drive.t[0]) / bias_stretch_s).astype(np.int64),
+                             max(nb - 1, 0))
+            if nb:
+                bias = x[layout.bias_offset[d]:layout.bias_offset[d] + nb][seg]
+                c_b = layout.bias_offset[d] + seg
+            else:
+                bias = np.full(n - 1, _get(layout, "gyro_bias"))
+                c_b = np.full(n - 1, -1, dtype=np.int64)
+            gdt = drive.gyro_dt
+            pred = (drive.gyro - bias * gdt) / sg
+            sig3 = np.maximum(noise.gyro_rad_s * gdt, 1e-7) * sc["gyro"]
+            e3 = (dth - pred) / sig3
+            rows.add(e3[ok], g["gyro"], t_mid[ok], d, [
+                (tk[ok], -1.0 / sig3[ok]), (tk1[ok], 1.0 / sig3[ok]),
+                (col("gyro_scale"), (pred / sg / sig3)[ok]),
+                (c_b[ok], (gdt / sg / sig3)[ok])])
+            enc = k_count * (rr * nr - rl * nl) / tr
+            wheel_l = noise.slip_per_sqrt_m ** 2 * np.abs(k_count * rl0 * nl)
+            wheel_r = noise.slip_per_sqrt_m ** 2 * np.abs(k_count * rr0 * nr)
+            sig4 = np.sqrt(2.0 * q * q + wheel_l + wheel_r + 1e-10) / tr0 * sc["encoder"]
+            e4 = (dth - enc) / sig4
+            rows.add(e4, g["encoder"], t_mid, d, [
+                (tk, -1.0 / sig4), (tk1, 1.0 / sig4),
+                (c_rr, -k_count * nr / tr / sig4), (c_rl, k_count * nl / tr / sig4),
+                (c_tr, enc / tr / sig4)])
+            if nb > 1:
+                b = x[layout.bias_offset[d]:layout.bias_offset[d] + nb]
+                sig_w = noise.bias_walk * math.sqrt(bias_stretch_s)
+                cb = layout.bias_offset[d] + np.arange(nb - 1)
+                rows.add((b[1:] - b[:-1]) / sig_w, -1, drive.t[0] + bias_stretch_s * (
+                    np.arange(nb - 1) + 1.0), d, [(cb, -1.0 / sig_w), (cb + 1, 1.0 / sig_w)])
+            if nb:
+                b = x[layout.bias_offset[d]:layout.bias_offset[d] + nb]
+                sp0 = prior["gyro_bias"]
+                rows.add((b - start["gyro_bias"]) / sp0, -1, np.full(nb, drive.t[0]), d,
+                         [(layout.bias_offset[d] + np.arange(nb), 1.0 / sp0)])
+        else:
+            sw = _get(layout, "odom_scale_w")
+            pred = sw * drive.turn
+            sig3 = (0.005 + noise.odom_turn_per_rad * np.abs(start["odom_scale_w"] * drive.turn)
+                    + 0.02 * dist0) * sc["turn"]
+            e3 = (dth - pred) / sig3
+            rows.add(e3, g["turn"], t_mid, d, [
+                (tk, -1.0 / sig3), (tk1, 1.0 / sig3),
+                (col("odom_scale_w"), -drive.turn / sig3)])
+        # ---------------------------------------------------------------- observations
+        acc = factors.acc[d]
+        for kind in ("scan", "pose"):
+            if kind == "scan":
+                use = factors.obs_use[d]
+                kk = factors.obs_k[d][use]
+                t_obs = drive.obs_t[use]
+            else:
+                use = factors.pose_use[d]
+                kk = factors.pose_k[d][use]
+                t_obs = drive.pose_t[use]
+            if not len(kk):
+                continue
+            t0, t1 = drive.t[kk], drive.t[kk + 1]
+            span = t1 - t0
+            f = (t_obs - tau - t0) / span
+            p0, p1 = pose[kk], pose[kk + 1]
+            # linear between the nodes, bent by the interval's mean acceleration (held
+            # constant in the Jacobian): exact for a quadratic motion
+            p = (p0 + f[:, None] * (p1 - p0)
+                 - 0.5 * acc[kk] * (f * (1.0 - f) * span * span)[:, None])
+            vel = ((p1 - p0) / span[:, None]
+                   - 0.5 * acc[kk] * ((1.0 - 2.0 * f) * span)[:, None])  # d p / d t
+            ct, st = np.cos(p[:, 2]), np.sin(p[:, 2])
+            hx = p[:, 0] + ct * mx - st * my
+            hy = p[:, 1] + st * mx + ct * my
+            dhx_dth = -st * mx - ct * my
+            dhy_dth = ct * mx - st * my
+            ip = _Interp([cx[kk], cx[kk] + 1, cx[kk] + 2],
+                         [cx[kk + 1], cx[kk + 1] + 1, cx[kk + 1] + 2], f, vel, c_tau, c_yaw,
+                         d, t_obs)
+
+            def add(e: FloatArray, grp: int, gx: FloatArray, gy: FloatArray, gth: FloatArray,
+                    gyaw: FloatArray | float, ip: _Interp = ip) -> None:
+                _add_interpolated(rows, ip, e, grp, gx, gy, gth, gyaw)
+
+            if kind == "scan":
+                lx, ly = drive.obs_lx[use], drive.obs_ly[use]
+                rng, brg = drive.obs_range[use], drive.obs_bearing[use]
+                dx, dy = lx - hx, ly - hy
+                q2 = dx * dx + dy * dy
+                r = np.sqrt(q2)
+                sig_r = np.sqrt(noise.range_m ** 2 + (noise.range_per_m * rng) ** 2) * sc["range"]
+                sig_b = noise.bearing_rad * sc["bearing"]
+                er = (rng - r) / sig_r
+                ghx, ghy = dx / (r * sig_r), dy / (r * sig_r)
+                pre = len(rows.res)
+                add(er, g["range"], ghx, ghy, ghx * dhx_dth + ghy * dhy_dth, 0.0)
+                _mount_cols(rows, pre, c_mx, c_my, ghx, ghy, ct, st)
+                bh = np.arctan2(dy, dx) - p[:, 2] - myaw
+                eb = (np.remainder(brg - bh + math.pi, 2 * math.pi) - math.pi) / sig_b
+                ghx, ghy = -dy / (q2 * sig_b), dx / (q2 * sig_b)
+                pre = len(rows.res)
+                add(eb, g["bearing"], ghx, ghy, ghx * dhx_dth + ghy * dhy_dth + 1.0 / sig_b,
+                    1.0 / sig_b)
+                _mount_cols(rows, pre, c_mx, c_my, ghx, ghy, ct, st)
+            else:
+                sig_p = noise.pose_xy_m * sc["pose_xy"]
+                sig_h = noise.pose_heading_rad * sc["pose_heading"]
+                qx, qy, qh = drive.pose_x[use], drive.pose_y[use], drive.pose_heading[use]
+                zero = np.zeros(len(kk))
+                for comp, h, meas in ((0, hx, qx), (1, hy, qy)):
+                    e = (h - meas) / sig_p
+                    one = np.full(len(kk), 1.0 / sig_p)
+                    dth_ = (dhx_dth if comp == 0 else dhy_dth) / sig_p
+                    pre = len(rows.res)
+                    add(e, g["pose_xy"], one if comp == 0 else zero,
+                        zero if comp == 0 else one, dth_, 0.0)
+                    # d h / d mount: (c, s) for nav_x and (-s, c) for nav_y
+                    _mount_cols(rows, pre, c_mx, c_my, one if comp == 0 else zero,
+                                zero if comp == 0 else one, ct, st)
+                eh = np.remainder(p[:, 2] + myaw - qh + math.pi, 2 * math.pi) - math.pi
+                add(eh / sig_h, g["pose_heading"], zero, zero, np.full(len(kk), 1.0 / sig_h),
+                    1.0 / sig_h)
+    # ---------------------------------------------------------------- priors
+    for i, name in enumerate(layout.names):
+        sp0 = prior[name]
+        rows.add(np.array([(x[i] - start[name]) / sp0]), -1, np.zeros(1), -1,
+                 [(i, 1.0 / sp0)])
+    return rows.build(layout.size, jac)
+
+
+@dataclass(frozen=True)
+class _Interp:
+    """Measurements interpolated between two nodes: the nodes' columns, the fraction ``f``,
+    the pose's rate of change, the time offset's and the yaw's columns."""
+
+    cols0: list[IntArray]
+    cols1: list[IntArray]
+    f: FloatArray
+    vel: FloatArray
+    c_tau: int
+    c_yaw: int
+    drive: int
+    t: FloatArray
+
+
+def _add_interpolated(rows: Rows, ip: _Interp, e: FloatArray, grp: int, gx: FloatArray,
+                      gy: FloatArray, gth: FloatArray, gyaw: FloatArray | float) -> None:
+    """Rows of measurements whose derivatives by the interpolated pose are ``(gx, gy, gth)``
+    and by the mounting yaw ``gyaw``: chained onto the two nodes and the time offset."""
+    gp = (gx, gy, gth)
+    cols: list[tuple[IntArray | int, FloatArray | float]] = []
+    for i in range(3):
+        cols.append((ip.cols0[i], (1.0 - ip.f) * gp[i]))
+        cols.append((ip.cols1[i], ip.f * gp[i]))
+    cols.append((ip.c_tau, -(gx * ip.vel[:, 0] + gy * ip.vel[:, 1] + gth * ip.vel[:, 2])))
+    cols.append((ip.c_yaw, gyaw))
+    rows.add(e, grp, ip.t, ip.drive, cols)
+
+
+def interval_acceleration(t: FloatArray, ds: FloatArray, dth: FloatArray,
+                          heading: FloatArray) -> FloatArray:
+    """Mean acceleration ``(x, y, theta)`` over each interval between nodes at ``t`` (m/s^2,
+    rad/s^2), (n-1, 3): from the odometry's distance ``ds`` and turn ``dth`` of each interval
+    and the nodes' ``heading`` (the mean of the second differences at its two ends; zero at the
+    ends of the drive). Odometry, not the nodes: their positions carry the observations' noise."""
+    n = len(t)
+    acc = np.zeros((max(n - 1, 0), 3))
+    if n < 3:
+        return acc
+    dt = np.maximum(np.diff(t), 1e-6)
+    mid = 0.5 * (heading[:-1] + heading[1:])
+    vel = np.stack([ds * np.cos(mid), ds * np.sin(mid), dth], axis=1) / dt[:, None]
+    node = np.zeros((n, 3))
+    node[1:-1] = np.diff(vel, axis=0) / (0.5 * (dt[:-1] + dt[1:]))[:, None]
+    acc[:] = 0.5 * (node[:-1] + node[1:])
+    return acc
+
+
+def _mount_cols(rows: Rows, index: int, c_mx: int, c_my: int, ghx: FloatArray,
+                ghy: FloatArray, ct: FloatArray, st: FloatArray) -> None:
+    """Add the mounting-offset derivatives to the rows just added at ``rows.res[index]``:
+    the head moves by ``(cos, sin)`` per m of ``nav_x`` and ``(-sin, cos)`` per m of ``nav_y``."""
+    if index >= len(rows.res) or not rows.jac:
+        return
+    m = len(rows.res[index])
+    first = rows.n - m
+    r = first + np.arange(m, dtype=np.int64)
+    for c, v in ((c_mx, ghx * ct + ghy * st), (c_my, -ghx * st + ghy * ct)):
+        if c >= 0:
+            rows.ri.append(r)
+            rows.ci.append(np.full(m, c, dtype=np.int64))
+            rows.vals.append(np.asarray(v, dtype=np.float64))

@@ -1,0 +1,85 @@
+"""The calibration's factors: the analytic Jacobian against finite differences, the arc terms
+against their closed form, and the MCU sampling instants."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from calibrate_cases import ERRORS
+
+from lgvtool.calibrate.drive import mcu_sample_times, prepare
+from lgvtool.calibrate.model import arc_terms
+from lgvtool.calibrate.quantities import QUANTITIES, default_names
+from lgvtool.calibrate.solve import Problem, SolveSettings
+from lgvtool.localize.logdata import LogData
+from lgvtool.sim.logfile import write_log
+from lgvtool.sim.run import simulate
+
+
+def test_arc_terms_match_closed_form_and_derivatives() -> None:
+    a = np.array([-1.0, -0.3, -1e-5, 0.0, 2e-5, 0.2, 0.9])
+    big_a, big_b, da, db = arc_terms(a)
+    safe = np.where(a == 0, 1.0, a)
+    assert big_a == pytest.approx(np.where(a == 0, 1.0, np.sin(safe) / safe), abs=1e-12)
+    assert big_b == pytest.approx(np.where(a == 0, 0.0, (1 - np.cos(safe)) / safe), abs=1e-12)
+    h = 1e-6
+    fa, fb, _, _ = arc_terms(a + h)
+    ga, gb, _, _ = arc_terms(a - h)
+    assert da == pytest.approx((fa - ga) / (2 * h), abs=1e-6)
+    assert db == pytest.approx((fb - gb) / (2 * h), abs=1e-6)
+
+
+@pytest.mark.parametrize("use_poses", [False, True])
+def test_jacobian_matches_finite_differences(tmp_path, use_poses: bool) -> None:
+    from lgvtool.localize.logdata import load_log
+    from lgvtool.log import LogReader
+
+    sim = simulate("warehouse", seed=21, duration=14.0, overrides=ERRORS)
+    path = tmp_path / "w.mcap"
+    write_log(sim, path)
+    reader = LogReader(path)
+    cfg = reader.config()
+    data: LogData = load_log(reader, cfg.reflectors)
+    drive = prepare("w", data, cfg.reflectors, observations="poses" if use_poses else "auto")
+    start = {n: float(getattr(cfg.vehicle, n)) for n in QUANTITIES}
+    names = [n for n in default_names("mcu", not use_poses, use_poses) if n != "nav_pose_age"]
+    problem = Problem([drive], names, start, cfg.reflectors, cfg.vehicle.encoder_ppr,
+                      SolveSettings(bias_stretch_s=5.0), [use_poses])
+    problem.relink()
+    x = problem.x.copy()
+    x[: len(problem.layout.names)] += 1e-4  # away from the prior's minimum
+    r0, jac, _, _, _ = problem.evaluate(x)
+    assert jac is not None
+    dense = jac.toarray()
+    rng = np.random.default_rng(0)
+    n_glob = len(problem.layout.names)
+    columns = [*range(n_glob), *rng.choice(np.arange(n_glob, len(x)), 40, replace=False)]
+    for c in columns:
+        h = 1e-7 * max(1.0, abs(x[c]))
+        xp, xm = x.copy(), x.copy()
+        xp[c] += h
+        xm[c] -= h
+        rp = problem.evaluate(xp, jac=False)[0]
+        rm = problem.evaluate(xm, jac=False)[0]
+        numeric = (rp - rm) / (2 * h)
+        ok = np.abs(numeric) < 1e6  # a bearing wrapping at +-pi in between is no derivative
+        scale = max(1.0, float(np.abs(numeric[ok]).max()))
+        assert dense[ok, c] == pytest.approx(numeric[ok], abs=2e-4 * scale), c
+    assert np.isfinite(r0).all()
+
+
+def test_mcu_sampling_instants_follow_the_mcu_clock() -> None:
+    rng = np.random.default_rng(1)
+    n = 3000
+    true = 0.05 + 0.1 * np.arange(n)
+    clock_ms = np.floor((7.0 + true * (1 + 25e-6)) * 1000).astype(np.int64)
+    wire = 30 * 10 / 115_200
+    recv = true + wire + 0.001 + rng.uniform(0, 0.002, n)
+    t, clock = mcu_sample_times(recv, clock_ms, 115_200)
+    assert clock == "mcu"
+    # within the host's read latency (1 ms here) and the clock's ms steps
+    assert np.median(t - true) == pytest.approx(0.001, abs=4e-4)
+    assert np.abs(t - true).max() < 0.0025
+    jumpy = recv.copy()
+    jumpy[::7] += 0.2
+    assert mcu_sample_times(jumpy, clock_ms[::-1].copy(), 115_200)[1] == "host"
