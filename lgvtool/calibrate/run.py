@@ -20,6 +20,7 @@ from lgvtool.calibrate.compare import Row
 from lgvtool.calibrate.quantities import QUANTITIES, default_names
 from lgvtool.config import Config
 from lgvtool.errors import InputError, MissingDataError
+from lgvtool.progress import Progress
 
 TIME_FLOOR_S = 1e-3
 """Added in quadrature to the time offset's 1-sigma: the host's read latency of the MCU frames,
@@ -98,7 +99,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
               estimate: Sequence[str] | None = None, fix: Sequence[str] = (),
               observations: str = "auto", allow_unobservable: bool = False,
               compare_with: Sequence[str] = ("laser", "ekf"), seed: int = 0,
-              start_at_truth: bool = False) -> Calibration:
+              start_at_truth: bool = False, progress: Progress | None = None) -> Calibration:
     """Calibrate the vehicle from the logs ``paths`` (see the module docstring).
 
     :param config: starting values, map and everything else of the output (default: the first
@@ -111,6 +112,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         values (with a warning) instead of refusing.
     :param compare_with: estimators to replay with the starting and the calibrated
         configuration (empty: none); ``start_at_truth`` starts them at the ground truth.
+    :param progress: shows the stages (read each log, solve, compare) on stderr.
     :raises InputError: unusable input (one line), unobservable quantities.
     """
     from lgvtool.calibrate.drive import log_mcu_baud, prepare
@@ -124,6 +126,8 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     if not paths:
         raise InputError("calibrate needs at least one log")
     started = time.perf_counter()
+    if progress is not None:
+        progress.stage("read", len(paths))
     readers = [LogReader(p) for p in paths]
     cfg = config if config is not None else readers[0].config()
     reflectors = cfg.reflectors or readers[0].reflector_map()
@@ -134,6 +138,8 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         data = load_log(reader, reflectors)
         drives.append(prepare(path, data, reflectors, observations=observations,
                               mcu_baud=log_mcu_baud(reader.metadata)))
+        if progress is not None:
+            progress.advance()
     read_s = time.perf_counter() - started
     kinds = {d.motion for d in drives}
     if len(kinds) > 1:
@@ -154,6 +160,8 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     warnings: list[str] = []
     settings = SolveSettings()
     problem = Problem(drives, solved, start, reflectors, v.encoder_ppr, settings, use_poses)
+    if progress is not None:
+        progress.stage("solve", 1)
     try:
         sol = solve(problem, allow_unobservable=allow_unobservable)
     except UnobservableError as exc:
@@ -210,6 +218,8 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         from lgvtool.calibrate.compare import compare
 
         t0 = time.perf_counter()
+        if progress is not None:
+            progress.stage("compare", len(compare_with))
         rows, notes = compare(paths, compare_with, cfg, out_cfg, seed, start_at_truth)
         result.comparison = rows
         result.warnings.extend(notes)

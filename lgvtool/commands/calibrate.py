@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import click
 
+from lgvtool.options import force_option, progress_option, seed_option, split_names
+
 
 def _names(value: str | None) -> list[str]:
-    return [n.strip() for n in (value or "").split(",") if n.strip()]
+    return split_names([value or ""])
 
 
 @click.command()
@@ -27,17 +29,16 @@ def _names(value: str | None) -> list[str]:
 @click.option("--compare", "compare_with", default="laser,ekf", show_default=True,
               metavar="LIST", help="Estimators replayed with the starting and the calibrated "
               "configuration for the before/after table; 'none': no table.")
-@click.option("--seed", type=int, default=0, show_default=True,
-              help="Seed of the estimators of the before/after table.")
+@seed_option("Seed of the estimators of the before/after table.")
 @click.option("--start-at-truth", is_flag=True, help="Start the estimators of the before/after "
               "table at the logs' ground truth (as evaluate --start-at-truth).")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-@click.option("--force", is_flag=True, help="Replace an existing output file.")
+@force_option
+@progress_option()
 def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
               estimate: str | None, fix: str | None, observations: str,
               allow_unobservable: bool, compare_with: str, seed: int, start_at_truth: bool,
-              as_json: bool,
-              force: bool) -> None:
+              as_json: bool, force: bool, show_progress: bool = True) -> None:
     """Estimate the NAV mounting (nav_x, nav_y mm; nav_yaw deg), the wheel radii and the track
     (mm), the gyro's scale and bias (deg/s), the NAV-to-host time offset and the NAV poses' age
     (ms), or, with generic odometry, its two scales, from one or more LOGS by a batch least
@@ -58,10 +59,13 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
     out = guard_output(output, [*logs, config_path], force=force)
     cfg = load_config(config_path) if config_path else None
     chosen = [] if compare_with.strip().lower() == "none" else _names(compare_with)
-    result = run_calibration(list(logs), config=cfg, estimate=_names(estimate) or None,
-                             fix=_names(fix), observations=observations,
-                             allow_unobservable=allow_unobservable, compare_with=chosen,
-                             seed=seed, start_at_truth=start_at_truth)
+    from lgvtool.progress import Progress
+
+    with Progress(0, "calibrate", enabled=show_progress, delay_s=1.0) as bar:
+        result = run_calibration(list(logs), config=cfg, estimate=_names(estimate) or None,
+                                 fix=_names(fix), observations=observations,
+                                 allow_unobservable=allow_unobservable, compare_with=chosen,
+                                 seed=seed, start_at_truth=start_at_truth, progress=bar)
     with atomic_output(out) as tmp:
         tmp.write_text(toml(result), encoding="utf-8")
     if as_json:
