@@ -334,6 +334,7 @@ WRITERS: list[tuple[str, tuple[str, ...], tuple[str, ...]]] = [
     ("replay", ("replay", "{w}/log.mcap", "--config", "{w}/good.toml", "-e", "laser", "-o"), ()),
     ("decode", ("decode", "{w}/log.mcap", "-o"), ()),
     ("recover", ("recover", "{w}/log.mcap", "-o"), ()),
+    ("calibrate", ("calibrate", "{w}/log.mcap", "--config", "{w}/good.toml", "-o"), ()),
 ]
 
 
@@ -383,6 +384,27 @@ def _output_cases() -> list[Case]:
         _case("sweep-output-inside-input-folder", "sweep", "{w}", "-o", "{w}/sw", needle="input"),
         _case("sweep-output-has-results", "sweep", "{w}/log.mcap", "-o", "{w}/rep",
               needle="--force"),
+        _case("export-output-is-log", "export", "{w}/log.mcap", "-e", "laser", "-o",
+              "{w}/log.mcap"),
+        _case("export-output-inside-input-folder", "export", "{w}/rep/table1.json", "-o",
+              "{w}/rep"),
+        _case("import-ros2-output-is-input", "import", "ros2", "{w}/foreign.mcap", "-o",
+              "{w}/foreign.mcap", "--force", needle="input"),
+        _case("import-ros2-output-in-bag-folder", "import", "ros2", "{w}/folder", "-o",
+              "{w}/folder/out.mcap"),
+        _case("import-ros2-existing-output", "import", "ros2", "{w}/foreign.mcap", "-o",
+              "{existing}"),
+        _case("import-ros2-unknown-role", "import", "ros2", "{w}/foreign.mcap", "--topic",
+              "bogus=/x", "-o", "{out}/b.mcap"),
+        _case("calibrate-unknown-quantity", "calibrate", "{w}/log.mcap", "--estimate", "bogus",
+              "-o", "{out}/v.toml"),
+        _case("calibrate-short-straight-drive", "calibrate", "{w}/log.mcap", "-o",
+              "{out}/v.toml"),
+        _case("view-bad-address", "view", "{w}/log.mcap", "--live", "no.such.host.invalid:1"),
+        _case("view-bad-port", "view", "{w}/log.mcap", "--live", "127.0.0.1:99999"),
+        _case("view-speed-nan", "view", "{w}/log.mcap", "--speed", "nan"),
+        _case("record-live-bad-port", "record", "--mcu", "tcp://127.0.0.1:9", "--live",
+              "127.0.0.1:99999", "-o", "{out}/r.mcap"),
     ]
     return cases
 
@@ -397,9 +419,14 @@ def _file_cases() -> list[Case]:
         "recover": ("recover", "{file}", "-o", "{out}/v.mcap"),
         "serve": ("simulate", "serve", "{file}", "--nav", "none"),
         "sweep": ("sweep", "{file}", "-o", "{out}/sw"),
+        "export": ("export", "{file}", "-o", "{out}/ex"),
+        "calibrate": ("calibrate", "{file}", "-o", "{out}/v.toml"),
+        "view": ("view", "{file}", "--live", "127.0.0.1:0", "--speed", "0"),
+        "import-ros2": ("import", "ros2", "{file}", "-o", "{out}/b.mcap"),
     }
     #: a sweep reports a bad log and goes on, a server would serve a salvaged one: not here
-    skip = {"sweep": ("empty", "text", "config", "truncated", "foreign"), "serve": ("truncated",)}
+    skip = {"sweep": ("empty", "text", "config", "truncated", "foreign"), "serve": ("truncated",),
+            "view": ("truncated",)}
     files = {"missing": ("{w}/no-such.mcap", ERROR), "folder": ("{w}/folder", ERROR),
              "empty": ("{w}/empty.mcap", ERROR), "text": ("{w}/text.txt", ERROR),
              "config": ("{w}/good.toml", ERROR), "truncated": ("{w}/truncated.mcap", CLEAN),
