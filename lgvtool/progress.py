@@ -116,6 +116,8 @@ class Progress:
                 self.stream.write("\r" + self.line() + "\x1b[K")
                 self.stream.flush()
             return
+        if self.done == 0 and self.total:  # a line saying nothing is done yet tells nothing
+            return
         tenth = min((10 * self.done) // self.total, 10) if self.total else 10
         if tenth != self._last_tenth and (tenth > self._last_tenth or self.done >= self.total):
             self._last_tenth = tenth
@@ -123,17 +125,19 @@ class Progress:
             self.stream.write(self.line() + "\n")
             self.stream.flush()
 
-    def close(self) -> None:
-        """Finish the bar (a newline on a terminal). Idempotent."""
+    def close(self, failed: bool = False) -> None:
+        """Finish the bar (a newline on a terminal). Idempotent. ``failed``: the work stopped
+        on an error, which the command reports itself: a terminal gets only the newline, a pipe
+        nothing more (so the error stays the last line, and the only one after the bar)."""
         if self._closed:
             return
         self._closed = True
         if not (self.enabled and self._drawn):
             return
         if self._tty:
-            self.stream.write("\r" + self.line() + "\x1b[K\n")
+            self.stream.write("\n" if failed else "\r" + self.line() + "\x1b[K\n")
             self.stream.flush()
-        elif self._last_tenth < 10 and self.done < self.total:
+        elif not failed and self._last_tenth < 10 and self.done < self.total:
             self.stream.write(self.line() + " (stopped)\n")
             self.stream.flush()
 
@@ -142,4 +146,4 @@ class Progress:
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
-        self.close()
+        self.close(failed=exc_type is not None)

@@ -56,8 +56,26 @@ def test_stages_count_afresh_and_a_stopped_bar_says_so() -> None:
     assert lines[-1].endswith("(stopped)")
 
 
+def test_a_bar_stopped_by_an_error_leaves_the_error_the_last_line() -> None:
+    out = io.StringIO()
+    try:
+        with Progress(0, "calibrate", stream=out) as bar:
+            bar.stage("read", 2)
+            bar.advance()
+            raise ValueError("bad input")
+    except ValueError:
+        pass
+    lines = out.getvalue().splitlines()
+    assert len(lines) == 1 and "1/2" in lines[0] and "(stopped)" not in lines[0]
+    quiet = io.StringIO()
+    with Progress(3, "read", stream=quiet) as bar:
+        bar.stage("read", 3)  # nothing done yet: no line
+    assert quiet.getvalue() == ""
+
+
 def test_every_long_command_takes_no_progress(run_cli) -> None:
-    for cmd in (["evaluate"], ["import", "mrclam"], ["replay"], ["sweep"], ["view"]):
+    for cmd in (["evaluate"], ["import", "mrclam"], ["replay"], ["sweep"], ["view"],
+                ["calibrate"]):
         res = run_cli(*cmd, "--help", timeout=60)
         assert res.returncode == 0 and "--no-progress" in res.stdout, cmd
 
