@@ -71,7 +71,8 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
     from lgvtool.outdir import guard_directory
     from lgvtool.outputs import guard_output
 
-    inputs = [dataset_dir, *(Path(dataset_dir).glob("*.dat") if Path(dataset_dir).is_dir() else [])]
+    inputs: list[str | Path] = [dataset_dir, *(Path(dataset_dir).glob("*.dat")
+                                                if Path(dataset_dir).is_dir() else [])]
     if robot is not None:
         guard_output(output, inputs, force=force)
     else:

@@ -267,7 +267,7 @@ def run_tasks(
 
 def _slots(client: Client) -> int:
     try:
-        return max(1, sum(client.nthreads().values()))
+        return max(1, int(sum(client.nthreads().values())))
     except Exception:
         return 1
 

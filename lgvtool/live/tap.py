@@ -53,8 +53,9 @@ class TappedLogWriter(LogWriter):
         self._schema_of: dict[str, str] = {}
         super().__init__(path, **kwargs)
 
-    def channel_id(self, topic: str, schema: str | None = None) -> int:
-        cid = super().channel_id(topic, schema)
+    def channel_id(self, topic: str, schema: str | None = None,
+                   own: tuple[str, bytes] | None = None) -> int:
+        cid = super().channel_id(topic, schema, own)
         if topic not in self._schema_of:
             self._schema_of[topic] = schema or topics.schema_for_topic(topic) or ""
         return cid

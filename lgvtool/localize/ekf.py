@@ -286,7 +286,8 @@ class Ekf(GaussianPoseEstimator):
         sb2 = p.sigma_bearing_rad ** 2
 
         def quad(a: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
-            return sum(a[i] * P[i, j] * b[j] for i in range(3) for j in range(3))
+            total: np.ndarray = sum(a[i] * P[i, j] * b[j] for i in range(3) for j in range(3))
+            return total
 
         srr = quad(Hr, Hr) + sr2
         srb = quad(Hr, Hb)

@@ -322,7 +322,8 @@ class ReflectorMap:
             _, d2 = self.nearest(z.real, z.imag)
             return np.sqrt(d2)
         # (J, n): the reduction runs across rows, which numpy does fastest
-        return np.abs(self.z[:, None] - z[None, :]).min(axis=0)
+        out: NDArray[np.float64] = np.abs(self.z[:, None] - z[None, :]).min(axis=0)
+        return out
 
     def _brute(self, fx: NDArray[np.float64], fy: NDArray[np.float64]
                ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:

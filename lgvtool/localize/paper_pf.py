@@ -201,9 +201,11 @@ class PaperParticleFilter(ParticleSet):
         """The summed association distance ``D_m`` of every particle, m."""
         if isinstance(obs, PoseObservation):
             dx, dy, dh = self.head_residuals(obs)
-            return np.sqrt(dx * dx + dy * dy) + self.params.pose_heading_m * np.abs(dh)
+            out: FloatArray = np.sqrt(dx * dx + dy * dy) + self.params.pose_heading_m * np.abs(dh)
+            return out
         if self.params.use_ids:
-            return np.abs(self.scan_residuals(obs, True)).sum(axis=1)
+            summed: FloatArray = np.abs(self.scan_residuals(obs, True)).sum(axis=1)
+            return summed
         j1 = self._reference_nearest(obs)
         b = np.stack((np.ones(len(obs)), obs.q, -self.map.z[j1]))
         return self._nearest_sums(self._packed(), _Scan(b, self.map.half_sep[j1]))

@@ -155,12 +155,12 @@ class EmulatorServer:
         self._file: IO[str] | None = None
         self.endpoints: dict[str, Endpoint] = {}
         specs = {"the NAV200": nav, "the NAV350": nav350, "the MCU": mcu}
-        named = [(who, spec) for who, spec in specs.items()
-                 if spec is not None and spec != "pty" and not spec.endswith(":0")]
-        for i, (who, spec) in enumerate(named):
-            for other, spec2 in named[i + 1:]:
-                if spec == spec2:
-                    raise InputError(f"serve: {who} and {other} cannot both listen on {spec}")
+        named = [(who, listen) for who, listen in specs.items()
+                 if listen is not None and listen != "pty" and not listen.endswith(":0")]
+        for i, (who, where) in enumerate(named):
+            for other, where2 in named[i + 1:]:
+                if where == where2:
+                    raise InputError(f"serve: {who} and {other} cannot both listen on {where}")
         if link_dir is None and "pty" in (nav, mcu):
             self._own_dir = Path(tempfile.mkdtemp(prefix="lgvtool-serve-"))
         self.link_dir = Path(link_dir) if link_dir is not None else self._own_dir
