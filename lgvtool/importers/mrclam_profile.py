@@ -40,6 +40,8 @@ _EKF: dict[str, Any] = {
     "noise_rot_per_m": 0.42,
     "init_sigma_xy_m": 1.0,
     "init_sigma_heading_rad": 0.5,
+    "init_fix": "weighted",
+    "init_max_sigma_xy_m": 1.5,
     "odometry_scales": True,
     "scale_sigma_v": 0.075,
     "scale_sigma_w": 0.075,

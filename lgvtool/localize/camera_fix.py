@@ -12,13 +12,14 @@ and start with the uncertainty it really has.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.localize.fix import pose_fix
 from lgvtool.localize.geometry import wrap_scalar
-from lgvtool.localize.observations import ReflectorMap, ScanObservation
+from lgvtool.localize.observations import PoseObservation, ReflectorMap, ScanObservation
 
 FloatArray = NDArray[np.float64]
 ITERATIONS = 8
@@ -83,3 +84,32 @@ def weighted_fix(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
     except np.linalg.LinAlgError:
         return None
     return (float(pose[0]), float(pose[1]), wrap_scalar(float(pose[2]))), 0.5 * (cov + cov.T)
+
+
+def start_fix(obs: PoseObservation | ScanObservation, nav_x: float, nav_y: float,
+              rmap: ReflectorMap, params: Any
+              ) -> tuple[tuple[float, float, float], FloatArray | None] | None:
+    """The first pose an estimator with ``params`` takes from ``obs``, and the fix's
+    covariance (None for a point fix or a NAV pose).
+
+    ``params.init_fix`` ``weighted`` (when the parameters have it) fixes a scan with
+    :func:`weighted_fix` and the estimator's own measurement noise, and refuses a fix whose
+    position standard deviation along its larger axis exceeds ``params.init_max_sigma_xy_m``
+    (m, 0: no limit); otherwise :func:`lgvtool.localize.fix.pose_fix`. None when ``obs`` gives
+    no (good enough) fix.
+    """
+    use_ids = getattr(params, "use_ids", True)
+    if isinstance(obs, ScanObservation) and use_ids and \
+            getattr(params, "init_fix", "points") == "weighted":
+        fix = weighted_fix(obs, rmap, params.sigma_range_m, params.sigma_range_per_m,
+                           params.sigma_bearing_rad)
+        if fix is None:
+            return None
+        pose, cov = fix
+        worst = math.sqrt(max(0.0, float(np.linalg.eigvalsh(cov[:2, :2])[-1])))
+        limit = params.init_max_sigma_xy_m
+        if limit > 0.0 and worst > limit:
+            return None
+        return pose, cov
+    point = pose_fix(obs, nav_x, nav_y, rmap, use_ids=use_ids)
+    return None if point is None else (point, None)

@@ -31,10 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from lgvtool.localize.camera_fix import weighted_fix
+from lgvtool.localize.camera_fix import start_fix
 from lgvtool.localize.chi2 import chi2_quantile
 from lgvtool.localize.estimator import Estimate, Estimator, Motion, Observation
-from lgvtool.localize.fix import pose_fix
 from lgvtool.localize.geometry import wrap_scalar
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
@@ -159,29 +158,10 @@ class GaussianPoseEstimator(Estimator):
             return False
         if isinstance(obs, ScanObservation) and init == "laser":
             return False
-        if isinstance(obs, ScanObservation) and getattr(self.params, "init_fix",
-                                                        "points") == "weighted":
-            return self._try_weighted_start(obs)
-        pose = pose_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map,
-                        use_ids=getattr(self.params, "use_ids", True))
-        if pose is None:
-            return False
-        self._start(pose)
-        return True
-
-    def _try_weighted_start(self, obs: ScanObservation) -> bool:
-        """Start from :func:`weighted_fix` when the fix is good enough
-        (``init_max_sigma_xy_m``), with its covariance added to the start uncertainty."""
-        p = self.params
-        fix = weighted_fix(obs, self.map, p.sigma_range_m, p.sigma_range_per_m,
-                           p.sigma_bearing_rad)
+        fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, self.params)
         if fix is None:
             return False
-        pose, cov = fix
-        worst = math.sqrt(max(0.0, float(np.linalg.eigvalsh(cov[:2, :2])[-1])))
-        if p.init_max_sigma_xy_m > 0.0 and worst > p.init_max_sigma_xy_m:
-            return False
-        self._start(pose, cov)
+        self._start(*fix)
         return True
 
     @property
