@@ -6,8 +6,9 @@ RMSE at every odometry step from the estimator's first estimate). Every fold is 
 that matrix: for each robot, the candidate with the best fit score on the *other* robots (the
 worst ratio to the reference EKF plus a quarter of the mean ratio) is chosen and scored on the
 held-out robot (out of sample); the in-sample figure is the candidate chosen on all robots.
-The candidates are the recommended profile and each of its noise values moved by -25 % and
-+25 % in turn, so the same matrix gives the sensitivity table.
+The candidates are the recommended profile, each of its noise values moved by -25 % and +25 %
+in turn (so the same matrix gives the sensitivity table), and two other ways of learning the
+odometry scales (:data:`SCALE_VARIANTS`).
 
 Usage::
 
@@ -25,7 +26,8 @@ cooperative localization and mapping dataset", International Journal of Robotics
 from __future__ import annotations
 
 import argparse
-import math
+import hashlib
+import json
 import sys
 import tempfile
 import time
@@ -44,6 +46,13 @@ NOISE_VALUES = ("noise_rot", "noise_dist", "noise_lat", "noise_rot_per_m", "sigm
 """The noise values of the profile that the grid moves."""
 FACTORS = (0.75, 1.25)
 """Each noise value is moved by these factors in turn."""
+SCALE_VARIANTS: tuple[tuple[str, dict[str, float]], ...] = (
+    ("scales: narrow prior, slow walk", {"scale_sigma_w": 0.075, "scale_walk_v": 0.003,
+                                         "scale_walk_w": 0.003}),
+    ("scales: wide prior, fast walk", {"scale_sigma_v": 0.15, "scale_walk_v": 0.02,
+                                       "scale_walk_w": 0.02}),
+)
+"""Candidates that change how the odometry scales are learnt (prior, random walk)."""
 
 
 def cached_log(dataset: Path, robot: int, cache: Path) -> Path:
@@ -51,8 +60,12 @@ def cached_log(dataset: Path, robot: int, cache: Path) -> Path:
     dataset's files (the importer's defaults: odometry delay measured from the camera)."""
     from lgvtool.importers.mrclam_log import import_robot
 
+    from lgvtool.importers.mrclam_profile import estimator_profile
+
     cache.mkdir(parents=True, exist_ok=True)
-    tag = f"{dataset.resolve().name}-robot{robot}.mcap"
+    # the log stores the profile: a changed profile is a new log
+    digest = hashlib.sha1(json.dumps(estimator_profile(), sort_keys=True).encode()).hexdigest()
+    tag = f"{dataset.resolve().name}-robot{robot}-{digest[:10]}.mcap"
     log = cache / tag
     newest = max(f.stat().st_mtime for f in dataset.glob(f"Robot{robot}_*.dat"))
     if not log.exists() or log.stat().st_mtime < newest:
@@ -67,6 +80,8 @@ def candidates(base: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
     for name in NOISE_VALUES:
         for f in FACTORS:
             out.append((f"{name} {f - 1.0:+.0%}", {f"{ESTIMATOR}.{name}": base[name] * f}))
+    for label, values in SCALE_VARIANTS:
+        out.append((label, {f"{ESTIMATOR}.{k}": v for k, v in values.items()}))
     return out
 
 
@@ -117,7 +132,7 @@ def leave_one_out(ratio: np.ndarray) -> tuple[list[int], int]:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the grid once, print the cross-validation and sensitivity tables (Markdown)."""
-    from mrclam_accuracy import REFERENCE_EKF_M, TARGET_RATIO, default_dataset
+    from mrclam_accuracy import TARGET_RATIO, default_dataset, references
 
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("dataset", nargs="?", type=Path, default=None, help="MRCLAM dataset folder")
@@ -127,21 +142,24 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     dataset = args.dataset or default_dataset()
     robots = [int(r) for r in args.robots.split(",") if r.strip()]
-    try:
-        from lgvtool.importers.mrclam import MrclamDataset
+    from lgvtool.errors import InputError
 
-        MrclamDataset.open(dataset)
-    except Exception as exc:  # noqa: BLE001 - one line for any unusable folder
+    try:
+        reference = references(dataset)[0]
+    except InputError as exc:
         print(f"mrclam_cv: {exc}", file=sys.stderr)
         return 2
-    print(cross_validation(dataset, robots, args.cache, REFERENCE_EKF_M, TARGET_RATIO))
+    print(cross_validation(dataset, robots, args.cache, reference, TARGET_RATIO))
     return 0
 
 
 def cross_validation(dataset: Path, robots: list[int], cache: Path,
                      reference: dict[int, float], target: float) -> str:
-    """The grid, the leave-one-out folds and the sensitivity table, as Markdown text. Ratios
-    need the reference EKF's figure of a robot (Dataset 6's); without it the RMSE is used."""
+    """The grid, the leave-one-out folds and the sensitivity table, as Markdown text.
+
+    :param reference: the reference EKF's RMSE per robot, m (Dataset 6's); without a figure
+        for every robot the RMSE itself (m) is fitted and shown in place of the ratios.
+    """
     from lgvtool.importers.mrclam_profile import estimator_profile
 
     base = estimator_profile()[ESTIMATOR]
@@ -151,10 +169,12 @@ def cross_validation(dataset: Path, robots: list[int], cache: Path,
     cells = [[own_start_score(logs[r], over) for r in robots] for _, over in cands]
     grid_s = time.perf_counter() - t0
     rmse = np.array([[c["rmse_m"] for c in row] for row in cells])
-    ref = np.array([reference.get(r, 1.0) if "6" in dataset.name else 1.0 for r in robots])
+    known = all(r in reference for r in robots)
+    ref = np.array([reference[r] if known else 1.0 for r in robots])
     ratio = rmse / ref[None, :]
     folds, chosen = leave_one_out(ratio)
-    unit = "ratio to the reference EKF" if (ref != 1.0).all() else "RMSE, m (no reference)"
+    unit = ("ratio to the reference EKF" if known
+            else "RMSE in m in place of ratios: no reference EKF figures for this dataset")
     lines = [f"Grid: {len(cands)} candidate profiles x {len(robots)} robots, one run each "
              f"({grid_s:.0f} s); `{ESTIMATOR}` from its own start, position RMSE at every "
              f"odometry step; {unit}.", ""]
@@ -170,12 +190,13 @@ def cross_validation(dataset: Path, robots: list[int], cache: Path,
                      f"{cells[chosen][k]['first_estimate_s']:.1f} |")
     lines += ["", f"In-sample choice: `{cands[chosen][0]}`. Out of sample <= {target}: "
               f"{met} of {len(robots)} robots.", "",
-              "Sensitivity of the profile (each noise value -25 % / +25 % in turn; the same "
-              "grid):", ""]
+              "Sensitivity of the profile (each noise value -25 % / +25 % in turn) and the "
+              "other candidates; the same grid:", ""]
     head = ["candidate", *[f"Robot{r}" for r in robots], "worst"]
     lines += ["| " + " | ".join(head) + " |", "|---|" + "---:|" * (len(head) - 1)]
     for c, (label, over) in enumerate(cands):
-        value = "" if not over else f" ({next(iter(over.values())):.4g})"
+        value = "" if not over else " (" + ", ".join(
+            f"{k.partition('.')[2]} {v:.4g}" for k, v in over.items()) + ")"
         lines.append(f"| `{label}`{value} | " + " | ".join(f"{x:.2f}" for x in ratio[c])
                      + f" | {ratio[c].max():.2f} |")
     return "\n".join(lines)
