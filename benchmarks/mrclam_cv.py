@@ -37,7 +37,6 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mrclam_metrics import estimates_at_odometry, truth_at
 
 ESTIMATOR = "ekf"
 """The recommended estimator."""
@@ -59,7 +58,6 @@ def cached_log(dataset: Path, robot: int, cache: Path) -> Path:
     """The imported log of ``robot`` in ``cache``, imported when missing or older than the
     dataset's files (the importer's defaults: odometry delay measured from the camera)."""
     from lgvtool.importers.mrclam_log import import_robot
-
     from lgvtool.importers.mrclam_profile import estimator_profile
 
     cache.mkdir(parents=True, exist_ok=True)

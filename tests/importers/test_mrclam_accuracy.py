@@ -1,8 +1,8 @@
 """Accuracy on real data: ``ekf`` with the log's profile meets the target (at most 0.8 x the
-dataset's reference EKF) on every robot, from the truth and from its own start, the default ``pf`` on one full MRCLAM robot stays
-under its bound, and the metric of the accuracy benchmark (estimates carried through the
-odometry to every odometry step, with the estimator's odometry scales when it has them) is exact
-on constructed cases.
+dataset's reference EKF) on every robot, from the truth and from its own start, the default
+``pf`` on one full MRCLAM robot stays under its bound, and the metric of the accuracy benchmark
+(estimates carried through the odometry to every odometry step, with the estimator's odometry
+scales when it has them) is exact on constructed cases.
 
 Dataset: K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, "The UTIAS multi-robot
 cooperative localization and mapping dataset", IJRR 30(8):969-974, 2011.
