@@ -109,6 +109,28 @@ CALIBRATION_COLUMNS = {"s_v": "scale_v", "s_w": "scale_w"}
 :func:`mrclam_metrics.estimates_at_odometry` applies."""
 
 
+def scan_drive(reader: Any, config: Any, params: Any, *,
+               truth: bool) -> tuple[Any, Any, list[Any]]:
+    """What the replay feeds an estimator with ``params`` on a scan-only log (MRCLAM): the
+    log's data (with the ground truth when ``truth``), the odometry track its motion settings
+    ask for, and its scan observations in time order."""
+    from lgvtool.localize.logdata import load_log, scan_batch
+    from lgvtool.localize.motion import MotionTrack
+    from lgvtool.localize.observations import scan_observations
+
+    data = load_log(reader, config.reflectors or None, truth=truth)
+    if data.has_poses:
+        raise ValueError("this driver replays scan-only logs (MRCLAM), this one has NAV poses")
+    ms = params.motion_settings()
+    track = MotionTrack(data.increments(ms, config.vehicle), ms.step_form)
+    vehicle = config.vehicle
+    obs = scan_observations(scan_batch(data.scans), vehicle.nav_x, vehicle.nav_y, track=track,
+                            deskew=params.deskew, min_range=params.min_range_m,
+                            max_range=params.max_range_m)
+    obs.sort(key=lambda o: o.t)
+    return data, track, obs
+
+
 def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, config: Any,
                           seed: int, settings: dict[str, Any],
                           initial_pose: str | None) -> pd.DataFrame:
@@ -122,9 +144,6 @@ def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, c
     each observation; the replayed poses must equal ``trajectory``'s, else the driver and the
     replay disagree and this raises. Any other estimator's ``trajectory`` is returned as it is.
     """
-    from lgvtool.localize.logdata import load_log, scan_batch
-    from lgvtool.localize.motion import MotionTrack
-    from lgvtool.localize.observations import scan_observations
     from lgvtool.localize.registry import ESTIMATORS, resolve_params, split_settings
     from lgvtool.localize.replay import estimator_rng, truth_pose_at
 
@@ -132,17 +151,8 @@ def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, c
     params = resolve_params(name, config.estimators, split_settings(settings).get(name))
     if not getattr(params, "odometry_scales", False):
         return trajectory
-    data = load_log(reader, config.reflectors or None, truth=initial_pose == "truth")
-    if data.has_poses:
-        raise ValueError("calibrated_trajectory replays scan-only logs (MRCLAM), this one has "
-                         "NAV poses")
-    ms = params.motion_settings()
-    track = MotionTrack(data.increments(ms, config.vehicle), ms.step_form)
+    data, track, obs = scan_drive(reader, config, params, truth=initial_pose == "truth")
     vehicle = config.vehicle
-    obs = scan_observations(scan_batch(data.scans), vehicle.nav_x, vehicle.nav_y, track=track,
-                            deskew=params.deskew, min_range=params.min_range_m,
-                            max_range=params.max_range_m)
-    obs.sort(key=lambda o: o.t)
     start = truth_pose_at(data, obs[0].t) if initial_pose == "truth" else None
     trace: list[dict[str, float]] = []
 

@@ -66,9 +66,8 @@ def global_run(log: Path, seed: int, window_s: float,
     """One run of ``pf`` from a uniform start over the first ``window_s`` s (after the first
     camera frame) of ``log``: ``localised_s`` (s, or None), ``wrong_lock`` (bool),
     ``final_error_m``."""
-    from lgvtool.localize.logdata import load_log, scan_batch
-    from lgvtool.localize.motion import MotionTrack
-    from lgvtool.localize.observations import scan_observations
+    from mrclam_accuracy import scan_drive
+
     from lgvtool.localize.registry import ESTIMATORS, resolve_params, split_settings
     from lgvtool.localize.replay import estimator_rng, truth_pose_at
     from lgvtool.log import LogReader
@@ -77,14 +76,8 @@ def global_run(log: Path, seed: int, window_s: float,
     config = reader.config()
     own = {"pf.init": "uniform", **(settings or {})}
     params = resolve_params("pf", config.estimators, split_settings(own).get("pf"))
-    data = load_log(reader, config.reflectors or None, truth=True)
-    ms = params.motion_settings()
-    track = MotionTrack(data.increments(ms, config.vehicle), ms.step_form)
+    data, track, obs = scan_drive(reader, config, params, truth=True)
     vehicle = config.vehicle
-    obs = scan_observations(scan_batch(data.scans), vehicle.nav_x, vehicle.nav_y, track=track,
-                            deskew=params.deskew, min_range=params.min_range_m,
-                            max_range=params.max_range_m)
-    obs.sort(key=lambda o: o.t)
     obs = [o for o in obs if o.t <= obs[0].t + window_s]
     est = ESTIMATORS["pf"](params, vehicle=vehicle, reflectors=data.reflectors,
                            area=config.area, rng=estimator_rng(seed, "pf"))

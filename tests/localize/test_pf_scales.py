@@ -9,10 +9,9 @@ import math
 import numpy as np
 import pytest
 from localize_synth import REFLECTORS, small_config
-from test_ekf_scales import TRUE_SCALE_V, TRUE_SCALE_W, camera, compose, drive
+from test_ekf_scales import TRUE_SCALE_V, TRUE_SCALE_W, run_biased
 
 from lgvtool.localize.camera_fix import start_fix, weighted_fix
-from lgvtool.localize.estimator import Motion
 from lgvtool.localize.observations import ReflectorMap, ScanObservation
 from lgvtool.localize.particle_filter import ParticleFilter
 
@@ -30,24 +29,8 @@ def run_pf(scales: bool, seconds: float = 400.0) -> tuple[ParticleFilter, float]
                         noise_dist=0.03, noise_lat=0.02, noise_rot=0.03, noise_rot_per_m=0.02,
                         scale_sigma_v=0.1, scale_sigma_w=0.1, scale_walk_v=0.002,
                         scale_walk_w=0.002, recovery=False)
-    pose = start
-    errors = []
-    for t, true, cmd in drive(seconds, rng):
-        x, y, _ = compose(pose, true)
-        if not (1.0 < x < 9.0 and 1.0 < y < 9.0):
-            turn = math.remainder(math.atan2(5.0 - pose[1], 5.0 - pose[0]) - pose[2],
-                                  2 * math.pi)
-            true = Motion(0.0, 0.0, TRUE_SCALE_W * turn, 0.0, abs(TRUE_SCALE_W * turn))
-            cmd = Motion(0.0, 0.0, turn, 0.0, abs(turn))
-        pose = compose(pose, true)
-        pf.predict(cmd)
-        # a camera frame every 5 s: the odometry's bias matters in between
-        if round(t / 0.25) % 20 == 0:
-            pf.update(camera(t, pose, rng))
-        e = pf.estimate()
-        assert e is not None
-        errors.append(math.hypot(e.x - pose[0], e.y - pose[1]))
-    return pf, float(np.sqrt(np.mean(np.square(errors[len(errors) // 2:]))))
+    # a camera frame every 5 s: the odometry's bias matters in between
+    return pf, run_biased(pf, start, seconds, rng, every=20)
 
 
 def test_pf_learns_the_odometry_scales() -> None:
