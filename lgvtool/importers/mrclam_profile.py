@@ -36,7 +36,7 @@ _EKF: dict[str, Any] = {
     "sigma_bearing_rad": 0.0125,
     "gate_probability": 0.999,
     "noise_dist": 0.25,
-    "noise_lat": 0.17,
+    "noise_lat": 0.2125,
     "noise_rot": 8.0,
     "noise_rot_per_m": 0.42,
     "init_sigma_xy_m": 1.0,
