@@ -371,9 +371,13 @@ def main(argv: list[str] | None = None) -> int:
         workdir = args.keep or Path(tmp)
         workdir.mkdir(parents=True, exist_ok=True)
         for robot in robots:
-            row = run_robot(dataset, robot, estimators, seed=args.seed, settings=settings,
-                            workdir=workdir, inits=inits, profile=not args.no_profile,
-                            odometry_delay_s=delay)
+            try:
+                row = run_robot(dataset, robot, estimators, seed=args.seed, settings=settings,
+                                workdir=workdir, inits=inits, profile=not args.no_profile,
+                                odometry_delay_s=delay)
+            except InputError as exc:
+                print(f"mrclam_accuracy: {exc}", file=sys.stderr)
+                return 2
             rows.append(row)
             for init in inits:
                 res = row["results"][init]

@@ -141,13 +141,20 @@ def main(argv: list[str] | None = None) -> int:
     dataset = args.dataset or default_dataset()
     robots = [int(r) for r in args.robots.split(",") if r.strip()]
     from lgvtool.errors import InputError
+    from lgvtool.importers.mrclam import MrclamDataset
 
     try:
         reference = references(dataset)[0]
+        available = MrclamDataset.open(dataset).robots
     except InputError as exc:
         print(f"mrclam_cv: {exc}", file=sys.stderr)
         return 2
-    print(cross_validation(dataset, robots, args.cache, reference, TARGET_RATIO))
+    robots = [r for r in robots if r in available]
+    try:
+        print(cross_validation(dataset, robots, args.cache, reference, TARGET_RATIO))
+    except InputError as exc:
+        print(f"mrclam_cv: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 

@@ -135,11 +135,22 @@ def main(argv: list[str] | None = None) -> int:
                     help="pf setting over the log's profile, e.g. pf.particles=4000")
     args = ap.parse_args(argv)
     from lgvtool.config import parse_set_options
+    from lgvtool.errors import InputError
+    from lgvtool.importers.mrclam import MrclamDataset
 
     dataset = args.dataset or default_dataset()
-    robots = [int(r) for r in args.robots.split(",") if r.strip()]
-    print(global_table(dataset, robots, args.seeds, args.window, args.cache,
-                       parse_set_options(args.settings)))
+    try:
+        available = MrclamDataset.open(dataset).robots
+    except InputError as exc:
+        print(f"mrclam_global: {exc}", file=sys.stderr)
+        return 2
+    robots = [int(r) for r in args.robots.split(",") if r.strip() and int(r) in available]
+    try:
+        print(global_table(dataset, robots, args.seeds, args.window, args.cache,
+                           parse_set_options(args.settings)))
+    except InputError as exc:
+        print(f"mrclam_global: {exc}", file=sys.stderr)
+        return 2
     return 0
 
 
