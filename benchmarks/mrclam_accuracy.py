@@ -1,4 +1,4 @@
-"""Position accuracy of lgvtool's estimators on the UTIAS MRCLAM Dataset 6, as Markdown tables.
+"""Position accuracy of lgvtool's estimators on a UTIAS MRCLAM dataset, as Markdown tables.
 
 For each robot: import the robot's files into a log (``lgvtool import mrclam``, which delays the
 odometry by what the camera shows and stores the camera and odometry noise profile of every
@@ -27,15 +27,19 @@ README.
 
 Usage::
 
-    python benchmarks/mrclam_accuracy.py                      # robots 1-5, both starts
+    python benchmarks/mrclam_accuracy.py DIR                  # every table, any MRCLAM dataset
+    python benchmarks/mrclam_accuracy.py DIR --quick          # robots 1-5, both starts, no
+                                                              # cross-validation or global runs
     python benchmarks/mrclam_accuracy.py --robots 1,3 --estimators ekf --init truth --json
     python benchmarks/mrclam_accuracy.py --set pf.particles=1000 --seed 3
     python benchmarks/mrclam_accuracy.py --no-profile         # the NAV200 defaults instead
     python benchmarks/mrclam_accuracy.py --odometry-delay 0 --set ekf.odometry_scales=false
                                                               # without the two corrections
 
-The dataset folder is ``$LGVTOOL_MRCLAM``, else ``../shared/data/mrclam/MRCLAM_Dataset6`` beside
-the repository, else ``--dataset``.
+The dataset folder is ``DIR``, else ``--dataset``, else ``$LGVTOOL_MRCLAM``, else
+``../shared/data/mrclam/MRCLAM_Dataset6`` beside the repository. Without ``--quick`` the
+cross-validation grid (:mod:`mrclam_cv`) and the global localisation of ``pf``
+(:mod:`mrclam_global`) follow the accuracy tables.
 
 Dataset: K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, "The UTIAS multi-robot
 cooperative localization and mapping dataset", International Journal of Robotics Research
@@ -454,8 +458,8 @@ def main(argv: list[str] | None = None) -> int:
         print()
     print(f"{meta}. Reference: the dataset's plain EKF (known data association, chi-square "
           "gate, initialised at the first ground-truth pose, RMSE at every odometry step). "
-          "Data: UTIAS MRCLAM Dataset 6, K. Y. K. Leung, Y. Halpern, T. D. Barfoot, "
-          "H. H. T. Liu, IJRR 30(8):969-974, 2011.")
+          f"Data: UTIAS MRCLAM Dataset {MrclamDataset.open(dataset).number or dataset.name}, "
+          "K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, IJRR 30(8):969-974, 2011.")
     return 0
 
 
