@@ -167,6 +167,8 @@ def cross_validation(dataset: Path, robots: list[int], cache: Path,
     """
     from lgvtool.importers.mrclam_profile import estimator_profile
 
+    if len(robots) < 2:
+        return "Cross-validation needs at least two robots (fit on all but one, score that one)."
     base = estimator_profile()[ESTIMATOR]
     cands = candidates(base)
     logs = {r: cached_log(dataset, r, cache) for r in robots}
