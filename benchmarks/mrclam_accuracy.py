@@ -1,4 +1,4 @@
-"""Position accuracy of lgvtool's estimators on the UTIAS MRCLAM Dataset 6, as Markdown tables.
+"""Position accuracy of lgvtool's estimators on a UTIAS MRCLAM dataset, as Markdown tables.
 
 For each robot: import the robot's files into a log (``lgvtool import mrclam``, which delays the
 odometry by what the camera shows and stores the camera and odometry noise profile of every
@@ -27,15 +27,19 @@ README.
 
 Usage::
 
-    python benchmarks/mrclam_accuracy.py                      # robots 1-5, both starts
+    python benchmarks/mrclam_accuracy.py DIR                  # every table, any MRCLAM dataset
+    python benchmarks/mrclam_accuracy.py DIR --quick          # robots 1-5, both starts, no
+                                                              # cross-validation or global runs
     python benchmarks/mrclam_accuracy.py --robots 1,3 --estimators ekf --init truth --json
     python benchmarks/mrclam_accuracy.py --set pf.particles=1000 --seed 3
     python benchmarks/mrclam_accuracy.py --no-profile         # the NAV200 defaults instead
     python benchmarks/mrclam_accuracy.py --odometry-delay 0 --set ekf.odometry_scales=false
                                                               # without the two corrections
 
-The dataset folder is ``$LGVTOOL_MRCLAM``, else ``../shared/data/mrclam/MRCLAM_Dataset6`` beside
-the repository, else ``--dataset``.
+The dataset folder is ``DIR``, else ``--dataset``, else ``$LGVTOOL_MRCLAM``, else
+``../shared/data/mrclam/MRCLAM_Dataset6`` beside the repository. Without ``--quick`` the
+cross-validation grid (:mod:`mrclam_cv`) and the global localisation of ``pf``
+(:mod:`mrclam_global`) follow the accuracy tables.
 
 Dataset: K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, "The UTIAS multi-robot
 cooperative localization and mapping dataset", International Journal of Robotics Research
@@ -65,6 +69,9 @@ REFERENCE_EKF_M = {1: 0.214, 2: 0.233, 3: 0.193, 4: 0.322, 5: 0.185}
 """The dataset's reference EKF position RMSE per robot, m."""
 REFERENCE_DEAD_RECKONING_M = {1: 2.62, 2: 2.96, 3: 4.16, 4: 1.82, 5: 1.77}
 """Dead reckoning on the same runs according to the dataset's README, m."""
+REFERENCES = {6: (REFERENCE_EKF_M, REFERENCE_DEAD_RECKONING_M)}
+"""Dataset number -> (reference EKF, reference dead reckoning) per robot, m; the figures are
+known for Dataset 6 only, other datasets are scored without ratios."""
 TARGET_RATIO = 0.8
 """Target: the best estimator's RMSE at most this times the reference EKF's."""
 DEFAULT_ESTIMATORS = ("ekf", "pf", "pf-paper")
@@ -84,6 +91,14 @@ def default_dataset() -> Path:
     return repo.parent / "shared" / "data" / "mrclam" / "MRCLAM_Dataset6"
 
 
+def references(dataset: Path) -> tuple[dict[int, float], dict[int, float]]:
+    """The reference EKF's and dead reckoning's RMSE per robot (m) of the dataset in folder
+    ``dataset`` (empty where unknown)."""
+    from lgvtool.importers.mrclam import MrclamDataset
+
+    return REFERENCES.get(MrclamDataset.open(dataset).number or 0, ({}, {}))
+
+
 def score(trajectory: Any, odometry: Any, truth: Any) -> dict[str, float | int]:
     """Both metrics of one trajectory [t s, x m, y m, heading rad]: position RMSE (m) at every
     odometry step and at the estimate times, and how many of each were compared."""
@@ -96,6 +111,28 @@ def score(trajectory: Any, odometry: Any, truth: Any) -> dict[str, float | int]:
 CALIBRATION_COLUMNS = {"s_v": "scale_v", "s_w": "scale_w"}
 """Odometry calibration state of an estimator -> column of the estimate table that
 :func:`mrclam_metrics.estimates_at_odometry` applies."""
+
+
+def scan_drive(reader: Any, config: Any, params: Any, *,
+               truth: bool) -> tuple[Any, Any, list[Any]]:
+    """What the replay feeds an estimator with ``params`` on a scan-only log (MRCLAM): the
+    log's data (with the ground truth when ``truth``), the odometry track its motion settings
+    ask for, and its scan observations in time order."""
+    from lgvtool.localize.logdata import load_log, scan_batch
+    from lgvtool.localize.motion import MotionTrack
+    from lgvtool.localize.observations import scan_observations
+
+    data = load_log(reader, config.reflectors or None, truth=truth)
+    if data.has_poses:
+        raise ValueError("this driver replays scan-only logs (MRCLAM), this one has NAV poses")
+    ms = params.motion_settings()
+    track = MotionTrack(data.increments(ms, config.vehicle), ms.step_form)
+    vehicle = config.vehicle
+    obs = scan_observations(scan_batch(data.scans), vehicle.nav_x, vehicle.nav_y, track=track,
+                            deskew=params.deskew, min_range=params.min_range_m,
+                            max_range=params.max_range_m)
+    obs.sort(key=lambda o: o.t)
+    return data, track, obs
 
 
 def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, config: Any,
@@ -111,9 +148,6 @@ def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, c
     each observation; the replayed poses must equal ``trajectory``'s, else the driver and the
     replay disagree and this raises. Any other estimator's ``trajectory`` is returned as it is.
     """
-    from lgvtool.localize.logdata import load_log, scan_batch
-    from lgvtool.localize.motion import MotionTrack
-    from lgvtool.localize.observations import scan_observations
     from lgvtool.localize.registry import ESTIMATORS, resolve_params, split_settings
     from lgvtool.localize.replay import estimator_rng, truth_pose_at
 
@@ -121,17 +155,8 @@ def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, c
     params = resolve_params(name, config.estimators, split_settings(settings).get(name))
     if not getattr(params, "odometry_scales", False):
         return trajectory
-    data = load_log(reader, config.reflectors or None, truth=initial_pose == "truth")
-    if data.has_poses:
-        raise ValueError("calibrated_trajectory replays scan-only logs (MRCLAM), this one has "
-                         "NAV poses")
-    ms = params.motion_settings()
-    track = MotionTrack(data.increments(ms, config.vehicle), ms.step_form)
+    data, track, obs = scan_drive(reader, config, params, truth=initial_pose == "truth")
     vehicle = config.vehicle
-    obs = scan_observations(scan_batch(data.scans), vehicle.nav_x, vehicle.nav_y, track=track,
-                            deskew=params.deskew, min_range=params.min_range_m,
-                            max_range=params.max_range_m)
-    obs.sort(key=lambda o: o.t)
     start = truth_pose_at(data, obs[0].t) if initial_pose == "truth" else None
     trace: list[dict[str, float]] = []
 
@@ -187,9 +212,10 @@ def run_robot(dataset: Path, robot: int, estimators: list[str], *, seed: int,
         cfg = replace(cfg, estimators={})
     truth = reader.dataframe(topics.TRUTH)[["t", "x", "y", "heading"]]
     odometry = reader.dataframe(topics.ODOM)[["t", "v", "omega"]]
+    ref_ekf, ref_dr = references(dataset)
     row: dict[str, Any] = {
-        "robot": robot, "reference_ekf_m": REFERENCE_EKF_M.get(robot),
-        "reference_dead_reckoning_m": REFERENCE_DEAD_RECKONING_M.get(robot),
+        "robot": robot, "reference_ekf_m": ref_ekf.get(robot),
+        "reference_dead_reckoning_m": ref_dr.get(robot),
         "import_s": round(summary.elapsed_s, 3), "replay_s": {}, "results": {},
         "calibration": {},
     }
@@ -289,6 +315,8 @@ def estimate_time_table(rows: list[dict[str, Any]], estimators: list[str],
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark; print the Markdown tables (or JSON)."""
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    ap.add_argument("dir", nargs="?", type=Path, default=None,
+                    help="MRCLAM dataset folder (any of Datasets 1-9)")
     ap.add_argument("--dataset", type=Path, default=None, help="MRCLAM dataset folder")
     ap.add_argument("--robots", default="1,2,3,4,5", help="comma-separated robot numbers")
     ap.add_argument("--estimators", default=",".join(DEFAULT_ESTIMATORS),
@@ -309,14 +337,30 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--keep", type=Path, default=None,
                     help="folder to keep the imported logs in (default: a temporary folder)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of Markdown")
+    ap.add_argument("--quick", action="store_true",
+                    help="the accuracy tables only: no cross-validation grid, no global "
+                         "localisation")
+    ap.add_argument("--seeds", type=int, default=10,
+                    help="seeds per robot of the global localisation (0..N-1)")
+    ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "mrclam-logs",
+                    help="folder of the imported logs the grid and the global localisation "
+                         "reuse")
     args = ap.parse_args(argv)
 
-    dataset = args.dataset or default_dataset()
+    dataset = args.dir or args.dataset or default_dataset()
     if not dataset.is_dir():
         print(f"mrclam_accuracy: dataset folder not found: {dataset} "
-              "(set LGVTOOL_MRCLAM or pass --dataset)", file=sys.stderr)
+              "(set LGVTOOL_MRCLAM or pass DIR)", file=sys.stderr)
         return 2
-    robots = [int(r) for r in args.robots.split(",") if r.strip()]
+    from lgvtool.errors import InputError
+    from lgvtool.importers.mrclam import MrclamDataset
+
+    try:
+        available = MrclamDataset.open(dataset).robots
+    except InputError as exc:
+        print(f"mrclam_accuracy: {exc}", file=sys.stderr)
+        return 2
+    robots = [int(r) for r in args.robots.split(",") if r.strip() and int(r) in available]
     estimators = [e.strip() for e in args.estimators.split(",") if e.strip()]
     inits = tuple(i.strip() for i in args.init.split(",") if i.strip())
     delay = None if args.odometry_delay == "auto" else float(args.odometry_delay)
@@ -331,9 +375,13 @@ def main(argv: list[str] | None = None) -> int:
         workdir = args.keep or Path(tmp)
         workdir.mkdir(parents=True, exist_ok=True)
         for robot in robots:
-            row = run_robot(dataset, robot, estimators, seed=args.seed, settings=settings,
-                            workdir=workdir, inits=inits, profile=not args.no_profile,
-                            odometry_delay_s=delay)
+            try:
+                row = run_robot(dataset, robot, estimators, seed=args.seed, settings=settings,
+                                workdir=workdir, inits=inits, profile=not args.no_profile,
+                                odometry_delay_s=delay)
+            except InputError as exc:
+                print(f"mrclam_accuracy: {exc}", file=sys.stderr)
+                return 2
             rows.append(row)
             for init in inits:
                 res = row["results"][init]
@@ -389,10 +437,29 @@ def main(argv: list[str] | None = None) -> int:
         met = sum(1 for x in ratios if x <= TARGET_RATIO)
         print(f"Target best / reference <= {TARGET_RATIO}: met on {met} of {len(ratios)} "
               f"robots (worst ratio {max(ratios):.2f}, mean {float(np.mean(ratios)):.2f}).")
+    own = [best_of(r, "auto", estimators)[1] / r["reference_ekf_m"]
+           for r in rows if "auto" in inits and r["reference_ekf_m"]]
+    if own:
+        met = sum(1 for x in own if x <= TARGET_RATIO)
+        print(f"Own start, best / reference <= {TARGET_RATIO}: met on {met} of {len(own)} "
+              f"robots (worst ratio {max(own):.2f}).")
+    if not args.quick:
+        from mrclam_cv import cross_validation
+        from mrclam_global import global_table
+
+        ref_ekf = references(dataset)[0]
+        done = [r["robot"] for r in rows]
+        print()
+        print("Leave-one-robot-out cross-validation of the `ekf` profile (own start):\n")
+        print(cross_validation(dataset, done, args.cache, ref_ekf, TARGET_RATIO))
+        print()
+        print("Global localisation of `pf` from a uniform start over the arena:\n")
+        print(global_table(dataset, done, args.seeds, 180.0, args.cache))
+        print()
     print(f"{meta}. Reference: the dataset's plain EKF (known data association, chi-square "
           "gate, initialised at the first ground-truth pose, RMSE at every odometry step). "
-          "Data: UTIAS MRCLAM Dataset 6, K. Y. K. Leung, Y. Halpern, T. D. Barfoot, "
-          "H. H. T. Liu, IJRR 30(8):969-974, 2011.")
+          f"Data: UTIAS MRCLAM Dataset {MrclamDataset.open(dataset).number or dataset.name}, "
+          "K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, IJRR 30(8):969-974, 2011.")
     return 0
 
 

@@ -31,9 +31,9 @@ from typing import Any
 
 import numpy as np
 
+from lgvtool.localize.camera_fix import start_fix
 from lgvtool.localize.chi2 import chi2_quantile
 from lgvtool.localize.estimator import Estimate, Estimator, Motion, Observation
-from lgvtool.localize.fix import pose_fix
 from lgvtool.localize.geometry import wrap_scalar
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
@@ -84,6 +84,13 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams):
                                 "per metre travelled, 1/sqrt(m)", minimum=0.0)
     scale_walk_w: float = param(0.0, "random walk of s_w: its variance grows by this squared "
                                 "per radian turned, 1/sqrt(rad)", minimum=0.0)
+    init_fix: str = param("points", "landmark fix of the start: points (align the measured "
+                          "points on the map) or weighted (least squares in range and bearing "
+                          "with this filter's measurement noise, the fix's own covariance added "
+                          "to the start uncertainty)", choices=("points", "weighted"))
+    init_max_sigma_xy_m: float = param(0.0, "weighted fix: start only from a scan whose fix has "
+                                       "a position standard deviation (the larger axis) at "
+                                       "most this, m; 0 takes the first fix", minimum=0.0)
 
 
 def scaled_motion(dx: float, dy: float, dth: float, s_v: float, s_w: float
@@ -124,7 +131,8 @@ class GaussianPoseEstimator(Estimator):
         if self.initial_pose is not None:
             self._start(self.initial_pose)
 
-    def _start(self, pose: tuple[float, float, float]) -> None:
+    def _start(self, pose: tuple[float, float, float],
+               fix_covariance: np.ndarray | None = None) -> None:
         p = self.params
         mu = [pose[0], pose[1], wrap_scalar(pose[2])]
         var = [p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2, p.init_sigma_heading_rad ** 2]
@@ -133,6 +141,8 @@ class GaussianPoseEstimator(Estimator):
             var += [p.scale_sigma_v ** 2, p.scale_sigma_w ** 2]
         self.mu = np.array(mu, dtype=np.float64)
         self.P = np.diag(var)
+        if fix_covariance is not None:
+            self.P[:POSE, :POSE] += fix_covariance
 
     @property
     def odometry_calibration(self) -> dict[str, float]:
@@ -148,11 +158,10 @@ class GaussianPoseEstimator(Estimator):
             return False
         if isinstance(obs, ScanObservation) and init == "laser":
             return False
-        pose = pose_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map,
-                        use_ids=getattr(self.params, "use_ids", True))
-        if pose is None:
+        fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, self.params)
+        if fix is None:
             return False
-        self._start(pose)
+        self._start(*fix)
         return True
 
     @property

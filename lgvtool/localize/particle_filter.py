@@ -36,8 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.localize.camera_fix import start_fix
 from lgvtool.localize.estimator import Estimate, Motion, Observation
-from lgvtool.localize.fix import pose_fix
 from lgvtool.localize.kld import bin_keys, kld_count
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
@@ -100,6 +100,24 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams):
                                 minimum=1e-9, maximum=0.999)
     outlier_gate_m: float = param(1.0, "radius of the disc over which an outlier is uniform, m",
                                   minimum=1e-6)
+    init_fix: str = param("points", "landmark fix of a start around a pose: points (align the "
+                          "measured points on the map) or weighted (least squares in range and "
+                          "bearing with this filter's measurement noise)",
+                          choices=("points", "weighted"))
+    init_max_sigma_xy_m: float = param(0.0, "weighted fix: start only from a scan whose fix has "
+                                       "a position standard deviation (the larger axis) at "
+                                       "most this, m; 0 takes the first fix", minimum=0.0)
+    odometry_scales: bool = param(False, "every particle carries a distance scale s_v and a "
+                                  "heading-change scale s_w of the odometry (prior mean 1), "
+                                  "for biased odometry such as commanded velocities")
+    scale_sigma_v: float = param(0.05, "prior standard deviation of each particle's s_v, "
+                                 "dimensionless", minimum=0.0)
+    scale_sigma_w: float = param(0.05, "prior standard deviation of each particle's s_w, "
+                                 "dimensionless", minimum=0.0)
+    scale_walk_v: float = param(0.003, "random walk of s_v per sqrt(metre) travelled, "
+                                "1/sqrt(m)", minimum=0.0)
+    scale_walk_w: float = param(0.003, "random walk of s_w per sqrt(radian) turned, "
+                                "1/sqrt(rad)", minimum=0.0)
 
 
 class ParticleFilter(ParticleSet):
@@ -119,6 +137,9 @@ class ParticleFilter(ParticleSet):
         self.injected = 0
         self.resamplings = 0
         self._cached: tuple[float, float, float, np.ndarray] | None = None
+        #: per-particle odometry scales (``odometry_scales``), dimensionless
+        self.s_v = np.zeros(0)
+        self.s_w = np.zeros(0)
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":
@@ -164,11 +185,10 @@ class ParticleFilter(ParticleSet):
     def update(self, obs: Observation) -> bool:
         p = self.params
         if not self.initialized:
-            pose = pose_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map,
-                            use_ids=p.use_ids)
-            if pose is None:
+            fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
+            if fix is None:
                 return False
-            self._start_around(pose, p.particles)
+            self.set_particles(*self._around(fix[0], fix[1], p.particles))
             self.logw = np.full(len(self.z), -math.log(len(self.z)))
             return True
         if isinstance(obs, PoseObservation):
@@ -214,9 +234,72 @@ class ParticleFilter(ParticleSet):
                 self._ref = self._cached[:3]
         return True
 
+    def _around(self, pose: tuple[float, float, float], cov: FloatArray | None, n: int
+                ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """``n`` poses (m, m, rad) drawn from a Gaussian around ``pose``: the start spread
+        (``init_sigma_xy_m``, ``init_sigma_heading_rad``) plus the fix's covariance ``cov``
+        when given."""
+        p = self.params
+        if cov is None:
+            g = self.rng.standard_normal((3, n))
+            return (pose[0] + p.init_sigma_xy_m * g[0], pose[1] + p.init_sigma_xy_m * g[1],
+                    pose[2] + p.init_sigma_heading_rad * g[2])
+        full = cov + np.diag([p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2,
+                              p.init_sigma_heading_rad ** 2])
+        d = self.rng.multivariate_normal(np.asarray(pose, dtype=np.float64), full, n,
+                                         method="cholesky")
+        return d[:, 0], d[:, 1], d[:, 2]
+
     def predict(self, motion: Motion) -> None:
-        super().predict(motion)
+        if self.params.odometry_scales and len(self.z) > 0:
+            self._predict_scaled(motion)
+        else:
+            super().predict(motion)
         self._cached = None
+
+    def _prior_scales(self, n: int) -> tuple[FloatArray, FloatArray]:
+        """``n`` draws of the scales' prior (mean 1)."""
+        p = self.params
+        g = self.rng.standard_normal((2, n))
+        return 1.0 + p.scale_sigma_v * g[0], 1.0 + p.scale_sigma_w * g[1]
+
+    def _predict_scaled(self, motion: Motion) -> None:
+        """Each particle's odometry motion scaled by its own ``s_v``, ``s_w``
+        (:func:`lgvtool.localize.ekf.scaled_motion`: turn, chord, turn), plus the motion
+        noise; then the scales' random walk."""
+        from lgvtool.localize.ekf import scaled_motion
+
+        p = self.params
+        n = len(self.z)
+        if len(self.s_v) != n:
+            self.s_v, self.s_w = self._prior_scales(n)
+        _, _, _, a, d = scaled_motion(motion.dx, motion.dy, motion.dth, 1.0, 1.0)
+        sa, sl, st = p.noise_sigmas(motion.dist, motion.rot)
+        g = self.rng.standard_normal((5, n))
+        turn = self.s_w * a
+        chord = self.s_v * d
+        dx = chord * np.cos(turn) + sa * g[0]
+        dy = chord * np.sin(turn) + sl * g[1]
+        dth = self.s_w * motion.dth + st * g[2]
+        self.z = self.z + self.rot * (dx + 1j * dy)
+        self._set_headings(self.th + dth)
+        self.s_v = self.s_v + p.scale_walk_v * math.sqrt(motion.dist) * g[3]
+        self.s_w = self.s_w + p.scale_walk_w * math.sqrt(motion.rot) * g[4]
+        if self._ref is not None:
+            x, y, t = self._ref
+            c0, s0 = math.cos(t), math.sin(t)
+            self._ref = (x + c0 * motion.dx - s0 * motion.dy, y + s0 * motion.dx + c0 * motion.dy,
+                         t + motion.dth)
+
+    @property
+    def odometry_calibration(self) -> dict[str, float]:
+        """The weighted mean of the particles' odometry scales ``s_v``, ``s_w``
+        (dimensionless); empty without ``odometry_scales`` or before the first pose."""
+        if not self.params.odometry_scales or len(self.z) == 0:
+            return {}
+        if len(self.s_v) != len(self.z):
+            return {"s_v": 1.0, "s_w": 1.0}
+        return {"s_v": float(self.w @ self.s_v), "s_w": float(self.w @ self.s_w)}
 
     def _track_likelihood(self, kind: str, log_avg_per_obs: float) -> None:
         p = self.params
@@ -241,6 +324,9 @@ class ParticleFilter(ParticleSet):
             n_new = p.particles
             idx = draw(self.w, n_new, self.rng)
         z, th = self.z[idx], self.th[idx]
+        scaled = p.odometry_scales and len(self.s_v) == len(self.z)
+        if scaled:
+            self.s_v, self.s_w = self.s_v[idx], self.s_w[idx]
         n_inject = 0
         if p.recovery:
             frac = lost
@@ -252,6 +338,8 @@ class ParticleFilter(ParticleSet):
             gx, gy, gt = self._recovery_poses(obs, n_inject)
             z[:n_inject] = gx + 1j * gy
             th[:n_inject] = gt
+            if scaled:
+                self.s_v[:n_inject], self.s_w[:n_inject] = self._prior_scales(n_inject)
             self.injected += n_inject
             self.w_slow[kind] = self.w_fast[kind] = 0.0
         self.z = z
@@ -266,12 +354,9 @@ class ParticleFilter(ParticleSet):
         the NAV pose), else uniform over the work area."""
         p = self.params
         if p.inject == "sensor":
-            fix = pose_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map,
-                           use_ids=p.use_ids)
+            fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
             if fix is not None:
-                g = self.rng.standard_normal((3, n))
-                return (fix[0] + p.init_sigma_xy_m * g[0], fix[1] + p.init_sigma_xy_m * g[1],
-                        fix[2] + p.init_sigma_heading_rad * g[2])
+                return self._around(fix[0], fix[1], n)
         return uniform_poses(self.rng, n, self.area)
 
     def estimate(self) -> Estimate | None:

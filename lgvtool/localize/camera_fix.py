@@ -1,0 +1,115 @@
+"""A first pose from one scan, weighted by the sensor's range and bearing noise.
+
+:func:`lgvtool.localize.fix.pose_fix` aligns the measured points on the map, which weighs the
+error along a ray and across it alike. A camera measures bearings well (about 0.01 rad) and
+ranges poorly (10-30 %), so two landmarks of a cluster can give a point fix metres off.
+:func:`weighted_fix` starts from that point fix and minimises the squared range and bearing
+residuals, each divided by its own standard deviation (Gauss-Newton), and returns the pose with
+its covariance ``(J^T W J)^-1``, so that an estimator can wait for a fix that is good enough
+and start with the uncertainty it really has.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lgvtool.localize.fix import pose_fix
+from lgvtool.localize.geometry import wrap_scalar
+from lgvtool.localize.observations import PoseObservation, ReflectorMap, ScanObservation
+
+FloatArray = NDArray[np.float64]
+ITERATIONS = 8
+"""Gauss-Newton iterations from the point fix."""
+
+
+def _residuals(pose: FloatArray, obs: ScanObservation, mx: FloatArray, my: FloatArray,
+               origin: NDArray[np.complex128], ray: FloatArray) -> FloatArray:
+    """Measured minus predicted range (m) and bearing (rad) of each landmark, stacked."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    ex, ey = mx - pose[0], my - pose[1]
+    vx = c * ex + s * ey - origin.real
+    vy = -s * ex + c * ey - origin.imag
+    nr = obs.ranges - np.hypot(vx, vy)
+    nb = np.angle(np.exp(1j * (ray - np.arctan2(vy, vx))))
+    return np.concatenate([nr, nb])
+
+
+def weighted_fix(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
+                 sigma_range_per_m: float, sigma_bearing_rad: float
+                 ) -> tuple[tuple[float, float, float], FloatArray] | None:
+    """Pose of the body frame (m, m, rad) from a scan with at least two landmarks of known id,
+    and its 3x3 covariance (m^2, m rad, rad^2).
+
+    The range noise of a landmark at range ``r`` is ``hypot(sigma_range_m, sigma_range_per_m
+    r)`` (m), its bearing noise ``sigma_bearing_rad`` (rad). None when the scan does not fix
+    the pose (fewer than two known landmarks, degenerate geometry).
+    """
+    seed = pose_fix(obs, 0.0, 0.0, rmap, use_ids=True)
+    if seed is None:
+        return None
+    j = obs.map_index(rmap)
+    ok = j >= 0
+    mx, my = rmap.x[j[ok]], rmap.y[j[ok]]
+    ranges = obs.ranges[ok]
+    origin = (obs.q - obs.ranges * obs.u)[ok]
+    ray = np.angle(obs.u[ok])
+    sub = ScanObservation(obs.t, obs.q[ok], obs.u[ok], ranges, obs.ids[ok])
+    sr = np.sqrt(sigma_range_m ** 2 + (sigma_range_per_m * ranges) ** 2)
+    w = np.concatenate([1.0 / sr ** 2, np.full(len(ranges), 1.0 / sigma_bearing_rad ** 2)])
+    pose = np.array(seed, dtype=np.float64)
+    jac = np.empty((2 * len(ranges), 3))
+    info = np.eye(3)
+    for _ in range(ITERATIONS):
+        r0 = _residuals(pose, sub, mx, my, origin, ray)
+        for i, h in enumerate((1e-6, 1e-6, 1e-7)):
+            d = np.zeros(3)
+            d[i] = h
+            jac[:, i] = (r0 - _residuals(pose + d, sub, mx, my, origin, ray)) / h
+        info = jac.T @ (jac * w[:, None])
+        try:
+            step = np.linalg.solve(info, jac.T @ (w * r0))
+        except np.linalg.LinAlgError:
+            return None
+        pose = pose + step
+        if float(np.abs(step).max()) < 1e-9:
+            break
+    if not np.all(np.isfinite(pose)):
+        return None
+    try:
+        cov = np.linalg.inv(info)
+    except np.linalg.LinAlgError:
+        return None
+    return (float(pose[0]), float(pose[1]), wrap_scalar(float(pose[2]))), 0.5 * (cov + cov.T)
+
+
+def start_fix(obs: PoseObservation | ScanObservation, nav_x: float, nav_y: float,
+              rmap: ReflectorMap, params: Any
+              ) -> tuple[tuple[float, float, float], FloatArray | None] | None:
+    """The first pose an estimator with ``params`` takes from ``obs``, and the fix's
+    covariance (None for a point fix or a NAV pose).
+
+    ``params.init_fix`` ``weighted`` (when the parameters have it) fixes a scan with
+    :func:`weighted_fix` and the estimator's own measurement noise, and refuses a fix whose
+    position standard deviation along its larger axis exceeds ``params.init_max_sigma_xy_m``
+    (m, 0: no limit); otherwise :func:`lgvtool.localize.fix.pose_fix`. None when ``obs`` gives
+    no (good enough) fix.
+    """
+    use_ids = getattr(params, "use_ids", True)
+    if isinstance(obs, ScanObservation) and use_ids and \
+            getattr(params, "init_fix", "points") == "weighted":
+        fix = weighted_fix(obs, rmap, params.sigma_range_m, params.sigma_range_per_m,
+                           params.sigma_bearing_rad)
+        if fix is None:
+            return None
+        pose, cov = fix
+        worst = math.sqrt(max(0.0, float(np.linalg.eigvalsh(cov[:2, :2])[-1])))
+        limit = params.init_max_sigma_xy_m
+        if limit > 0.0 and worst > limit:
+            return None
+        return pose, cov
+    point = pose_fix(obs, nav_x, nav_y, rmap, use_ids=use_ids)
+    return None if point is None else (point, None)
