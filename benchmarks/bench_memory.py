@@ -20,7 +20,6 @@ import json
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 #: runs a command in a child and prints its peak RSS (KiB) and wall time (s) as JSON

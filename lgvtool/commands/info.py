@@ -20,7 +20,7 @@ def info(log: str, as_json: bool) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = LogReader(log)
-    summary = describe(reader)
+        summary = describe(reader)  # its corrupt-chunk warnings are printed below
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:

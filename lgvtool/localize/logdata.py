@@ -6,7 +6,8 @@ kept as their JSON bytes (:class:`LazyScans`) and decoded only for the estimator
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any, overload
@@ -39,9 +40,11 @@ class LazyScans(Sequence[RawScan]):
     (the paper's filter uses one revolution per NAV poll, about a quarter of them)."""
 
     def __init__(self, t0_ns: int, received_ns: list[int] | NDArray[np.int64],
-                 raw: list[bytes]) -> None:
+                 raw: list[bytes], source: str = "log") -> None:
         self._t0 = t0_ns
         self._raw = raw
+        #: what the scans came from, for messages (the log's path)
+        self.source = source
         #: receive (log) time of each scan, s after ``t0_ns``
         self.received = _seconds(np.asarray(received_ns, dtype=np.int64), t0_ns)
 
@@ -64,7 +67,16 @@ class LazyScans(Sequence[RawScan]):
         """Decode the scans ``indices`` (all if None) into flat arrays."""
         raw = self._raw
         chosen = raw if indices is None else [raw[k] for k in indices]
-        t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64), _scan_fields)
+        try:
+            t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64),
+                                      _scan_fields)
+            if cols:
+                _checked("/nav/reflectors", t[t != 0], ranges=cols[2], bearings=cols[3],
+                         time_in_scan=cols[4])
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            from lgvtool.errors import LogFormatError
+
+            raise LogFormatError(f"{self.source}: {_what(exc)}") from None
         if not cols:
             z = np.zeros(0)
             e = np.zeros(0, dtype=np.int64)
@@ -211,44 +223,96 @@ def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *
     if truth:
         wanted.append(T.TRUTH)
     cols = reader.raw_columns(wanted)
+    try:
+        return _log_data(reader, cols, reflectors)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        from lgvtool.errors import LogFormatError
+
+        raise LogFormatError(f"{reader.path}: {_what(exc)}") from None
+
+
+def _what(exc: BaseException) -> str:
+    """One phrase for a decoding failure of :func:`_log_data`."""
+    if isinstance(exc, ValueError) and str(exc).startswith("topic "):
+        return str(exc)
+    return f"messages do not match the log contract ({type(exc).__name__}: {exc})"
+
+
+@contextlib.contextmanager
+def _about(topic: str) -> Iterator[None]:
+    """Name ``topic`` in a decoding failure (KeyError, TypeError, ValueError) inside."""
+    try:
+        yield
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        if isinstance(exc, ValueError) and str(exc).startswith("topic "):
+            raise
+        raise ValueError(f"topic {topic}: messages do not match the log contract "
+                         f"({type(exc).__name__}: {exc})") from None
+
+
+def _checked(topic: str, ti: NDArray[np.int64], **columns: NDArray[Any]) -> None:
+    """Range checks of one decoded topic: plausible times, finite numbers."""
+    from lgvtool.log.validate import check_finite, check_times
+
+    if len(ti):
+        check_times(topic, (int(ti.min()), int(ti.max())))
+    check_finite(topic, columns)
+
+
+def _log_data(reader: LogReader, cols: dict[str, tuple[NDArray[np.int64], list[bytes]]],
+              reflectors: Sequence[Reflector] | None) -> LogData:
+    """:func:`load_log` once the raw messages are read; raises KeyError, TypeError or
+    ValueError when they do not match the contract."""
+    from lgvtool.log import topics as T
+
     t0 = min((int(ts[0]) for ts, _ in cols.values() if len(ts)), default=0)
     refl = tuple(reflectors) if reflectors is not None else reader.reflector_map()
     data = LogData(t0, refl)
     if T.MCU_FRAME in cols:
-        log_ns, raw = cols[T.MCU_FRAME]
-        ti, (ints, gyro) = _decode_columns(raw, log_ns, lambda docs: (
-            _columns(docs, ("seq", "mcu_time_ms", "enc_left", "enc_right"), np.int64),
-            _columns(docs, ("gyro_rate",), np.float64)[0]))
-        order = np.argsort(ti, kind="stable")
-        ints = ints[:, order]
-        data.mcu = {"t": _seconds(ti[order], t0), "seq": ints[0], "mcu_time_ms": ints[1],
-                    "enc_left": ints[2], "enc_right": ints[3], "gyro_rate": gyro[order]}
+        with _about(T.MCU_FRAME):
+            log_ns, raw = cols[T.MCU_FRAME]
+            ti, (ints, gyro) = _decode_columns(raw, log_ns, lambda docs: (
+                _columns(docs, ("seq", "mcu_time_ms", "enc_left", "enc_right"), np.int64),
+                _columns(docs, ("gyro_rate",), np.float64)[0]))
+            _checked(T.MCU_FRAME, ti, gyro_rate=gyro)
+            order = np.argsort(ti, kind="stable")
+            ints = ints[:, order]
+            data.mcu = {"t": _seconds(ti[order], t0), "seq": ints[0], "mcu_time_ms": ints[1],
+                        "enc_left": ints[2], "enc_right": ints[3], "gyro_rate": gyro[order]}
     if T.ODOM in cols:
-        log_ns, raw = cols[T.ODOM]
-        ti, (a,) = _decode_columns(raw, log_ns, lambda docs: (
-            _columns(docs, ("v", "omega"), np.float64),))
-        order = np.argsort(ti, kind="stable")
-        a = a[:, order]
-        data.twist = {"t": _seconds(ti[order], t0), "v": a[0], "omega": a[1]}
+        with _about(T.ODOM):
+            log_ns, raw = cols[T.ODOM]
+            ti, (a,) = _decode_columns(raw, log_ns, lambda docs: (
+                _columns(docs, ("v", "omega"), np.float64),))
+            _checked(T.ODOM, ti, v=a[0], omega=a[1])
+            order = np.argsort(ti, kind="stable")
+            a = a[:, order]
+            data.twist = {"t": _seconds(ti[order], t0), "v": a[0], "omega": a[1]}
     if T.NAV_POSE in cols:
-        log_ns, raw = cols[T.NAV_POSE]
-        ti, (a, valid) = _decode_columns(raw, log_ns, lambda docs: (
-            _columns(docs, ("x", "y", "heading"), np.float64),
-            np.array([bool(d["valid"]) for d in docs], dtype=bool)))
-        order = np.argsort(ti, kind="stable")
-        a = a[:, order]
-        data.nav = {"t": _seconds(ti[order], t0), "x": a[0], "y": a[1], "heading": a[2],
-                    "valid": valid[order] & np.isfinite(a).all(axis=0)}
+        with _about(T.NAV_POSE):
+            log_ns, raw = cols[T.NAV_POSE]
+            ti, (a, valid) = _decode_columns(raw, log_ns, lambda docs: (
+                _columns(docs, ("x", "y", "heading"), np.float64),
+                np.array([bool(d["valid"]) for d in docs], dtype=bool)))
+            _checked(T.NAV_POSE, ti)
+            order = np.argsort(ti, kind="stable")
+            a = a[:, order]
+            data.nav = {"t": _seconds(ti[order], t0), "x": a[0], "y": a[1], "heading": a[2],
+                        "valid": valid[order] & np.isfinite(a).all(axis=0)}
     if T.NAV_REFLECTORS in cols:
-        log_ns, raw = cols[T.NAV_REFLECTORS]
-        data.scans = LazyScans(t0, log_ns, raw)
+        with _about(T.NAV_REFLECTORS):
+            log_ns, raw = cols[T.NAV_REFLECTORS]
+            _checked(T.NAV_REFLECTORS, log_ns)
+            data.scans = LazyScans(t0, log_ns, raw, str(reader.path))
     if T.TRUTH in cols:
-        log_ns, raw = cols[T.TRUTH]
-        ti, (a,) = _decode_columns(raw, log_ns, lambda docs: (np.array(
-            [(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
-              d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
-             for d in docs], dtype=np.float64).reshape(-1, 4).T,))
-        a = a[:, np.argsort(ti, kind="stable")]
-        data.truth = {"t": _seconds(np.sort(ti, kind="stable"), t0), "x": a[0], "y": a[1],
-                      "heading": 2.0 * np.arctan2(a[2], a[3])}
+        with _about(T.TRUTH):
+            log_ns, raw = cols[T.TRUTH]
+            ti, (a,) = _decode_columns(raw, log_ns, lambda docs: (np.array(
+                [(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
+                  d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
+                 for d in docs], dtype=np.float64).reshape(-1, 4).T,))
+            _checked(T.TRUTH, ti, x=a[0], y=a[1], orientation=a[2:])
+            a = a[:, np.argsort(ti, kind="stable")]
+            data.truth = {"t": _seconds(np.sort(ti, kind="stable"), t0), "x": a[0], "y": a[1],
+                          "heading": 2.0 * np.arctan2(a[2], a[3])}
     return data
