@@ -169,30 +169,37 @@ def _write(reader: Any, output: str, result: Any, config: Any, source: str,
     skip = frozenset(t for n in result.tables for t in (
         topics.estimate_pose(n), topics.estimate_state(n), topics.estimate_particles(n)))
     skip = frozenset(t for t in skip if reader.has_topic(t))
-    names: list[str] = []
-    datas: list[bytes] = []
-    times: list[NDArray[np.int64]] = []
-    keys: list[NDArray[np.int64]] = []  # (order at one time, stream)
-    stream = 0
-    for name, tab in result.tables.items():
-        for order, (topic, encoded) in enumerate((
-                (topics.estimate_pose(name), _pose_messages(tab)),
-                (topics.estimate_state(name), _state_messages(name, tab)))):
-            names.extend([topic] * len(encoded))
+
+    def encode(tables: dict[str, Any], clouds_of: dict[str, Any]) -> tuple[
+            list[str], list[bytes], NDArray[np.int64], list[int]]:
+        """The estimate messages of ``tables`` and ``clouds_of``: topics, JSON, times and
+        their write order."""
+        names: list[str] = []
+        datas: list[bytes] = []
+        times: list[NDArray[np.int64]] = []
+        keys: list[NDArray[np.int64]] = []  # (order at one time, stream)
+        stream = 0
+        for name, tab in tables.items():
+            for order, (topic, encoded) in enumerate((
+                    (topics.estimate_pose(name), _pose_messages(tab)),
+                    (topics.estimate_state(name), _state_messages(name, tab)))):
+                names.extend([topic] * len(encoded))
+                datas.extend(encoded)
+                times.append(tab.t_ns)
+                keys.append(np.full(len(encoded), order * 1024 + stream, dtype=np.int64))
+            stream += 1
+        for name, clouds in clouds_of.items():
+            encoded = _cloud_messages(clouds)
+            names.extend([topics.estimate_particles(name)] * len(encoded))
             datas.extend(encoded)
-            times.append(tab.t_ns)
-            keys.append(np.full(len(encoded), order * 1024 + stream, dtype=np.int64))
-        stream += 1
-    for name, clouds in result.clouds.items():
-        encoded = _cloud_messages(clouds)
-        names.extend([topics.estimate_particles(name)] * len(encoded))
-        datas.extend(encoded)
-        times.append(np.array([c[0] for c in clouds], dtype=np.int64))
-        keys.append(np.full(len(encoded), 2 * 1024 + stream, dtype=np.int64))
-        stream += 1
-    t_all = np.concatenate(times) if times else np.zeros(0, dtype=np.int64)
-    k_all = np.concatenate(keys) if keys else np.zeros(0, dtype=np.int64)
-    order_all = np.lexsort((k_all, t_all)).tolist()
+            times.append(np.array([c[0] for c in clouds], dtype=np.int64))
+            keys.append(np.full(len(encoded), 2 * 1024 + stream, dtype=np.int64))
+            stream += 1
+        t_all = np.concatenate(times) if times else np.zeros(0, dtype=np.int64)
+        k_all = np.concatenate(keys) if keys else np.zeros(0, dtype=np.int64)
+        order_all = np.lexsort((k_all, t_all)).tolist()
+        return names, datas, t_all, order_all
+
     n_written = 0
     with LogWriter(output, source="replay", chunk_seconds=None, compression=compression) as w:
         n_written += w.copy_from(reader, skip_topics=skip)
@@ -205,10 +212,41 @@ def _write(reader: Any, output: str, result: Any, config: Any, source: str,
         })
         if config is not None:
             w.write_config(config)
-        w.write_encoded_many([names[i] for i in order_all], [datas[i] for i in order_all],
-                             t_all[order_all].tolist())
-        n_written += len(order_all)
+        # the estimates a time window at a time: the same messages in the same order, without
+        # holding the JSON of every estimate of a long log at once
+        for tables, clouds_of in _windows(result.tables, result.clouds):
+            names, datas, t_all, order_all = encode(tables, clouds_of)
+            w.write_encoded_many([names[i] for i in order_all],
+                                 [datas[i] for i in order_all], t_all[order_all].tolist())
+            n_written += len(order_all)
     return n_written
+
+
+#: log time covered by one window of estimates written at a time, ns
+WINDOW_NS = 600 * 1_000_000_000
+
+
+def _windows(tables: dict[str, Any], clouds: dict[str, Any]) -> Any:
+    """``(tables, clouds)`` restricted to consecutive windows of :data:`WINDOW_NS` of log time
+    (the rows and clouds of each estimator whose time falls in the window)."""
+    from dataclasses import fields, replace
+
+    import numpy as np
+
+    stamps = [t.t_ns for t in tables.values() if len(t.t_ns)]
+    stamps += [np.array([c[0] for c in cl], dtype=np.int64) for cl in clouds.values() if cl]
+    if not stamps:
+        yield tables, clouds
+        return
+    lo = min(int(a.min()) for a in stamps)
+    hi = max(int(a.max()) for a in stamps)
+    for start in range(lo, hi + 1, WINDOW_NS):
+        end = start + WINDOW_NS
+        part = {}
+        for name, tab in tables.items():
+            a, b = np.searchsorted(tab.t_ns, [start, end], side="left").tolist()
+            part[name] = replace(tab, **{f.name: getattr(tab, f.name)[a:b] for f in fields(tab)})
+        yield part, {name: [c for c in cl if start <= c[0] < end] for name, cl in clouds.items()}
 
 
 def _numbers(values: Any) -> list[bytes]:

@@ -34,6 +34,7 @@ from lgvtool.localize.observations import (
     scan_observations,
     sources,
 )
+from lgvtool.localize.obsstream import ObservationStream, Tail, scan_times, times_of
 from lgvtool.localize.params import params_dict
 from lgvtool.localize.registry import (
     DEFAULT_ESTIMATORS,
@@ -136,7 +137,8 @@ def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
 
 def _observations(data: LogData, est_cls: type[Estimator], params: Any,
                   track: MotionTrack | None, vehicle: Any, *, start_poses: bool = True
-                  ) -> tuple[list[PoseObservation | ScanObservation], list[PoseObservation]]:
+                  ) -> tuple[Sequence[PoseObservation | ScanObservation],
+                             list[PoseObservation]]:
     """The observations an estimator updates with, and NAV poses it may only start from
     (those only with ``start_poses``; see :func:`_start_poses`)."""
     use_scans, use_poses = sources(getattr(params, "observations", "both"),
@@ -155,11 +157,29 @@ def _observations(data: LogData, est_cls: type[Estimator], params: Any,
         chosen = None
         if getattr(params, "scans", "all") == "nav-poll" and data.nav is not None:
             chosen = poll_scans(data.scan_received(), data.nav["t"])
+        if isinstance(data.scans, LazyScans):
+            return _stream(data.scans, obs, chosen, vehicle, track, deskew, lo, hi), poses
         obs.extend(scan_observations(scan_batch(data.scans, chosen), vehicle.nav_x,
                                      vehicle.nav_y, track=track, deskew=deskew, min_range=lo,
                                      max_range=hi))
     obs.sort(key=lambda o: o.t)
     return obs, poses
+
+
+def _stream(scans: LazyScans, poses: list[Any], chosen: list[int] | None, vehicle: Any,
+            track: MotionTrack | None, deskew: bool, lo: float, hi: float
+            ) -> ObservationStream:
+    """The poses and the scans ``chosen`` (all if None) as a stream whose scan geometry is
+    built block by block (:class:`ObservationStream`)."""
+    idx = chosen if chosen is not None else list(range(len(scans)))
+    start, period = scans.start_and_period(idx)
+
+    def build(a: int, b: int) -> list[ScanObservation]:
+        return scan_observations(scans.batch(idx[a:b]), vehicle.nav_x, vehicle.nav_y,
+                                 track=track, deskew=deskew, min_range=lo, max_range=hi)
+
+    return ObservationStream(poses, scan_times(start, period,
+                                               deskew=deskew and track is not None), build)
 
 
 def _start_poses(data: LogData, est_cls: type[Estimator], params: Any
@@ -249,25 +269,32 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
     return result
 
 
-def _start(est: Estimator, obs: list[PoseObservation | ScanObservation],
+def _start(est: Estimator, obs: Sequence[PoseObservation | ScanObservation],
            start_only: list[PoseObservation], track: MotionTrack | None
-           ) -> list[PoseObservation | ScanObservation | _Mark]:
+           ) -> Sequence[PoseObservation | ScanObservation | _Mark]:
     """Feed observations and start-only NAV poses in time order until the estimator has a
     pose; return the observations still to process, beginning with a zero-motion marker at the
     start time so that the motion from there on is not lost."""
-    merged: list[tuple[float, int, PoseObservation | ScanObservation]] = sorted(
-        [(o.t, 0, o) for o in obs] + [(o.t, 1, o) for o in start_only], key=lambda r: r[0])
+    # the observations and start-only poses merged by time, stably (observations first)
+    n_obs = len(obs)
+    keys = np.concatenate([times_of(obs), times_of(start_only)])
     prev: float | None = None
-    for i, (t, _kind, o) in enumerate(merged):
+    used = 0  # observations fed so far
+    for j in np.argsort(keys, kind="stable").tolist():
+        t = float(keys[j])
         if prev is not None and track is not None and est.uses_motion:
             d = track.deltas(np.array([prev]), np.array([t]))
             est.predict(Motion(float(d.dx[0]), float(d.dy[0]), float(d.dth[0]),
                                float(d.dist[0]), float(d.rot[0])))
         prev = t
+        if j < n_obs:
+            o: PoseObservation | ScanObservation = obs[j]
+            used += 1
+        else:
+            o = start_only[j - n_obs]
         est.update(o)
         if est.initialized:
-            rest = [r[2] for r in merged[i + 1:] if r[1] == 0]
-            return [_Mark(t), *rest]
+            return Tail(_Mark(t), t, obs, used)
     return []
 
 
@@ -284,9 +311,15 @@ def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _
              track: MotionTrack | None, t0_ns: int, progress: Callable[[int], None] | None,
              cloud_period_s: float, cloud_size: int
              ) -> tuple[EstimateTable, list[tuple[int, FloatArray, FloatArray, FloatArray]]]:
-    times = np.array([o.t for o in obs], dtype=np.float64)
+    times = times_of(obs)
     steps = track.deltas(times[:-1], times[1:]) if track is not None and len(obs) > 1 else None
-    rows = est.run(times, [None if isinstance(o, _Mark) else o for o in obs], steps,
+    if isinstance(obs, Tail):
+        todo: Sequence[PoseObservation | ScanObservation | None] = obs.with_first(None)
+    elif isinstance(obs, ObservationStream):
+        todo = obs
+    else:
+        todo = [None if isinstance(o, _Mark) else o for o in obs]
+    rows = est.run(times, todo, steps,
                    progress=progress, cloud_period_s=cloud_period_s, cloud_size=cloud_size)
     table = EstimateTable(
         t0_ns + np.round(rows.t * 1e9).astype(np.int64), rows.x, rows.y,

@@ -13,9 +13,7 @@ salvage of a cut-off file uses its stream reader). Files written here are ordina
 
 from __future__ import annotations
 
-import contextlib
 import heapq
-import mmap
 import os
 import struct
 import zlib
@@ -787,23 +785,6 @@ def checked_records(kind: str, data: bytes | memoryview, size: int, crc: int,
     return records
 
 
-def file_buffer(f: IO[bytes]) -> Any:
-    """The whole file ``f`` as a read-only buffer: a memory map, else its bytes."""
-    try:
-        return mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-    except (AttributeError, OSError, ValueError):
-        f.seek(0)
-        return f.read()
-
-
-def close_buffer(buf: Any) -> None:
-    if isinstance(buf, mmap.mmap):
-        with contextlib.suppress(BufferError):
-            # a profiler or debugger holding a frame of the reader can keep a view of the map
-            # alive; the map is then unmapped when that view goes
-            buf.close()
-
-
 def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
                       ) -> tuple[NDArray[np.uint64], list[bytes]] | None:
     """The log times and data of channel ``cid``'s messages in ``records`` found through its
@@ -833,11 +814,13 @@ def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
     return times, out
 
 
-def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Iterable[int],
-                  on_corrupt: OnCorrupt | None = None, verified: set[int] | None = None
-                  ) -> dict[int, tuple[NDArray[np.int64], list[bytes]]]:
-    """Every message of the ``wanted`` channels of an indexed file: per channel, the log times
-    (ns) and the message data, in log-time order (ties in stored order).
+def iter_channel_chunks(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex],
+                        wanted: Iterable[int], on_corrupt: OnCorrupt | None = None,
+                        verified: set[int] | None = None
+                        ) -> Iterator[dict[int, tuple[NDArray[np.uint64], list[bytes]]]]:
+    """The messages of the ``wanted`` channels of an indexed file, one chunk at a time (in the
+    order of the chunks' start times): per channel in the chunk, the log times (ns) and the
+    message data in stored order. Only one chunk is held at a time (:func:`chunk_window`).
 
     Only the chunks holding a wanted channel are decompressed (and checked, see
     :func:`verified_records`), and their messages are found through the chunks' message
@@ -849,45 +832,79 @@ def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Ite
     import numpy as np
 
     want = set(wanted)
-    times: dict[int, list[NDArray[np.uint64]]] = {c: [] for c in want}
-    datas: dict[int, list[bytes]] = {c: [] for c in want}
     order = sorted((ci for ci in chunk_indexes
                     if not ci.message_index_offsets or want & ci.message_index_offsets.keys()),
                    key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
     zstd = zstandard.ZstdDecompressor()
-    buf = file_buffer(f)
-    try:
-        for ci in order:
-            try:
-                records = verified_records(buf, ci, zstd)
-                found: dict[int, tuple[NDArray[np.uint64], list[bytes]]] | None = {}
-                for cid, off in ci.message_index_offsets.items():
-                    if cid in want and found is not None:
-                        got = _indexed_payloads(buf, records, off, cid)
-                        if got is None:
-                            found = None
-                        else:
-                            found[cid] = got
-                if found is None or not ci.message_index_offsets:
-                    walked: dict[int, tuple[list[int], list[bytes]]] = {}
-                    for log_time, cid, _pub, data in chunk_messages(records, want):
-                        ts, ds = walked.setdefault(cid, ([], []))
-                        ts.append(log_time)
-                        ds.append(data)
-                    found = {cid: (np.array(ts, dtype=np.uint64), ds)
-                             for cid, (ts, ds) in walked.items()}
-            except CorruptChunkError as exc:
-                if on_corrupt is None:
-                    raise CorruptChunkError(ci.chunk_start_offset, exc.reason) from None
-                on_corrupt(ci, exc.reason)
-                continue
-            if verified is not None:
-                verified.add(ci.chunk_start_offset)
-            for cid, (tc, d) in found.items():
-                times[cid].append(tc)
-                datas[cid].extend(d)
-    finally:
-        close_buffer(buf)
+    for ci in order:
+        try:
+            buf, local = chunk_window(f, ci)
+            records = verified_records(buf, local, zstd)
+            found: dict[int, tuple[NDArray[np.uint64], list[bytes]]] | None = {}
+            for cid, off in local.message_index_offsets.items():
+                if cid in want and found is not None:
+                    got = _indexed_payloads(buf, records, off, cid)
+                    if got is None:
+                        found = None
+                    else:
+                        found[cid] = got
+            if found is None or not local.message_index_offsets:
+                walked: dict[int, tuple[list[int], list[bytes]]] = {}
+                for log_time, cid, _pub, data in chunk_messages(records, want):
+                    ts, ds = walked.setdefault(cid, ([], []))
+                    ts.append(log_time)
+                    ds.append(data)
+                found = {cid: (np.array(ts, dtype=np.uint64), ds)
+                         for cid, (ts, ds) in walked.items()}
+            del records, buf
+        except CorruptChunkError as exc:
+            if on_corrupt is None:
+                raise CorruptChunkError(ci.chunk_start_offset, exc.reason) from None
+            on_corrupt(ci, exc.reason)
+            continue
+        if verified is not None:
+            verified.add(ci.chunk_start_offset)
+        yield found
+
+
+def chunk_window(f: IO[bytes], ci: ChunkIndex) -> tuple[bytes, ChunkIndex]:
+    """The bytes of the chunk ``ci`` (and of its message indexes when they follow it within
+    64 KiB, as writers lay them out), read from ``f``, and ``ci`` with its offsets made
+    relative to those bytes (without message indexes when they lie elsewhere: the chunk is
+    then walked). Reading chunk by chunk this way holds one chunk in memory, where a map of
+    the whole file keeps every page read resident."""
+    lo = max(0, ci.chunk_start_offset)
+    hi = lo + max(0, ci.chunk_length)
+    offsets: dict[int, int] = {}
+    if ci.message_index_offsets:
+        mlo = min(ci.message_index_offsets.values())
+        mhi = mlo + ci.message_index_length
+        if hi <= mlo <= hi + (1 << 16) and mhi - lo <= (1 << 31):
+            hi = mhi
+            offsets = {k: v - lo for k, v in ci.message_index_offsets.items()}
+    f.seek(lo)
+    data = f.read(max(0, hi - lo))
+    return data, ChunkIndex(ci.message_start_time, ci.message_end_time,
+                            ci.chunk_start_offset - lo, ci.chunk_length, offsets,
+                            ci.message_index_length, ci.compression, ci.compressed_size,
+                            ci.uncompressed_size)
+
+
+def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Iterable[int],
+                  on_corrupt: OnCorrupt | None = None, verified: set[int] | None = None
+                  ) -> dict[int, tuple[NDArray[np.int64], list[bytes]]]:
+    """Every message of the ``wanted`` channels of an indexed file: per channel, the log times
+    (ns) and the message data, in log-time order (ties in stored order). Chunks are read and
+    checked as by :func:`iter_channel_chunks`."""
+    import numpy as np
+
+    want = set(wanted)
+    times: dict[int, list[NDArray[np.uint64]]] = {c: [] for c in want}
+    datas: dict[int, list[bytes]] = {c: [] for c in want}
+    for found in iter_channel_chunks(f, chunk_indexes, want, on_corrupt, verified):
+        for cid, (tc, d) in found.items():
+            times[cid].append(tc)
+            datas[cid].extend(d)
     out: dict[int, tuple[NDArray[np.int64], list[bytes]]] = {}
     for cid in want:
         t = (np.concatenate(times[cid]) if times[cid] else np.zeros(0, np.uint64)).astype(np.int64)
@@ -913,11 +930,11 @@ def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
                     or wanted & ci.message_index_offsets.keys()),
                    key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
     zstd = zstandard.ZstdDecompressor()
-    buf = file_buffer(stream)
 
     def load(ci: ChunkIndex) -> list[tuple[int, int, int, bytes]]:
         try:
-            msgs = chunk_messages(verified_records(buf, ci, zstd), wanted)
+            buf, local = chunk_window(stream, ci)
+            msgs = chunk_messages(verified_records(buf, local, zstd), wanted)
         except CorruptChunkError as exc:
             if on_corrupt is None:
                 raise CorruptChunkError(ci.chunk_start_offset, exc.reason) from None
@@ -931,27 +948,24 @@ def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
     heap: list[tuple[int, int, int, int, int, bytes]] = []
     seq = 0
     i = 0
-    try:
-        while i < len(order) or heap:
-            if not heap and i < len(order):
-                ci = order[i]
-                i += 1
-                msgs = load(ci)
-                # fast path: this chunk ends before the next one starts -> no merging needed
-                if i >= len(order) or ci.message_end_time < order[i].message_start_time:
-                    yield from msgs
-                    continue
-                for m in msgs:
-                    heapq.heappush(heap, (m[0], seq, m[1], m[2], 0, m[3]))
-                    seq += 1
+    while i < len(order) or heap:
+        if not heap and i < len(order):
+            ci = order[i]
+            i += 1
+            msgs = load(ci)
+            # fast path: this chunk ends before the next one starts -> no merging needed
+            if i >= len(order) or ci.message_end_time < order[i].message_start_time:
+                yield from msgs
                 continue
-            t = heap[0][0]
-            while i < len(order) and order[i].message_start_time <= t:
-                for m in load(order[i]):
-                    heapq.heappush(heap, (m[0], seq, m[1], m[2], 0, m[3]))
-                    seq += 1
-                i += 1
-            lt, _, cid, pub, _, data = heapq.heappop(heap)
-            yield lt, cid, pub, data
-    finally:
-        close_buffer(buf)
+            for m in msgs:
+                heapq.heappush(heap, (m[0], seq, m[1], m[2], 0, m[3]))
+                seq += 1
+            continue
+        t = heap[0][0]
+        while i < len(order) and order[i].message_start_time <= t:
+            for m in load(order[i]):
+                heapq.heappush(heap, (m[0], seq, m[1], m[2], 0, m[3]))
+                seq += 1
+            i += 1
+        lt, _, cid, pub, _, data = heapq.heappop(heap)
+        yield lt, cid, pub, data

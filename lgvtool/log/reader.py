@@ -29,6 +29,7 @@ from lgvtool.log.mcapio import (
     checked_records,
     chunk_messages,
     data_section_crc,
+    iter_channel_chunks,
     iter_indexed,
     read_channels,
     read_metadata,
@@ -317,6 +318,35 @@ class LogReader:
             out[topic] = (t[order], [data[i] for i in order.tolist()])
         return out
 
+    def raw_column_chunks(self, topics: Iterable[str]) -> Iterator[
+            dict[str, tuple[NDArray[np.int64], list[bytes]]]]:
+        """The messages of ``topics``, undecoded, one chunk at a time (chunks in the order of
+        their start times): per topic in the chunk, the log times (ns since the epoch) and the
+        JSON bytes in stored order. Only one chunk is held at a time; for a salvaged file the
+        whole of :meth:`raw_columns` comes as one block."""
+        import numpy as np
+
+        wanted = set(topics)
+        self.check_topics(wanted)
+        topic_of = {cid: c.topic for cid, c in self._channels.items() if c.topic in wanted}
+        if not topic_of:
+            return
+        if self._salvaged is not None:
+            yield self.raw_columns(wanted)
+            return
+        with open(self.path, "rb") as f:
+            for found in iter_channel_chunks(f, self._chunk_indexes, topic_of,
+                                             self._note_corrupt, self._verified):
+                block: dict[str, tuple[NDArray[np.int64], list[bytes]]] = {}
+                for cid, (t, d) in found.items():
+                    topic = topic_of[cid]
+                    if topic in block:
+                        t0, d0 = block[topic]
+                        block[topic] = (np.concatenate([t0, t.astype(np.int64)]), d0 + d)
+                    else:
+                        block[topic] = (t.astype(np.int64), d)
+                yield block
+
     def verbatim_plan(self, skip_topics: frozenset[str] = frozenset()) -> tuple[
             dict[int, tuple[str, str, bytes]], dict[int, tuple[str, str, int]],
             list[ChunkIndex], dict[int, int]] | None:
@@ -360,23 +390,20 @@ class LogReader:
             return not self.corrupt_chunks
         import zstandard
 
-        from lgvtool.log.mcapio import close_buffer, file_buffer, verified_records
+        from lgvtool.log.mcapio import chunk_window, verified_records
 
         zstd = zstandard.ZstdDecompressor()
         with open(self.path, "rb") as f:
-            buf = file_buffer(f)
-            try:
-                for ci in self._chunk_indexes:
-                    if ci.chunk_start_offset in self._verified:
-                        continue
-                    try:
-                        chunk_messages(verified_records(buf, ci, zstd), set())
-                    except CorruptChunkError as exc:
-                        self._note_corrupt(ci, exc.reason)
-                    else:
-                        self._verified.add(ci.chunk_start_offset)
-            finally:
-                close_buffer(buf)
+            for ci in self._chunk_indexes:
+                if ci.chunk_start_offset in self._verified:
+                    continue
+                try:
+                    buf, local = chunk_window(f, ci)
+                    chunk_messages(verified_records(buf, local, zstd), set())
+                except CorruptChunkError as exc:
+                    self._note_corrupt(ci, exc.reason)
+                else:
+                    self._verified.add(ci.chunk_start_offset)
         return not self.corrupt_chunks
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[LogMessage]:
