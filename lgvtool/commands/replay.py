@@ -212,6 +212,9 @@ def _write(reader: Any, output: str, result: Any, config: Any, source: str,
         })
         if config is not None:
             w.write_config(config)
+        for t_ns, text in getattr(result, "gated", []):
+            w.write_diagnostic("nav200", "pose_implausible", text, t_ns)
+        n_written += 2 * len(getattr(result, "gated", []))
         # the estimates a time window at a time: the same messages in the same order, without
         # holding the JSON of every estimate of a long log at once
         for tables, clouds_of in _windows(result.tables, result.clouds):

@@ -76,7 +76,8 @@ class ReplayResult:
     ``trajectories``: ``{name: DataFrame[t (s), x (m), y (m), heading (rad)]}`` of O (built on
     first use); ``settings``: ``{name: {param: value}}`` effective parameters; ``tables``: the
     full output per estimator (with covariance, particle count, ESS); ``clouds``: decimated
-    particle clouds ``(t_ns, x, y, heading)``; ``skipped``: estimators that could not run on
+    particle clouds ``(t_ns, x, y, heading)``; ``gated``: the NAV poses the plausibility gate
+    left out; ``skipped``: estimators that could not run on
     this log, with the reason; ``timings``: seconds per estimator (and ``read``).
     """
 
@@ -88,6 +89,8 @@ class ReplayResult:
     t0_ns: int
     seed: int
     _frames: dict[str, pd.DataFrame] | None = field(default=None, repr=False)
+    #: NAV poses the plausibility gate rejected: (log time ns, text)
+    gated: list[tuple[int, str]] = field(default_factory=list)
 
     @property
     def trajectories(self) -> dict[str, pd.DataFrame]:
@@ -129,7 +132,10 @@ def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
         return []
     nav = data.nav
     lat = float(getattr(params, "pose_latency_s", 0.0))
-    ok = np.nonzero(nav["valid"])[0]
+    usable = nav["valid"]
+    if bool(getattr(params, "pose_gate", True)) and "gate" in nav:
+        usable = usable & nav["gate"]
+    ok = np.nonzero(usable)[0]
     ts = (nav["t"][ok] - lat).tolist()
     xs, ys, hs = nav["x"][ok].tolist(), nav["y"][ok].tolist(), nav["heading"][ok].tolist()
     return [PoseObservation(t, x, y, h) for t, x, y, h in zip(ts, xs, ys, hs, strict=True)]
@@ -227,6 +233,7 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
     vehicle = cfg.vehicle
     tracks: dict[MotionSettings, MotionTrack] = {}
     result = ReplayResult({}, {}, {}, {}, {}, data.t0_ns, seed)
+    result.gated = apply_pose_gate(data, vehicle, tracks)
     for name in chosen:
         started = time.perf_counter()
         cls = ESTIMATORS[name]
@@ -267,6 +274,38 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
             result.clouds[name] = clouds
         result.timings[name] = time.perf_counter() - started
     return result
+
+
+def apply_pose_gate(data: LogData, vehicle: Any,
+                    tracks: dict[MotionSettings, MotionTrack] | None = None
+                    ) -> list[tuple[int, str]]:
+    """Judge the log's valid NAV poses with the plausibility gate
+    (:func:`lgvtool.localize.gate.gate_poses`, on the default motion settings' odometry) and
+    keep the verdict in ``data.nav["gate"]``; returns ``(log time ns, text)`` per rejected
+    pose, for /diagnostics."""
+    from lgvtool.localize.gate import gate_poses
+
+    nav = data.nav
+    if nav is None or not data.has_poses:
+        return []
+    odometry = None
+    if data.has_motion:
+        ms = MotionSettings()
+        if tracks is not None and ms in tracks:
+            track = tracks[ms]
+        else:
+            track = MotionTrack(data.increments(ms, vehicle), ms.step_form)
+            if tracks is not None:
+                tracks[ms] = track
+        odometry = track.poses_at(nav["t"])
+    verdict = gate_poses(nav["t"], nav["x"], nav["y"], nav["heading"], nav["valid"], odometry,
+                         vehicle.nav_x, vehicle.nav_y)
+    nav["gate"] = verdict.accepted | ~nav["valid"]
+    t_ns = data.t0_ns + np.round(nav["t"] * 1e9).astype(np.int64)
+    return [(int(t_ns[k]), f"NAV pose ({nav['x'][k]:.3f}, {nav['y'][k]:.3f}) m left out: "
+             f"{dpos:.3f} m and {math.degrees(dh):.2f} deg from the odometry's prediction "
+             f"(allowed {tol_p:.3f} m, {math.degrees(tol_h):.2f} deg)")
+            for k, dpos, dh, tol_p, tol_h in verdict.rejected]
 
 
 def _start(est: Estimator, obs: Sequence[PoseObservation | ScanObservation],
