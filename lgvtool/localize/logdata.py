@@ -339,15 +339,29 @@ def _log_data(reader: LogReader,
     acc: dict[str, _Topic] = {}
     scan_ns: list[NDArray[np.int64]] = []
     packed = PackedBytes()
+    # raw messages of the chunks read so far, decoded once a block's worth is pending
+    pending: dict[str, tuple[list[NDArray[np.int64]], list[bytes]]] = {}
+
+    def decode(topic: str) -> None:
+        times, raw = pending.pop(topic)
+        log_ns = np.concatenate(times)
+        with _about(topic):
+            stamps, cols = _decode_columns(raw, log_ns, _FIELDS[topic])
+        acc.setdefault(topic, _Topic()).add(log_ns, stamps, cols)
+
     for block in chunks:
         for topic, (log_ns, raw) in block.items():
-            with _about(topic):
-                if topic == T.NAV_REFLECTORS:
-                    scan_ns.append(log_ns)
-                    packed.append_block(raw)
-                    continue
-                stamps, cols = _decode_columns(raw, log_ns, _FIELDS[topic])
-                acc.setdefault(topic, _Topic()).add(log_ns, stamps, cols)
+            if topic == T.NAV_REFLECTORS:
+                scan_ns.append(log_ns)
+                packed.append_block(raw)
+                continue
+            times, msgs = pending.setdefault(topic, ([], []))
+            times.append(log_ns)
+            msgs.extend(raw)
+            if len(msgs) >= _DECODE_BLOCK:
+                decode(topic)
+    for topic in list(pending):
+        decode(topic)
     done = {topic: a.done() for topic, a in acc.items()}
     scans_log_ns = np.concatenate(scan_ns) if scan_ns else np.zeros(0, np.int64)
     firsts = [int(d[0][0]) for d in done.values() if len(d[0])]

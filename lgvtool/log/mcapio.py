@@ -802,13 +802,13 @@ def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
     ats = pairs[1::2].tolist()
     del pairs
     n = len(records)
-    unpack, fields = _U64.unpack_from, _MSG_FIELDS.unpack_from
+    unpack = _U64.unpack_from
     out: list[bytes] = []
     for at in ats:
         if at + 31 > n or records[at] != OP_MESSAGE:
             return None
         (length,) = unpack(records, at + 1)
-        if length < 22 or at + 9 + length > n or fields(records, at + 9)[0] != cid:
+        if length < 22 or at + 9 + length > n:
             return None
         out.append(records[at + 31:at + 9 + length])
     return times, out
