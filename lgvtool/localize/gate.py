@@ -4,7 +4,9 @@ since the last accepted pose is left out (docs/reading.md).
 The NAV200's 8-bit XOR lets about 6 % of 2-bit corruptions of a telegram through, and such a
 telegram is delivered as a valid pose. The gate predicts each pose from the last accepted one
 and the odometry between them and rejects a pose whose position or heading differs from the
-prediction by more than the NAV's noise and the odometry's drift can explain. Pure: arrays
+prediction by more than the NAV's noise and the odometry's drift can explain, and differs
+as much from the next pose (so a small error of the last accepted pose does not make a good
+pose look wrong). Pure: arrays
 in, a mask out.
 """
 
@@ -96,7 +98,7 @@ def gate_poses(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
                         GATE_HEADING_MEDIANS * float(np.median([p[1] for p in pairs])))
     last = -1
     misses = 0
-    for k in judged:
+    for i, k in enumerate(judged):
         if last < 0 or misses >= GATE_REANCHOR:
             accepted[k] = True
             last, misses = k, 0
@@ -108,7 +110,17 @@ def gate_poses(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
         if dpos <= tol_pos and dhead <= tol_head:
             accepted[k] = True
             last, misses = k, 0
-        else:
-            rejected.append((k, dpos, dhead, tol_pos, tol_head))
-            misses += 1
+            continue
+        # the pose disagrees with the last accepted one: it is left out only if it disagrees
+        # with the next pose too (else the accepted one was the odd one, within tolerance)
+        if i + 1 < len(judged):
+            npos, nhead, ndist, nrot = deviation(k, judged[i + 1])
+            if (npos <= base_pos + GATE_POSITION_PER_M * ndist
+                    and nhead <= base_head + GATE_HEADING_PER_RAD * nrot
+                    + GATE_HEADING_PER_M * ndist):
+                accepted[k] = True
+                last, misses = k, 0
+                continue
+        rejected.append((k, dpos, dhead, tol_pos, tol_head))
+        misses += 1
     return GateResult(accepted, rejected, pdev, hdev)
