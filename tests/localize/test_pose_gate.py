@@ -4,13 +4,12 @@ good ones are kept; the gate can be switched off; replay reports what it left ou
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from simlogs import simulate_log
 
 from lgvtool.localize.gate import gate_poses
 from lgvtool.localize.logdata import load_log
@@ -24,11 +23,7 @@ from lgvtool.wire.nav200_stream import Nav200ReplyDecoder
 
 @pytest.fixture(scope="module")
 def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("gate") / "run.mcap"
-    subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "--scenario", "paper-circle",
-                    "--duration", "120", "--seed", "4", "-o", str(path)], check=True,
-                   capture_output=True)
-    return path
+    return simulate_log(tmp_path_factory.mktemp("gate") / "run.mcap", 120, 4)
 
 
 def read(path: Path):

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
+from simlogs import simulate_log
 
 from lgvtool.errors import LogFormatError
 from lgvtool.localize.logdata import load_log
@@ -21,14 +22,7 @@ pytestmark = pytest.mark.filterwarnings("ignore::lgvtool.log.reader.LogWarning")
 
 @pytest.fixture(scope="module")
 def simulated(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    import subprocess
-    import sys
-
-    path = tmp_path_factory.mktemp("sim") / "run.mcap"
-    subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "--scenario", "paper-circle",
-                    "--duration", "40", "--seed", "3", "-o", str(path)], check=True,
-                   capture_output=True)
-    return path
+    return simulate_log(tmp_path_factory.mktemp("sim") / "run.mcap", 40, 3)
 
 
 def rewrite(src: Path, dst: Path, compression: str) -> None:
@@ -138,17 +132,20 @@ def foreign(path: Path, *, encoding: str, schema: str, schema_encoding: str,
         w.finish()
 
 
+def command(cmd: str, log: Path, out: Path) -> list[object]:
+    """The command line of ``cmd`` reading ``log`` (writing ``out``)."""
+    return {"replay": ["replay", log, "-o", out], "decode": ["decode", log, "-o", out],
+            "recover": ["recover", log, "-o", out], "evaluate": ["evaluate", log],
+            "serve": ["simulate", "serve", log, "--exit-after", "1"]}[cmd]
+
+
 @pytest.mark.parametrize("cmd", ["replay", "decode", "recover", "evaluate", "serve"])
 def test_foreign_encoding_on_an_lgvtool_topic_is_refused_by_name(tmp_path: Path, run_cli,
                                                                  cmd: str) -> None:
     log = tmp_path / "foreign.mcap"
     foreign(log, encoding="protobuf", schema="acme.Frame", schema_encoding="protobuf",
             data=b"\x08\x96\x01")
-    out = tmp_path / "out.mcap"
-    args = {"replay": ["replay", log, "-o", out], "decode": ["decode", log, "-o", out],
-            "recover": ["recover", log, "-o", out], "evaluate": ["evaluate", log],
-            "serve": ["simulate", "serve", log, "--exit-after", "1"]}[cmd]
-    res = run_cli(*args, timeout=60)
+    res = run_cli(*command(cmd, log, tmp_path / "out.mcap"), timeout=60)
     assert res.returncode == 2, res.stderr
     line = res.stderr.strip().splitlines()[-1]
     assert "acme.Frame" in line and "protobuf" in line, line
@@ -162,10 +159,7 @@ def test_other_json_fields_under_the_lgvtool_schema_are_refused(tmp_path: Path, 
     log = tmp_path / "fields.mcap"
     foreign(log, encoding="json", schema="lgvtool.McuFrame", schema_encoding="jsonschema",
             data=b'{"speed": 1.5, "label": "x"}')
-    out = tmp_path / "out.mcap"
-    args = {"replay": ["replay", log, "-o", out], "evaluate": ["evaluate", log],
-            "serve": ["simulate", "serve", log, "--exit-after", "1"]}[cmd]
-    res = run_cli(*args, timeout=60)
+    res = run_cli(*command(cmd, log, tmp_path / "out.mcap"), timeout=60)
     assert res.returncode == 2, res.stderr
     assert "Traceback" not in res.stderr
     assert "do not match" in res.stderr or "schema" in res.stderr
