@@ -23,12 +23,12 @@ FloatArray = NDArray[np.float64]
 
 #: position tolerance (m): at least GATE_POSITION_M, else GATE_POSITION_MEDIANS times the
 #: median deviation of consecutive poses in the log (the NAV's own noise), plus drift per metre
-GATE_POSITION_M = 0.25
+GATE_POSITION_M = 0.20
 GATE_POSITION_MEDIANS = 9.0
 GATE_POSITION_PER_M = 0.05
 #: heading tolerance (rad): at least GATE_HEADING_RAD, else GATE_HEADING_MEDIANS times the
 #: median deviation, plus drift per radian turned and per metre travelled
-GATE_HEADING_RAD = math.radians(3.0)
+GATE_HEADING_RAD = math.radians(2.5)
 GATE_HEADING_MEDIANS = 4.0
 GATE_HEADING_PER_RAD = 0.05
 GATE_HEADING_PER_M = math.radians(1.0)
