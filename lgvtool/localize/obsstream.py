@@ -139,4 +139,29 @@ def scan_times(start: FloatArray, period: FloatArray, *, deskew: bool) -> FloatA
     return np.asarray(start + period if deskew else start + 0.5 * period, dtype=np.float64)
 
 
-__all__ = ["BLOCK_SCANS", "KEEP_SCANS", "ObservationStream", "Tail", "scan_times", "times_of"]
+class BlockwiseMap:
+    """``prepare(observations)`` (a dict keyed by index in the list given) computed one block
+    of ``block`` observations at a time as :meth:`get` reaches it; only the current block is
+    kept. For per-observation preparations whose result for one observation does not depend
+    on the others (the values are those of one call over all observations)."""
+
+    def __init__(self, prepare: Callable[[Sequence[Any]], dict[int, Any]],
+                 observations: Sequence[Any], block: int = BLOCK_SCANS) -> None:
+        self._prepare = prepare
+        self._observations = observations
+        self._size = block
+        self._start = -1
+        self._block: dict[int, Any] = {}
+
+    def get(self, i: int) -> Any:
+        """The prepared item of observation ``i`` (None if there is none)."""
+        start = i - i % self._size
+        if start != self._start:
+            part = self._observations[start:start + self._size]
+            self._block = {start + k: v for k, v in self._prepare(list(part)).items()}
+            self._start = start
+        return self._block.get(i)
+
+
+__all__ = ["BLOCK_SCANS", "KEEP_SCANS", "BlockwiseMap", "ObservationStream", "Tail",
+           "scan_times", "times_of"]
