@@ -175,7 +175,8 @@ class Estimator(ABC):
         moves = _Moves(steps) if steps is not None and self.uses_motion and n > 1 else None
         ts = np.asarray(times, dtype=np.float64).tolist()
         # the estimate after each observation, filled in place (no Python object per row)
-        out = np.empty((n, 4), dtype=np.float64)
+        cols = [np.empty(n, dtype=np.float64) for _ in range(4)]  # t, x, y, heading
+        ct, cx, cy, ch = cols
         covs = np.empty((n, 9), dtype=np.float64)
         counts = np.empty(n, dtype=np.int64)
         ess = np.empty(n, dtype=np.float64)
@@ -191,7 +192,7 @@ class Estimator(ABC):
             e = self.estimate()
             if e is not None:
                 t = ts[i]
-                out[k] = (t, e.x, e.y, e.heading)
+                ct[k], cx[k], cy[k], ch[k] = t, e.x, e.y, e.heading
                 covs[k] = np.asarray(e.covariance, dtype=np.float64).reshape(9)
                 counts[k] = e.particles
                 ess[k] = e.ess
@@ -207,9 +208,10 @@ class Estimator(ABC):
                 report = i
         if progress is not None:
             progress(n - report)
-        return EstimateRows(out[:k, 0].copy(), out[:k, 1].copy(), out[:k, 2].copy(),
-                            out[:k, 3].copy(), covs[:k].copy(), counts[:k].copy(),
-                            ess[:k].copy(), clouds)
+        if k < n:  # rows only from the first estimate on: trim (copies, the rest is freed)
+            ct, cx, cy, ch = (c[:k].copy() for c in cols)
+            covs, counts, ess = covs[:k].copy(), counts[:k].copy(), ess[:k].copy()
+        return EstimateRows(ct, cx, cy, ch, covs, counts, ess, clouds)
 
 
 class _Moves:
