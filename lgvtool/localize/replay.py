@@ -27,7 +27,7 @@ from lgvtool.config import Config, default_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
 from lgvtool.localize.logdata import LazyScans, LogData, load_log, scan_batch
-from lgvtool.localize.motion import MotionSettings, MotionTrack
+from lgvtool.localize.motion import Deltas, MotionSettings, MotionTrack
 from lgvtool.localize.observations import (
     PoseObservation,
     ScanObservation,
@@ -351,7 +351,7 @@ def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _
              cloud_period_s: float, cloud_size: int
              ) -> tuple[EstimateTable, list[tuple[int, FloatArray, FloatArray, FloatArray]]]:
     times = times_of(obs)
-    steps = track.deltas(times[:-1], times[1:]) if track is not None and len(obs) > 1 else None
+    steps = _deltas(track, times) if track is not None and len(obs) > 1 else None
     if isinstance(obs, Tail):
         todo: Sequence[PoseObservation | ScanObservation | None] = obs.with_first(None)
     elif isinstance(obs, ObservationStream):
@@ -366,6 +366,23 @@ def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _
         rows.particles, rows.ess)
     clouds = [(t0_ns + round(t * 1e9), x, y, h) for t, x, y, h in rows.clouds]
     return table, clouds
+
+
+#: motions between observation times computed at a time (bounds the temporary arrays)
+_DELTA_BLOCK = 16384
+
+
+def _deltas(track: MotionTrack, times: FloatArray) -> Deltas:
+    """``track.deltas(times[:-1], times[1:])``, computed a block at a time (the same values:
+    each motion depends on its own two times only)."""
+    n = len(times) - 1  # motions
+    parts = [track.deltas(times[a:min(a + _DELTA_BLOCK, n)],
+                          times[a + 1:min(a + _DELTA_BLOCK, n) + 1])
+             for a in range(0, n, _DELTA_BLOCK)]
+    if len(parts) == 1:
+        return parts[0]
+    return Deltas(*(np.concatenate([getattr(p, f) for p in parts])
+                    for f in ("dx", "dy", "dth", "dist", "rot")))
 
 
 def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
