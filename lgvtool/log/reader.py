@@ -214,9 +214,11 @@ class LogReader:
                         continue
                     if isinstance(rec, Message):
                         msgs.append(rec)
-                    elif isinstance(rec, McapSchema):
+                    # the first definition counts: the data section's, not the summary's
+                    # copy (which may be what failed its CRC)
+                    elif isinstance(rec, McapSchema) and rec.id not in self._schemas:
                         self._schemas[rec.id] = Schema(rec.id, rec.name, rec.encoding, rec.data)
-                    elif isinstance(rec, McapChannel):
+                    elif isinstance(rec, McapChannel) and rec.id not in self._channels:
                         self._channels[rec.id] = Channel(rec.id, rec.topic, rec.message_encoding,
                                                          rec.schema_id, dict(rec.metadata))
                     elif isinstance(rec, McapMetadata):

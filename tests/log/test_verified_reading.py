@@ -186,3 +186,21 @@ def test_implausible_time_and_non_finite_values_are_refused(tmp_path: Path) -> N
                             b'"omega":0.0}' % (t // 10**9, t % 10**9), t, t)
     with pytest.raises(LogFormatError, match=r"/odom/twist.*(infinity|'v')"):
         load_log(LogReader(log2))
+
+
+def test_summary_that_fails_its_crc_is_not_trusted(simulated: Path, tmp_path: Path) -> None:
+    import struct
+
+    bad = tmp_path / "summary.mcap"
+    raw = bytearray(simulated.read_bytes())
+    (summary_start,) = struct.unpack_from("<Q", raw, len(raw) - 8 - 20 - 9 + 9)
+    raw[summary_start + 40] ^= 0x10  # inside the summary's first record
+    bad.write_bytes(bytes(raw))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        reader = LogReader(bad)
+        n_bad = sum(1 for _ in reader.messages())
+    assert any("summary section does not match its CRC-32" in w for w in reader.warnings)
+    assert not reader.complete
+    n_good, _ = count(simulated)
+    assert n_bad == n_good  # every message is still read, record by record
