@@ -12,7 +12,6 @@ in, a mask out.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
@@ -89,13 +88,15 @@ def gate_poses(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
                 abs(odist[k] - odist[last]), abs(orot[k] - orot[last]))
 
     judged = np.nonzero(valid)[0].tolist()
-    # the NAV's own noise: median deviations of consecutive valid poses
-    pairs = [deviation(k, j) for j, k in itertools.pairwise(judged)]
+    # each valid pose against the valid one before it, all at once; the NAV's own noise is
+    # their median deviation
+    pairs = _consecutive(np.asarray(judged, dtype=np.int64), x, y, heading, odometry,
+                         nav_x, nav_y)
     base_pos, base_head = GATE_POSITION_M, GATE_HEADING_RAD
-    if pairs:
-        base_pos = max(base_pos, GATE_POSITION_MEDIANS * float(np.median([p[0] for p in pairs])))
-        base_head = max(base_head,
-                        GATE_HEADING_MEDIANS * float(np.median([p[1] for p in pairs])))
+    if len(judged) > 1:
+        base_pos = max(base_pos, GATE_POSITION_MEDIANS * float(np.median(pairs[0])))
+        base_head = max(base_head, GATE_HEADING_MEDIANS * float(np.median(pairs[1])))
+    after_previous = [tuple(row) for row in np.stack(pairs, axis=1).tolist()]
     last = -1
     misses = 0
     for i, k in enumerate(judged):
@@ -103,7 +104,9 @@ def gate_poses(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
             accepted[k] = True
             last, misses = k, 0
             continue
-        dpos, dhead, dist, rot = deviation(k, last)
+        # against the last accepted pose (the one before unless that was left out)
+        dpos, dhead, dist, rot = (after_previous[i - 1] if last == judged[i - 1]
+                                  else deviation(k, last))
         pdev[k], hdev[k] = dpos, dhead
         tol_pos = base_pos + GATE_POSITION_PER_M * dist
         tol_head = base_head + GATE_HEADING_PER_RAD * rot + GATE_HEADING_PER_M * dist
@@ -124,3 +127,26 @@ def gate_poses(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
         rejected.append((k, dpos, dhead, tol_pos, tol_head))
         misses += 1
     return GateResult(accepted, rejected, pdev, hdev)
+
+
+def _consecutive(idx: NDArray[np.int64], x: FloatArray, y: FloatArray, heading: FloatArray,
+                 odometry: tuple[FloatArray, ...], nav_x: float, nav_y: float
+                 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Position and heading deviation (m, rad), distance (m) and rotation (rad) of each pose
+    ``idx[1:]`` from its prediction from the pose before it in ``idx`` (as ``deviation`` in
+    :func:`gate_poses`, for all pairs at once)."""
+    ox, oy, oth, odist, orot = (np.asarray(a, dtype=np.float64) for a in odometry)
+    a, k = idx[:-1], idx[1:]
+    c0, s0 = np.cos(oth[a]), np.sin(oth[a])
+    ex, ey = ox[k] - ox[a], oy[k] - oy[a]
+    bx, by = c0 * ex + s0 * ey, -s0 * ex + c0 * ey
+    h0 = heading[a]
+    c, s = np.cos(h0), np.sin(h0)
+    o_x = x[a] - (c * nav_x - s * nav_y) + c * bx - s * by
+    o_y = y[a] - (s * nav_x + c * nav_y) + s * bx + c * by
+    h1 = h0 + (oth[k] - oth[a])
+    px = o_x + np.cos(h1) * nav_x - np.sin(h1) * nav_y
+    py = o_y + np.sin(h1) * nav_x + np.cos(h1) * nav_y
+    dh = np.abs(np.remainder(heading[k] - h1 + math.pi, 2 * math.pi) - math.pi)
+    return (np.hypot(x[k] - px, y[k] - py), dh, np.abs(odist[k] - odist[a]),
+            np.abs(orot[k] - orot[a]))
