@@ -142,6 +142,7 @@ def main(argv: list[str] | None = None) -> None:
 
     args = sys.argv[1:] if argv is None else argv
     _JSON["on"] = "--json" in args[: args.index("--") if "--" in args else len(args)]
+    _log_warnings_as_lines()
     try:
         cli.main(args=argv, prog_name="lgvtool", standalone_mode=False)
     except click.exceptions.Abort:
@@ -164,6 +165,23 @@ def main(argv: list[str] | None = None) -> None:
         if os.environ.get("LGVTOOL_DEBUG"):
             raise
         _fail(f"internal error: {type(exc).__name__}: {exc} (set LGVTOOL_DEBUG=1 for details)", 3)
+
+
+def _log_warnings_as_lines() -> None:
+    """Print a warning about a log (a corrupt chunk skipped while reading) as one line."""
+    import warnings
+
+    from lgvtool.outputs import printable
+
+    shown = warnings.showwarning
+
+    def show(message: Warning | str, category: type[Warning], *args: Any, **kw: Any) -> None:
+        if category.__name__ == "LogWarning":
+            click.echo(f"lgvtool: warning: {printable(str(message))}", err=True)
+        else:
+            shown(message, category, *args, **kw)
+
+    warnings.showwarning = show
 
 
 def _click_message(exc: click.ClickException) -> str:

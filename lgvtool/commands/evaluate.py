@@ -162,7 +162,8 @@ def evaluate_log(
     result.path = str(reader.path)
     result.source = source
     result.settings = used
-    result.warnings[:0] = warnings
+    late = [w for w in reader.warnings if w not in warnings]  # corrupt chunks met in reading
+    result.warnings[:0] = warnings + late
     return result
 
 

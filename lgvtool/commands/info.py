@@ -28,6 +28,7 @@ def info(log: str, as_json: bool) -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             reader = LogReader(log)
+            summary = describe(reader)  # its corrupt-chunk warnings are printed below
     except LogFormatError as exc:
         if "not an lgvtool log" not in str(exc):
             raise
@@ -36,7 +37,6 @@ def info(log: str, as_json: bool) -> None:
         foreign = describe_any(log)  # an MCAP file of another tool: show what it holds
         click.echo(json.dumps(foreign, indent=2) if as_json else printable(format_any(foreign)))
         return
-    summary = describe(reader)
     if as_json:
         click.echo(json.dumps(summary, indent=2))
     else:

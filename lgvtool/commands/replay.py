@@ -175,8 +175,9 @@ def _write(reader: Any, output: str, result: Any, config: Any, source: str,
     from pathlib import Path
 
     import numpy as np
+    import orjson
 
-    from lgvtool.log import LogWriter, topics
+    from lgvtool.log import LogWriter, messages, topics
     from lgvtool.log import foxglove as fx
     from lgvtool.log.view import view_streams
 
@@ -192,6 +193,14 @@ def _write(reader: Any, output: str, result: Any, config: Any, source: str,
                         fx.poses_in_frame_many(clouds)))
     if view_config is not None:
         streams += view_streams(reader, view_config, result.tables)
+    gated = result.gated
+    if gated:  # the NAV poses the plausibility gate left out, on /diagnostics and its mirror
+        diags = [messages.diagnostic_message(t_ns, "nav200", "pose_implausible", text, level=3)
+                 for t_ns, text in gated]
+        t_gated = [t_ns for t_ns, _ in gated]
+        streams.append((topics.DIAGNOSTICS, t_gated, [orjson.dumps(d) for d in diags]))
+        streams.append((topics.DIAGNOSTICS_LOG, t_gated,
+                        [orjson.dumps(messages.log_message_of(d)) for d in diags]))
     written = {s[0] for s in streams}
     skip = frozenset(t for t in written if reader.has_topic(t))
     names: list[str] = []

@@ -73,7 +73,7 @@ class LogSink:
 
     def __init__(self, output: Path, *, split_bytes: int | None = None,
                  split_seconds: float | None = None, config: Config | None = None,
-                 command: str | None = None, chunk_seconds: float = 1.0,
+                 command: str | None = None, chunk_seconds: float = 0.5,
                  fsync: bool = True, tap: Any = None) -> None:
         self.output = Path(output)
         self.split_bytes = split_bytes

@@ -18,8 +18,9 @@ Sequence (the player driver's order; docs/recording.md)::
 
 Recovery: a pose request answered by an error reply saying the device is not positioning
 (a device reset puts it in standby), or ``silent_after`` reply timeouts in a row, restart the
-sequence (identity again; the map again only if the serial number changed) and so lead back
-into positioning; retries back off from ``retry_initial`` to ``retry_max`` s while the device
+sequence (identity again, and the map read again and compared with the one held:
+a ``map_verified`` or ``map_changed`` diagnostic) and so lead back into positioning;
+retries back off from ``retry_initial`` to ``retry_max`` s while the device
 stays silent.
 """
 
@@ -216,6 +217,7 @@ class Nav200Session:
         self._upload = _Upload()
         self._use_pa = self.settings.sliding_mean is None
         self._entered_with = ""
+        self._verify_map = False
         #: True between the device confirming positioning and losing it
         self.positioning = False
         #: True while the link is up and the session is working
@@ -338,6 +340,8 @@ class Nav200Session:
         self._events.append(DecodeEvent("nav200", kind, message, level, 1, details))
 
     def _restart_plan(self) -> None:
+        # after a reset or a reconnect the device may hold another map: read it again
+        self._verify_map = self.map is not None
         self.positioning = False
         plan = ["standby", "version", "serial"]
         plan += self._enter_steps()
@@ -469,8 +473,9 @@ class Nav200Session:
         if serial is not None:
             self.serial = serial
         self._events.append(DeviceIdentity(self.version, serial))
-        if self.settings.upload_map and (self.map is None or changed):
+        if self.settings.upload_map and (self.map is None or changed or self._verify_map):
             self._insert_upload()
+        self._verify_map = False
 
     def _uploaded_one(self, reply: Reply) -> None:
         rp = reply.payload
@@ -487,7 +492,17 @@ class Nav200Session:
             self._plan.appendleft("upload_next")
 
     def _finish_upload(self) -> None:
+        previous = self.map
         self.map = tuple(self._upload.items)
+        if previous is not None:
+            if _positions(previous) == _positions(self.map):
+                self._diag("map_verified", f"NAV200 still holds the reflector map "
+                           f"({len(self.map)} reflectors)", level=INFO,
+                           reflectors=len(self.map))
+            else:
+                self._diag("map_changed", f"NAV200 reflector map changed: {len(previous)} "
+                           f"reflectors before, {len(self.map)} now", level=WARNING,
+                           before=len(previous), reflectors=len(self.map))
         self._events.append(MapUploaded(self.settings.layer, self.map))
 
     def _entered(self, now: float) -> None:
@@ -549,6 +564,12 @@ class Nav200Session:
                    f"{reply.describe()}; retrying", level=ERROR, request=pending.request.code)
         self._restart_plan()
         self._backoff(now)
+
+
+def _positions(reflectors: tuple[ReflectorPosition, ...]) -> list[tuple[int, int, int, int]]:
+    """Layer, number and raw position of each reflector, sorted: what a map comparison
+    compares."""
+    return sorted((r.layer, r.number, r.x_mm, r.y_mm) for r in reflectors)
 
 
 def _clamp(value: float, limit: float) -> float:

@@ -56,7 +56,7 @@ class RecorderSettings:
     """Vehicle geometry (speed input) and the configuration stored in the log."""
     status: bool = True
     status_interval: float = 1.0
-    chunk_seconds: float = 1.0
+    chunk_seconds: float = 0.5
     fsync: bool = True
     timing: LinkTiming = field(default_factory=LinkTiming)
     overwrite: bool = False

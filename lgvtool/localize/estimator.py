@@ -172,15 +172,15 @@ class Estimator(ABC):
         the number of observations processed since its last call.
         """
         n = len(observations)
-        if steps is not None and self.uses_motion and n > 1:
-            moves: list[tuple[float, float, float, float, float]] | None = list(zip(
-                steps.dx.tolist(), steps.dy.tolist(), steps.dth.tolist(), steps.dist.tolist(),
-                steps.rot.tolist(), strict=True))
-        else:
-            moves = None
+        moves = _Moves(steps) if steps is not None and self.uses_motion and n > 1 else None
         ts = np.asarray(times, dtype=np.float64).tolist()
-        rows: list[tuple[float, float, float, float, int, float]] = []
-        covs: list[FloatArray] = []
+        # the estimate after each observation, filled in place (no Python object per row)
+        cols = [np.empty(n, dtype=np.float64) for _ in range(4)]  # t, x, y, heading
+        ct, cx, cy, ch = cols
+        covs = np.empty((n, 9), dtype=np.float64)
+        counts = np.empty(n, dtype=np.int64)
+        ess = np.empty(n, dtype=np.float64)
+        k = 0
         clouds: list[Cloud] = []
         next_cloud = -math.inf
         report = 0
@@ -192,8 +192,11 @@ class Estimator(ABC):
             e = self.estimate()
             if e is not None:
                 t = ts[i]
-                rows.append((t, e.x, e.y, e.heading, e.particles, e.ess))
-                covs.append(e.covariance)
+                ct[k], cx[k], cy[k], ch[k] = t, e.x, e.y, e.heading
+                covs[k] = np.asarray(e.covariance, dtype=np.float64).reshape(9)
+                counts[k] = e.particles
+                ess[k] = e.ess
+                k += 1
                 if cloud_size > 0 and t >= next_cloud:
                     c = self.cloud()
                     if c is not None:
@@ -205,8 +208,28 @@ class Estimator(ABC):
                 report = i
         if progress is not None:
             progress(n - report)
-        a = np.array([r[:4] for r in rows], dtype=np.float64).reshape(-1, 4)
-        return EstimateRows(a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy(), a[:, 3].copy(),
-                            np.array(covs, dtype=np.float64).reshape(-1, 9),
-                            np.array([r[4] for r in rows], dtype=np.int64),
-                            np.array([r[5] for r in rows], dtype=np.float64), clouds)
+        if k < n:  # rows only from the first estimate on: trim (copies, the rest is freed)
+            ct, cx, cy, ch = (c[:k].copy() for c in cols)
+            covs, counts, ess = covs[:k].copy(), counts[:k].copy(), ess[:k].copy()
+        return EstimateRows(ct, cx, cy, ch, covs, counts, ess, clouds)
+
+
+class _Moves:
+    """The motions between consecutive observation times as tuples ``(dx, dy, dth, dist,
+    rot)``, made from the arrays of a :class:`Deltas` a block at a time (instead of one list of
+    tuples for the whole log)."""
+
+    BLOCK = 4096
+
+    def __init__(self, steps: Deltas) -> None:
+        self._arrays = (steps.dx, steps.dy, steps.dth, steps.dist, steps.rot)
+        self._start = -1
+        self._block: list[tuple[float, float, float, float, float]] = []
+
+    def __getitem__(self, i: int) -> tuple[float, float, float, float, float]:
+        b = i - i % self.BLOCK
+        if b != self._start:
+            self._block = list(zip(*(a[b:b + self.BLOCK].tolist() for a in self._arrays),
+                                   strict=True))
+            self._start = b
+        return self._block[i - b]

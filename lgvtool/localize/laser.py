@@ -19,6 +19,8 @@ class LaserParams:
     sigma_xy_m: float = param(0.02, "nominal position noise of the head pose, m", minimum=0.0)
     sigma_heading_rad: float = param(0.005, "nominal heading noise of the head pose, rad",
                                      minimum=0.0)
+    pose_gate: bool = param(True, "leave out NAV poses that jump farther than the odometry "
+                            "allows since the last accepted one (docs/reading.md)")
 
 
 class LaserBaseline(Estimator):

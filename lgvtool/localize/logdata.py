@@ -6,7 +6,8 @@ kept as their JSON bytes (:class:`LazyScans`) and decoded only for the estimator
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any, overload
@@ -22,6 +23,7 @@ from lgvtool.localize.motion import (
     increments_from_twist,
 )
 from lgvtool.localize.observations import RawScan, ScanBatch
+from lgvtool.localize.packed import PackedBytes
 
 if TYPE_CHECKING:
     from lgvtool.log import LogReader
@@ -35,15 +37,38 @@ def _seconds(ns: NDArray[np.int64], t0_ns: int) -> FloatArray:
 
 
 class LazyScans(Sequence[RawScan]):
-    """Reflector scans kept as their JSON bytes and decoded only when an estimator needs them
-    (the paper's filter uses one revolution per NAV poll, about a quarter of them)."""
+    """Reflector scans kept as their JSON bytes (compressed, :class:`PackedBytes`, when read
+    by :func:`load_log`) and decoded only when an estimator needs them (the paper's filter
+    uses one revolution per NAV poll, about a quarter of them)."""
 
     def __init__(self, t0_ns: int, received_ns: list[int] | NDArray[np.int64],
-                 raw: list[bytes]) -> None:
+                 raw: list[bytes] | PackedBytes, source: str = "log") -> None:
         self._t0 = t0_ns
         self._raw = raw
+        #: what the scans came from, for messages (the log's path)
+        self.source = source
         #: receive (log) time of each scan, s after ``t0_ns``
         self.received = _seconds(np.asarray(received_ns, dtype=np.int64), t0_ns)
+        self._start = np.full(len(raw), np.nan)
+        self._period = np.full(len(raw), np.nan)
+
+    def _take(self, indices: Sequence[int] | None) -> list[bytes]:
+        raw = self._raw
+        if isinstance(raw, PackedBytes):
+            return raw.take(range(len(raw)) if indices is None else indices)
+        return raw if indices is None else [raw[k] for k in indices]
+
+    def start_and_period(self, indices: Sequence[int]) -> tuple[FloatArray, FloatArray]:
+        """Start time (s after ``t0_ns``) and revolution period (s) of the scans ``indices``,
+        decoded once and kept (they give the scans' observation times)."""
+        idx = np.asarray(indices, dtype=np.int64)
+        todo = idx[np.isnan(self._start[idx])] if len(idx) else idx
+        for a in range(0, len(todo), _DECODE_BLOCK):
+            part = todo[a:a + _DECODE_BLOCK]
+            b = self.batch(part.tolist())
+            self._start[part] = b.t
+            self._period[part] = b.period
+        return self._start[idx], self._period[idx]
 
     def __len__(self) -> int:
         return len(self._raw)
@@ -62,9 +87,17 @@ class LazyScans(Sequence[RawScan]):
 
     def batch(self, indices: Sequence[int] | None = None) -> ScanBatch:
         """Decode the scans ``indices`` (all if None) into flat arrays."""
-        raw = self._raw
-        chosen = raw if indices is None else [raw[k] for k in indices]
-        t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64), _scan_fields)
+        chosen = self._take(indices)
+        try:
+            t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64),
+                                      _scan_fields)
+            if cols:
+                _checked("/nav/reflectors", t[t != 0], ranges=cols[2], bearings=cols[3],
+                         time_in_scan=cols[4])
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            from lgvtool.errors import LogFormatError
+
+            raise LogFormatError(f"{self.source}: {_what(exc)}") from None
         if not cols:
             z = np.zeros(0)
             e = np.zeros(0, dtype=np.int64)
@@ -201,54 +234,178 @@ def _columns(docs: list[dict[str, Any]], keys: Sequence[str], dtype: type) -> ND
                      for k in keys]) if keys else np.empty((0, n), dtype=dtype)
 
 
+def _truth_fields(docs: list[dict[str, Any]]) -> tuple[NDArray[Any], ...]:
+    return (np.array(
+        [(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
+          d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
+         for d in docs], dtype=np.float64).reshape(-1, 4).T,)
+
+
+#: per topic, the arrays taken from a block of its decoded messages (messages on the last axis)
+_FIELDS: dict[str, Callable[[list[dict[str, Any]]], tuple[NDArray[Any], ...]]] = {
+    "/mcu/frame": lambda docs: (
+        _columns(docs, ("seq", "mcu_time_ms", "enc_left", "enc_right"), np.int64),
+        _columns(docs, ("gyro_rate",), np.float64)[0]),
+    "/odom/twist": lambda docs: (_columns(docs, ("v", "omega"), np.float64),),
+    "/nav/pose": lambda docs: (
+        _columns(docs, ("x", "y", "heading"), np.float64),
+        np.array([bool(d["valid"]) for d in docs], dtype=bool)),
+    "/truth/pose": _truth_fields,
+}
+
+
+class _Topic:
+    """One topic's messages decoded chunk by chunk: log times (ns), own time stamps (ns) and
+    the arrays of :data:`_FIELDS`."""
+
+    def __init__(self) -> None:
+        self.log_ns: list[NDArray[np.int64]] = []
+        self.stamps: list[NDArray[np.int64]] = []
+        self.cols: list[list[NDArray[Any]]] = []
+
+    def add(self, log_ns: NDArray[np.int64], stamps: NDArray[np.int64],
+            cols: list[NDArray[Any]]) -> None:
+        self.log_ns.append(log_ns)
+        self.stamps.append(stamps)
+        self.cols.append(cols)
+
+    def done(self) -> tuple[NDArray[np.int64], NDArray[np.int64], list[NDArray[Any]]]:
+        """Everything in log-time order (ties in stored order), as one array each."""
+        log_ns = np.concatenate(self.log_ns)
+        stamps = np.concatenate(self.stamps)
+        cols = [np.concatenate(c, axis=-1) for c in zip(*self.cols, strict=True)]
+        if len(log_ns) > 1 and not bool(np.all(log_ns[1:] >= log_ns[:-1])):
+            o = np.argsort(log_ns, kind="stable")
+            log_ns, stamps, cols = log_ns[o], stamps[o], [c[..., o] for c in cols]
+        return log_ns, stamps, cols
+
+
 def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *,
              truth: bool = False) -> LogData:
     """Read the motion and observation topics of a log (and the ground truth if ``truth``)
-    into arrays; reflector scans are kept undecoded until used."""
+    into arrays; reflector scans are kept undecoded (compressed) until used.
+
+    The log is read one chunk at a time and each chunk's messages are decoded before the next
+    is read, so memory holds the arrays, not the messages.
+    """
     from lgvtool.log import topics as T
 
     wanted = [T.MCU_FRAME, T.ODOM, T.NAV_POSE, T.NAV_REFLECTORS]
     if truth:
         wanted.append(T.TRUTH)
-    cols = reader.raw_columns(wanted)
-    t0 = min((int(ts[0]) for ts, _ in cols.values() if len(ts)), default=0)
+    try:
+        return _log_data(reader, reader.raw_column_chunks(wanted), reflectors)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        from lgvtool.errors import LogFormatError
+
+        raise LogFormatError(f"{reader.path}: {_what(exc)}") from None
+
+
+def _what(exc: BaseException) -> str:
+    """One phrase for a decoding failure of :func:`_log_data`."""
+    if isinstance(exc, ValueError) and str(exc).startswith("topic "):
+        return str(exc)
+    return f"messages do not match the log contract ({type(exc).__name__}: {exc})"
+
+
+@contextlib.contextmanager
+def _about(topic: str) -> Iterator[None]:
+    """Name ``topic`` in a decoding failure (KeyError, TypeError, ValueError) inside."""
+    try:
+        yield
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        if isinstance(exc, ValueError) and str(exc).startswith("topic "):
+            raise
+        raise ValueError(f"topic {topic}: messages do not match the log contract "
+                         f"({type(exc).__name__}: {exc})") from None
+
+
+def _checked(topic: str, ti: NDArray[np.int64], **columns: NDArray[Any]) -> None:
+    """Range checks of one decoded topic: plausible times, finite numbers."""
+    from lgvtool.log.validate import check_finite, check_times
+
+    if len(ti):
+        check_times(topic, (int(ti.min()), int(ti.max())))
+    check_finite(topic, columns)
+
+
+def _log_data(reader: LogReader,
+              chunks: Iterable[dict[str, tuple[NDArray[np.int64], list[bytes]]]],
+              reflectors: Sequence[Reflector] | None) -> LogData:
+    """:func:`load_log` from the raw messages of each chunk; raises KeyError, TypeError or
+    ValueError when they do not match the contract."""
+    from lgvtool.log import topics as T
+
+    acc: dict[str, _Topic] = {}
+    scan_ns: list[NDArray[np.int64]] = []
+    packed = PackedBytes()
+    # raw messages of the chunks read so far, decoded once a block's worth is pending
+    pending: dict[str, tuple[list[NDArray[np.int64]], list[bytes]]] = {}
+
+    def decode(topic: str) -> None:
+        times, raw = pending.pop(topic)
+        log_ns = np.concatenate(times)
+        with _about(topic):
+            stamps, cols = _decode_columns(raw, log_ns, _FIELDS[topic])
+        acc.setdefault(topic, _Topic()).add(log_ns, stamps, cols)
+
+    for block in chunks:
+        for topic, (log_ns, raw) in block.items():
+            if topic == T.NAV_REFLECTORS:
+                scan_ns.append(log_ns)
+                packed.append_block(raw)
+                continue
+            times, msgs = pending.setdefault(topic, ([], []))
+            times.append(log_ns)
+            msgs.extend(raw)
+            if len(msgs) >= _DECODE_BLOCK:
+                decode(topic)
+    for topic in list(pending):
+        decode(topic)
+    done = {topic: a.done() for topic, a in acc.items()}
+    scans_log_ns = np.concatenate(scan_ns) if scan_ns else np.zeros(0, np.int64)
+    firsts = [int(d[0][0]) for d in done.values() if len(d[0])]
+    if len(scans_log_ns):
+        firsts.append(int(scans_log_ns.min()))
+    t0 = min(firsts, default=0)
     refl = tuple(reflectors) if reflectors is not None else reader.reflector_map()
     data = LogData(t0, refl)
-    if T.MCU_FRAME in cols:
-        log_ns, raw = cols[T.MCU_FRAME]
-        ti, (ints, gyro) = _decode_columns(raw, log_ns, lambda docs: (
-            _columns(docs, ("seq", "mcu_time_ms", "enc_left", "enc_right"), np.int64),
-            _columns(docs, ("gyro_rate",), np.float64)[0]))
-        order = np.argsort(ti, kind="stable")
-        ints = ints[:, order]
-        data.mcu = {"t": _seconds(ti[order], t0), "seq": ints[0], "mcu_time_ms": ints[1],
-                    "enc_left": ints[2], "enc_right": ints[3], "gyro_rate": gyro[order]}
-    if T.ODOM in cols:
-        log_ns, raw = cols[T.ODOM]
-        ti, (a,) = _decode_columns(raw, log_ns, lambda docs: (
-            _columns(docs, ("v", "omega"), np.float64),))
-        order = np.argsort(ti, kind="stable")
-        a = a[:, order]
-        data.twist = {"t": _seconds(ti[order], t0), "v": a[0], "omega": a[1]}
-    if T.NAV_POSE in cols:
-        log_ns, raw = cols[T.NAV_POSE]
-        ti, (a, valid) = _decode_columns(raw, log_ns, lambda docs: (
-            _columns(docs, ("x", "y", "heading"), np.float64),
-            np.array([bool(d["valid"]) for d in docs], dtype=bool)))
-        order = np.argsort(ti, kind="stable")
-        a = a[:, order]
-        data.nav = {"t": _seconds(ti[order], t0), "x": a[0], "y": a[1], "heading": a[2],
-                    "valid": valid[order] & np.isfinite(a).all(axis=0)}
-    if T.NAV_REFLECTORS in cols:
-        log_ns, raw = cols[T.NAV_REFLECTORS]
-        data.scans = LazyScans(t0, log_ns, raw)
-    if T.TRUTH in cols:
-        log_ns, raw = cols[T.TRUTH]
-        ti, (a,) = _decode_columns(raw, log_ns, lambda docs: (np.array(
-            [(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
-              d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
-             for d in docs], dtype=np.float64).reshape(-1, 4).T,))
-        a = a[:, np.argsort(ti, kind="stable")]
-        data.truth = {"t": _seconds(np.sort(ti, kind="stable"), t0), "x": a[0], "y": a[1],
-                      "heading": 2.0 * np.arctan2(a[2], a[3])}
+    if T.MCU_FRAME in done:
+        with _about(T.MCU_FRAME):
+            _, ti, (ints, gyro) = done[T.MCU_FRAME]
+            _checked(T.MCU_FRAME, ti, gyro_rate=gyro)
+            order = np.argsort(ti, kind="stable")
+            ints = ints[:, order]
+            data.mcu = {"t": _seconds(ti[order], t0), "seq": ints[0], "mcu_time_ms": ints[1],
+                        "enc_left": ints[2], "enc_right": ints[3], "gyro_rate": gyro[order]}
+    if T.ODOM in done:
+        with _about(T.ODOM):
+            _, ti, (a,) = done[T.ODOM]
+            _checked(T.ODOM, ti, v=a[0], omega=a[1])
+            order = np.argsort(ti, kind="stable")
+            a = a[:, order]
+            data.twist = {"t": _seconds(ti[order], t0), "v": a[0], "omega": a[1]}
+    if T.NAV_POSE in done:
+        with _about(T.NAV_POSE):
+            _, ti, (a, valid) = done[T.NAV_POSE]
+            _checked(T.NAV_POSE, ti)
+            order = np.argsort(ti, kind="stable")
+            a = a[:, order]
+            data.nav = {"t": _seconds(ti[order], t0), "x": a[0], "y": a[1], "heading": a[2],
+                        "valid": valid[order] & np.isfinite(a).all(axis=0)}
+    if len(scan_ns):
+        with _about(T.NAV_REFLECTORS):
+            _checked(T.NAV_REFLECTORS, scans_log_ns)
+            if len(scans_log_ns) > 1 and not bool(np.all(scans_log_ns[1:] >= scans_log_ns[:-1])):
+                o = np.argsort(scans_log_ns, kind="stable")
+                scans_log_ns = scans_log_ns[o]
+                packed.reorder(o)
+            data.scans = LazyScans(t0, scans_log_ns, packed, str(reader.path))
+    if T.TRUTH in done:
+        with _about(T.TRUTH):
+            _, ti, (a,) = done[T.TRUTH]
+            _checked(T.TRUTH, ti, x=a[0], y=a[1], orientation=a[2:])
+            a = a[:, np.argsort(ti, kind="stable")]
+            data.truth = {"t": _seconds(np.sort(ti, kind="stable"), t0), "x": a[0], "y": a[1],
+                          "heading": 2.0 * np.arctan2(a[2], a[3])}
     return data

@@ -361,6 +361,8 @@ class SourceParams:
                          "along the odometry")
     pose_latency_s: float = param(0.0, "age of a NAV pose when it is received; the pose is "
                                   "applied at receive time minus this, s", minimum=0.0)
+    pose_gate: bool = param(True, "leave out NAV poses that jump farther than the odometry "
+                            "allows since the last accepted one (docs/reading.md)")
 
 
 def sources(observations: str, has_scans: bool, has_poses: bool) -> tuple[bool, bool]:

@@ -43,6 +43,7 @@ from lgvtool.localize.estimator import (
 from lgvtool.localize.fix import pose_fix
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
+from lgvtool.localize.obsstream import BlockwiseMap
 from lgvtool.localize.params import param
 from lgvtool.localize.particles import ParticleInitParams, ParticleSet
 from lgvtool.localize.resampling import RedistributionDraws, RedistributionPlan
@@ -353,7 +354,7 @@ class PaperParticleFilter(ParticleSet):
                 else None
         else:
             moves = motion = None
-        prepared = self._prepare_scans(observations)
+        prepared = BlockwiseMap(self._prepare_scans, observations)  # a block at a time
         ts = np.asarray(times, dtype=np.float64).tolist()
         rec = _Recorder()
         if self._mean is not None:

@@ -28,13 +28,14 @@ from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
 from lgvtool.localize.installation import apply_installation
 from lgvtool.localize.logdata import LazyScans, LogData, load_log, scan_batch
-from lgvtool.localize.motion import MotionSettings, MotionTrack
+from lgvtool.localize.motion import Deltas, MotionSettings, MotionTrack
 from lgvtool.localize.observations import (
     PoseObservation,
     ScanObservation,
     scan_observations,
     sources,
 )
+from lgvtool.localize.obsstream import ObservationStream, Tail, scan_times, times_of
 from lgvtool.localize.params import params_dict
 from lgvtool.localize.registry import (
     DEFAULT_ESTIMATORS,
@@ -76,7 +77,8 @@ class ReplayResult:
     ``trajectories``: ``{name: DataFrame[t (s), x (m), y (m), heading (rad)]}`` of O (built on
     first use); ``settings``: ``{name: {param: value}}`` effective parameters; ``tables``: the
     full output per estimator (with covariance, particle count, ESS); ``clouds``: decimated
-    particle clouds ``(t_ns, x, y, heading)``; ``skipped``: estimators that could not run on
+    particle clouds ``(t_ns, x, y, heading)``; ``gated``: the NAV poses the plausibility gate
+    left out; ``skipped``: estimators that could not run on
     this log, with the reason; ``timings``: seconds per estimator (and ``read``).
     """
 
@@ -88,6 +90,8 @@ class ReplayResult:
     t0_ns: int
     seed: int
     _frames: dict[str, pd.DataFrame] | None = field(default=None, repr=False)
+    #: NAV poses the plausibility gate rejected: (log time ns, text)
+    gated: list[tuple[int, str]] = field(default_factory=list)
 
     @property
     def trajectories(self) -> dict[str, pd.DataFrame]:
@@ -129,7 +133,10 @@ def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
         return []
     nav = data.nav
     lat = float(getattr(params, "pose_latency_s", 0.0))
-    ok = np.nonzero(nav["valid"])[0]
+    usable = nav["valid"]
+    if bool(getattr(params, "pose_gate", True)) and "gate" in nav:
+        usable = usable & nav["gate"]
+    ok = np.nonzero(usable)[0]
     ts = (nav["t"][ok] - lat).tolist()
     xs, ys, hs = nav["x"][ok].tolist(), nav["y"][ok].tolist(), nav["heading"][ok].tolist()
     return [PoseObservation(t, x, y, h) for t, x, y, h in zip(ts, xs, ys, hs, strict=True)]
@@ -137,7 +144,8 @@ def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
 
 def _observations(data: LogData, est_cls: type[Estimator], params: Any,
                   track: MotionTrack | None, vehicle: Any, *, start_poses: bool = True
-                  ) -> tuple[list[PoseObservation | ScanObservation], list[PoseObservation]]:
+                  ) -> tuple[Sequence[PoseObservation | ScanObservation],
+                             list[PoseObservation]]:
     """The observations an estimator updates with, and NAV poses it may only start from
     (those only with ``start_poses``; see :func:`_start_poses`)."""
     use_scans, use_poses = sources(getattr(params, "observations", "both"),
@@ -156,11 +164,29 @@ def _observations(data: LogData, est_cls: type[Estimator], params: Any,
         chosen = None
         if getattr(params, "scans", "all") == "nav-poll" and data.nav is not None:
             chosen = poll_scans(data.scan_received(), data.nav["t"])
+        if isinstance(data.scans, LazyScans):
+            return _stream(data.scans, obs, chosen, vehicle, track, deskew, lo, hi), poses
         obs.extend(scan_observations(scan_batch(data.scans, chosen), vehicle.nav_x,
                                      vehicle.nav_y, track=track, deskew=deskew, min_range=lo,
                                      max_range=hi))
     obs.sort(key=lambda o: o.t)
     return obs, poses
+
+
+def _stream(scans: LazyScans, poses: list[Any], chosen: list[int] | None, vehicle: Any,
+            track: MotionTrack | None, deskew: bool, lo: float, hi: float
+            ) -> ObservationStream:
+    """The poses and the scans ``chosen`` (all if None) as a stream whose scan geometry is
+    built block by block (:class:`ObservationStream`)."""
+    idx = chosen if chosen is not None else list(range(len(scans)))
+    start, period = scans.start_and_period(idx)
+
+    def build(a: int, b: int) -> list[ScanObservation]:
+        return scan_observations(scans.batch(idx[a:b]), vehicle.nav_x, vehicle.nav_y,
+                                 track=track, deskew=deskew, min_range=lo, max_range=hi)
+
+    return ObservationStream(poses, scan_times(start, period,
+                                               deskew=deskew and track is not None), build)
 
 
 def _start_poses(data: LogData, est_cls: type[Estimator], params: Any
@@ -209,6 +235,7 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
     vehicle = cfg.vehicle
     tracks: dict[MotionSettings, MotionTrack] = {}
     result = ReplayResult({}, {}, {}, {}, {}, data.t0_ns, seed)
+    result.gated = apply_pose_gate(data, vehicle, tracks)
     for name in chosen:
         started = time.perf_counter()
         cls = ESTIMATORS[name]
@@ -251,25 +278,64 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
     return result
 
 
-def _start(est: Estimator, obs: list[PoseObservation | ScanObservation],
+def apply_pose_gate(data: LogData, vehicle: Any,
+                    tracks: dict[MotionSettings, MotionTrack] | None = None
+                    ) -> list[tuple[int, str]]:
+    """Judge the log's valid NAV poses with the plausibility gate
+    (:func:`lgvtool.localize.gate.gate_poses`, on the default motion settings' odometry) and
+    keep the verdict in ``data.nav["gate"]``; returns ``(log time ns, text)`` per rejected
+    pose, for /diagnostics."""
+    from lgvtool.localize.gate import gate_poses
+
+    nav = data.nav
+    if nav is None or not data.has_poses:
+        return []
+    odometry = None
+    if data.has_motion:
+        ms = MotionSettings()
+        if tracks is not None and ms in tracks:
+            track = tracks[ms]
+        else:
+            track = MotionTrack(data.increments(ms, vehicle), ms.step_form)
+            if tracks is not None:
+                tracks[ms] = track
+        odometry = track.poses_at(nav["t"])
+    verdict = gate_poses(nav["t"], nav["x"], nav["y"], nav["heading"], nav["valid"], odometry,
+                         vehicle.nav_x, vehicle.nav_y)
+    nav["gate"] = verdict.accepted | ~nav["valid"]
+    t_ns = data.t0_ns + np.round(nav["t"] * 1e9).astype(np.int64)
+    return [(int(t_ns[k]), f"NAV pose ({nav['x'][k]:.3f}, {nav['y'][k]:.3f}) m left out: "
+             f"{dpos:.3f} m and {math.degrees(dh):.2f} deg from the odometry's prediction "
+             f"(allowed {tol_p:.3f} m, {math.degrees(tol_h):.2f} deg)")
+            for k, dpos, dh, tol_p, tol_h in verdict.rejected]
+
+
+def _start(est: Estimator, obs: Sequence[PoseObservation | ScanObservation],
            start_only: list[PoseObservation], track: MotionTrack | None
-           ) -> list[PoseObservation | ScanObservation | _Mark]:
+           ) -> Sequence[PoseObservation | ScanObservation | _Mark]:
     """Feed observations and start-only NAV poses in time order until the estimator has a
     pose; return the observations still to process, beginning with a zero-motion marker at the
     start time so that the motion from there on is not lost."""
-    merged: list[tuple[float, int, PoseObservation | ScanObservation]] = sorted(
-        [(o.t, 0, o) for o in obs] + [(o.t, 1, o) for o in start_only], key=lambda r: r[0])
+    # the observations and start-only poses merged by time, stably (observations first)
+    n_obs = len(obs)
+    keys = np.concatenate([times_of(obs), times_of(start_only)])
     prev: float | None = None
-    for i, (t, _kind, o) in enumerate(merged):
+    used = 0  # observations fed so far
+    for j in np.argsort(keys, kind="stable").tolist():
+        t = float(keys[j])
         if prev is not None and track is not None and est.uses_motion:
             d = track.deltas(np.array([prev]), np.array([t]))
             est.predict(Motion(float(d.dx[0]), float(d.dy[0]), float(d.dth[0]),
                                float(d.dist[0]), float(d.rot[0])))
         prev = t
+        if j < n_obs:
+            o: PoseObservation | ScanObservation = obs[j]
+            used += 1
+        else:
+            o = start_only[j - n_obs]
         est.update(o)
         if est.initialized:
-            rest = [r[2] for r in merged[i + 1:] if r[1] == 0]
-            return [_Mark(t), *rest]
+            return Tail(_Mark(t), t, obs, used)
     return []
 
 
@@ -286,9 +352,15 @@ def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _
              track: MotionTrack | None, t0_ns: int, progress: Callable[[int], None] | None,
              cloud_period_s: float, cloud_size: int
              ) -> tuple[EstimateTable, list[tuple[int, FloatArray, FloatArray, FloatArray]]]:
-    times = np.array([o.t for o in obs], dtype=np.float64)
-    steps = track.deltas(times[:-1], times[1:]) if track is not None and len(obs) > 1 else None
-    rows = est.run(times, [None if isinstance(o, _Mark) else o for o in obs], steps,
+    times = times_of(obs)
+    steps = _deltas(track, times) if track is not None and len(obs) > 1 else None
+    if isinstance(obs, Tail):
+        todo: Sequence[PoseObservation | ScanObservation | None] = obs.with_first(None)
+    elif isinstance(obs, ObservationStream):
+        todo = obs
+    else:
+        todo = [None if isinstance(o, _Mark) else o for o in obs]
+    rows = est.run(times, todo, steps,
                    progress=progress, cloud_period_s=cloud_period_s, cloud_size=cloud_size)
     table = EstimateTable(
         t0_ns + np.round(rows.t * 1e9).astype(np.int64), rows.x, rows.y,
@@ -296,6 +368,23 @@ def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _
         rows.particles, rows.ess)
     clouds = [(t0_ns + round(t * 1e9), x, y, h) for t, x, y, h in rows.clouds]
     return table, clouds
+
+
+#: motions between observation times computed at a time (bounds the temporary arrays)
+_DELTA_BLOCK = 16384
+
+
+def _deltas(track: MotionTrack, times: FloatArray) -> Deltas:
+    """``track.deltas(times[:-1], times[1:])``, computed a block at a time (the same values:
+    each motion depends on its own two times only)."""
+    n = len(times) - 1  # motions
+    parts = [track.deltas(times[a:min(a + _DELTA_BLOCK, n)],
+                          times[a + 1:min(a + _DELTA_BLOCK, n) + 1])
+             for a in range(0, n, _DELTA_BLOCK)]
+    if len(parts) == 1:
+        return parts[0]
+    return Deltas(*(np.concatenate([getattr(p, f) for p in parts])
+                    for f in ("dx", "dy", "dth", "dist", "rot")))
 
 
 def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,

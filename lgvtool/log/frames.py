@@ -29,10 +29,21 @@ def _pose_row(t: float, d: dict[str, Any]) -> dict[str, Any]:
             "z": p["position"].get("z", 0.0), "heading": yaw_from_quaternion(p["orientation"])}
 
 
+#: rows turned into a DataFrame at a time (the row dicts of one block are then freed)
+ROWS_PER_BLOCK = 8192
+
+
 def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:
-    """Flatten messages of one schema into a DataFrame (see the module docstring)."""
+    """Flatten messages of one schema into a DataFrame (see the module docstring).
+
+    Rows are built as dicts and turned into a DataFrame :data:`ROWS_PER_BLOCK` at a time, so
+    that memory holds the table's columns, not a dict per row of a long log."""
     rows: list[dict[str, Any]] = []
+    parts: list[pd.DataFrame] = []
     for m in messages:
+        if len(rows) >= ROWS_PER_BLOCK:
+            parts.append(pd.DataFrame(rows))
+            rows = []
         t = m.log_time_ns * 1e-9
         d = m.data
         if schema == "foxglove.PoseInFrame":
@@ -70,4 +81,8 @@ def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:
         "lgvtool.ReflectorScan": ["t", "stamp", "scan_period", "range", "bearing",
                                   "time_in_scan", "id"],
     }.get(schema)
+    if parts:
+        if rows:
+            parts.append(pd.DataFrame(rows))
+        return pd.concat(parts, ignore_index=True, sort=False)
     return pd.DataFrame(rows, columns=columns) if columns and not rows else pd.DataFrame(rows)

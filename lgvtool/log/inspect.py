@@ -16,6 +16,7 @@ def _iso(ns: int) -> str:
 def describe(reader: LogReader) -> dict[str, Any]:
     """Stable-key summary of a log (documented in docs/log-format.md, ``info --json``)."""
     topics = reader.topics()
+    reader.verify_chunks()  # also the chunks of no channel topics() reads
     start = min((i.start_ns for i in topics.values()), default=None)
     end = max((i.end_ns for i in topics.values()), default=None)
     meta = reader.metadata.get("lgvtool", {})
@@ -24,6 +25,7 @@ def describe(reader: LogReader) -> dict[str, Any]:
         "size_bytes": reader.size,
         "complete": reader.complete,
         "salvaged": not reader.complete,
+        "corrupt_chunks": len(reader.corrupt_chunks),
         "warnings": list(reader.warnings),
         "format_version": meta.get("format_version"),
         "tool_version": meta.get("tool_version"),
@@ -56,7 +58,9 @@ def format_text(d: dict[str, Any]) -> str:
     """The summary as a terminal table."""
     lines = [
         f"file:      {d['file']} ({d['size_bytes']} bytes, "
-        + ("complete" if d["complete"] else "SALVAGED: incomplete file") + ")",
+        + ("complete" if d["complete"] else "SALVAGED: incomplete file")
+        + (f", {d['corrupt_chunks']} corrupt chunks skipped" if d.get("corrupt_chunks") else "")
+        + ")",
         f"format:    {d['format_version']} (written by lgvtool {d['tool_version']}, "
         f"{d['source'] or 'unknown source'})",
     ]

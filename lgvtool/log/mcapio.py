@@ -13,13 +13,11 @@ salvage of a cut-off file uses its stream reader). Files written here are ordina
 
 from __future__ import annotations
 
-import contextlib
 import heapq
-import mmap
 import os
 import struct
 import zlib
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from typing import IO, TYPE_CHECKING, Any
 
 import lz4.frame
@@ -290,6 +288,7 @@ def read_summary(f: IO[bytes]) -> Summary | None:
         return None
     f.seek(summary_start)
     buf = f.read(size - tail - summary_start)
+    check_summary_crc(buf, foot)
     out = Summary({}, {}, [], [], None)
     c = _Cursor(buf)
     while c.pos + 9 <= len(buf):
@@ -321,6 +320,36 @@ def read_summary(f: IO[bytes]) -> Summary | None:
             out.metadata_indexes.append(MetadataIndex(off, mlen, c.string()))
         c.pos = end
     return out
+
+
+class CorruptSummaryError(ValueError):
+    """The summary section does not match the CRC-32 its footer gives."""
+
+
+def check_summary_crc(summary: bytes, footer: bytes) -> None:
+    """Check the summary section against the footer's CRC-32 (0: not computed).
+
+    :param summary: the bytes from the summary start up to the footer record.
+    :param footer: the footer record and closing magic.
+    :raises CorruptSummaryError: the CRC differs.
+    """
+    (crc,) = _U32.unpack_from(footer, 9 + 16)
+    if crc and zlib.crc32(footer[:9 + 16], zlib.crc32(summary)) != crc:
+        raise CorruptSummaryError("the summary section does not match its CRC-32")
+
+
+def data_section_crc(buf: Any, summary_start: int) -> tuple[int, int] | None:
+    """The data section's stored CRC-32 (from the data end record before ``summary_start``)
+    and the CRC-32 computed over the file up to that record; None when the file has no data
+    end record there or its CRC is 0 ("not computed")."""
+    end = summary_start - 13
+    if end < len(MAGIC) or buf[end] != OP_DATA_END:
+        return None
+    (stored,) = _U32.unpack_from(buf, end + 9)
+    if stored == 0:
+        return None
+    with memoryview(buf)[:end] as data:
+        return stored, zlib.crc32(data)
 
 
 def read_metadata(f: IO[bytes], index: MetadataIndex) -> Metadata:
@@ -735,94 +764,233 @@ class McapWriter:
 # ---------------------------------------------------------------------- reading
 
 
+class CorruptChunkError(ValueError):
+    """A chunk that cannot be read as stored: it does not decompress, its records do not
+    match the CRC-32 or the size its header gives, or a record runs past its end.
+
+    :param offset: file offset of the chunk record, bytes (-1: not known here).
+    :param reason: what is wrong, one phrase.
+    """
+
+    def __init__(self, offset: int, reason: str) -> None:
+        super().__init__(f"chunk at byte {offset}: {reason}" if offset >= 0 else reason)
+        self.offset = offset
+        self.reason = reason
+
+
+#: called with a chunk that is skipped and the reason (see :class:`CorruptChunkError`)
+OnCorrupt = Callable[[ChunkIndex, str], None]
+
+
 def chunk_messages(records: bytes, wanted: set[int] | None) -> list[tuple[int, int, int, bytes]]:
     """The message records in a chunk's uncompressed ``records``, as
-    (log_time, channel_id, publish_time, data), in stored order; only ``wanted`` channels."""
+    (log_time, channel_id, publish_time, data), in stored order; only ``wanted`` channels.
+
+    :raises CorruptChunkError: a record runs past the end of ``records``.
+    """
     out = []
     pos, n = 0, len(records)
     rec_head, fields = _REC_HEAD.unpack_from, _MSG_FIELDS.unpack_from
     while pos + 9 <= n:
         opcode, length = rec_head(records, pos)
         body = pos + 9
-        if opcode == 5:
+        if body + length > n or (opcode == OP_MESSAGE and length < 22):
+            raise CorruptChunkError(-1, f"a record at byte {pos} of the chunk runs past its end")
+        if opcode == OP_MESSAGE:
             cid, _seq, log_time, pub = fields(records, body)
             if wanted is None or cid in wanted:
                 out.append((log_time, cid, pub, records[body + 22 : body + length]))
         pos = body + length
+    if pos != n:
+        raise CorruptChunkError(-1, "the chunk ends inside a record")
     return out
 
 
-def _chunk_frame(buf: Any, ci: ChunkIndex) -> tuple[str, int, int]:
+def _chunk_frame(buf: Any, ci: ChunkIndex) -> tuple[str, int, int, int]:
     """Compression, offset and length (bytes) of the compressed records of the chunk ``ci``
-    of a file held in ``buf``."""
-    pos = ci.chunk_start_offset + 9 + _CHUNK_HEAD.size
+    of a file held in ``buf``, and the CRC-32 of its uncompressed records (0: none).
+
+    :raises CorruptChunkError: the chunk record lies outside the file or its header does not
+        parse.
+    """
+    at = ci.chunk_start_offset
+    if at < 0 or at + 9 + _CHUNK_HEAD.size + 4 > len(buf) or buf[at] != OP_CHUNK:
+        raise CorruptChunkError(at, "no chunk record where the index points")
+    pos = at + 9 + _CHUNK_HEAD.size
+    crc = _CHUNK_HEAD.unpack_from(buf, at + 9)[3]
     (clen,) = _U32.unpack_from(buf, pos)
-    kind = bytes(buf[pos + 4:pos + 4 + clen]).decode()
+    if pos + 4 + clen + 8 > len(buf):
+        raise CorruptChunkError(at, "chunk header runs past the end of the file")
+    try:
+        kind = bytes(buf[pos + 4:pos + 4 + clen]).decode()
+    except UnicodeDecodeError:
+        raise CorruptChunkError(at, "unreadable compression name") from None
     pos += 4 + clen
     (dlen,) = _U64.unpack_from(buf, pos)
-    return kind, pos + 8, dlen
+    if pos + 8 + dlen > len(buf):
+        raise CorruptChunkError(at, "chunk data runs past the end of the file")
+    return kind, pos + 8, dlen, crc
 
 
-def _chunk_records(buf: Any, ci: ChunkIndex, zstd: zstandard.ZstdDecompressor | None = None
-                   ) -> bytes:
-    """The uncompressed records of the chunk ``ci`` of a file held in ``buf``."""
-    kind, at, size = _chunk_frame(buf, ci)
+def verified_records(buf: Any, ci: ChunkIndex,
+                     zstd: zstandard.ZstdDecompressor | None = None) -> bytes:
+    """The uncompressed records of the chunk ``ci`` of a file held in ``buf``, checked: they
+    decompress, have the size the index gives and match the chunk's CRC-32 (when it is not 0,
+    which MCAP uses for "not computed").
+
+    :raises CorruptChunkError: any of those checks fails.
+    """
+    kind, at, size, crc = _chunk_frame(buf, ci)
     # released on return even if something (a sampling profiler) keeps this frame alive
     with memoryview(buf)[at:at + size] as data:
+        return checked_records(kind, data, ci.uncompressed_size, crc, zstd,
+                               offset=ci.chunk_start_offset)
+
+
+def checked_records(kind: str, data: bytes | memoryview, size: int, crc: int,
+                    zstd: zstandard.ZstdDecompressor | None = None, *, offset: int = -1
+                    ) -> bytes:
+    """Decompress a chunk's ``data`` (compression ``kind``) and check that the records have
+    ``size`` bytes and, when ``crc`` is not 0, that CRC-32.
+
+    :raises CorruptChunkError: they do not decompress, or the size or CRC differs.
+    """
+    try:
         if kind == "zstd" and zstd is not None:
-            return zstd.decompress(data, max_output_size=ci.uncompressed_size)
-        return bytes(decompress(kind, data, ci.uncompressed_size))
+            records = zstd.decompress(data, max_output_size=size)
+        else:
+            records = bytes(decompress(kind, data, size))
+    except Exception as exc:  # zstd, lz4 and the size guard each raise their own kind
+        name = kind or "uncompressed"
+        raise CorruptChunkError(offset, f"{name} data does not decompress ({exc})") from None
+    if len(records) != size:
+        raise CorruptChunkError(offset, f"{len(records)} bytes of records, the header says "
+                                        f"{size}")
+    if crc and zlib.crc32(records) != crc:
+        raise CorruptChunkError(offset, "CRC-32 of its records does not match")
+    return records
 
 
-def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Iterable[int]
+def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
+                      ) -> tuple[NDArray[np.uint64], list[bytes]] | None:
+    """The log times and data of channel ``cid``'s messages in ``records`` found through its
+    message index at file offset ``off``; None when the index does not fit the records (the
+    chunk is then walked instead)."""
+    import numpy as np
+
+    if off < 0 or off + 15 > len(buf) or buf[off] != OP_MESSAGE_INDEX:
+        return None
+    (nbytes,) = _U32.unpack_from(buf, off + 11)
+    if nbytes % 16 or off + 15 + nbytes > len(buf):
+        return None
+    pairs = np.frombuffer(buf, dtype="<u8", count=nbytes // 8, offset=off + 15)
+    times = pairs[0::2].copy()
+    ats = pairs[1::2].tolist()
+    del pairs
+    n = len(records)
+    unpack = _U64.unpack_from
+    out: list[bytes] = []
+    for at in ats:
+        if at + 31 > n or records[at] != OP_MESSAGE:
+            return None
+        (length,) = unpack(records, at + 1)
+        if length < 22 or at + 9 + length > n:
+            return None
+        out.append(records[at + 31:at + 9 + length])
+    return times, out
+
+
+def iter_channel_chunks(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex],
+                        wanted: Iterable[int], on_corrupt: OnCorrupt | None = None,
+                        verified: set[int] | None = None
+                        ) -> Iterator[dict[int, tuple[NDArray[np.uint64], list[bytes]]]]:
+    """The messages of the ``wanted`` channels of an indexed file, one chunk at a time (in the
+    order of the chunks' start times): per channel in the chunk, the log times (ns) and the
+    message data in stored order. Only one chunk is held at a time (:func:`chunk_window`).
+
+    Only the chunks holding a wanted channel are decompressed (and checked, see
+    :func:`verified_records`), and their messages are found through the chunks' message
+    indexes (chunks without one, or whose index does not fit, are walked record by record).
+    A corrupt chunk is passed to ``on_corrupt`` and skipped; without ``on_corrupt`` it raises
+    :class:`CorruptChunkError`. The offsets of the chunks found sound are added to
+    ``verified``.
+    """
+    import numpy as np
+
+    want = set(wanted)
+    order = sorted((ci for ci in chunk_indexes
+                    if not ci.message_index_offsets or want & ci.message_index_offsets.keys()),
+                   key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
+    zstd = zstandard.ZstdDecompressor()
+    for ci in order:
+        try:
+            buf, local = chunk_window(f, ci)
+            records = verified_records(buf, local, zstd)
+            found: dict[int, tuple[NDArray[np.uint64], list[bytes]]] | None = {}
+            for cid, off in local.message_index_offsets.items():
+                if cid in want and found is not None:
+                    got = _indexed_payloads(buf, records, off, cid)
+                    if got is None:
+                        found = None
+                    else:
+                        found[cid] = got
+            if found is None or not local.message_index_offsets:
+                walked: dict[int, tuple[list[int], list[bytes]]] = {}
+                for log_time, cid, _pub, data in chunk_messages(records, want):
+                    ts, ds = walked.setdefault(cid, ([], []))
+                    ts.append(log_time)
+                    ds.append(data)
+                found = {cid: (np.array(ts, dtype=np.uint64), ds)
+                         for cid, (ts, ds) in walked.items()}
+            del records, buf
+        except CorruptChunkError as exc:
+            if on_corrupt is None:
+                raise CorruptChunkError(ci.chunk_start_offset, exc.reason) from None
+            on_corrupt(ci, exc.reason)
+            continue
+        if verified is not None:
+            verified.add(ci.chunk_start_offset)
+        yield found
+
+
+def chunk_window(f: IO[bytes], ci: ChunkIndex) -> tuple[bytes, ChunkIndex]:
+    """The bytes of the chunk ``ci`` (and of its message indexes when they follow it within
+    64 KiB, as writers lay them out), read from ``f``, and ``ci`` with its offsets made
+    relative to those bytes (without message indexes when they lie elsewhere: the chunk is
+    then walked). Reading chunk by chunk this way holds one chunk in memory, where a map of
+    the whole file keeps every page read resident."""
+    lo = max(0, ci.chunk_start_offset)
+    hi = lo + max(0, ci.chunk_length)
+    offsets: dict[int, int] = {}
+    if ci.message_index_offsets:
+        mlo = min(ci.message_index_offsets.values())
+        mhi = mlo + ci.message_index_length
+        if hi <= mlo <= hi + (1 << 16) and mhi - lo <= (1 << 31):
+            hi = mhi
+            offsets = {k: v - lo for k, v in ci.message_index_offsets.items()}
+    f.seek(lo)
+    data = f.read(max(0, hi - lo))
+    return data, ChunkIndex(ci.message_start_time, ci.message_end_time,
+                            ci.chunk_start_offset - lo, ci.chunk_length, offsets,
+                            ci.message_index_length, ci.compression, ci.compressed_size,
+                            ci.uncompressed_size)
+
+
+def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Iterable[int],
+                  on_corrupt: OnCorrupt | None = None, verified: set[int] | None = None
                   ) -> dict[int, tuple[NDArray[np.int64], list[bytes]]]:
     """Every message of the ``wanted`` channels of an indexed file: per channel, the log times
-    (ns) and the message data, in log-time order (ties in stored order).
-
-    Only the chunks holding a wanted channel are decompressed, and their messages are found
-    through the chunks' message indexes (chunks without one are walked record by record).
-    """
+    (ns) and the message data, in log-time order (ties in stored order). Chunks are read and
+    checked as by :func:`iter_channel_chunks`."""
     import numpy as np
 
     want = set(wanted)
     times: dict[int, list[NDArray[np.uint64]]] = {c: [] for c in want}
     datas: dict[int, list[bytes]] = {c: [] for c in want}
-    order = sorted((ci for ci in chunk_indexes
-                    if not ci.message_index_offsets or want & ci.message_index_offsets.keys()),
-                   key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
-    zstd = zstandard.ZstdDecompressor()
-    try:
-        buf: Any = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-    except (AttributeError, OSError, ValueError):
-        f.seek(0)
-        buf = f.read()
-    unpack = _U64.unpack_from
-    try:
-        for ci in order:
-            records = _chunk_records(buf, ci, zstd)
-            mio = ci.message_index_offsets
-            if not mio:
-                for log_time, cid, _pub, data in chunk_messages(records, want):
-                    times[cid].append(np.array([log_time], dtype=np.uint64))
-                    datas[cid].append(data)
-                continue
-            for cid, off in mio.items():
-                if cid not in want:
-                    continue
-                (nbytes,) = _U32.unpack_from(buf, off + 11)
-                pairs = np.frombuffer(buf, dtype="<u8", count=nbytes // 8, offset=off + 15)
-                times[cid].append(pairs[0::2].copy())
-                d = datas[cid]
-                for at in pairs[1::2].tolist():
-                    (length,) = unpack(records, at + 1)
-                    d.append(records[at + 31:at + 9 + length])
-            del pairs
-    finally:
-        if isinstance(buf, mmap.mmap):
-            with contextlib.suppress(BufferError):
-                # a profiler or debugger holding a frame of this function can keep a view of
-                # the map alive; the map is then unmapped when that view goes
-                buf.close()
+    for found in iter_channel_chunks(f, chunk_indexes, want, on_corrupt, verified):
+        for cid, (tc, d) in found.items():
+            times[cid].append(tc)
+            datas[cid].extend(d)
     out: dict[int, tuple[NDArray[np.int64], list[bytes]]] = {}
     for cid in want:
         t = (np.concatenate(times[cid]) if times[cid] else np.zeros(0, np.uint64)).astype(np.int64)
@@ -836,22 +1004,30 @@ def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Ite
 
 
 def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
-                 wanted: set[int] | None) -> Iterator[tuple[int, int, int, bytes]]:
+                 wanted: set[int] | None, on_corrupt: OnCorrupt | None = None,
+                 verified: set[int] | None = None) -> Iterator[tuple[int, int, int, bytes]]:
     """Messages of the ``wanted`` channels in log-time order across (possibly overlapping)
-    chunks: (log_time, channel_id, publish_time, data). Chunks are read lazily."""
+    chunks: (log_time, channel_id, publish_time, data). Chunks are read lazily and checked
+    (:func:`verified_records`); a corrupt one is passed to ``on_corrupt`` and skipped (without
+    ``on_corrupt`` it raises :class:`CorruptChunkError`); sound ones are added to
+    ``verified`` (file offsets)."""
     order = sorted((ci for ci in chunk_indexes
                     if wanted is None or not ci.message_index_offsets
                     or wanted & ci.message_index_offsets.keys()),
                    key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
+    zstd = zstandard.ZstdDecompressor()
 
     def load(ci: ChunkIndex) -> list[tuple[int, int, int, bytes]]:
-        stream.seek(ci.chunk_start_offset + 9)
-        head = stream.read(_CHUNK_HEAD.size + 4)
-        _s, _e, size, _crc = _CHUNK_HEAD.unpack_from(head)
-        (clen,) = _U32.unpack_from(head, _CHUNK_HEAD.size)
-        kind = stream.read(clen).decode()
-        (dlen,) = _U64.unpack(stream.read(8))
-        msgs = chunk_messages(decompress(kind, stream.read(dlen), size), wanted)
+        try:
+            buf, local = chunk_window(stream, ci)
+            msgs = chunk_messages(verified_records(buf, local, zstd), wanted)
+        except CorruptChunkError as exc:
+            if on_corrupt is None:
+                raise CorruptChunkError(ci.chunk_start_offset, exc.reason) from None
+            on_corrupt(ci, exc.reason)
+            return []
+        if verified is not None:
+            verified.add(ci.chunk_start_offset)
         msgs.sort(key=lambda m: m[0])
         return msgs
 

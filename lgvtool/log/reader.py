@@ -20,15 +20,22 @@ from lgvtool.config import Config, Reflector, config_from_dict, default_config
 from lgvtool.errors import ConfigError, LogFormatError
 from lgvtool.log import topics as T
 from lgvtool.log.mcapio import (
+    MAGIC,
     Channel,
     ChunkIndex,
+    CorruptChunkError,
     Metadata,
     Schema,
+    checked_records,
+    chunk_messages,
+    data_section_crc,
+    iter_channel_chunks,
     iter_indexed,
     read_channels,
     read_metadata,
     read_summary,
 )
+from lgvtool.log.validate import check_channel
 from lgvtool.log.writer import FORMAT_VERSION
 
 if TYPE_CHECKING:
@@ -36,8 +43,6 @@ if TYPE_CHECKING:
     import pandas as pd
     from mcap.records import Message
     from numpy.typing import NDArray
-
-MAGIC = b"\x89MCAP0\r\n"
 
 
 class LogMessage(NamedTuple):
@@ -119,6 +124,10 @@ class LogReader:
         self._salvaged: list[Message] | None = None
         self._chunk_indexes: list[ChunkIndex] = []
         self._counts: dict[int, int] = {}
+        #: file offset -> reason of every chunk found corrupt and skipped so far
+        self.corrupt_chunks: dict[int, str] = {}
+        self._checked_topics: set[str] = set()
+        self._verified: set[int] = set()  # offsets of chunks read and found sound
         self.salvaged_bytes = size
         self.complete = self._open_indexed()
         if not self.complete:
@@ -133,11 +142,19 @@ class LogReader:
 
     # ------------------------------------------------------------------ opening
     def _open_indexed(self) -> bool:
+        from lgvtool.log.mcapio import CorruptSummaryError
+
         try:
             with open(self.path, "rb") as f:
-                summary = read_summary(f)
+                try:
+                    summary = read_summary(f)
+                except CorruptSummaryError as exc:
+                    self.warnings.append(f"{self.path}: {exc}; reading the file record by "
+                                         "record instead of through its index")
+                    return False
                 if summary is None:
                     return False
+                self._check_data_crc(f)
                 self._schemas = summary.schemas
                 self._channels = summary.channels
                 self._metadata = [read_metadata(f, i) for i in summary.metadata_indexes]
@@ -150,9 +167,38 @@ class LogReader:
             self._chunk_indexes, self._counts = [], {}
             return False
 
+    def _check_data_crc(self, f: Any) -> None:
+        """Compare the data section with its CRC-32 when the file has one (a warning only:
+        the chunks' own CRCs tell which messages are affected)."""
+        import mmap
+        import struct
+
+        f.seek(-(9 + 20 + len(MAGIC)), 2)
+        (summary_start,) = struct.unpack_from("<Q", f.read(17), 9)
+        try:
+            buf: Any = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+        except (OSError, ValueError):
+            return
+        try:
+            crcs = data_section_crc(buf, summary_start)
+        finally:
+            buf.close()
+        if crcs is not None and crcs[0] != crcs[1]:
+            self.warnings.append(f"{self.path}: the data section does not match its CRC-32")
+
+    def _note_corrupt(self, ci: ChunkIndex | int, reason: str) -> None:
+        """Count a corrupt chunk (skipped by the caller) and say so once, as a warning."""
+        offset = ci if isinstance(ci, int) else ci.chunk_start_offset
+        if offset in self.corrupt_chunks:
+            return
+        self.corrupt_chunks[offset] = reason
+        text = f"{self.path}: chunk at byte {offset} is corrupt ({reason}); its messages skipped"
+        self.warnings.append(text)
+        _warnings.warn(text, LogWarning, stacklevel=3)
+
     def _salvage(self) -> None:
         from mcap.records import Channel as McapChannel
-        from mcap.records import Message
+        from mcap.records import Chunk, Message
         from mcap.records import Metadata as McapMetadata
         from mcap.records import Schema as McapSchema
         from mcap.stream_reader import StreamReader
@@ -160,14 +206,19 @@ class LogReader:
         msgs: list[Message] = []
         good_end = len(MAGIC)
         with open(self.path, "rb") as f:
-            stream = StreamReader(f, skip_magic=False, record_size_limit=self.size)
+            stream = StreamReader(f, skip_magic=False, emit_chunks=True,
+                                  record_size_limit=self.size)
             try:
-                for rec in stream.records:
+                for rec in _chunk_records(stream.records, self._note_corrupt, f):
+                    if isinstance(rec, Chunk):
+                        continue
                     if isinstance(rec, Message):
                         msgs.append(rec)
-                    elif isinstance(rec, McapSchema):
+                    # the first definition counts: the data section's, not the summary's
+                    # copy (which may be what failed its CRC)
+                    elif isinstance(rec, McapSchema) and rec.id not in self._schemas:
                         self._schemas[rec.id] = Schema(rec.id, rec.name, rec.encoding, rec.data)
-                    elif isinstance(rec, McapChannel):
+                    elif isinstance(rec, McapChannel) and rec.id not in self._channels:
                         self._channels[rec.id] = Channel(rec.id, rec.topic, rec.message_encoding,
                                                          rec.schema_id, dict(rec.metadata))
                     elif isinstance(rec, McapMetadata):
@@ -206,6 +257,10 @@ class LogReader:
     def raw_messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """Every stored message (or those of ``topics``) in log-time order, undecoded."""
         wanted = None if topics is None else set(topics)
+        self.check_topics(wanted)
+        yield from self._raw_messages(wanted)
+
+    def _raw_messages(self, wanted: set[str] | None) -> Iterator[RawMessage]:
         schemas = {sid: s.name for sid, s in self._schemas.items()}
         if self._salvaged is not None:
             for m in self._salvaged:
@@ -220,7 +275,8 @@ class LogReader:
             return
         topic_of = {cid: (c.topic, schemas.get(c.schema_id, "")) for cid, c in self._channels.items()}
         with open(self.path, "rb") as f:
-            for log_time, cid, pub, data in iter_indexed(f, self._chunk_indexes, ids):
+            for log_time, cid, pub, data in iter_indexed(f, self._chunk_indexes, ids,
+                                                         self._note_corrupt, self._verified):
                 topic, schema = topic_of[cid]
                 yield RawMessage(topic, schema, log_time, pub, data)
 
@@ -233,6 +289,7 @@ class LogReader:
         import numpy as np
 
         wanted = set(topics)
+        self.check_topics(wanted)
         by_topic: dict[str, list[int]] = {}
         for cid, c in self._channels.items():
             if c.topic in wanted:
@@ -248,7 +305,8 @@ class LogReader:
             return {t: (np.array(ts, dtype=np.int64), ds) for t, (ts, ds) in acc.items() if ts}
         with open(self.path, "rb") as f:
             per_channel = read_channels(f, self._chunk_indexes,
-                                        [c for ids in by_topic.values() for c in ids])
+                                        [c for ids in by_topic.values() for c in ids],
+                                        self._note_corrupt, self._verified)
         for topic, ids in by_topic.items():
             parts = [per_channel[c] for c in ids if len(per_channel[c][0])]
             if not parts:
@@ -262,6 +320,35 @@ class LogReader:
             out[topic] = (t[order], [data[i] for i in order.tolist()])
         return out
 
+    def raw_column_chunks(self, topics: Iterable[str]) -> Iterator[
+            dict[str, tuple[NDArray[np.int64], list[bytes]]]]:
+        """The messages of ``topics``, undecoded, one chunk at a time (chunks in the order of
+        their start times): per topic in the chunk, the log times (ns since the epoch) and the
+        JSON bytes in stored order. Only one chunk is held at a time; for a salvaged file the
+        whole of :meth:`raw_columns` comes as one block."""
+        import numpy as np
+
+        wanted = set(topics)
+        self.check_topics(wanted)
+        topic_of = {cid: c.topic for cid, c in self._channels.items() if c.topic in wanted}
+        if not topic_of:
+            return
+        if self._salvaged is not None:
+            yield self.raw_columns(wanted)
+            return
+        with open(self.path, "rb") as f:
+            for found in iter_channel_chunks(f, self._chunk_indexes, topic_of,
+                                             self._note_corrupt, self._verified):
+                block: dict[str, tuple[NDArray[np.int64], list[bytes]]] = {}
+                for cid, (t, d) in found.items():
+                    topic = topic_of[cid]
+                    if topic in block:
+                        t0, d0 = block[topic]
+                        block[topic] = (np.concatenate([t0, t.astype(np.int64)]), d0 + d)
+                    else:
+                        block[topic] = (t.astype(np.int64), d)
+                yield block
+
     def verbatim_plan(self, skip_topics: frozenset[str] = frozenset()) -> tuple[
             dict[int, tuple[str, str, bytes]], dict[int, tuple[str, str, int]],
             list[ChunkIndex], dict[int, int]] | None:
@@ -272,10 +359,54 @@ class LogReader:
             return None
         if any(c.topic in skip_topics for c in self._channels.values()):
             return None
+        self.check_topics(None)
+        if not self.verify_chunks():
+            return None
         schemas = {sid: (s.name, s.encoding, s.data) for sid, s in self._schemas.items()}
         channels = {cid: (c.topic, c.message_encoding, c.schema_id)
                     for cid, c in self._channels.items()}
         return schemas, channels, list(self._chunk_indexes), dict(self._counts)
+
+    def check_topics(self, topics: Iterable[str] | None = None) -> None:
+        """Refuse a foreign schema or encoding on an lgvtool topic among ``topics`` (all the
+        log's topics if None): each must carry the schema name the log contract gives it,
+        JSON messages and a JSON schema.
+
+        :raises LogFormatError: naming the topic, its schema and its encodings.
+        """
+        wanted = None if topics is None else set(topics)
+        for c in self._channels.values():
+            if c.topic in self._checked_topics or (wanted is not None and c.topic not in wanted):
+                continue
+            s = self._schemas.get(c.schema_id)
+            problem = check_channel(c.topic, c.message_encoding, s.name if s else "",
+                                    s.encoding if s else "")
+            if problem:
+                raise LogFormatError(f"{self.path}: {problem}")
+            self._checked_topics.add(c.topic)
+
+    def verify_chunks(self) -> bool:
+        """Decompress and check every chunk (CRC-32, size, record framing); corrupt ones are
+        counted in :attr:`corrupt_chunks` with a warning. True when none is corrupt."""
+        if self._salvaged is not None:
+            return not self.corrupt_chunks
+        import zstandard
+
+        from lgvtool.log.mcapio import chunk_window, verified_records
+
+        zstd = zstandard.ZstdDecompressor()
+        with open(self.path, "rb") as f:
+            for ci in self._chunk_indexes:
+                if ci.chunk_start_offset in self._verified:
+                    continue
+                try:
+                    buf, local = chunk_window(f, ci)
+                    chunk_messages(verified_records(buf, local, zstd), set())
+                except CorruptChunkError as exc:
+                    self._note_corrupt(ci, exc.reason)
+                else:
+                    self._verified.add(ci.chunk_start_offset)
+        return not self.corrupt_chunks
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[LogMessage]:
         """Every message (or those of ``topics``) in log-time order, decoded to dicts."""
@@ -293,7 +424,7 @@ class LogReader:
             schema_of = {c.topic: self._schemas[c.schema_id].name if c.schema_id in self._schemas
                          else "" for c in self._channels.values()}
             acc: dict[str, list[int]] = {}
-            for m in self.raw_messages():
+            for m in self._raw_messages(None):
                 a = acc.get(m.topic)
                 if a is None:
                     acc[m.topic] = [1, m.log_time_ns, m.log_time_ns, 0]
@@ -320,7 +451,11 @@ class LogReader:
         schema = next((self._schemas[c.schema_id].name for c in self._channels.values()
                        if c.topic == topic and c.schema_id in self._schemas),
                       T.schema_for_topic(topic) or "")
-        return to_dataframe(schema, self.messages([topic]))
+        try:
+            return to_dataframe(schema, self.messages([topic]))
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise LogFormatError(f"{self.path}: topic {topic}: messages do not match schema "
+                                 f"{schema} ({type(exc).__name__}: {exc})") from None
 
     # ------------------------------------------------------------------ run facts
     def config(self) -> Config:
@@ -351,6 +486,31 @@ class LogReader:
     def reflector_map(self) -> tuple[Reflector, ...]:
         """The reflector map: /map/reflectors if logged, else the stored configuration's."""
         return self._map_from_topic() or self.config().reflectors
+
+
+def _chunk_records(records: Iterable[Any], on_corrupt: Any, f: Any) -> Iterator[Any]:
+    """The records of a stream read with ``emit_chunks``, with each chunk checked
+    (:func:`checked_records`) and opened into its records; a corrupt chunk goes to
+    ``on_corrupt(offset, reason)`` and is left out."""
+    from mcap.records import Chunk
+    from mcap.stream_reader import breakup_chunk
+
+    for rec in records:
+        if not isinstance(rec, Chunk):
+            yield rec
+            continue
+        try:
+            chunk_messages(checked_records(rec.compression, rec.data, rec.uncompressed_size,
+                                           rec.uncompressed_crc), set())
+            inner = breakup_chunk(rec)
+        except CorruptChunkError as exc:
+            on_corrupt(f.tell(), exc.reason)
+            continue
+        except Exception as exc:  # a record inside that does not parse
+            on_corrupt(f.tell(), f"a record inside does not parse ({type(exc).__name__})")
+            continue
+        yield from inner
+        yield rec
 
 
 def _decode_value(value: str) -> Any:

@@ -23,6 +23,7 @@ class RecoveryReport:
     first_s: float | None
     last_s: float | None
     was_complete: bool
+    corrupt_chunks: int = 0
 
     def summary(self) -> str:
         """One human-readable line."""
@@ -30,6 +31,8 @@ class RecoveryReport:
         if self.first_s is not None and self.last_s is not None:
             span = f", {self.last_s - self.first_s:.1f} s of data"
         state = "complete already" if self.was_complete else "incomplete"
+        if self.corrupt_chunks:
+            state += f"; {self.corrupt_chunks} corrupt chunks skipped"
         return (f"recovered {self.messages} messages on {len(self.topics)} topics{span} from "
                 f"{self.intact_bytes} of {self.source_bytes} bytes ({state} input)")
 
@@ -65,6 +68,7 @@ def recover(src: str | Path, dst: str | Path, compression: str = "zstd") -> Reco
         source_bytes=reader.size, intact_bytes=reader.salvaged_bytes, messages=n,
         topics=counts, first_s=None if first is None else first / 1e9,
         last_s=None if last is None else last / 1e9, was_complete=reader.complete,
+        corrupt_chunks=len(reader.corrupt_chunks),
     )
 
 

@@ -44,6 +44,19 @@ class McuStreamDecoder(StreamDecoder[McuFrame]):
     def _keep_back(self, buf: bytearray) -> int:
         return 1 if buf and buf[-1] == SYNC[0] else 0
 
+    def _complete_at(self, buf: bytearray, pos: int) -> bool:
+        """True when a complete frame with a valid CRC (any version) starts at ``buf[pos]``."""
+        if pos + 4 > len(buf) or buf[pos : pos + 2] != SYNC or buf[pos + 2] < 1:
+            return False
+        length = buf[pos + 2]
+        if buf[pos + 3] == MCU_VERSION and length != V1_LEN:
+            return False
+        size = frame_size_for_len(length)
+        if pos + size > len(buf):
+            return False
+        received = buf[pos + size - 2] | (buf[pos + size - 1] << 8)
+        return crc16_ccitt_false(buf[pos + 2 : pos + size - 2]) == received
+
     def _examine(self, buf: bytearray, pos: int) -> Verdict:
         n = len(buf) - pos
         if n < 3:
@@ -63,6 +76,8 @@ class McuStreamDecoder(StreamDecoder[McuFrame]):
         received = buf[pos + size - 2] | (buf[pos + size - 1] << 8)
         if expected != received:
             return Reject("bad_checksum", f"MCU CRC {received:04X}, computed {expected:04X}")
+        if self._overlaps_frame(buf, pos, size):
+            return Reject("bad_length", "MCU candidate overlaps a complete frame")
         if version != MCU_VERSION:
             return SkipFrame("unknown_version", size, f"MCU frame version {version} skipped")
         return Accept(decode_mcu_frame(buf[pos : pos + size]), size)

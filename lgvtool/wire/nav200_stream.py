@@ -54,8 +54,14 @@ class _Nav200Decoder(StreamDecoder[T]):
     def _decode(self, raw: bytes) -> T:
         """Decode one intact, known telegram."""
 
-    def _checks(self, buf: bytearray, pos: int) -> bool:
-        """True when a complete, known telegram with a valid BCC starts at ``buf[pos]``."""
+    def _complete_at(self, buf: bytearray, pos: int) -> bool:
+        """True when a complete, known telegram with a valid BCC starts at ``buf[pos]``.
+
+        An 8-bit XOR cannot tell a telegram from the first bytes of a cut-off one followed by
+        complete telegrams and the first bytes of the next one: their XORs cancel. A candidate
+        that overlaps another complete, valid telegram is taken for such a cut-off one
+        (:meth:`StreamDecoder._overlaps_frame`).
+        """
         if pos + 4 > len(buf):
             return False
         length = buf[pos + 1]
@@ -70,21 +76,6 @@ class _Nav200Decoder(StreamDecoder[T]):
         if expected is not None and expected != length:
             return False
         return xor_bcc(buf[pos : pos + length]) == 0
-
-    def _overlaps_telegram(self, buf: bytearray, pos: int, length: int) -> bool:
-        """True when a complete telegram that checks starts inside the candidate at ``pos``.
-
-        An 8-bit XOR cannot tell a telegram from the first bytes of a cut-off one followed by
-        complete telegrams and the first bytes of the next one: their XORs cancel. A candidate
-        that overlaps another complete, valid telegram is taken for such a cut-off one. Only
-        bytes already received are looked at, so no telegram is held back waiting.
-        """
-        inner = buf.find(_STX, pos + 1, pos + length)
-        while inner >= 0:
-            if self._checks(buf, inner):
-                return True
-            inner = buf.find(_STX, inner + 1, pos + length)
-        return False
 
     def _examine(self, buf: bytearray, pos: int) -> Verdict:
         n = len(buf) - pos
@@ -111,7 +102,7 @@ class _Nav200Decoder(StreamDecoder[T]):
             return Reject("bad_checksum", f"NAV200 {code} telegram with a bad BCC")
         if not known:
             return Reject("unknown_command", f"NAV200 telegram with unknown code {code!r}")
-        if self._overlaps_telegram(buf, pos, length):
+        if self._overlaps_frame(buf, pos, length):
             return Reject("bad_length", f"NAV200 {code} candidate overlaps a complete telegram")
         try:
             return Accept(self._decode(raw), length)

@@ -116,6 +116,25 @@ class StreamDecoder(ABC, Generic[T]):
     def _examine(self, buf: bytearray, pos: int) -> Verdict:
         """Judge the candidate starting at ``buf[pos]``."""
 
+    def _complete_at(self, buf: bytearray, pos: int) -> bool:
+        """True when a complete frame that checks starts at ``buf[pos]`` (only bytes already
+        received are looked at); used by :meth:`_overlaps_frame`."""
+        return False
+
+    def _overlaps_frame(self, buf: bytearray, pos: int, size: int) -> bool:
+        """True when a complete frame that checks starts inside the ``size``-byte candidate at
+        ``pos``: the candidate is then taken for a spurious or cut-off one and rejected, so
+        that the frame inside it is found (resumption at the byte after the candidate's
+        start). Only bytes already received are looked at, so no frame is held back waiting.
+        """
+        end = pos + size
+        inner = self._find_start(buf, pos + 1)
+        while 0 <= inner < end:
+            if self._complete_at(buf, inner):
+                return True
+            inner = self._find_start(buf, inner + 1)
+        return False
+
     def _delivered(self, frame: T, offset: int) -> None:
         """Hook called for each delivered frame (e.g. sequence tracking)."""
 

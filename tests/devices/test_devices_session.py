@@ -179,3 +179,25 @@ def test_timeout_resends_a_startup_step() -> None:
     again = session.poll(0.5)
     assert again is not None and again.code == "SA"
     assert [e.kind for e in session.pop_events()] == ["unanswered"]
+
+
+def test_after_a_device_reset_the_map_is_read_again_and_compared() -> None:
+    w = Wire(Nav200Settings(poll_period=0.2))
+    w.session.start(0.0)
+    w.run(0.0, 2.0)
+    assert w.sent.count("UA") == 1 and len(w.of(MapUploaded)) == 1
+    held = w.session.map
+    w.device.reset()  # power cycle: standby, the stored map is kept
+    w.run(2.0, 4.0)
+    assert w.sent.count("UA") == 2
+    assert len(w.of(MapUploaded)) == 2
+    assert len(w.diags("map_verified")) == 1 and not w.diags("map_changed")
+    assert w.session.map == held
+    # the device comes back holding another map: the recorder says so and uses it
+    w.device.store.pop(next(iter(w.device.store)))
+    w.device.reset()
+    w.run(4.0, 6.0)
+    (changed,) = w.diags("map_changed")
+    assert changed.details["reflectors"] == changed.details["before"] - 1
+    assert w.session.map is not None and len(w.session.map) == len(held or ()) - 1
+    assert w.device.mode == "positioning"

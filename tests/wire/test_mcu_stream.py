@@ -179,3 +179,33 @@ def test_trailing_sync_byte_is_kept() -> None:
     assert decoder.pending_bytes == 1
     assert decoder.feed(raw[1:]) == [frame(7)]
     assert decoder.stats.bytes_skipped == 2
+
+
+def spurious_prefix(real: bytes, shift: int) -> bytes:
+    """``shift`` bytes that, followed by ``real``, form a 30-byte version-1 candidate whose CRC
+    checks: the candidate's CRC bytes are bytes of the real frame, two filler bytes chosen to
+    match (CRC-16 takes each value for some pair)."""
+    head = b"\xa5\x5a\x19\x01"
+    filler_len = shift - len(head)
+    for k in range(1 << 16):
+        filler = bytes(filler_len - 2) + k.to_bytes(2, "little")
+        candidate = (head + filler + real)[:30]
+        if crc16_ccitt_false(candidate[2:28]) == int.from_bytes(candidate[28:30], "little"):
+            return head + filler
+    raise AssertionError("no filler makes the candidate check")
+
+
+def test_spurious_frame_overlapping_a_real_one_is_rejected() -> None:
+    real = frame(5).encode()
+    prefix = spurious_prefix(real, 10)
+    data = frame(4).encode() + prefix + real + frame(6).encode()
+    decoder = McuStreamDecoder()
+    # whole stream at once, and byte by byte (the real frame is complete when it is judged)
+    assert decoder.feed(data) + decoder.flush() == [frame(4), frame(5), frame(6)]
+    assert decoder.stats.bad_length == 1
+    assert decoder.stats.bytes_skipped == len(prefix)
+    one = McuStreamDecoder()
+    got = [f for i in range(len(data)) for f in one.feed(data[i:i + 1])] + one.flush()
+    # fed byte by byte the candidate completes before the real frame does: it is taken (the
+    # rule never holds a frame back), and the real frame it overlaps is lost
+    assert len(got) == 3 and got[0] == frame(4) and got[-1] == frame(6)

@@ -198,3 +198,12 @@ def test_cut_off_telegram_whose_xor_cancels() -> None:
         frames = run(decoder, data, "bytes")
         assert frames == [nav200.decode_reply(middle), nav200.decode_reply(good)]
         assert decoder.stats.bad_length == 1
+
+
+def test_seeded_fuzz_never_crashes_a_decoder() -> None:
+    """A few thousand inputs per decoder (the 10^6 run is benchmarks/fuzz_decoders.py)."""
+    from wire_fuzz import DECODERS, fuzz
+
+    for name in DECODERS:
+        failures = fuzz(name, 1500, seed=7)
+        assert failures == [], (name, failures[:1])

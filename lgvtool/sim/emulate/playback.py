@@ -140,7 +140,19 @@ def _frame_from_message(d: dict[str, Any]) -> bytes:
 
 
 def playback_from_log(path: str | Path) -> Playback:
-    """Play a log: /mcu/rx (or /mcu/frame), /nav/pose, and its reflector map."""
+    """Play a log: /mcu/rx (or /mcu/frame), /nav/pose, and its reflector map.
+
+    :raises LogFormatError: a topic's messages do not match the log contract."""
+    from lgvtool.errors import LogFormatError
+
+    try:
+        return _playback_from_log(path)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise LogFormatError(f"{path}: messages do not match the log contract "
+                             f"({type(exc).__name__}: {exc})") from None
+
+
+def _playback_from_log(path: str | Path) -> Playback:
     from lgvtool.log import LogReader, topics
 
     with warnings.catch_warnings():

@@ -1,0 +1,99 @@
+"""Peak memory and wall time of ``lgvtool evaluate`` and ``lgvtool replay`` on 1, 2 and
+4-hour simulated paper-circle logs.
+
+Run by hand (never a timed test)::
+
+    python benchmarks/bench_memory.py [--hours 1,2,4] [--cache DIR] [--estimator NAME]
+
+The logs are simulated once with ``lgvtool simulate --scenario paper-circle --seed 1`` and
+kept in ``--cache`` (default: a folder in the system's temporary directory), so a second run
+measures only the commands. Each command runs as a subprocess; its peak resident set (the
+largest RSS of the child, ``getrusage(RUSAGE_CHILDREN).ru_maxrss`` read in a fresh
+intermediate process so that earlier runs do not mask it) and its wall time are printed,
+with the ratio of the 4-hour peak to the 1-hour peak (target: at most 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+#: runs a command in a child and prints its peak RSS (KiB) and wall time (s) as JSON
+_MEASURE = r"""
+import json, resource, subprocess, sys, time
+t0 = time.perf_counter()
+res = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+wall = time.perf_counter() - t0
+peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+print(json.dumps({"rc": res.returncode, "wall_s": wall, "peak_kib": peak,
+                  "stderr": res.stderr[-400:]}))
+"""
+
+
+def simulate(path: Path, hours: float) -> None:
+    """Simulate a paper-circle log of ``hours`` into ``path`` unless it exists."""
+    if path.exists():
+        return
+    tmp = path.with_suffix(".part.mcap")
+    tmp.unlink(missing_ok=True)
+    res = subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "--scenario",
+                          "paper-circle", "--seed", "1", "--duration", str(hours * 3600),
+                          "-o", str(tmp)], capture_output=True, text=True,
+                         check=False)
+    if res.returncode != 0:
+        raise SystemExit(f"simulate failed: {res.stderr.strip()}")
+    tmp.rename(path)
+
+
+def measure(args: list[str]) -> dict[str, float]:
+    """Peak RSS (MB) and wall time (s) of ``lgvtool ARGS`` run as a subprocess."""
+    res = subprocess.run([sys.executable, "-c", _MEASURE, sys.executable, "-m", "lgvtool",
+                          *args], capture_output=True, text=True, check=True)
+    out = json.loads(res.stdout)
+    if out["rc"] != 0:
+        raise SystemExit(f"lgvtool {' '.join(args)} failed: {out['stderr'].strip()}")
+    return {"peak_mb": out["peak_kib"] / 1024.0, "wall_s": out["wall_s"]}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--hours", default="1,2,4", help="log durations, h (comma-separated)")
+    ap.add_argument("--cache", type=Path,
+                    default=Path(tempfile.gettempdir()) / "lgvtool-bench-memory",
+                    help="folder of the simulated logs (kept between runs)")
+    ap.add_argument("--estimator", action="append", default=[],
+                    help="estimator(s) to run (default: the commands' defaults, all five)")
+    ap.add_argument("--commands", default="evaluate,replay", help="which commands to measure")
+    opts = ap.parse_args()
+    hours = [float(h) for h in opts.hours.split(",")]
+    opts.cache.mkdir(parents=True, exist_ok=True)
+    est: list[str] = [a for e in opts.estimator for a in ("--estimator", e)]
+    rows: dict[str, dict[float, dict[str, float]]] = {}
+    for h in hours:
+        log = opts.cache / f"paper-circle-{h:g}h.mcap"
+        simulate(log, h)
+        out = opts.cache / "out"
+        if "evaluate" in opts.commands:
+            rows.setdefault("evaluate", {})[h] = measure(
+                ["evaluate", str(log), "--json", "--seed", "0", *est])
+        if "replay" in opts.commands:
+            out.with_suffix(".mcap").unlink(missing_ok=True)
+            rows.setdefault("replay", {})[h] = measure(
+                ["replay", str(log), "-o", str(out.with_suffix(".mcap")), "--seed", "0",
+                 *est])
+        for cmd, per in rows.items():
+            r = per[h]
+            print(f"{cmd:9s} {h:4g} h: peak RSS {r['peak_mb']:7.1f} MB, "
+                  f"wall {r['wall_s']:7.1f} s", flush=True)
+    lo, hi = min(hours), max(hours)
+    for cmd, per in rows.items():
+        ratio = per[hi]["peak_mb"] / per[lo]["peak_mb"]
+        print(f"{cmd}: peak RSS at {hi:g} h / at {lo:g} h = {ratio:.2f} (target <= 2)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,106 @@
+"""The streaming pieces of the replay: compressed scan storage, observation streams, block-wise
+motions and preparations give exactly what the whole-log construction gives."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from simlogs import simulate_log
+
+from lgvtool.localize import obsstream
+from lgvtool.localize import replay as R
+from lgvtool.localize.logdata import load_log, scan_batch
+from lgvtool.localize.motion import Increments, MotionSettings, MotionTrack
+from lgvtool.localize.observations import scan_observations
+from lgvtool.localize.packed import PackedBytes
+from lgvtool.log import LogReader
+
+
+def test_packed_bytes_round_trip_and_reorder() -> None:
+    rng = np.random.default_rng(3)
+    items = [rng.bytes(int(n)) for n in rng.integers(0, 3000, 900)]
+    p = PackedBytes()
+    for a in range(0, len(items), 37):
+        p.append_block(items[a:a + 37])
+    assert len(p) == len(items)
+    assert p.stored_bytes > 0
+    idx = rng.permutation(len(items)).tolist()
+    assert p.take(idx) == [items[i] for i in idx]
+    order = np.argsort(rng.random(len(items)))
+    p.reorder(order)
+    assert p.take(range(len(items))) == [items[i] for i in order.tolist()]
+    with pytest.raises(ValueError):
+        p.append_block([b"x"])
+
+
+def test_blockwise_motions_equal_the_whole(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.uniform(0.05, 0.15, 300))
+    track = MotionTrack(Increments(t, rng.normal(0, 0.01, 299), rng.normal(0, 0.01, 299)))
+    q = np.sort(rng.uniform(0, t[-1], 101))
+    monkeypatch.setattr(R, "_DELTA_BLOCK", 7)
+    a, b = R._deltas(track, q), track.deltas(q[:-1], q[1:])
+    for f in ("dx", "dy", "dth", "dist", "rot"):
+        assert np.array_equal(getattr(a, f), getattr(b, f))
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory: pytest.TempPathFactory):
+    log = simulate_log(tmp_path_factory.mktemp("stream") / "run.mcap", 90, 6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        reader = LogReader(log)
+    cfg = reader.config()
+    return cfg, load_log(reader, cfg.reflectors or None)
+
+
+@pytest.mark.parametrize("deskew", [False, True])
+def test_observation_stream_equals_the_sorted_list(data, deskew: bool,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    cfg, d = data
+    monkeypatch.setattr(obsstream, "BLOCK_SCANS", 16)
+    monkeypatch.setattr(obsstream, "KEEP_SCANS", 32)
+    ms = MotionSettings()
+    track = MotionTrack(d.increments(ms, cfg.vehicle), ms.step_form)
+    poses = R._pose_observations(d, R.ESTIMATORS["ekf"], R.resolve_params("ekf", {}, None))
+    v = cfg.vehicle
+    stream = R._stream(d.scans, list(poses), None, v, track, deskew, 0.0, float("inf"))
+    whole = list(poses) + scan_observations(scan_batch(d.scans), v.nav_x, v.nav_y, track=track,
+                                            deskew=deskew)
+    whole.sort(key=lambda o: o.t)
+    assert len(stream) == len(whole) > 100
+    assert np.array_equal(stream.times, [o.t for o in whole])
+    for got, want in zip(stream, whole, strict=True):
+        assert type(got) is type(want) and got.t == want.t
+        if hasattr(want, "q"):
+            assert np.array_equal(got.q, want.q) and np.array_equal(got.ids, want.ids)
+    # random access after the blocks were dropped gives the same again
+    k = len(whole) // 3
+    assert stream[k].t == whole[k].t
+
+
+def test_blockwise_map_equals_one_call() -> None:
+    obs = list(range(50))
+
+    def prepare(part: list[int]) -> dict[int, int]:
+        return {i: 10 * v for i, v in enumerate(part) if v % 3}
+
+    m = obsstream.BlockwiseMap(prepare, obs, block=8)
+    whole = prepare(obs)
+    assert [m.get(i) for i in range(50)] == [whole.get(i) for i in range(50)]
+
+
+def test_scan_start_times_are_decoded_from_the_store() -> None:
+    from lgvtool.localize.logdata import LazyScans
+
+    raw = [b'{"timestamp":{"sec":%d,"nsec":0},"scan_period":0.125,"observations":'
+           b'[{"range":1.0,"bearing":0.1,"time_in_scan":0.01,"id":3}]}' % (1_704_067_200 + i)
+           for i in range(10)]
+    packed = PackedBytes()
+    packed.append_block(raw)
+    scans = LazyScans(1_704_067_200 * 10**9, np.arange(10) * 10**9, packed)
+    start, period = scans.start_and_period([9, 0, 4])
+    assert start.tolist() == pytest.approx([9.0, 0.0, 4.0], abs=1e-9)
+    assert period.tolist() == pytest.approx([0.125] * 3, abs=1e-12)
