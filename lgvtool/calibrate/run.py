@@ -20,6 +20,7 @@ from lgvtool.calibrate.compare import Row
 from lgvtool.calibrate.quantities import QUANTITIES, default_names
 from lgvtool.config import Config
 from lgvtool.errors import InputError, MissingDataError
+from lgvtool.extras import require
 from lgvtool.progress import Progress
 
 TIME_FLOOR_S = 1e-3
@@ -115,6 +116,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     :param progress: shows the stages (read each log, solve, compare) on stderr.
     :raises InputError: unusable input (one line), unobservable quantities.
     """
+    require("calibrate", "calibrate", "scipy")
     from lgvtool.calibrate.drive import log_mcu_baud, prepare
     from lgvtool.calibrate.solve import Problem, SolveSettings, UnobservableError, solve
     from lgvtool.calibrate.timing import fit_pose_age

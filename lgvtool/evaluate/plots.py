@@ -17,7 +17,6 @@ which re-validates every shape so far), and drawn only up to :data:`MAX_BOUNDARY
 
 from __future__ import annotations
 
-import importlib.util
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -31,6 +30,7 @@ from lgvtool.evaluate.circle import Circle
 from lgvtool.evaluate.evaluation import EvaluationResult
 from lgvtool.evaluate.quality import DataQuality
 from lgvtool.evaluate.table import MM, Table1, estimator_order
+from lgvtool.extras import require
 
 MAX_POINTS = 5000
 """Traces longer than this are decimated (every k-th sample) to keep the report small."""
@@ -287,9 +287,7 @@ def log_figures(res: EvaluationResult, table: Table1) -> list[tuple[str, go.Figu
 def require_kaleido() -> None:
     """Raise :class:`~lgvtool.errors.InputError` unless plotly's PNG engine (kaleido) is
     installed."""
-    if importlib.util.find_spec("kaleido") is None:
-        raise InputError("PNG export needs the optional package 'kaleido' "
-                         "(install it with: pip install 'lgvtool[png]')")
+    require("PNG export", "png", "kaleido")
 
 
 def write_png(fig: go.Figure, path: str | Path, *, width: int = 1200) -> None:

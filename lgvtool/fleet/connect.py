@@ -9,13 +9,13 @@ traffic; a plain ``tcp://`` to another machine is neither, and lgvtool warns abo
 
 from __future__ import annotations
 
-import importlib.util
 import ipaddress
 import sys
 from dataclasses import dataclass
 from typing import Any
 
 from lgvtool.errors import InputError
+from lgvtool.extras import available, require
 
 FLEET_MODULES = ("dask", "distributed")
 """What the ``fleet`` extra installs for a cluster (pyarrow too, for sweep's Parquet files)."""
@@ -23,14 +23,12 @@ FLEET_MODULES = ("dask", "distributed")
 
 def fleet_available(modules: tuple[str, ...] = FLEET_MODULES) -> bool:
     """True when every module of ``modules`` can be imported (without importing it)."""
-    return all(importlib.util.find_spec(m) is not None for m in modules)
+    return available(*modules)
 
 
 def require_fleet(what: str, modules: tuple[str, ...] = FLEET_MODULES) -> None:
     """Raise one line naming the extra when ``what`` (e.g. ``sweep``) lacks its packages."""
-    missing = [m for m in modules if importlib.util.find_spec(m) is None]
-    if missing:
-        raise InputError(f"{what} needs {', '.join(missing)}: pip install 'lgvtool[fleet]'")
+    require(what, "fleet", *modules)
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
 from lgvtool.errors import InputError
+from lgvtool.extras import require
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -74,17 +75,9 @@ sick_scan_xd/NAVReflectorData[] reflectors
 NAVLandmarkData.msg), as the driver defines them."""
 
 
-ROS2_EXTRA = "pip install 'lgvtool[ros2]'"
-"""How to install rosbags with lgvtool."""
-
-
 def require_rosbags() -> None:
     """Raise a one-line :class:`InputError` naming the extra when rosbags is missing."""
-    try:
-        import rosbags  # noqa: F401
-    except ImportError:
-        raise InputError(f"import ros2 needs rosbags, which is not installed: "
-                         f"{ROS2_EXTRA}") from None
+    require("import ros2", "ros2", "rosbags")
 
 
 def typestore(connections: Iterable[Any] = ()) -> Typestore:

@@ -29,15 +29,13 @@ import numpy as np
 import pandas as pd
 
 from lgvtool.errors import InputError
+from lgvtool.extras import require
 
 FORMATS = ("tum", "kitti", "csv", "parquet")
 """Formats :func:`write_trajectory` writes."""
 
 COLUMNS = {"t_s": "s", "x_m": "m", "y_m": "m", "heading_rad": "rad"}
 """CSV and Parquet columns and their units."""
-
-FLEET_EXTRA = "pip install 'lgvtool[fleet]'"
-"""How to install pyarrow (Parquet) with lgvtool."""
 
 _CSV_ALIASES = {
     "t": ("t_s", "t", "time", "timestamp", "stamp"),
@@ -58,11 +56,7 @@ def file_names(name: str, fmt: str) -> list[str]:
 
 def require_pyarrow() -> None:
     """Raise a one-line :class:`InputError` naming the extra when pyarrow is missing."""
-    try:
-        import pyarrow  # noqa: F401
-    except ImportError:
-        raise InputError(f"--format parquet needs pyarrow, which is not installed: "
-                         f"{FLEET_EXTRA}") from None
+    require("--format parquet", "fleet", "pyarrow")
 
 
 def _arrays(df: pd.DataFrame) -> tuple[np.ndarray, ...]:

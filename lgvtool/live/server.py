@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from lgvtool.errors import InputError
+from lgvtool.extras import require
 
 __all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "LiveAddress", "LiveServer", "parse_address"]
 
@@ -99,11 +100,10 @@ class LiveServer:
 
     def __init__(self, address: LiveAddress, *, name: str = "lgvtool") -> None:
         _check_host(address)
-        try:
-            import foxglove
-            from foxglove.websocket import Capability
-        except ImportError:
-            raise InputError("--live needs foxglove-sdk: pip install 'lgvtool[live]'") from None
+        require("--live", "live", "foxglove")
+        import foxglove
+        from foxglove.websocket import Capability
+
         self._fox = foxglove
         self._context = foxglove.Context()
         self._last: dict[str, tuple[bytes, int]] = {}
