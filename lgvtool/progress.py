@@ -21,7 +21,10 @@ import time
 from types import TracebackType
 from typing import TextIO
 
-__all__ = ["Progress"]
+__all__ = ["PIPE_DELAY_S", "Progress"]
+
+#: least time before a delayed bar draws on a pipe rather than a terminal, s
+PIPE_DELAY_S = 10.0
 
 
 def _clock(seconds: float) -> str:
@@ -52,7 +55,11 @@ class Progress:
         self.interval_s = interval_s
         self.unit = unit
         self.enabled = enabled
-        self.delay_s = delay_s
+        isatty = getattr(self.stream, "isatty", None)
+        self._tty = bool(isatty and isatty())
+        #: a pipe (a CI log) gets lines only from a command that takes long; an error of a bad
+        #: input, found in the first seconds, then stays the only line on stderr
+        self.delay_s = delay_s if self._tty or delay_s == 0 else max(delay_s, PIPE_DELAY_S)
         self.done = 0
         self.failed = 0
         self._start = time.monotonic()
@@ -61,8 +68,6 @@ class Progress:
         self._last_tenth = -1
         self._drawn = False
         self._closed = False
-        isatty = getattr(self.stream, "isatty", None)
-        self._tty = bool(isatty and isatty())
 
     def advance(self, n: int = 1, *, failed: bool = False) -> None:
         """Count ``n`` more units of work done (``failed``: one task ended with an error)."""

@@ -87,3 +87,11 @@ def test_no_progress_keeps_stderr_quiet(run_cli, tmp_path) -> None:
     res = run_cli("evaluate", log, "-o", tmp_path / "r", "--no-progress", timeout=300)
     assert res.returncode == 0, res.stderr
     assert "[#" not in res.stderr and "[." not in res.stderr
+
+
+def test_a_delayed_bar_waits_longer_on_a_pipe_than_on_a_terminal() -> None:
+    from lgvtool.progress import PIPE_DELAY_S
+
+    assert Progress(5, "x", stream=io.StringIO(), delay_s=1.0).delay_s == PIPE_DELAY_S
+    assert Progress(5, "x", stream=Tty(), delay_s=1.0).delay_s == 1.0
+    assert Progress(5, "x", stream=io.StringIO()).delay_s == 0.0

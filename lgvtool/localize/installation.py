@@ -44,7 +44,10 @@ class CorrectedScans(LazyScans):
         self._inner = scans
         self._offset = offset
         self._yaw = yaw
+        self.source = scans.source
         self.received = scans.received - offset
+        self._start = np.full(len(scans), np.nan)  # start_and_period's cache, as LazyScans'
+        self._period = np.full(len(scans), np.nan)
 
     def __len__(self) -> int:
         return len(self._inner)

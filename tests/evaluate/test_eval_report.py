@@ -83,6 +83,8 @@ def test_report_without_truth_and_for_several_logs() -> None:
 
 
 def test_png_export_needs_kaleido(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(plots.importlib.util, "find_spec", lambda name: None)
+    import importlib.util
+
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None)
     with pytest.raises(InputError, match="kaleido"):
         plots.require_kaleido()
