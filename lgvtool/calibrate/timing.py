@@ -44,7 +44,29 @@ def fit_pose_age(drives: list[Drive], poses: list[FloatArray], values: dict[str,
                  ) -> tuple[float, float, int]:
     """Age of the NAV poses beyond ``nav_time_offset`` (s), its 1-sigma (s) and the number of
     poses used. ``values``: the calibrated quantities (SI); ``poses``: the trajectory of O per
-    drive (node rows x, y, heading)."""
+    drive (node rows x, y, heading).
+
+    With poses in more than one drive, each drive's own age is fitted too; when they disagree
+    by more than their 1-sigmas allow, the 1-sigma grows by that factor (the Birge ratio,
+    ``sqrt(chi2 / (drives - 1))``): one age for all drives is then a model that misses
+    something, such as the small heading error a revolution's skew leaves on a steady circle.
+    """
+    age, sigma, used = _fit(drives, poses, values, start, cluster_s, huber_k)
+    with_poses = [d for d, drive in enumerate(drives) if len(drive.pose_t)]
+    if len(with_poses) < 2 or not math.isfinite(sigma):
+        return age, sigma, used
+    chi2 = 0.0
+    for d in with_poses:
+        a, s, n = _fit([drives[d]], [poses[d]], values, age, cluster_s, huber_k)
+        if not (n and math.isfinite(s) and s > 0):
+            return age, sigma, used
+        chi2 += ((a - age) / s) ** 2
+    return age, sigma * max(1.0, math.sqrt(chi2 / (len(with_poses) - 1))), used
+
+
+def _fit(drives: list[Drive], poses: list[FloatArray], values: dict[str, float], start: float,
+         cluster_s: float, huber_k: float) -> tuple[float, float, int]:
+    """The pooled fit of :func:`fit_pose_age` (without the agreement check)."""
     yaw, tau = values["nav_yaw"], values["nav_time_offset"]
     age = start
     used = 0

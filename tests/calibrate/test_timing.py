@@ -74,3 +74,15 @@ def test_no_turning_gives_no_age() -> None:
     drive.pose_heading = np.full(len(drive.pose_t), YAW)
     _, sigma, _ = fit_pose_age([drive], [pose], VALUES, 0.1)
     assert not math.isfinite(sigma) or sigma > 0.02
+
+
+def test_drives_that_disagree_widen_the_uncertainty() -> None:
+    a, pa = _drive(0.0, 0.0, seed=3)
+    b, pb = _drive(0.0, 0.0, seed=4)
+    _, alone, _ = fit_pose_age([a, b], [pa, pb], VALUES, 0.1)
+    # the second drive's poses 15 ms older: one age cannot fit both within their sigmas
+    b.pose_t = b.pose_t + 0.015
+    age, sigma, _ = fit_pose_age([a, b], [pa, pb], VALUES, 0.1)
+    assert AGE < age < AGE + 0.015
+    assert sigma > 3 * alone
+    assert sigma > 0.004
