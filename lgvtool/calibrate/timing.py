@@ -18,6 +18,7 @@ by the pose's age alone. A drive observes the age where it turns.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -39,12 +40,26 @@ def _wrap(a: FloatArray) -> FloatArray:
     return np.asarray(np.remainder(a + math.pi, 2.0 * math.pi) - math.pi)
 
 
+@dataclass(frozen=True)
+class PoseAge:
+    """The fitted age of the NAV poses beyond ``nav_time_offset``."""
+
+    age: float
+    """s."""
+    sigma: float
+    """1-sigma, s, grown by the drives' disagreement (``inf`` when not observed)."""
+    sigma_fit: float
+    """1-sigma of the pooled fit alone, s: whether the drives observe the age at all."""
+    used: int
+    """NAV poses used."""
+    per_drive: tuple[float, ...] = ()
+    """Each drive's own age when there are several with poses, s."""
+
+
 def fit_pose_age(drives: list[Drive], poses: list[FloatArray], values: dict[str, float],
-                 start: float, *, cluster_s: float = 10.0, huber_k: float = 2.0
-                 ) -> tuple[float, float, int]:
-    """Age of the NAV poses beyond ``nav_time_offset`` (s), its 1-sigma (s) and the number of
-    poses used. ``values``: the calibrated quantities (SI); ``poses``: the trajectory of O per
-    drive (node rows x, y, heading).
+                 start: float, *, cluster_s: float = 10.0, huber_k: float = 2.0) -> PoseAge:
+    """The age of the NAV poses beyond ``nav_time_offset``. ``values``: the calibrated
+    quantities (SI); ``poses``: the trajectory of O per drive (node rows x, y, heading).
 
     With poses in more than one drive, each drive's own age is fitted too; when they disagree
     by more than their 1-sigmas allow, the 1-sigma grows by that factor (the Birge ratio,
@@ -54,14 +69,17 @@ def fit_pose_age(drives: list[Drive], poses: list[FloatArray], values: dict[str,
     age, sigma, used = _fit(drives, poses, values, start, cluster_s, huber_k)
     with_poses = [d for d, drive in enumerate(drives) if len(drive.pose_t)]
     if len(with_poses) < 2 or not math.isfinite(sigma):
-        return age, sigma, used
+        return PoseAge(age, sigma, sigma, used)
     chi2 = 0.0
+    own = []
     for d in with_poses:
         a, s, n = _fit([drives[d]], [poses[d]], values, age, cluster_s, huber_k)
         if not (n and math.isfinite(s) and s > 0):
-            return age, sigma, used
+            return PoseAge(age, sigma, sigma, used)
+        own.append(a)
         chi2 += ((a - age) / s) ** 2
-    return age, sigma * max(1.0, math.sqrt(chi2 / (len(with_poses) - 1))), used
+    birge = max(1.0, math.sqrt(chi2 / (len(with_poses) - 1)))
+    return PoseAge(age, sigma * birge, sigma, used, tuple(own))
 
 
 def _fit(drives: list[Drive], poses: list[FloatArray], values: dict[str, float], start: float,

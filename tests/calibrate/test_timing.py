@@ -45,26 +45,27 @@ VALUES = {"nav_x": MX, "nav_y": MY, "nav_yaw": YAW, "nav_time_offset": TAU}
 
 def test_age_recovered_without_bias() -> None:
     drive, pose = _drive(0.0, 0.0)
-    age, sigma, used = fit_pose_age([drive], [pose], VALUES, 0.1)
-    assert used == len(drive.pose_t)
-    assert age == pytest.approx(AGE, abs=max(3 * sigma, 0.005))
-    assert 0 < sigma < 0.01
+    fit = fit_pose_age([drive], [pose], VALUES, 0.1)
+    assert fit.used == len(drive.pose_t)
+    assert fit.age == pytest.approx(AGE, abs=max(3 * fit.sigma, 0.005))
+    assert 0 < fit.sigma < 0.01
+    assert fit.sigma == fit.sigma_fit and fit.per_drive == ()
 
 
 def test_position_bias_of_the_skew_does_not_move_the_age() -> None:
     # 20 mm behind and 55 mm inside, fixed in the vehicle frame: on this circle a time shift of
     # the position alone would take 0.02 / 0.63 m/s = 32 ms off the age
     drive, pose = _drive(-0.02, 0.055)
-    age, sigma, _ = fit_pose_age([drive], [pose], VALUES, 0.1)
-    assert age == pytest.approx(AGE, abs=max(3 * sigma, 0.005))
+    fit = fit_pose_age([drive], [pose], VALUES, 0.1)
+    assert fit.age == pytest.approx(AGE, abs=max(3 * fit.sigma, 0.005))
 
 
 def test_mounting_yaw_is_taken_off_the_heading() -> None:
     drive, pose = _drive(0.0, 0.0)
     wrong = dict(VALUES, nav_yaw=0.0)
-    age, _, _ = fit_pose_age([drive], [pose], wrong, 0.1)
+    fit = fit_pose_age([drive], [pose], wrong, 0.1)
     # 0.5 deg at 0.26 rad/s is 34 ms: a fit that forgot the yaw would be that far off
-    assert abs(age - AGE) > 0.02
+    assert abs(fit.age - AGE) > 0.02
 
 
 def test_no_turning_gives_no_age() -> None:
@@ -72,17 +73,20 @@ def test_no_turning_gives_no_age() -> None:
     pose = pose.copy()
     pose[:, 2] = 0.0
     drive.pose_heading = np.full(len(drive.pose_t), YAW)
-    _, sigma, _ = fit_pose_age([drive], [pose], VALUES, 0.1)
-    assert not math.isfinite(sigma) or sigma > 0.02
+    fit = fit_pose_age([drive], [pose], VALUES, 0.1)
+    assert not math.isfinite(fit.sigma_fit) or fit.sigma_fit > 0.02
 
 
 def test_drives_that_disagree_widen_the_uncertainty() -> None:
     a, pa = _drive(0.0, 0.0, seed=3)
     b, pb = _drive(0.0, 0.0, seed=4)
-    _, alone, _ = fit_pose_age([a, b], [pa, pb], VALUES, 0.1)
+    alone = fit_pose_age([a, b], [pa, pb], VALUES, 0.1)
     # the second drive's poses 15 ms older: one age cannot fit both within their sigmas
     b.pose_t = b.pose_t + 0.015
-    age, sigma, _ = fit_pose_age([a, b], [pa, pb], VALUES, 0.1)
-    assert AGE < age < AGE + 0.015
-    assert sigma > 3 * alone
-    assert sigma > 0.004
+    fit = fit_pose_age([a, b], [pa, pb], VALUES, 0.1)
+    assert AGE < fit.age < AGE + 0.015
+    assert fit.sigma > 3 * alone.sigma
+    assert fit.sigma > 0.004
+    # the pooled fit alone is as sharp as before: the drives do observe the age
+    assert fit.sigma_fit == pytest.approx(alone.sigma_fit, rel=0.5)
+    assert len(fit.per_drive) == 2 and fit.per_drive[1] - fit.per_drive[0] > 0.01
