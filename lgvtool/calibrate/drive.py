@@ -1,7 +1,8 @@
 """One log prepared for the calibration: trajectory nodes, motion between them, observations.
 
 Times are s after the log's first message. The trajectory of O is one pose per motion sample
-(the nodes): the MCU frames, or the generic odometry thinned to at most ``node_rate_hz``.
+(the nodes): the MCU frames, or the generic odometry thinned to at most ``node_rate_hz``
+(:data:`TWIST_NODE_RATE_HZ`).
 
 MCU frames are placed at the instant the MCU sampled them, not at the host's read (which comes
 a few ms later and jitters): the MCU's millisecond clock is mapped onto the host clock by a
@@ -31,6 +32,14 @@ MCU_FRAME_BYTES = 30
 """Length of a version-1 MCU frame on the wire, bytes (lgvtool.wire.mcu.FRAME_SIZE)."""
 MCU_BAUD = 115_200
 """The MCU link's speed when the log does not say, baud (8N1: 10 bits a byte)."""
+TWIST_NODE_RATE_HZ = 1.0
+"""Most nodes per second of generic odometry, 1/s. Generic odometry is often the *commanded*
+velocity, which a robot follows late and smoothed (its acceleration limits): over 0.1 s the
+turn it makes is not the commanded one scaled, and a scale fitted interval by interval comes
+out too small (regression dilution: on MRCLAM Dataset 6 the ground truth's turn against the
+command is 0.83-0.88 per 0.1 s, 0.91-0.94 per 1 s and 0.93-0.97 per 5 s). Intervals of a
+second, several times the robots' delay of about 0.2 s, compare what the robot does with what
+it was told."""
 
 
 @dataclass
@@ -189,7 +198,7 @@ def associate_known(drive: Drive, reflectors: tuple[Reflector, ...]) -> None:
 
 def prepare(name: str, data: LogData, reflectors: tuple[Reflector, ...], *,
             observations: str = "auto", mcu_baud: float = MCU_BAUD,
-            node_rate_hz: float = 10.0) -> Drive:
+            node_rate_hz: float = TWIST_NODE_RATE_HZ) -> Drive:
     """A :class:`Drive` from a log's data. ``observations``: ``auto`` (scans and the poses
     beside them), ``scans`` or ``poses``.
 

@@ -49,7 +49,7 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
     Quantity("nav_time_offset", "ms", 1e3, "any", 0.02, 1.0,
              "driving at changing speeds (or turning at changing rates)"),
     Quantity("nav_pose_age", "ms", 1e3, "any", 0.02, 1.0,
-             "NAV poses beside reflector scans, and motion"),
+             "NAV poses beside reflector scans, and turning"),
     Quantity("odom_scale_v", "", 1.0, "twist", 0.05, 1.0, "travel"),
     Quantity("odom_scale_w", "", 1.0, "twist", 0.05, 1.0, "turning"),
 )}

@@ -177,17 +177,21 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     if "nav_time_offset" in sol.sigma:
         sigma["nav_time_offset"] = math.hypot(sol.sigma["nav_time_offset"], TIME_FLOOR_S)
     if "nav_pose_age" in names:
-        age, age_sigma, used = fit_pose_age(drives, sol.poses, values, start["nav_pose_age"])
-        if used and math.isfinite(age_sigma) and age_sigma <= QUANTITIES[
+        fit = fit_pose_age(drives, sol.poses, values, start["nav_pose_age"])
+        if fit.used and math.isfinite(fit.sigma_fit) and fit.sigma_fit <= QUANTITIES[
                 "nav_pose_age"].max_sigma:
-            values["nav_pose_age"] = max(0.0, age)
-            sigma["nav_pose_age"] = age_sigma
+            values["nav_pose_age"] = max(0.0, fit.age)
+            sigma["nav_pose_age"] = fit.sigma
+            if fit.sigma > 2.0 * fit.sigma_fit:
+                own = ", ".join(f"{a * 1e3:.1f}" for a in fit.per_drive)
+                warnings.append(f"nav_pose_age differs between the logs ({own} ms): its "
+                                f"1-sigma includes the spread")
         elif allow_unobservable:
-            sol.unobservable["nav_pose_age"] = age_sigma
+            sol.unobservable["nav_pose_age"] = fit.sigma_fit
             warnings.append("nav_pose_age is not observable by these drives: held at its "
                             "starting value")
         else:
-            raise InputError(_unobservable_line({"nav_pose_age": age_sigma}))
+            raise InputError(_unobservable_line({"nav_pose_age": fit.sigma_fit}))
     estimates: dict[str, Estimate] = {}
     for n in QUANTITIES:
         if QUANTITIES[n].motion not in ("any", motion):
