@@ -140,18 +140,29 @@ def read_quality(reader: LogReader, t0: float | None = None) -> DataQuality:
     start = first if t0 is None else t0
     duration = (max(ends) * 1e-9 - start) if ends else 0.0
     wanted = [t for t in (topics.DIAGNOSTICS, topics.NAV_POSE, *GAP_TOPICS) if t in infos]
-    cols = reader.raw_columns(wanted)
     diags: list[dict[str, Any]] = []
-    valid: NDArray[np.bool_] = np.zeros(0, dtype=bool)
+    valid: list[bool] = []
+    stamps: dict[str, list[NDArray[np.int64]]] = {}
+    # one chunk at a time: only the times, the diagnostics and the NAV poses' valid flags are
+    # kept, never the bytes of the (100 Hz) MCU frames of the whole log
+    for block in reader.raw_column_chunks(wanted):
+        for topic, (log_ns, raw) in block.items():
+            if topic == topics.DIAGNOSTICS:
+                diags.extend(orjson.loads(b) for b in raw)
+                continue
+            if topic == topics.NAV_POSE:
+                valid.extend(bool(orjson.loads(b).get("valid")) for b in raw)
+            stamps.setdefault(topic, []).append(np.asarray(log_ns, dtype=np.int64))
     times: dict[str, NDArray[np.float64]] = {}
-    for topic, (log_ns, raw) in cols.items():
-        if topic == topics.DIAGNOSTICS:
-            diags = [orjson.loads(b) for b in raw]
-            continue
+    nav_valid = np.array(valid, dtype=bool)
+    for topic, parts in stamps.items():
+        t = np.concatenate(parts)
+        order = np.argsort(t, kind="stable")
         if topic == topics.NAV_POSE:
-            valid = np.array([bool(orjson.loads(b).get("valid")) for b in raw], dtype=bool)
-        times[topic] = np.sort(np.asarray(log_ns, dtype=np.int64)).astype(np.float64) * 1e-9
-    return summarise(diags, t0=start, duration=duration, nav_valid=valid, topic_times=times)
+            nav_valid = nav_valid[order]
+        times[topic] = t[order].astype(np.float64) * 1e-9
+    return summarise(diags, t0=start, duration=duration, nav_valid=nav_valid,
+                     topic_times=times)
 
 
 def quality_of_log(path: str, t0: float | None = None) -> DataQuality | None:
