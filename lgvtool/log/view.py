@@ -4,30 +4,27 @@ From the log's own data: the NAV's head pose and frames (/nav/head, /nav/tf), ea
 scan in the head's frame (/nav/scan), the ground truth's frames (/truth/tf) and the reference
 circle (/reference/circle); from each estimator's output: its frames and covariance ellipse
 (/estimate/NAME/tf, /estimate/NAME/covariance). The messages themselves are built by
-:mod:`lgvtool.log.foxglove`. Times in integer ns since the Unix epoch.
+:mod:`lgvtool.log.foxglove`, a window of log time at a time (:mod:`lgvtool.log.windows`):
+each stream keeps only its numeric rows until then. Times in integer ns since the Unix epoch.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any
 
 import orjson
 
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
+from lgvtool.log.windows import Source, constant, source
 
 if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
     from lgvtool.log.reader import LogReader
-
-
-class Stream(NamedTuple):
-    """Messages of one topic in time order: log times (ns) and JSON texts."""
-
-    topic: str
-    times: list[int]
-    datas: list[bytes]
 
 
 MOVING_SPEED = 0.01
@@ -50,39 +47,73 @@ def _floats(docs: list[dict[str, Any]], key: str) -> Any:
                      for d in docs], dtype=np.float64)
 
 
-def nav_streams(reader: LogReader, m: fx.Mounting, fallback: str = "truth") -> list[Stream]:
+def _scan_rows(docs: list[dict[str, Any]]) -> tuple[Any, ...]:
+    """The reflector scans of ``docs`` as flat arrays: start (ns), row offsets, then per
+    observation range (m), bearing (rad), id and time in scan (s)."""
+    import numpy as np
+
+    start = np.array([d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"]
+                      for d in docs], dtype=np.int64)
+    obs = [d.get("observations", []) for d in docs]
+    offsets = np.zeros(len(obs) + 1, dtype=np.int64)
+    np.cumsum([len(o) for o in obs], out=offsets[1:])
+    flat = [o for row in obs for o in row]
+    rng = np.array([float(o["range"]) for o in flat], dtype=np.float64)
+    brg = np.array([float(o["bearing"]) for o in flat], dtype=np.float64)
+    ids = np.array([int(o.get("id", -1)) for o in flat], dtype=np.int64)
+    dts = np.array([float(o.get("time_in_scan", 0.0)) for o in flat], dtype=np.float64)
+    return start, offsets, rng, brg, ids, dts
+
+
+def _scan_encoder(t: NDArray[np.int64], rows: tuple[Any, ...], source_name: str) -> Any:
+    start, offsets, rng, brg, ids, dts = rows
+
+    def encode(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
+        scans = [(int(start[i]), rng[offsets[i]:offsets[i + 1]], brg[offsets[i]:offsets[i + 1]],
+                  ids[offsets[i]:offsets[i + 1]], dts[offsets[i]:offsets[i + 1]])
+                 for i in idx.tolist()]
+        return t[idx].tolist(), fx.scan_scenes_many(scans, source_name)
+    return encode
+
+
+def _poses(t: NDArray[np.int64], x: Any, y: Any, h: Any) -> Any:
+    return lambda idx: (t[idx].tolist(), fx.pose_in_frame_many(t[idx], x[idx], y[idx], h[idx]))
+
+
+def _frames(name: str, t: NDArray[np.int64], x: Any, y: Any, h: Any, m: fx.Mounting) -> Any:
+    return lambda idx: fx.frame_transforms_many(name, t[idx], x[idx], y[idx], h[idx], m)
+
+
+def nav_streams(reader: LogReader, m: fx.Mounting, fallback: str = "truth") -> list[Source]:
     """/nav/head and /nav/tf of every valid NAV pose, /nav/scan of every reflector scan,
     drawn in the frame nav/head when the log has a valid NAV pose, else in the head frame of
     ``fallback`` (an imported dataset's sensor reports no pose: its scans ride on the head of
     the ground truth, or of an estimator)."""
     import numpy as np
 
-    out: list[Stream] = []
+    out: list[Source] = []
     times, docs = _docs(reader, T.NAV_POSE)
     if docs:
         x, y, h = (_floats(docs, k) for k in ("x", "y", "heading"))
         ok = np.array([bool(d.get("valid")) for d in docs]) & np.isfinite(x + y + h)
+        del docs
         t = np.asarray(times, dtype=np.int64)[ok]
         x, y, h = x[ok], y[ok], h[ok]
         if len(t):
-            out.append(Stream(T.NAV_HEAD, t.tolist(), fx.pose_in_frame_many(t, x, y, h)))
+            out.append(source(T.NAV_HEAD, t, _poses(t, x, y, h)))
             ox, oy, oh = fx.o_from_head(x, y, h, m)
-            out.append(Stream(T.NAV_TF, *fx.frame_transforms_many("nav", t, ox, oy, oh, m)))
+            out.append(source(T.NAV_TF, t, _frames("nav", t, ox, oy, oh, m)))
     times, docs = _docs(reader, T.NAV_REFLECTORS)
-    scans = []
-    for d in docs:
-        obs = d.get("observations", [])
-        scans.append((d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"],
-                      [float(o["range"]) for o in obs], [float(o["bearing"]) for o in obs],
-                      [int(o.get("id", -1)) for o in obs],
-                      [float(o.get("time_in_scan", 0.0)) for o in obs]))
-    if scans:
-        source = "nav" if out else fallback
-        out.append(Stream(T.NAV_SCAN, times, fx.scan_scenes_many(scans, source)))
+    if docs:
+        rows = _scan_rows(docs)
+        del docs
+        t_scan = np.asarray(times, dtype=np.int64)
+        out.append(source(T.NAV_SCAN, t_scan,
+                          _scan_encoder(t_scan, rows, "nav" if out else fallback)))
     return out
 
 
-def truth_stream(reader: LogReader, m: fx.Mounting) -> list[Stream]:
+def truth_stream(reader: LogReader, m: fx.Mounting) -> list[Source]:
     """/truth/tf of every ground-truth pose of O."""
     import numpy as np
 
@@ -92,9 +123,10 @@ def truth_stream(reader: LogReader, m: fx.Mounting) -> list[Stream]:
     a = np.array([(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
                    d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
                   for d in docs], dtype=np.float64)
+    del docs
     yaw = 2.0 * np.arctan2(a[:, 2], a[:, 3])
-    return [Stream(T.TRUTH_TF, *fx.frame_transforms_many("truth", times, a[:, 0], a[:, 1],
-                                                         yaw, m))]
+    t = np.asarray(times, dtype=np.int64)
+    return [source(T.TRUTH_TF, t, _frames("truth", t, a[:, 0].copy(), a[:, 1].copy(), yaw, m))]
 
 
 def steering_angle(reader: LogReader) -> float | None:
@@ -111,7 +143,7 @@ def steering_angle(reader: LogReader) -> float | None:
 
 
 def reference_stream(reader: LogReader, config: Any,
-                     tables: Mapping[str, Any]) -> list[Stream]:
+                     tables: Mapping[str, Any]) -> list[Source]:
     """/reference/circle: the circle the drive follows, once at the start of the trajectory it
     is fitted to (the ground truth, else the laser estimate, else the first estimator's),
     with the kinematic radius R = h / tan(steering) when the steering is known (logged, else
@@ -152,19 +184,25 @@ def reference_stream(reader: LogReader, config: Any,
     if not math.isfinite(c.r) or rmse > max(NOT_A_CIRCLE * c.r, 0.1):
         return []
     msg = fx.reference_circle(t0, c.cx, c.cy, c.r, label=label)
-    return [Stream(T.REFERENCE, [t0], [orjson.dumps(msg)])]
+    return [constant(T.REFERENCE, [t0], [orjson.dumps(msg)])]
 
 
-def estimate_streams(name: str, tab: Any, m: fx.Mounting) -> list[Stream]:
+def estimate_streams(name: str, tab: Any, m: fx.Mounting) -> list[Source]:
     """/estimate/NAME/tf and /estimate/NAME/covariance of an estimate table (rows with a
     finite pose; covariance ellipses also need a finite covariance)."""
-    t_tf, tf = fx.frame_transforms_many(name, tab.t_ns, tab.x, tab.y, tab.heading, m)
-    t_cov, cov = fx.covariance_ellipse_many(name, tab.t_ns, tab.x, tab.y, tab.covariance)
-    return [Stream(T.estimate_tf(name), t_tf, tf),
-            Stream(T.estimate_covariance(name), t_cov, cov)]
+    import numpy as np
+
+    t = np.asarray(tab.t_ns, dtype=np.int64)
+    x, y = np.asarray(tab.x, dtype=np.float64), np.asarray(tab.y, dtype=np.float64)
+    h = np.asarray(tab.heading, dtype=np.float64)
+    cov = np.asarray(tab.covariance, dtype=np.float64).reshape(len(t), 9)
+    return [source(T.estimate_tf(name), t, _frames(name, t, x, y, h, m)),
+            source(T.estimate_covariance(name), t,
+                   lambda idx: fx.covariance_ellipse_many(name, t[idx], x[idx], y[idx],
+                                                          cov[idx]))]
 
 
-def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any]) -> list[Stream]:
+def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any]) -> list[Source]:
     """Every Foxglove view channel of a replayed log: from the log (NAV, truth, reference
     circle) and from the estimators' ``tables`` (frames and covariance ellipses)."""
     m = fx.mounting_of(config.vehicle)
