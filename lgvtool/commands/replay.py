@@ -177,9 +177,9 @@ def _write(reader: Any, output: str, result: Any, config: Any, source: str,
     lgvtool.log.windows.WINDOW_NS) at a time, as the merge reaches it."""
     from pathlib import Path
 
+    from lgvtool.localize.replay_sources import replay_sources
     from lgvtool.log import LogWriter
     from lgvtool.log.windows import WINDOW_NS, WindowedMerge
-    from lgvtool.localize.replay_sources import replay_sources
 
     merge = WindowedMerge(replay_sources(reader, result, view_config),
                           WINDOW_NS if window_ns is None else window_ns)

@@ -11,7 +11,8 @@ each stream keeps only its numeric rows until then. Times in integer ns since th
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from array import array
+from collections.abc import Iterator, Mapping
 from typing import TYPE_CHECKING, Any
 
 import orjson
@@ -31,38 +32,42 @@ MOVING_SPEED = 0.01
 """Drive speed above which an MCU frame counts for the steering median, m/s."""
 
 
-def _docs(reader: LogReader, topic: str) -> tuple[list[int], list[dict[str, Any]]]:
-    cols = reader.raw_columns([topic]) if reader.has_topic(topic) else {}
-    if topic not in cols:
-        return [], []
-    t, raw = cols[topic]
+def _each(reader: LogReader, topic: str) -> Iterator[tuple[int, dict[str, Any]]]:
+    """(log time ns, decoded message) of every message of ``topic``, one at a time (a long
+    log's messages are never all decoded at once)."""
+    if not reader.has_topic(topic):
+        return
     loads = orjson.loads
-    return [int(v) for v in t.tolist()], [loads(d) for d in raw]
+    for m in reader.raw_messages([topic]):
+        yield m.log_time_ns, loads(m.data)
 
 
-def _floats(docs: list[dict[str, Any]], key: str) -> Any:
+def _num(d: dict[str, Any], key: str) -> float:
+    v = d.get(key)
+    return float(v) if isinstance(v, int | float) else math.nan
+
+
+def _scan_rows(reader: LogReader) -> tuple[Any, ...]:
+    """The reflector scans of the log as flat arrays: log time (ns), start (ns), row offsets,
+    then per observation range (m), bearing (rad), id and time in scan (s)."""
     import numpy as np
 
-    return np.array([v if isinstance(v := d.get(key), int | float) else math.nan
-                     for d in docs], dtype=np.float64)
-
-
-def _scan_rows(docs: list[dict[str, Any]]) -> tuple[Any, ...]:
-    """The reflector scans of ``docs`` as flat arrays: start (ns), row offsets, then per
-    observation range (m), bearing (rad), id and time in scan (s)."""
-    import numpy as np
-
-    start = np.array([d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"]
-                      for d in docs], dtype=np.int64)
-    obs = [d.get("observations", []) for d in docs]
-    offsets = np.zeros(len(obs) + 1, dtype=np.int64)
-    np.cumsum([len(o) for o in obs], out=offsets[1:])
-    flat = [o for row in obs for o in row]
-    rng = np.array([float(o["range"]) for o in flat], dtype=np.float64)
-    brg = np.array([float(o["bearing"]) for o in flat], dtype=np.float64)
-    ids = np.array([int(o.get("id", -1)) for o in flat], dtype=np.int64)
-    dts = np.array([float(o.get("time_in_scan", 0.0)) for o in flat], dtype=np.float64)
-    return start, offsets, rng, brg, ids, dts
+    times, start, offsets = array("q"), array("q"), array("q", [0])
+    rng, brg, ids, dts = array("d"), array("d"), array("q"), array("d")
+    for t, d in _each(reader, T.NAV_REFLECTORS):
+        times.append(t)
+        start.append(d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"])
+        obs = d.get("observations", [])
+        offsets.append(offsets[-1] + len(obs))
+        for o in obs:
+            rng.append(float(o["range"]))
+            brg.append(float(o["bearing"]))
+            ids.append(int(o.get("id", -1)))
+            dts.append(float(o.get("time_in_scan", 0.0)))
+    return (np.array(times, dtype=np.int64), np.array(start, dtype=np.int64),
+            np.array(offsets, dtype=np.int64), np.array(rng, dtype=np.float64),
+            np.array(brg, dtype=np.float64), np.array(ids, dtype=np.int64),
+            np.array(dts, dtype=np.float64))
 
 
 def _scan_encoder(t: NDArray[np.int64], rows: tuple[Any, ...], source_name: str) -> Any:
@@ -92,50 +97,59 @@ def nav_streams(reader: LogReader, m: fx.Mounting, fallback: str = "truth") -> l
     import numpy as np
 
     out: list[Source] = []
-    times, docs = _docs(reader, T.NAV_POSE)
-    if docs:
-        x, y, h = (_floats(docs, k) for k in ("x", "y", "heading"))
-        ok = np.array([bool(d.get("valid")) for d in docs]) & np.isfinite(x + y + h)
-        del docs
-        t = np.asarray(times, dtype=np.int64)[ok]
+    rows = [(t, _num(d, "x"), _num(d, "y"), _num(d, "heading"), bool(d.get("valid")))
+            for t, d in _each(reader, T.NAV_POSE)]
+    if rows:
+        x, y, h = (np.array([r[k] for r in rows], dtype=np.float64) for k in (1, 2, 3))
+        ok = np.array([r[4] for r in rows]) & np.isfinite(x + y + h)
+        t = np.array([r[0] for r in rows], dtype=np.int64)[ok]
+        del rows
         x, y, h = x[ok], y[ok], h[ok]
         if len(t):
             out.append(source(T.NAV_HEAD, t, _poses(t, x, y, h)))
             ox, oy, oh = fx.o_from_head(x, y, h, m)
             out.append(source(T.NAV_TF, t, _frames("nav", t, ox, oy, oh, m)))
-    times, docs = _docs(reader, T.NAV_REFLECTORS)
-    if docs:
-        rows = _scan_rows(docs)
-        del docs
-        t_scan = np.asarray(times, dtype=np.int64)
+    t_scan, *scans = _scan_rows(reader)
+    if len(t_scan):
         out.append(source(T.NAV_SCAN, t_scan,
-                          _scan_encoder(t_scan, rows, "nav" if out else fallback)))
+                          _scan_encoder(t_scan, tuple(scans), "nav" if out else fallback)))
     return out
+
+
+def _truth_rows(reader: LogReader) -> tuple[Any, Any, Any, Any]:
+    """Log times (ns), x, y (m) and yaw (rad) of every ground-truth pose of O."""
+    import numpy as np
+
+    t, x, y, qz, qw = array("q"), array("d"), array("d"), array("d"), array("d")
+    for ns, d in _each(reader, T.TRUTH):
+        pose = d["pose"]
+        t.append(ns)
+        x.append(pose["position"]["x"])
+        y.append(pose["position"]["y"])
+        qz.append(pose["orientation"].get("z", 0.0))
+        qw.append(pose["orientation"].get("w", 1.0))
+    yaw = 2.0 * np.arctan2(np.array(qz, dtype=np.float64), np.array(qw, dtype=np.float64))
+    return (np.array(t, dtype=np.int64), np.array(x, dtype=np.float64),
+            np.array(y, dtype=np.float64), yaw)
 
 
 def truth_stream(reader: LogReader, m: fx.Mounting) -> list[Source]:
     """/truth/tf of every ground-truth pose of O."""
-    import numpy as np
-
-    times, docs = _docs(reader, T.TRUTH)
-    if not docs:
+    t, x, y, yaw = _truth_rows(reader)
+    if not len(t):
         return []
-    a = np.array([(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
-                   d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
-                  for d in docs], dtype=np.float64)
-    del docs
-    yaw = 2.0 * np.arctan2(a[:, 2], a[:, 3])
-    t = np.asarray(times, dtype=np.int64)
-    return [source(T.TRUTH_TF, t, _frames("truth", t, a[:, 0].copy(), a[:, 1].copy(), yaw, m))]
+    return [source(T.TRUTH_TF, t, _frames("truth", t, x, y, yaw, m))]
 
 
 def steering_angle(reader: LogReader) -> float | None:
     """Median logged steering angle while driving, rad (None without MCU frames)."""
     import numpy as np
 
-    _times, docs = _docs(reader, T.MCU_FRAME)
-    angle = np.array([float(d.get("steering_angle", math.nan)) for d in docs])
-    speed = np.array([abs(float(d.get("drive_speed", 0.0))) for d in docs])
+    angles, speeds = array("d"), array("d")
+    for _t, d in _each(reader, T.MCU_FRAME):
+        angles.append(float(d.get("steering_angle", math.nan)))
+        speeds.append(abs(float(d.get("drive_speed", 0.0))))
+    angle, speed = np.array(angles, dtype=np.float64), np.array(speeds, dtype=np.float64)
     ok = np.isfinite(angle)
     if (ok & (speed > MOVING_SPEED)).any():
         ok &= speed > MOVING_SPEED
@@ -154,11 +168,9 @@ def reference_stream(reader: LogReader, config: Any,
     from lgvtool.evaluate.circle import fit_circle
     from lgvtool.evaluate.reference import NOT_A_CIRCLE, TRIM, kinematic_radius
 
-    times, docs = _docs(reader, T.TRUTH)
-    if docs:
-        t0 = times[0]
-        x = np.array([d["pose"]["position"]["x"] for d in docs], dtype=float)
-        y = np.array([d["pose"]["position"]["y"] for d in docs], dtype=float)
+    t_truth, x, y, _yaw = _truth_rows(reader)
+    if len(t_truth):
+        t0 = int(t_truth[0])
         label = "reference (truth)"
     else:
         name = "laser" if "laser" in tables else next(iter(tables), None)

@@ -214,7 +214,8 @@ class LogWriter:
         merged with the copied ones so that the file is in log-time order (a copied message
         first at equal times); or an iterable (not a tuple) of such batches, each sorted and the
         batches in increasing time, taken one at a time as the merge reaches them (so that
-        only one batch need exist at once, e.g. :class:`lgvtool.log.windows.WindowedMerge`). Without it, a complete input copied into a fresh writer has its
+        only one batch need exist at once, e.g. :class:`lgvtool.log.windows.WindowedMerge`).
+        Without it, a complete input copied into a fresh writer has its
         chunks copied verbatim (no decoding); otherwise messages are copied one by one.
         """
         if metadata:

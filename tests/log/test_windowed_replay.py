@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -85,7 +86,7 @@ def test_copy_from_merges_batches_as_one_sorted_extra(tmp_path: Path) -> None:
     cuts = [0, 1, 1, 50, 333, 334, 700, 900]  # empty batches too
     outs = []
     for name, extra in {"one": _pose_batch(t),
-                        "many": iter([_pose_batch(t[a:b]) for a, b in zip(cuts, cuts[1:])])
+                        "many": iter([_pose_batch(t[a:b]) for a, b in pairwise(cuts)])
                         }.items():
         out = tmp_path / f"{name}.mcap"
         with LogWriter(out, chunk_seconds=None) as w:
