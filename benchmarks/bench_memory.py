@@ -4,13 +4,15 @@
 Run by hand (never a timed test)::
 
     python benchmarks/bench_memory.py [--hours 1,2,4] [--cache DIR] [--estimator NAME]
+                                      [--view | --no-view]
 
 The logs are simulated once with ``lgvtool simulate --scenario paper-circle --seed 1`` and
 kept in ``--cache`` (default: a folder in the system's temporary directory), so a second run
 measures only the commands. Each command runs as a subprocess; its peak resident set (the
 largest RSS of the child, ``getrusage(RUSAGE_CHILDREN).ru_maxrss`` read in a fresh
 intermediate process so that earlier runs do not mask it) and its wall time are printed,
-with the ratio of the 4-hour peak to the 1-hour peak (target: at most 2).
+with the ratio of the 4-hour peak to the 1-hour peak (target: at most 2). ``replay`` writes
+the Foxglove view channels (its default, ``--view``) unless ``--no-view`` is given.
 """
 
 from __future__ import annotations
@@ -68,6 +70,8 @@ def main() -> None:
     ap.add_argument("--estimator", action="append", default=[],
                     help="estimator(s) to run (default: the commands' defaults, all five)")
     ap.add_argument("--commands", default="evaluate,replay", help="which commands to measure")
+    ap.add_argument("--view", action=argparse.BooleanOptionalAction, default=True,
+                    help="replay with its Foxglove view channels (default) or --no-view")
     opts = ap.parse_args()
     hours = [float(h) for h in opts.hours.split(",")]
     opts.cache.mkdir(parents=True, exist_ok=True)
@@ -84,7 +88,7 @@ def main() -> None:
             out.with_suffix(".mcap").unlink(missing_ok=True)
             rows.setdefault("replay", {})[h] = measure(
                 ["replay", str(log), "-o", str(out.with_suffix(".mcap")), "--seed", "0",
-                 *est])
+                 "--view" if opts.view else "--no-view", *est])
         for cmd, per in rows.items():
             r = per[h]
             print(f"{cmd:9s} {h:4g} h: peak RSS {r['peak_mb']:7.1f} MB, "

@@ -167,60 +167,25 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
 
 
 def _write(reader: Any, output: str, result: Any, config: Any, source: str,
-           compression: str = "zstd", view_config: Any = None) -> int:
+           compression: str = "zstd", view_config: Any = None,
+           window_ns: int | None = None) -> int:
     """The input's messages, the metadata, the estimates and the Foxglove view channels
     (lgvtool.log.view), merged in log-time order (an input message first at one time, then
     pose before state before cloud before the view channels, estimators in run order), so
-    that the file passes the reference checker without an ordering warning."""
+    that the file passes the reference checker without an ordering warning. The added
+    messages are encoded one window of log time (``window_ns``, default
+    lgvtool.log.windows.WINDOW_NS) at a time, as the merge reaches it."""
     from pathlib import Path
 
-    import numpy as np
-    import orjson
+    from lgvtool.localize.replay_sources import replay_sources
+    from lgvtool.log import LogWriter
+    from lgvtool.log.windows import WINDOW_NS, WindowedMerge
 
-    from lgvtool.log import LogWriter, messages, topics
-    from lgvtool.log import foxglove as fx
-    from lgvtool.log.view import view_streams
-
-    streams: list[tuple[str, Any, list[bytes]]] = [
-        (topics.estimate_pose(name), tab.t_ns,
-         fx.pose_in_frame_many(tab.t_ns, tab.x, tab.y, tab.heading))
-        for name, tab in result.tables.items()]
-    streams += [(topics.estimate_state(name), tab.t_ns, fx.pose_estimate_many(
-        name, tab.t_ns, tab.x, tab.y, tab.heading, tab.covariance, tab.particles, tab.ess))
-        for name, tab in result.tables.items()]
-    for name, clouds in result.clouds.items():
-        streams.append((topics.estimate_particles(name), [c[0] for c in clouds],
-                        fx.poses_in_frame_many(clouds)))
-    if view_config is not None:
-        streams += view_streams(reader, view_config, result.tables)
-    gated = result.gated
-    if gated:  # the NAV poses the plausibility gate left out, on /diagnostics and its mirror
-        diags = [messages.diagnostic_message(t_ns, "nav200", "pose_implausible", text, level=3)
-                 for t_ns, text in gated]
-        t_gated = [t_ns for t_ns, _ in gated]
-        streams.append((topics.DIAGNOSTICS, t_gated, [orjson.dumps(d) for d in diags]))
-        streams.append((topics.DIAGNOSTICS_LOG, t_gated,
-                        [orjson.dumps(messages.log_message_of(d)) for d in diags]))
-    written = {s[0] for s in streams}
-    skip = frozenset(t for t in written if reader.has_topic(t))
-    names: list[str] = []
-    datas: list[bytes] = []
-    times: list[Any] = []
-    keys: list[Any] = []  # the stream's rank: ties at one time keep the order above
-    for rank, (topic, t_ns, encoded) in enumerate(streams):
-        names.extend([topic] * len(encoded))
-        datas.extend(encoded)
-        times.append(np.asarray(t_ns, dtype=np.int64))
-        keys.append(np.full(len(encoded), rank, dtype=np.int64))
-    t_all = np.concatenate(times) if times else np.zeros(0, dtype=np.int64)
-    k_all = np.concatenate(keys) if keys else np.zeros(0, dtype=np.int64)
-    order_all = np.lexsort((k_all, t_all)).tolist()
-    n_written = 0
+    merge = WindowedMerge(replay_sources(reader, result, view_config),
+                          WINDOW_NS if window_ns is None else window_ns)
+    skip = frozenset(t for t in merge.topics if reader.has_topic(t))
     with LogWriter(output, source="replay", chunk_seconds=None, compression=compression) as w:
-        n_written += w.copy_from(reader, skip_topics=skip, extra=(
-            [names[i] for i in order_all], [datas[i] for i in order_all],
-            t_all[order_all].tolist()))
-        n_written += len(order_all)
+        n_written = w.copy_from(reader, skip_topics=skip, extra=merge) + merge.count
         w.add_metadata("replay", {
             "input": Path(source).name,
             "seed": result.seed,

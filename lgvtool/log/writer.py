@@ -41,6 +41,9 @@ what wrote the file."""
 
 _COMPRESSION = ("zstd", "lz4", "none")
 
+_Batch = tuple[Sequence[str], Sequence[bytes], Sequence[int]]
+"""Messages to write: (topics, JSON texts, log times in ns), in time order."""
+
 REORDER_NS = 50_000_000
 """How much older than the newest message (ns) a message may reach a time-chunked writer
 (a recorder's threads) and still be written in log-time order: the newest 50 ms of a closing
@@ -203,14 +206,16 @@ class LogWriter:
 
     def copy_from(self, reader: LogReader, *, skip_topics: frozenset[str] = frozenset(),
                   metadata: bool = True,
-                  extra: tuple[Sequence[str], Sequence[bytes], Sequence[int]] | None = None
-                  ) -> int:
+                  extra: _Batch | Iterable[_Batch] | None = None) -> int:
         """Copy every message of ``reader`` (except ``skip_topics``) into this log, and its
         metadata records other than 'lgvtool'. Returns the number of messages copied.
 
         ``extra``: (topics, JSON datas, log times in ns) of further messages, sorted by time,
         merged with the copied ones so that the file is in log-time order (a copied message
-        first at equal times). Without it, a complete input copied into a fresh writer has its
+        first at equal times); or an iterable (not a tuple) of such batches, each sorted and the
+        batches in increasing time, taken one at a time as the merge reaches them (so that
+        only one batch need exist at once, e.g. :class:`lgvtool.log.windows.WindowedMerge`).
+        Without it, a complete input copied into a fresh writer has its
         chunks copied verbatim (no decoding); otherwise messages are copied one by one.
         """
         if metadata:
@@ -231,10 +236,10 @@ class LogWriter:
             n = sum(counts.values())
             self.message_count += n
             return n
-        if extra is None:
-            extra = ((), (), ())
-        e_topics, e_datas, e_times = extra
+        batches = iter([extra] if isinstance(extra, tuple) else extra if extra else [])
+        e_topics, e_datas, e_times = next(batches, ((), (), ()))
         n_extra = len(e_times)
+        more = True
         batch: tuple[list[str], list[bytes], list[int]] = ([], [], [])
         j = n = 0
         registered: set[str] = set()
@@ -243,11 +248,20 @@ class LogWriter:
             if m.topic in skip_topics:
                 continue
             t = m.log_time_ns
-            while j < n_extra and e_times[j] < t:
-                batch[0].append(e_topics[j])
-                batch[1].append(e_datas[j])
-                batch[2].append(e_times[j])
-                j += 1
+            while True:
+                while j < n_extra and e_times[j] < t:
+                    batch[0].append(e_topics[j])
+                    batch[1].append(e_datas[j])
+                    batch[2].append(e_times[j])
+                    j += 1
+                if j < n_extra or not more:
+                    break
+                nxt = next(batches, None)
+                if nxt is None:
+                    more = False
+                    break
+                e_topics, e_datas, e_times = nxt
+                j, n_extra = 0, len(e_times)
             if m.topic not in registered:
                 registered.add(m.topic)
                 if m.schema:
@@ -263,6 +277,8 @@ class LogWriter:
         batch[1].extend(e_datas[j:])
         batch[2].extend(e_times[j:])
         self.write_encoded_many(*batch)
+        for rest in batches:
+            self.write_encoded_many(*rest)
         return n
 
     def write_config(self, config: Config) -> None:

@@ -1,0 +1,87 @@
+"""What ``replay`` adds to a log, as sources encoded a window at a time
+(:mod:`lgvtool.log.windows`): per estimator its poses, states and particle clouds, the
+Foxglove view channels (:mod:`lgvtool.log.view`) and the NAV poses the plausibility gate left
+out (/diagnostics and its foxglove.Log mirror). Sources are in the order in which messages at
+one log time are written. Times in integer ns since the Unix epoch.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from lgvtool.log.windows import Source, source
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+
+def _estimate_sources(name: str, tab: Any) -> tuple[Source, Source]:
+    import numpy as np
+
+    from lgvtool.log import foxglove as fx
+    from lgvtool.log import topics
+
+    t = np.asarray(tab.t_ns, dtype=np.int64)
+    x, y, h = (np.asarray(v, dtype=np.float64) for v in (tab.x, tab.y, tab.heading))
+    cov = np.asarray(tab.covariance, dtype=np.float64).reshape(len(t), 9)
+    particles = np.asarray(tab.particles, dtype=np.int64)
+    ess = np.asarray(tab.ess, dtype=np.float64)
+
+    def pose(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
+        return t[idx].tolist(), fx.pose_in_frame_many(t[idx], x[idx], y[idx], h[idx])
+
+    def state(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
+        return t[idx].tolist(), fx.pose_estimate_many(name, t[idx], x[idx], y[idx], h[idx],
+                                                      cov[idx], particles[idx], ess[idx])
+
+    return (source(topics.estimate_pose(name), t, pose),
+            source(topics.estimate_state(name), t, state))
+
+
+def _cloud_source(name: str, clouds: list[Any]) -> Source:
+    from lgvtool.log import foxglove as fx
+    from lgvtool.log import topics
+
+    def encode(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
+        chosen = [clouds[i] for i in idx.tolist()]
+        return [int(c[0]) for c in chosen], fx.poses_in_frame_many(chosen)
+
+    return source(topics.estimate_particles(name), [c[0] for c in clouds], encode)
+
+
+def _gated_sources(gated: list[tuple[int, str]]) -> list[Source]:
+    import orjson
+
+    from lgvtool.log import messages, topics
+
+    def diags(idx: NDArray[np.intp]) -> list[dict[str, Any]]:
+        return [messages.diagnostic_message(gated[i][0], "nav200", "pose_implausible",
+                                            gated[i][1], level=3) for i in idx.tolist()]
+
+    def diagnostics(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
+        return [gated[i][0] for i in idx.tolist()], [orjson.dumps(d) for d in diags(idx)]
+
+    def mirror(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
+        return ([gated[i][0] for i in idx.tolist()],
+                [orjson.dumps(messages.log_message_of(d)) for d in diags(idx)])
+
+    t = [t_ns for t_ns, _ in gated]
+    return [source(topics.DIAGNOSTICS, t, diagnostics),
+            source(topics.DIAGNOSTICS_LOG, t, mirror)]
+
+
+def replay_sources(reader: Any, result: Any, view_config: Any = None) -> list[Source]:
+    """The sources of a replay ``result`` (lgvtool.localize.replay.ReplayResult) of the log of
+    ``reader``: estimates, then (with ``view_config``, the configuration the view is drawn
+    with) the view channels, then the gated NAV poses."""
+    from lgvtool.log.view import view_streams
+
+    pairs = [_estimate_sources(name, tab) for name, tab in result.tables.items()]
+    out = [p[0] for p in pairs] + [p[1] for p in pairs]
+    out += [_cloud_source(name, clouds) for name, clouds in result.clouds.items()]
+    if view_config is not None:
+        out += view_streams(reader, view_config, result.tables)
+    if result.gated:
+        out += _gated_sources(result.gated)
+    return out
