@@ -3,9 +3,12 @@
 A grid of candidate profiles x robots is run ONCE (each cell: one replay of the estimator from
 its own start over one robot's whole log, scored as :mod:`mrclam_accuracy` scores it, position
 RMSE at every odometry step from the estimator's first estimate). Every fold is derived from
-that matrix: for each robot, the candidate with the best fit score on the *other* robots (the
-worst ratio to the reference EKF plus a quarter of the mean ratio) is chosen and scored on the
-held-out robot (out of sample); the in-sample figure is the candidate chosen on all robots.
+that matrix: for each robot, a candidate is chosen on the *other* robots and scored on the
+held-out robot (out of sample); the in-sample figure is the candidate chosen on all robots. The
+choice is the one-standard-error rule: the candidate of the best fit score (the worst ratio to
+the reference EKF plus a quarter of the mean ratio) replaces the stored profile only if its fit
+beats the profile's by more than the standard error of their per-robot ratio differences; the
+plain best fit is shown beside it.
 The candidates are the recommended profile, each of its noise values moved by -25 % and +25 %
 in turn (so the same matrix gives the sensitivity table), and two other ways of learning the
 odometry scales (:data:`SCALE_VARIANTS`).

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.localize.camera_fix import start_fix
+from lgvtool.localize.camera_fix import residual_chi2, start_fix
 from lgvtool.localize.estimator import Estimate, Motion, Observation
 from lgvtool.localize.kld import bin_keys, kld_count
 from lgvtool.localize.noise import MotionParams
@@ -284,15 +284,15 @@ class ParticleFilter(ParticleSet):
         covariance, 2 degrees of freedom) above, the chi-square quantile of
         ``fix_reset_probability``. A scan whose landmarks contradict each other (a misread id)
         fits no pose and so resets nothing."""
-        from lgvtool.localize.camera_fix import residual_chi2
-
         p = self.params
         if not isinstance(obs, ScanObservation):
             return False
         fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
-        if fix is None or fix[1] is None:
+        if fix is None:
             return False
         (fx, fy, fh), fcov = fix
+        if fcov is None:
+            return False
         d = np.array([cloud[0] - fx, cloud[1] - fy])
         try:
             m2 = float(d @ np.linalg.solve(fcov[:2, :2] + cloud[3][:2, :2], d))
