@@ -283,9 +283,19 @@ class ParticleFilter(ParticleSet):
         Mahalanobis distance in position from the cloud's weighted mean (fix plus cloud
         covariance, 2 degrees of freedom) above, the chi-square quantile of
         ``fix_reset_probability``. A scan whose landmarks contradict each other (a misread id)
-        fits no pose and so resets nothing."""
+        fits no pose and so resets nothing; a scan the cloud's mean already explains (squared
+        residual within the quantile with ``2n`` degrees of freedom) contradicts nothing."""
         p = self.params
         if not isinstance(obs, ScanObservation):
+            return False
+        known = int(np.count_nonzero(obs.map_index(self.map) >= 0))
+        if known < 2:
+            return False
+        # the cloud's mean explains the frame (2n degrees of freedom): nothing contradicts it
+        # (and no fix need be computed)
+        if residual_chi2(cloud[:3], obs, self.map, p.sigma_range_m, p.sigma_range_per_m,
+                         p.sigma_bearing_rad) <= _chi2_quantile(p.fix_reset_probability,
+                                                                2 * known):
             return False
         fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
         if fix is None:
@@ -300,11 +310,9 @@ class ParticleFilter(ParticleSet):
             return False
         if m2 <= _chi2_quantile(p.fix_reset_probability, 2):
             return False
-        known = int(np.count_nonzero(obs.map_index(self.map) >= 0))
         fit = residual_chi2((fx, fy, fh), obs, self.map, p.sigma_range_m, p.sigma_range_per_m,
                             p.sigma_bearing_rad)
-        return known > 1 and fit <= _chi2_quantile(p.fix_reset_probability,
-                                                     max(1, 2 * known - 3))
+        return fit <= _chi2_quantile(p.fix_reset_probability, max(1, 2 * known - 3))
 
     def _around(self, pose: tuple[float, float, float], cov: FloatArray | None, n: int
                 ) -> tuple[FloatArray, FloatArray, FloatArray]:
