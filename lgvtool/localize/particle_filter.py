@@ -20,6 +20,11 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
   range (``sigma_range_m``) and bearing (``sigma_bearing_rad``, i.e. ``r sigma_b`` across the
   ray) plus a uniform density over a disc of radius ``outlier_gate_m``, so a false reflector
   (a shiny object) or a wrong association cannot zero a good particle.
+- ``start_particles`` (off by default): a uniform start with more particles, kept for the first
+  ``start_updates`` updates, then resampled down to ``particles``.
+- ``fix_reset_probability`` (off by default): a frame that the cloud's mean does not explain,
+  whose landmark fix fits its own measurements and lies outside the cloud's region, re-draws
+  ``fix_reset_fraction`` of the particles around that fix (a confident cloud in the wrong place).
 - pose-only observations: with no reflector scans in the log (or ``observations = poses``) the
   particles are weighed against the NAV head pose with ``sigma_pose_xy_m`` and
   ``sigma_pose_heading_rad`` (and the same outlier mixture).
