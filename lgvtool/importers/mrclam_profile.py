@@ -83,6 +83,9 @@ _PF: dict[str, Any] = {
     "scale_sigma_w": 0.05,
     "scale_walk_v": 0.003,
     "scale_walk_w": 0.003,
+    "start_particles": 20000,
+    "start_updates": 10,
+    "fix_reset_probability": 0.99,
 }
 """``pf``: camera noise (a wider bearing noise than the EKF's: a particle set needs a
 likelihood no sharper than its spread), motion noise, a fixed 2000 particles, a start around the
@@ -93,7 +96,12 @@ no augmented-MCL injection (``alpha_slow`` 0): with one landmark in view, which 
 the injected particles would be uniform over the room and pull the mean; the weighted landmark
 fix of the EKF for its start and its sensor resets (particles drawn from the fix's covariance
 plus the spread), and per-particle odometry scales (prior 1 +- 0.05, a random walk of 0.003 per
-sqrt(m) and per sqrt(rad))."""
+sqrt(m) and per sqrt(rad)). A uniform start (``init = uniform``, global localisation) weighs
+20 000 particles for its first 10 camera frames before it shrinks to 2000 (2000 over the arena
+leave about one particle per 0.25 m x 0.25 m x 1.5 rad, too few for a 0.03 rad bearing), and a
+frame that the cloud's mean does not explain, whose landmark fix fits its own measurements but
+lies outside the 99 % region around the cloud (a confident cloud in the wrong place), re-draws
+half of the particles around the fix."""
 
 _PF_PAPER: dict[str, Any] = {
     "use_ids": True,

@@ -38,6 +38,37 @@ def _residuals(pose: FloatArray, obs: ScanObservation, mx: FloatArray, my: Float
     return np.concatenate([nr, nb])
 
 
+def _known(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
+           sigma_range_per_m: float, sigma_bearing_rad: float
+           ) -> tuple[ScanObservation, FloatArray, FloatArray, NDArray[np.complex128], FloatArray,
+                      FloatArray]:
+    """The landmarks of ``obs`` with a known id: the sub-scan, their map positions (m), the
+    sensor origins of the rays (m, body frame), the ray angles (rad) and the weights (inverse
+    variances) of the stacked range and bearing residuals."""
+    j = obs.map_index(rmap)
+    ok = j >= 0
+    ranges = obs.ranges[ok]
+    sub = ScanObservation(obs.t, obs.q[ok], obs.u[ok], ranges, obs.ids[ok])
+    sr = np.sqrt(sigma_range_m ** 2 + (sigma_range_per_m * ranges) ** 2)
+    w = np.concatenate([1.0 / sr ** 2, np.full(len(ranges), 1.0 / sigma_bearing_rad ** 2)])
+    return (sub, rmap.x[j[ok]], rmap.y[j[ok]], (obs.q - obs.ranges * obs.u)[ok],
+            np.angle(obs.u[ok]), w)
+
+
+def residual_chi2(pose: tuple[float, float, float], obs: ScanObservation, rmap: ReflectorMap,
+                  sigma_range_m: float, sigma_range_per_m: float, sigma_bearing_rad: float
+                  ) -> float:
+    """Sum of the squared range and bearing residuals of the known landmarks of ``obs`` seen
+    from the body pose ``pose`` (m, m, rad), each divided by its variance (dimensionless; 0
+    with no known landmark)."""
+    sub, mx, my, origin, ray, w = _known(obs, rmap, sigma_range_m, sigma_range_per_m,
+                                         sigma_bearing_rad)
+    if len(sub) == 0:
+        return 0.0
+    r = _residuals(np.asarray(pose, dtype=np.float64), sub, mx, my, origin, ray)
+    return float(w @ (r * r))
+
+
 def weighted_fix(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
                  sigma_range_per_m: float, sigma_bearing_rad: float
                  ) -> tuple[tuple[float, float, float], FloatArray] | None:
@@ -51,15 +82,9 @@ def weighted_fix(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
     seed = pose_fix(obs, 0.0, 0.0, rmap, use_ids=True)
     if seed is None:
         return None
-    j = obs.map_index(rmap)
-    ok = j >= 0
-    mx, my = rmap.x[j[ok]], rmap.y[j[ok]]
-    ranges = obs.ranges[ok]
-    origin = (obs.q - obs.ranges * obs.u)[ok]
-    ray = np.angle(obs.u[ok])
-    sub = ScanObservation(obs.t, obs.q[ok], obs.u[ok], ranges, obs.ids[ok])
-    sr = np.sqrt(sigma_range_m ** 2 + (sigma_range_per_m * ranges) ** 2)
-    w = np.concatenate([1.0 / sr ** 2, np.full(len(ranges), 1.0 / sigma_bearing_rad ** 2)])
+    sub, mx, my, origin, ray, w = _known(obs, rmap, sigma_range_m, sigma_range_per_m,
+                                         sigma_bearing_rad)
+    ranges = sub.ranges
     pose = np.array(seed, dtype=np.float64)
     jac = np.empty((2 * len(ranges), 3))
     info = np.eye(3)

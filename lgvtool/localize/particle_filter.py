@@ -20,6 +20,11 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
   range (``sigma_range_m``) and bearing (``sigma_bearing_rad``, i.e. ``r sigma_b`` across the
   ray) plus a uniform density over a disc of radius ``outlier_gate_m``, so a false reflector
   (a shiny object) or a wrong association cannot zero a good particle.
+- ``start_particles`` (off by default): a uniform start with more particles, kept for the first
+  ``start_updates`` updates, then resampled down to ``particles``.
+- ``fix_reset_probability`` (off by default): a frame that the cloud's mean does not explain,
+  whose landmark fix fits its own measurements and lies outside the cloud's region, re-draws
+  ``fix_reset_fraction`` of the particles around that fix (a confident cloud in the wrong place).
 - pose-only observations: with no reflector scans in the log (or ``observations = poses``) the
   particles are weighed against the NAV head pose with ``sigma_pose_xy_m`` and
   ``sigma_pose_heading_rad`` (and the same outlier mixture).
@@ -30,13 +35,14 @@ independent measurements (the likelihood is the product of the per-reflector ter
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.localize.camera_fix import start_fix
+from lgvtool.localize.camera_fix import residual_chi2, start_fix
 from lgvtool.localize.estimator import Estimate, Motion, Observation
 from lgvtool.localize.kld import bin_keys, kld_count
 from lgvtool.localize.noise import MotionParams
@@ -52,6 +58,14 @@ from lgvtool.localize.resampling import (
 
 FloatArray = NDArray[np.float64]
 _LOG_2PI = math.log(2.0 * math.pi)
+
+
+@functools.lru_cache(maxsize=64)
+def _chi2_quantile(p: float, dof: int) -> float:
+    """The chi-square quantile of probability ``p`` with ``dof`` degrees of freedom."""
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(p, dof))
 
 
 @dataclass(frozen=True)
@@ -118,6 +132,24 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams):
                                 "1/sqrt(m)", minimum=0.0)
     scale_walk_w: float = param(0.003, "random walk of s_w per sqrt(radian) turned, "
                                 "1/sqrt(rad)", minimum=0.0)
+    start_particles: int = param(0, "particles of a uniform start (init = uniform), kept for "
+                                 "the first start_updates updates, then resampled down to "
+                                 "particles; 0 (or at most particles): no separate start",
+                                 minimum=0)
+    start_updates: int = param(10, "updates weighed with start_particles before the set "
+                               "shrinks to particles", minimum=0)
+    fix_reset_probability: float = param(0.0, "fix disagreement reset: a scan's landmark fix "
+                                         "(as for the start) that fits its own measurements "
+                                         "(squared residual below the chi-square quantile of "
+                                         "this probability) and lies beyond that quantile "
+                                         "from the cloud's mean (squared Mahalanobis distance "
+                                         "in position, the fix's and the cloud's covariances "
+                                         "added) makes recovery re-draw fix_reset_fraction of "
+                                         "the particles around the fix; 0: off", minimum=0.0,
+                                         maximum=0.999999)
+    fix_reset_fraction: float = param(0.5, "fraction of the particles the fix disagreement "
+                                      "reset re-draws around the fix", minimum=0.0,
+                                      maximum=1.0)
 
 
 class ParticleFilter(ParticleSet):
@@ -140,10 +172,16 @@ class ParticleFilter(ParticleSet):
         #: per-particle odometry scales (``odometry_scales``), dimensionless
         self.s_v = np.zeros(0)
         self.s_w = np.zeros(0)
+        #: updates left before a large uniform start set shrinks to ``particles``
+        self._start_left = 0
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":
-            self._start_uniform(p.particles)
+            if p.start_updates > 0 and p.start_particles > p.particles:
+                self._start_uniform(p.start_particles)
+                self._start_left = p.start_updates
+            else:
+                self._start_uniform(p.particles)
         self.logw = np.full(len(self.z), -math.log(max(1, len(self.z))))
 
     # ------------------------------------------------------------------ likelihoods
@@ -225,7 +263,15 @@ class ParticleFilter(ParticleSet):
         lost = 0.0
         if p.recovery and p.reset_likelihood > 0.0:
             lost = max(0.0, 1.0 - math.exp(min(per_obs, 700.0)) / p.reset_likelihood)
-        if lost > 0.0 or p.resample == "always" or self.last_ess < p.ess_threshold * n:
+        if p.recovery and p.fix_reset_probability > 0.0 and kind == "scan" and \
+                self._fix_disagrees(obs, self._cached):
+            lost = max(lost, p.fix_reset_fraction)
+        shrink = False
+        if self._start_left > 0:
+            self._start_left -= 1
+            shrink = self._start_left == 0
+        if shrink or lost > 0.0 or p.resample == "always" or \
+                self.last_ess < p.ess_threshold * n:
             injected = self.injected
             self._resample(kind, obs, lost)
             if self.injected != injected:
@@ -233,6 +279,45 @@ class ParticleFilter(ParticleSet):
                 self._cached = self.weighted_pose(self.w)
                 self._ref = self._cached[:3]
         return True
+
+    def _fix_disagrees(self, obs: Observation,
+                       cloud: tuple[float, float, float, FloatArray]) -> bool:
+        """Whether ``obs`` gives a landmark fix (weighted, within ``init_max_sigma_xy_m``) that
+        fits its own measurements and contradicts the cloud: its squared residual in range and
+        bearing (``2n - 3`` degrees of freedom for ``n`` landmarks) below, and its squared
+        Mahalanobis distance in position from the cloud's weighted mean (fix plus cloud
+        covariance, 2 degrees of freedom) above, the chi-square quantile of
+        ``fix_reset_probability``. A scan whose landmarks contradict each other (a misread id)
+        fits no pose and so resets nothing; a scan the cloud's mean already explains (squared
+        residual within the quantile with ``2n`` degrees of freedom) contradicts nothing."""
+        p = self.params
+        if not isinstance(obs, ScanObservation):
+            return False
+        known = int(np.count_nonzero(obs.map_index(self.map) >= 0))
+        if known < 2:
+            return False
+        # the cloud's mean explains the frame (2n degrees of freedom): nothing contradicts it
+        # (and no fix need be computed)
+        if residual_chi2(cloud[:3], obs, self.map, p.sigma_range_m, p.sigma_range_per_m,
+                         p.sigma_bearing_rad) <= _chi2_quantile(p.fix_reset_probability,
+                                                                2 * known):
+            return False
+        fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
+        if fix is None:
+            return False
+        (fx, fy, fh), fcov = fix
+        if fcov is None:
+            return False
+        d = np.array([cloud[0] - fx, cloud[1] - fy])
+        try:
+            m2 = float(d @ np.linalg.solve(fcov[:2, :2] + cloud[3][:2, :2], d))
+        except np.linalg.LinAlgError:
+            return False
+        if m2 <= _chi2_quantile(p.fix_reset_probability, 2):
+            return False
+        fit = residual_chi2((fx, fy, fh), obs, self.map, p.sigma_range_m, p.sigma_range_per_m,
+                            p.sigma_bearing_rad)
+        return fit <= _chi2_quantile(p.fix_reset_probability, max(1, 2 * known - 3))
 
     def _around(self, pose: tuple[float, float, float], cov: FloatArray | None, n: int
                 ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -312,7 +397,11 @@ class ParticleFilter(ParticleSet):
     def _resample(self, kind: str, obs: Observation, lost: float) -> None:
         p = self.params
         draw = low_variance if p.resampler == "low-variance" else multinomial
-        if p.kld:
+        if self._start_left > 0:
+            # the large start set keeps its size until it shrinks
+            n_new = len(self.z)
+            idx = draw(self.w, n_new, self.rng)
+        elif p.kld:
             cap = max(p.particles, p.min_particles)
             idx = draw(self.w, cap, self.rng)
             idx = idx[self.rng.permutation(cap)]
