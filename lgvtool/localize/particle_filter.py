@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.localize.camera_fix import residual_chi2, start_fix
+from lgvtool.localize.chi2 import chi2_quantile
 from lgvtool.localize.estimator import Estimate, Motion, Observation
 from lgvtool.localize.kld import bin_keys, kld_count
 from lgvtool.localize.noise import MotionParams
@@ -62,10 +63,8 @@ _LOG_2PI = math.log(2.0 * math.pi)
 
 @functools.lru_cache(maxsize=64)
 def _chi2_quantile(p: float, dof: int) -> float:
-    """The chi-square quantile of probability ``p`` with ``dof`` degrees of freedom."""
-    from scipy.stats import chi2
-
-    return float(chi2.ppf(p, dof))
+    """The chi-square quantile of probability ``p`` with ``dof`` degrees of freedom (cached)."""
+    return chi2_quantile(p, dof)
 
 
 @dataclass(frozen=True)

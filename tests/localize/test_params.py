@@ -54,6 +54,10 @@ def test_chi2_quantiles() -> None:
     assert abs(chi2_quantile(0.99, 2) - 9.210340371976182) < 1e-9
     assert abs(chi2_quantile(0.99, 3) - 11.344866730144373) < 1e-9
     assert abs(chi2_cdf(chi2_quantile(0.5, 3), 3) - 0.5) < 1e-12
+    # more degrees of freedom (landmark fixes), against the tabulated quantiles
+    for p, dof, q in ((0.99, 4, 13.276704135987622), (0.99, 7, 18.475306906582357),
+                      (0.95, 10, 18.307038053275146), (0.5, 9, 8.342832692252955)):
+        assert chi2_quantile(p, dof) == pytest.approx(q, rel=1e-9)
 
 
 def test_eq5_round_trip() -> None:
