@@ -35,6 +35,15 @@ def test_simulate_nav350_mode_logs_the_traffic_and_what_it_decodes_to(tmp_path: 
     dec = run_cli("decode", out, "-o", tmp_path / "dec.mcap", "--json")
     assert dec.returncode == 0, dec.stderr
     assert f'"poses": {len(poses)}' in dec.stdout
+    # both files pass the reference checker's checks through the mcap package's reader
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "log"))
+    from mcap_doctor import assert_reference_clean, schema_errors
+
+    for path in (out, tmp_path / "dec.mcap"):
+        assert_reference_clean(path)
+        assert schema_errors(path) == []
 
 
 def test_nav_device_setting_is_checked(run_cli, tmp_path: Path) -> None:

@@ -284,3 +284,14 @@ def test_reflector_times_across_the_tick_counter_wrap(tmp_path: Path) -> None:
     assert [o["time_in_scan"] for o in obs] == pytest.approx([0.0, 0.04], abs=1e-12)
     assert [o["id"] for o in obs] == [3, 0] and period == pytest.approx(0.125)
     assert obs[1]["bearing"] == pytest.approx(-0.5, abs=1e-5)
+
+
+def test_an_imported_bag_passes_the_reference_checker(imported: Path) -> None:
+    """The reference checker's checks (tests/log/mcap_doctor.py, through the ``mcap``
+    package's reader): no error, no avoidable warning, Statistics matching the messages, and
+    every message valid against the schema embedded with it."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "log"))
+    from mcap_doctor import assert_reference_clean, schema_errors
+
+    assert_reference_clean(imported)
+    assert schema_errors(imported) == []
