@@ -31,6 +31,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
+from lgvtool.devices.head_speed import HeadSpeed
 from lgvtool.wire.events import ERROR, INFO, WARNING, DecodeEvent, DecoderStats
 from lgvtool.wire.nav200 import (
     DOWNLOAD_END_NUMBER,
@@ -178,14 +179,6 @@ class _Pending:
 
 
 @dataclass
-class _Speed:
-    vx: float = 0.0
-    vy: float = 0.0
-    omega: float = 0.0
-    at: float = -math.inf
-
-
-@dataclass
 class _Upload:
     seen: set[int] = field(default_factory=set)
     items: list[ReflectorPosition] = field(default_factory=list)
@@ -213,7 +206,7 @@ class Nav200Session:
         self._last_reply: float | None = None
         self._suppressed = 0
         self._next_poll = -math.inf
-        self._speed = _Speed()
+        self._speed = HeadSpeed()
         self._upload = _Upload()
         self._use_pa = self.settings.sliding_mean is None
         self._entered_with = ""
@@ -277,7 +270,7 @@ class Nav200Session:
 
     def set_speed(self, vx: float, vy: float, omega: float, now: float) -> None:
         """Latest vehicle-frame velocity of the head: vx, vy in m/s, omega in rad/s."""
-        self._speed = _Speed(vx, vy, omega, now)
+        self._speed = HeadSpeed(vx, vy, omega, now)
 
     # ------------------------------------------------------------------ scheduling
     def next_deadline(self, now: float) -> float:

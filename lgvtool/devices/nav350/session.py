@@ -30,6 +30,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
+from lgvtool.devices.head_speed import HeadSpeed
 from lgvtool.devices.nav200_session import DeviceSilent, PositioningEntered
 from lgvtool.devices.nav350 import telegrams as tg
 from lgvtool.devices.nav350.clock import ClockEstimate, ClockEstimator
@@ -157,14 +158,6 @@ class _Pending:
     acked: bool = False
 
 
-@dataclass
-class _Speed:
-    vx: float = 0.0
-    vy: float = 0.0
-    omega: float = 0.0
-    at: float = -math.inf
-
-
 class Nav350Session:
     """The host side of one NAV350 link; see the module docstring."""
 
@@ -181,7 +174,7 @@ class Nav350Session:
         self._pose_failures = 0
         self._next_clock = -math.inf
         self._clock_by_telegram = True
-        self._speed = _Speed()
+        self._speed = HeadSpeed()
         self._speed_due = False
         self._identity: dict[str, str] = {}
         self._chunks: list[tuple[LayoutLandmark, ...]] = []
@@ -227,7 +220,7 @@ class Nav350Session:
 
     def set_speed(self, vx: float, vy: float, omega: float, now: float) -> None:
         """Latest head velocity in the NAV350's frame: vx, vy m/s, omega rad/s, at ``now``."""
-        self._speed = _Speed(vx, vy, omega, now)
+        self._speed = HeadSpeed(vx, vy, omega, now)
 
     # ------------------------------------------------------------------ scheduling
     def next_deadline(self, now: float) -> float:
