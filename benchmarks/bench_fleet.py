@@ -85,7 +85,7 @@ def bench_speedup(logs: list[Path], seeds: int, grid: dict[str, list[int]], work
                   estimators: list[str], repeat: int) -> None:
     """Sweeps with 1 and 2 workers, alternated ``repeat`` times; the best wall time of each
     counts (the run least disturbed by anything else on the machine)."""
-    from lgvtool.fleet.sweep import run_sweep
+    from lgvtool.fleet.sweep_run import run_sweep
 
     best: dict[int, float] = {}
     tasks = 0

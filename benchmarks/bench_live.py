@@ -74,9 +74,9 @@ def offline(log: Path) -> None:
 def live(log: Path, play_s: float) -> None:
     from foxglove_client import collect
 
+    from lgvtool.live.live_playback import play, prepare_channels
+    from lgvtool.live.live_server import LiveAddress, LiveServer
     from lgvtool.live.online import OnlineEstimator
-    from lgvtool.live.playback import play, prepare_channels
-    from lgvtool.live.server import LiveAddress, LiveServer
     from lgvtool.live.tap import LiveFeed
     from lgvtool.log import LogReader, topics
 

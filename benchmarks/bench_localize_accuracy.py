@@ -61,7 +61,7 @@ def radial_rmse(x: np.ndarray, y: np.ndarray, radius: float) -> float:
 
 
 def evaluate(log: Path, seed: int) -> list[tuple[str, float, float, float, float | None]]:
-    from lgvtool.localize.replay import load_log, replay_data
+    from lgvtool.localize.replay_driver import load_log, replay_data
     from lgvtool.log import LogReader
 
     reader = LogReader(log)

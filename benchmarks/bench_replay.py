@@ -47,7 +47,7 @@ def time_replay(log: Path, out: Path, repeat: int) -> list[tuple[float, dict]]:
     for _ in range(repeat):
         t0 = time.perf_counter()
         res = lgvtool("replay", str(log), "-o", str(out), "--estimator", "pf-paper",
-                      "--particles", "150", "--seed", "0", "--json")
+                      "--particles", "150", "--seed", "0", "--json", "--force")
         wall = time.perf_counter() - t0
         if res.returncode != 0:
             raise SystemExit(f"replay failed: {res.stderr.strip()}")
@@ -64,7 +64,7 @@ def per_particle(log: Path, updates: int, repeat: int = 3) -> list[tuple[str, in
 
     from lgvtool.localize.motion import MotionTrack
     from lgvtool.localize.registry import ESTIMATORS, resolve_params
-    from lgvtool.localize.replay import _observations, estimator_rng, load_log
+    from lgvtool.localize.replay_driver import _observations, estimator_rng, load_log
     from lgvtool.log import LogReader
 
     reader = LogReader(log)

@@ -122,7 +122,7 @@ def main() -> None:
 
     from lgvtool.calibrate.quantities import QUANTITIES
     from lgvtool.sim.logfile import write_log
-    from lgvtool.sim.run import simulate
+    from lgvtool.sim.simulation import simulate
 
     with tempfile.TemporaryDirectory() as tmp:
         sims, logs = [], []

@@ -40,7 +40,7 @@ def main() -> None:
     from lgvtool.localize.logdata import load_log
     from lgvtool.log import LogReader
     from lgvtool.sim.logfile import write_log
-    from lgvtool.sim.run import simulate
+    from lgvtool.sim.simulation import simulate
 
     drives = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -42,14 +42,14 @@ def main() -> int:
 
     from lgvtool.cli import main as cli
     from lgvtool.commands.evaluate import evaluate_log
-    from lgvtool.interop.export import export_log
+    from lgvtool.interop.trajectory_export import export_log
 
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         log = args.log
         if log is None:
             from lgvtool.sim.logfile import write_log
-            from lgvtool.sim.run import simulate
+            from lgvtool.sim.simulation import simulate
 
             log = work / "drive.mcap"
             write_log(simulate("paper-circle", seed=0, duration=args.duration), log)

@@ -149,7 +149,7 @@ def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, c
     replay disagree and this raises. Any other estimator's ``trajectory`` is returned as it is.
     """
     from lgvtool.localize.registry import ESTIMATORS, resolve_params, split_settings
-    from lgvtool.localize.replay import estimator_rng, truth_pose_at
+    from lgvtool.localize.replay_driver import estimator_rng, truth_pose_at
 
     cls = ESTIMATORS[name]
     params = resolve_params(name, config.estimators, split_settings(settings).get(name))

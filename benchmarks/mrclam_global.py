@@ -69,7 +69,7 @@ def global_run(log: Path, seed: int, window_s: float,
     from mrclam_accuracy import scan_drive
 
     from lgvtool.localize.registry import ESTIMATORS, resolve_params, split_settings
-    from lgvtool.localize.replay import estimator_rng, truth_pose_at
+    from lgvtool.localize.replay_driver import estimator_rng, truth_pose_at
     from lgvtool.log import LogReader
 
     reader = LogReader(log)

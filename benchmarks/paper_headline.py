@@ -99,7 +99,7 @@ def markdown(title: str, runs: list[tuple[int, dict[str, dict[str, float]]]]) ->
 def main(argv: list[str] | None = None) -> int:
     """Command line of the benchmark."""
     from lgvtool.sim.logfile import write_log
-    from lgvtool.sim.run import simulate
+    from lgvtool.sim.simulation import simulate
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", default="200-209")

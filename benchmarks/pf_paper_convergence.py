@@ -62,10 +62,10 @@ def converge_time(t: np.ndarray, err: np.ndarray, within: float) -> float | None
 def run_seed(scenario: str, seed: int, duration: float, settings: dict[str, Any],
              estimator: str, tmp: Path) -> dict[str, Any]:
     """Simulate, replay and measure one seed."""
-    from lgvtool.localize.replay import load_log, replay_data
+    from lgvtool.localize.replay_driver import load_log, replay_data
     from lgvtool.log import LogReader
     from lgvtool.sim.logfile import write_log
-    from lgvtool.sim.run import simulate
+    from lgvtool.sim.simulation import simulate
 
     path = tmp / f"{scenario}-{seed}.mcap"
     write_log(simulate(scenario, seed=seed, duration=duration or None), path)

@@ -35,10 +35,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_localize_accuracy import radial_rmse
 
-from lgvtool.localize.replay import load_log, replay_data
+from lgvtool.localize.replay_driver import load_log, replay_data
 from lgvtool.log import LogReader
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 START = {"pf-paper.init": "laser", "pf-paper.deskew": False}
 VARIANTS: tuple[tuple[str, str, dict[str, Any]], ...] = (

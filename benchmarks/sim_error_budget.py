@@ -33,9 +33,10 @@ from typing import Any
 import numpy as np
 
 from lgvtool.log import LogReader, topics
-from lgvtool.log.messages import from_stamp, yaw_from_quaternion
+from lgvtool.log.messages import yaw_from_quaternion
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
+from lgvtool.timestamps import from_stamp
 
 IDEAL_HEAD: dict[str, Any] = {"nav.angle_step_deg": 0.0, "nav.map_sigma_mm": 0.0}
 """Bearings and ranges to the reflectors' centres, and an exact map (systematic, not noise)."""

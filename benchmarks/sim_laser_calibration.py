@@ -32,7 +32,7 @@ from pf_paper_convergence import seeds_of, settings_of
 def main(argv: list[str] | None = None) -> int:
     """Command line of the benchmark."""
     from lgvtool.sim.calibration import laser_evaluation
-    from lgvtool.sim.run import simulate
+    from lgvtool.sim.simulation import simulate
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenario", default="paper-circle")

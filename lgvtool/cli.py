@@ -73,7 +73,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "Estimate the vehicle's installation (NAV mounting, wheels, gyro, timing) from logs.",
     ),
     "config": (
-        "lgvtool.commands.config",
+        "lgvtool.commands.config_file",
         "config",
         "Print or check a vehicle/reflector/filter configuration file.",
     ),

@@ -10,7 +10,8 @@ import jsonschema
 import pytest
 
 from lgvtool.log import LogReader, LogWriter, topics
-from lgvtool.log.messages import pose_in_frame, stamp
+from lgvtool.log.messages import pose_in_frame
+from lgvtool.timestamps import stamp
 from lgvtool.wire import nav200
 from lgvtool.wire.mcu import McuFrame
 

@@ -18,7 +18,8 @@ from lgvtool.cli import main
 from lgvtool.config import Config, Reference, default_config
 from lgvtool.errors import InputError
 from lgvtool.log import LogWriter, topics
-from lgvtool.log.messages import pose_in_frame, stamp
+from lgvtool.log.messages import pose_in_frame
+from lgvtool.timestamps import stamp
 
 H = 1.2
 DELTA = math.radians(60.0)

@@ -51,8 +51,8 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
     """
     import json
 
-    from lgvtool.calibrate.report import text, toml
-    from lgvtool.calibrate.run import calibrate as run_calibration
+    from lgvtool.calibrate.calibration_run import calibrate as run_calibration
+    from lgvtool.calibrate.calibration_tables import text, toml
     from lgvtool.config import load_config
     from lgvtool.outputs import atomic_output, guard_output, printable
 

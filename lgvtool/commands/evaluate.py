@@ -113,7 +113,7 @@ def evaluate_log(
     subclass) for a log that cannot be evaluated. ``replay=True`` runs the estimators even when
     the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
     ``trajectories`` (name -> DataFrame t, x, y, heading of O) are scored beside them
-    (``--trajectory``, :mod:`lgvtool.interop.foreign`).
+    (``--trajectory``, :mod:`lgvtool.interop.foreign_trajectories`).
     ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress.
     """
     from lgvtool.evaluate.evaluation import evaluate_trajectories
@@ -142,7 +142,7 @@ def evaluate_log(
     if truth is not None and truth.empty:
         truth = None
     if trajectories:
-        from lgvtool.interop.foreign import add_foreign
+        from lgvtool.interop.foreign_trajectories import add_foreign
 
         trajs = add_foreign(trajs, trajectories, truth, log=str(reader.path))
     steering = None
@@ -323,7 +323,7 @@ def evaluate(
                "free_radius": free_radius, "start_at_truth": start_at_truth,
                "settings": settings or None}
     if foreign:
-        from lgvtool.interop.foreign import load_trajectories
+        from lgvtool.interop.foreign_trajectories import load_trajectories
 
         if len(logs) > 1:
             raise InputError("--trajectory scores a file against one log; give one LOG")
@@ -383,8 +383,8 @@ OUTPUT_FILES = ("table1.md", "table1.csv", "table1.tex", "table1.json", "report.
 def _write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any],
                    png: bool, force: bool = False, bar: Progress | None = None) -> None:
     from lgvtool.evaluate.document import to_json
+    from lgvtool.evaluate.html_report import render_report
     from lgvtool.evaluate.plots import write_png
-    from lgvtool.evaluate.report import render_report
     from lgvtool.evaluate.table import render_tables
     from lgvtool.outdir import write_text
     from lgvtool.outputs import atomic_output, guard_output

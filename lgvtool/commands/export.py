@@ -47,7 +47,7 @@ def export(log: str, outdir: str, fmt: str, estimators: tuple[str, ...], seed: i
     import json
 
     from lgvtool.config import load_config, parse_set_options
-    from lgvtool.interop.export import export_log
+    from lgvtool.interop.trajectory_export import export_log
 
     names = split_names(estimators) or None
     summary = export_log(log, outdir, fmt, estimators=names,

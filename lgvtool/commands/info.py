@@ -32,7 +32,7 @@ def info(log: str, as_json: bool) -> None:
     except LogFormatError as exc:
         if "not an lgvtool log" not in str(exc):
             raise
-        from lgvtool.log.foreign import describe_any, format_any
+        from lgvtool.log.any_mcap import describe_any, format_any
 
         foreign = describe_any(log)  # an MCAP file of another tool: show what it holds
         click.echo(json.dumps(foreign, indent=2) if as_json else printable(format_any(foreign)))

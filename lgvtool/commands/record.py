@@ -144,7 +144,7 @@ def _live_options(live: str | None, estimators: tuple[str, ...]) -> object:
         if estimators:
             raise InputError("record: --live-estimator needs --live [HOST:]PORT")
         return None
-    from lgvtool.live.server import parse_address
+    from lgvtool.live.live_server import parse_address
     from lgvtool.localize.registry import check_names
 
     check_names(split_names(estimators))

@@ -99,7 +99,7 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
     from lgvtool.config import load_config, parse_set_options
     from lgvtool.errors import InputError, MissingDataError
     from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS, check_names
-    from lgvtool.localize.replay import load_log, replay_data
+    from lgvtool.localize.replay_driver import load_log, replay_data
     from lgvtool.log import LogReader
     from lgvtool.outputs import atomic_output
 
@@ -170,7 +170,7 @@ def _write(reader: Any, output: str, result: Any, config: Any, source: str,
            compression: str = "zstd", view_config: Any = None,
            window_ns: int | None = None) -> int:
     """The input's messages, the metadata, the estimates and the Foxglove view channels
-    (lgvtool.log.view), merged in log-time order (an input message first at one time, then
+    (lgvtool.log.view_channels), merged in log-time order (an input message first at one time, then
     pose before state before cloud before the view channels, estimators in run order), so
     that the file passes the reference checker without an ordering warning. The added
     messages are encoded one window of log time (``window_ns``, default

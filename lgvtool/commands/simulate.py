@@ -131,7 +131,7 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
     from lgvtool.config import load_config, parse_set_options
     from lgvtool.outputs import atomic_output, guard_output
     from lgvtool.sim.logfile import write_log
-    from lgvtool.sim.run import simulate as run_simulation
+    from lgvtool.sim.simulation import simulate as run_simulation
 
     guard_output(output, [config_path], force=force)
     config = load_config(config_path)

@@ -78,7 +78,7 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
     from lgvtool.outdir import guard_directory
 
     require_fleet("sweep", ("dask", "distributed", "pyarrow"))
-    from lgvtool.fleet.sweep import run_sweep
+    from lgvtool.fleet.sweep_run import run_sweep
     from lgvtool.fleet.tasks import check_settings, grid_settings, parse_grid
 
     if scheduler is not None and workers is not None:

@@ -39,9 +39,9 @@ def view(log: str, live: str, speed: float, live_estimators: tuple[str, ...], se
     import warnings
 
     from lgvtool.config import parse_set_options
+    from lgvtool.live.live_playback import play, prepare_channels
+    from lgvtool.live.live_server import LiveServer, parse_address
     from lgvtool.live.online import OnlineEstimator
-    from lgvtool.live.playback import play, prepare_channels
-    from lgvtool.live.server import LiveServer, parse_address
     from lgvtool.live.tap import LiveFeed, describe
     from lgvtool.localize.registry import check_names
     from lgvtool.log import LogReader, topics

@@ -62,7 +62,7 @@ class RecorderSettings:
     overwrite: bool = False
     command: str | None = None
     live: Any = None
-    """Serve the recording live here (a ``lgvtool.live.server.LiveAddress``); None: not."""
+    """Serve the recording live here (a ``lgvtool.live.live_server.LiveAddress``); None: not."""
     live_estimators: tuple[str, ...] = ()
     """Online estimators whose estimate the live view shows."""
     nav350_url: str | None = None
@@ -133,8 +133,8 @@ class Recorder:
     def _start_live(self) -> Any:
         """Bind the live server now, before anything is recorded (a port in use or a host
         that does not resolve fails here, as bad input)."""
+        from lgvtool.live.live_server import LiveServer
         from lgvtool.live.online import OnlineEstimator
-        from lgvtool.live.server import LiveServer
         from lgvtool.live.tap import LiveFeed
         from lgvtool.log import topics
 

@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from lgvtool.errors import InputError, LgvError
 from lgvtool.fleet.connect import SchedulerSpec
-from lgvtool.fleet.progress import Progress
+from lgvtool.progress import Progress
 
 if TYPE_CHECKING:
     from distributed import Client

@@ -33,8 +33,9 @@ from lgvtool.importers.mrclam_profile import (
 )
 from lgvtool.importers.mrclam_quirks import ImportSettings, PreparedRun, prepare_run
 from lgvtool.log import LogWriter, topics
-from lgvtool.log.messages import FRAME_ID, stamp
+from lgvtool.log.messages import FRAME_ID
 from lgvtool.progress import Progress
+from lgvtool.timestamps import stamp
 
 NS = 1_000_000_000
 SOURCE = "importer"

@@ -25,10 +25,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from lgvtool.angles import wrap_scalar
 from lgvtool.errors import InputError
 from lgvtool.interop import ros2_roles as R
 from lgvtool.interop.ros2_types import NAV_POSE_DATA, require_rosbags, typestore
-from lgvtool.localize.geometry import wrap_scalar
 from lgvtool.log.messages import yaw_from_quaternion
 
 if TYPE_CHECKING:

@@ -37,14 +37,15 @@ from typing import Any
 
 import numpy as np
 
+from lgvtool.angles import wrap_scalar
 from lgvtool.config import Area, Config, Reference, default_config, load_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.interop import ros2_roles as R
 from lgvtool.interop.ros2_bag import BagContent, frame_name, open_bag, read_content
-from lgvtool.localize.geometry import wrap_scalar
 from lgvtool.log import LogWriter, topics
-from lgvtool.log.messages import pose_in_frame, stamp
+from lgvtool.log.messages import pose_in_frame
 from lgvtool.outputs import atomic_output, guard_output
+from lgvtool.timestamps import stamp
 
 AREA_MARGIN_M = 2.0
 """Margin of the work area around the poses when no --config gives one, m."""

@@ -27,7 +27,7 @@ import re
 from collections.abc import Mapping, Sequence
 
 from lgvtool.errors import InputError
-from lgvtool.interop.options import parse_pairs
+from lgvtool.interop.named_options import parse_pairs
 from lgvtool.interop.ros2_types import NAV_LANDMARK_DATA, NAV_POSE_DATA
 
 ODOMETRY = "nav_msgs/msg/Odometry"

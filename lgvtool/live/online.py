@@ -40,8 +40,9 @@ from lgvtool.localize.motion import (
 )
 from lgvtool.localize.observations import PoseObservation, RawScan, scan_observation, sources
 from lgvtool.localize.registry import ESTIMATORS, check_names, resolve_params, split_settings
-from lgvtool.localize.replay import estimator_rng
+from lgvtool.localize.replay_driver import estimator_rng
 from lgvtool.log import messages, topics
+from lgvtool.timestamps import stamp
 
 __all__ = ["INPUT_TOPICS", "OnlineEstimator", "Output"]
 
@@ -275,7 +276,7 @@ class OnlineEstimator:
             Output(pose_t, "foxglove.PoseInFrame",
                    orjson.dumps(messages.pose_in_frame(t_ns, e.x, e.y, heading)), t_ns),
             Output(state_t, "lgvtool.PoseEstimate", orjson.dumps({
-                "timestamp": messages.stamp(t_ns), "estimator": self.name, "x": e.x, "y": e.y,
+                "timestamp": stamp(t_ns), "estimator": self.name, "x": e.x, "y": e.y,
                 "heading": heading,
                 "covariance": np.asarray(e.covariance, dtype=np.float64).ravel().tolist(),
                 "particles": int(e.particles), "ess": float(e.ess)}), t_ns),

@@ -4,7 +4,7 @@ online estimators fed from them on their own thread.
 :class:`TappedLogWriter` is a :class:`lgvtool.log.LogWriter` that hands each message it writes
 (topic, schema name, JSON bytes, log time) to a tap, after writing it: whatever channels the
 writer puts in the log show live under the same topics, schemas and encoding. :class:`LiveFeed`
-is the tap: it publishes on a :class:`lgvtool.live.server.LiveServer` and queues the
+is the tap: it publishes on a :class:`lgvtool.live.live_server.LiveServer` and queues the
 estimators' input topics for a worker thread, so neither a client nor a slow estimator ever
 holds up the writer. When the estimators fall behind (a loaded machine), an observation that
 has waited over :data:`MAX_LAG_S` while a newer one is queued is skipped, so the live estimate
@@ -22,8 +22,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any, Protocol
 
+from lgvtool.live.live_server import LiveServer
 from lgvtool.live.online import INPUT_TOPICS, OnlineEstimator
-from lgvtool.live.server import LiveServer
 from lgvtool.log import topics
 from lgvtool.log.writer import LogWriter
 

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from lgvtool.localize.paper_pf import PaperParticleFilter, PaperPfParams
     from lgvtool.localize.particle_filter import ParticleFilter, PfParams
     from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS
-    from lgvtool.localize.replay import ReplayResult, run_replay
+    from lgvtool.localize.replay_driver import ReplayResult, run_replay
 
 #: public name -> module that defines it (imported on first use, so that a command running
 #: one estimator does not import the others)
@@ -41,7 +41,7 @@ _EXPORTS = {
     "PaperParticleFilter": "paper_pf", "PaperPfParams": "paper_pf",
     "ParticleFilter": "particle_filter", "PfParams": "particle_filter",
     "DEFAULT_ESTIMATORS": "registry", "ESTIMATORS": "registry",
-    "ReplayResult": "replay", "run_replay": "replay",
+    "ReplayResult": "replay_driver", "run_replay": "replay_driver",
 }
 
 

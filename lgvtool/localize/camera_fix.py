@@ -17,8 +17,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_scalar
 from lgvtool.localize.fix import pose_fix
-from lgvtool.localize.geometry import wrap_scalar
 from lgvtool.localize.observations import PoseObservation, ReflectorMap, ScanObservation
 
 FloatArray = NDArray[np.float64]

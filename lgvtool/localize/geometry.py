@@ -11,22 +11,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-TWO_PI = 2.0 * math.pi
-
-
-def wrap_angle(a: ArrayLike) -> NDArray[np.float64]:
-    """Wrap angles to (-pi, pi], rad."""
-    w = np.remainder(np.asarray(a, dtype=np.float64) + math.pi, TWO_PI) - math.pi
-    return np.where(w <= -math.pi, w + TWO_PI, w)
-
-
-def wrap_scalar(a: float) -> float:
-    """Wrap one angle to (-pi, pi], rad (pure Python, for hot scalar paths)."""
-    w = math.fmod(a + math.pi, TWO_PI)
-    if w < 0.0:
-        w += TWO_PI
-    w -= math.pi
-    return w + TWO_PI if w <= -math.pi else w
+from lgvtool.angles import wrap_angle, wrap_scalar
 
 
 def nav_to_o(x_n: ArrayLike, y_n: ArrayLike, heading: ArrayLike, nav_x: float,
@@ -77,13 +62,6 @@ def between(x0: ArrayLike, y0: ArrayLike, th0: ArrayLike, x1: ArrayLike, y1: Arr
     return c * ex + s * ey, -s * ex + c * ey, wrap_angle(np.asarray(th1) - th0)
 
 
-def circular_mean(angles: NDArray[np.float64], weights: NDArray[np.float64] | None = None) -> float:
-    """Weighted mean of angles via the mean unit vector, rad in (-pi, pi]."""
-    if weights is None:
-        s, c = float(np.sin(angles).sum()), float(np.cos(angles).sum())
-    else:
-        s, c = float(weights @ np.sin(angles)), float(weights @ np.cos(angles))
-    return wrap_scalar(math.atan2(s, c))
 
 
 def pose_from_correspondences(body_x: NDArray[np.float64], body_y: NDArray[np.float64],

@@ -1,6 +1,6 @@
 """What ``replay`` adds to a log, as sources encoded a window at a time
 (:mod:`lgvtool.log.windows`): per estimator its poses, states and particle clouds, the
-Foxglove view channels (:mod:`lgvtool.log.view`) and the NAV poses the plausibility gate left
+Foxglove view channels (:mod:`lgvtool.log.view_channels`) and the NAV poses the plausibility gate left
 out (/diagnostics and its foxglove.Log mirror). Sources are in the order in which messages at
 one log time are written. Times in integer ns since the Unix epoch.
 """
@@ -72,10 +72,10 @@ def _gated_sources(gated: list[tuple[int, str]]) -> list[Source]:
 
 
 def replay_sources(reader: Any, result: Any, view_config: Any = None) -> list[Source]:
-    """The sources of a replay ``result`` (lgvtool.localize.replay.ReplayResult) of the log of
+    """The sources of a replay ``result`` (lgvtool.localize.replay_driver.ReplayResult) of the log of
     ``reader``: estimates, then (with ``view_config``, the configuration the view is drawn
     with) the view channels, then the gated NAV poses."""
-    from lgvtool.log.view import view_streams
+    from lgvtool.log.view_channels import view_streams
 
     pairs = [_estimate_sources(name, tab) for name, tab in result.tables.items()]
     out = [p[0] for p in pairs] + [p[1] for p in pairs]

@@ -21,7 +21,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import orjson
 
 from lgvtool.log import topics
-from lgvtool.log.messages import FRAME_ID, pose, quaternion_from_yaw, stamp
+from lgvtool.log.messages import FRAME_ID, pose, quaternion_from_yaw
+from lgvtool.timestamps import stamp
 
 if TYPE_CHECKING:
     import numpy as np

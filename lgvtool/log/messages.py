@@ -10,25 +10,16 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from lgvtool.config import Reflector
+from lgvtool.timestamps import stamp
 
 FRAME_ID = "map"
 """Frame of every map-frame pose in lgvtool logs."""
 
 
-def stamp(ns: int) -> dict[str, int]:
-    """``{sec, nsec}`` of a time in integer ns since the Unix epoch."""
-    sec, nsec = divmod(int(ns), 1_000_000_000)
-    return {"sec": sec, "nsec": nsec}
 
 
-def from_stamp(t: Mapping[str, Any]) -> int:
-    """Integer ns since the Unix epoch of a ``{sec, nsec}`` dict."""
-    return int(t["sec"]) * 1_000_000_000 + int(t["nsec"])
 
 
-def seconds_to_ns(t: float) -> int:
-    """Integer ns of a time in s (rounded to the nearest ns)."""
-    return round(t * 1e9)
 
 
 def quaternion_from_yaw(yaw: float) -> dict[str, float]:

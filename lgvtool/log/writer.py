@@ -27,6 +27,7 @@ from lgvtool.errors import InputError
 from lgvtool.log import messages, topics
 from lgvtool.log.mcapio import McapWriter
 from lgvtool.log.schemas import schema_bytes
+from lgvtool.timestamps import stamp
 
 if TYPE_CHECKING:
     from lgvtool.log.reader import LogReader
@@ -177,7 +178,7 @@ class LogWriter:
     def write_raw(self, device: str, direction: str, data: bytes, log_time_ns: int) -> None:
         """Log bytes exactly as received from (rx) or sent to (tx) ``device``."""
         self.write(topics.raw_topic(device, direction), {
-            "timestamp": messages.stamp(log_time_ns), "device": device, "direction": direction,
+            "timestamp": stamp(log_time_ns), "device": device, "direction": direction,
             "data": base64.b64encode(bytes(data)).decode("ascii"),
         }, log_time_ns)
 

@@ -13,7 +13,7 @@ Modules, one purpose each:
 - :mod:`~lgvtool.sim.links`: serial timing and read chunking;
   :mod:`~lgvtool.sim.faults`: landmarks, occlusions and injected faults;
 - :mod:`~lgvtool.sim.settings`: every setting and ``--set`` overrides;
-- :mod:`~lgvtool.sim.run`: resolve settings and run; :mod:`~lgvtool.sim.events`: the run as a
+- :mod:`~lgvtool.sim.simulation`: resolve settings and run; :mod:`~lgvtool.sim.event_stream`: the run as a
   time-ordered device-side event stream (for emulators); :mod:`~lgvtool.sim.logfile`: the run
   as a log.
 
@@ -32,19 +32,19 @@ import importlib
 from typing import Any
 
 _EXPORTS: dict[str, str] = {
-    "McuSend": "lgvtool.sim.events",
-    "NavScan": "lgvtool.sim.events",
-    "NavSolution": "lgvtool.sim.events",
-    "Observation": "lgvtool.sim.events",
-    "TruthSample": "lgvtool.sim.events",
+    "McuSend": "lgvtool.sim.event_stream",
+    "NavScan": "lgvtool.sim.event_stream",
+    "NavSolution": "lgvtool.sim.event_stream",
+    "Observation": "lgvtool.sim.event_stream",
+    "TruthSample": "lgvtool.sim.event_stream",
     "LogSummary": "lgvtool.sim.logfile",
     "write_log": "lgvtool.sim.logfile",
     "Nav200Device": "lgvtool.sim.nav_device",
-    "Setup": "lgvtool.sim.run",
-    "Simulation": "lgvtool.sim.run",
-    "resolve": "lgvtool.sim.run",
-    "run": "lgvtool.sim.run",
-    "simulate": "lgvtool.sim.run",
+    "Setup": "lgvtool.sim.simulation",
+    "Simulation": "lgvtool.sim.simulation",
+    "resolve": "lgvtool.sim.simulation",
+    "run": "lgvtool.sim.simulation",
+    "simulate": "lgvtool.sim.simulation",
     "SCENARIOS": "lgvtool.sim.scenarios",
     "Scenario": "lgvtool.sim.scenarios",
     "get_scenario": "lgvtool.sim.scenarios",

@@ -16,7 +16,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from lgvtool.evaluate.evaluation import EstimatorEvaluation
-    from lgvtool.sim.run import Simulation
+    from lgvtool.sim.simulation import Simulation
 
 
 def laser_evaluation(sim: Simulation) -> EstimatorEvaluation:

@@ -16,9 +16,10 @@ from pathlib import Path
 from typing import IO, Any
 
 from lgvtool.log import LogWriter, topics
-from lgvtool.log.messages import pose_in_frame, stamp
-from lgvtool.sim.events import nav_scans, truth_samples
-from lgvtool.sim.run import Simulation
+from lgvtool.log.messages import pose_in_frame
+from lgvtool.sim.event_stream import nav_scans, truth_samples
+from lgvtool.sim.simulation import Simulation
+from lgvtool.timestamps import stamp
 from lgvtool.wire import McuStreamDecoder, Nav200HostSession, mcu_frame_message, nav_pose_message
 from lgvtool.wire.events import DecodeEvent
 from lgvtool.wire.nav200 import Pose, Reply

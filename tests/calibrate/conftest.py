@@ -8,7 +8,7 @@ import pytest
 from calibrate_cases import ERRORS
 
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 
 @pytest.fixture(scope="session")

@@ -10,10 +10,10 @@ from pathlib import Path
 import pytest
 from calibrate_cases import TRUE
 
-from lgvtool.calibrate.run import calibrate
+from lgvtool.calibrate.calibration_run import calibrate
 from lgvtool.config import load_config
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 # tolerances about three times the 1-sigma these short drives give (docs/calibration.md)
 TOLERANCE = {"nav_x": 0.006, "nav_y": 0.006, "nav_yaw": math.radians(0.1), "track": 0.004,

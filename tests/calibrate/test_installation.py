@@ -16,7 +16,7 @@ from lgvtool.localize.logdata import LogData, load_log
 from lgvtool.localize.observations import RawScan
 from lgvtool.log import LogReader
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 QUIET = {"sim.noise": False, "nav.skew": False}
 

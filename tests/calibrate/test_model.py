@@ -13,7 +13,7 @@ from lgvtool.calibrate.quantities import QUANTITIES, default_names
 from lgvtool.calibrate.solve import Problem, SolveSettings
 from lgvtool.localize.logdata import LogData
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 
 def test_arc_terms_match_closed_form_and_derivatives() -> None:

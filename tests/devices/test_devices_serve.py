@@ -13,7 +13,6 @@ from devices_helpers import Procs, circle_playback, messages, raw_stream
 
 from lgvtool.errors import InputError
 from lgvtool.log import LogWriter, topics
-from lgvtool.log.messages import stamp
 from lgvtool.sim.emulate import (
     Fault,
     VirtualMcu,
@@ -21,6 +20,7 @@ from lgvtool.sim.emulate import (
     playback_from_log,
     playback_from_scenario,
 )
+from lgvtool.timestamps import stamp
 
 
 def _lines(stream, out: queue.Queue[str]) -> None:

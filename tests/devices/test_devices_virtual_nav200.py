@@ -76,7 +76,7 @@ def _o_radial_error(fix: PoseFix, pb_centre: tuple[float, float], radius: float)
 @pytest.fixture(scope="module")
 def circle_run() -> tuple[Playback, tuple[float, float], float]:
     """A noise-free simulated paper-circle run, its circle centre and radius (m)."""
-    from lgvtool.sim.run import simulate
+    from lgvtool.sim.simulation import simulate
 
     overrides = {"sim.noise": False, "nav.map_sigma_mm": 0.0, "nav.angle_step_deg": 0.0}
     ref = simulate("paper-circle", seed=1, duration=60.0, overrides=overrides).plan.reference

@@ -11,9 +11,10 @@ import pytest
 from evaluate_synth import DELTA, T0, H, circle_drive
 
 from lgvtool.evaluate.evaluation import evaluate_trajectories
+from lgvtool.evaluate.html_report import render_report
 from lgvtool.evaluate.quality import find_gaps, read_quality, summarise
-from lgvtool.evaluate.report import render_report
-from lgvtool.log import LogReader, LogWriter, messages, topics
+from lgvtool.log import LogReader, LogWriter, topics
+from lgvtool.timestamps import stamp
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs" / "degraded.mcap"
 
@@ -28,13 +29,13 @@ def _write_log(path: Path, *, faults: bool) -> None:
             t = 0.1 * i
             if faults and 20.0 <= t < 22.0:        # ... but for a 2 s silence
                 continue
-            w.write(topics.MCU_FRAME, {"timestamp": messages.stamp(_ns(t)), "seq": i,
+            w.write(topics.MCU_FRAME, {"timestamp": stamp(_ns(t)), "seq": i,
                                        "mcu_time_ms": 100 * i, "enc_left": 0, "enc_right": 0,
                                        "gyro_rate": 0.0}, _ns(t))
         for k in range(130):                        # NAV polls every 0.45 s
             t = 0.45 * k
             valid = not (faults and k in (10, 11, 50))
-            w.write(topics.NAV_POSE, {"timestamp": messages.stamp(_ns(t)), "x": 1.0, "y": 2.0,
+            w.write(topics.NAV_POSE, {"timestamp": stamp(_ns(t)), "x": 1.0, "y": 2.0,
                                       "heading": 0.0, "quality": 90 if valid else 255,
                                       "reflectors_used": 8 if valid else 0, "valid": valid},
                     _ns(t))

@@ -11,7 +11,7 @@ from lgvtool.config import paper_hall_reflectors
 from lgvtool.errors import InputError
 from lgvtool.evaluate import plots
 from lgvtool.evaluate.evaluation import evaluate_trajectories
-from lgvtool.evaluate.report import render_report
+from lgvtool.evaluate.html_report import render_report
 
 
 class Collector(HTMLParser):

@@ -12,7 +12,7 @@ from evaluate_synth import DELTA, H, circle_drive
 
 from lgvtool.evaluate import plots
 from lgvtool.evaluate.evaluation import evaluate_trajectories
-from lgvtool.evaluate.report import TABLE1_TITLE, render_report
+from lgvtool.evaluate.html_report import TABLE1_TITLE, render_report
 from lgvtool.evaluate.table import build_table
 
 

@@ -185,8 +185,8 @@ def test_sweep_task_is_small_to_ship(tmp_path):
 
 
 def test_report_draws_each_varying_figure_against_each_swept_parameter(tmp_path):
-    from lgvtool.fleet.report import render_report
     from lgvtool.fleet.results import metric_columns
+    from lgvtool.fleet.sweep_report import render_report
 
     tasks = build_tasks([(tmp_path / "a.mcap", "aa"), (tmp_path / "b.mcap", "bb")],
                         [{"pf.particles": p, "pf.init": i} for p in (10, 20, 40)

@@ -15,8 +15,9 @@ from lgvtool.errors import InputError
 from lgvtool.importers.mrclam import CITATION
 from lgvtool.importers.mrclam_log import import_all, import_robot
 from lgvtool.log import LogReader, topics
-from lgvtool.log.messages import from_stamp, pose_in_frame, yaw_from_quaternion
+from lgvtool.log.messages import pose_in_frame, yaw_from_quaternion
 from lgvtool.log.schemas import schema_json
+from lgvtool.timestamps import from_stamp
 
 NS = 1_000_000_000
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 DURATION_S = 45.0
 """Long enough for one complete rotation of the paper's circle after the standstill."""

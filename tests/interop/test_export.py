@@ -15,7 +15,7 @@ import pytest
 from lgvtool.commands.evaluate import evaluate_log
 from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
-from lgvtool.interop.export import export_log
+from lgvtool.interop.trajectory_export import export_log
 
 FAST = ["laser", "ekf"]
 

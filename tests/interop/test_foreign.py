@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from lgvtool.interop.export import export_log
+from lgvtool.interop.trajectory_export import export_log
 
 CLI = Callable[..., tuple[int, str, str]]
 

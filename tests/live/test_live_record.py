@@ -18,7 +18,7 @@ from devices_helpers import start_emulator, wait_for
 from foxglove_client import collect
 
 from lgvtool.devices.recorder import Recorder, RecorderSettings
-from lgvtool.live.server import LiveAddress
+from lgvtool.live.live_server import LiveAddress
 from lgvtool.log import LogReader, topics
 
 

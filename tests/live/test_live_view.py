@@ -19,9 +19,9 @@ pytest.importorskip("websockets")
 from foxglove_client import collect
 
 from lgvtool.errors import InputError
+from lgvtool.live.live_playback import play, prepare_channels
+from lgvtool.live.live_server import LiveAddress, LiveServer, parse_address
 from lgvtool.live.online import OnlineEstimator
-from lgvtool.live.playback import play, prepare_channels
-from lgvtool.live.server import LiveAddress, LiveServer, parse_address
 from lgvtool.live.tap import LiveFeed, TappedLogWriter
 from lgvtool.log import LogReader, topics
 from lgvtool.log.schemas import schema_bytes

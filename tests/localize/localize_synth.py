@@ -13,7 +13,7 @@ import numpy as np
 
 from lgvtool.config import Area, Config, Reflector, Vehicle
 from lgvtool.localize.observations import RawScan
-from lgvtool.localize.replay import LogData
+from lgvtool.localize.replay_driver import LogData
 
 T0_NS = 1_700_000_000_000_000_000
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from localize_synth import T0_NS, circle_log
 
-from lgvtool.localize.replay import replay_data
+from lgvtool.localize.replay_driver import replay_data
 
 
 def test_same_seed_same_output() -> None:

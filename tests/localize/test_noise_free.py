@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from localize_synth import T0_NS, circle_log
 
-from lgvtool.localize.replay import replay_data
+from lgvtool.localize.replay_driver import replay_data
 
 TIGHT_PAPER = {
     "pf-paper.init": "laser", "pf-paper.init_sigma_xy_m": 0.0005,

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from lgvtool.commands.evaluate import evaluate_log
-from lgvtool.localize.replay import load_log, replay_data
+from lgvtool.localize.replay_driver import load_log, replay_data
 from lgvtool.log import LogReader
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ from simlogs import simulate_log
 
 from lgvtool.localize.gate import gate_poses
 from lgvtool.localize.logdata import load_log
-from lgvtool.localize.replay import apply_pose_gate, replay_data
+from lgvtool.localize.replay_driver import apply_pose_gate, replay_data
 from lgvtool.log import LogReader, topics
 from lgvtool.wire.nav200_commands import Reply
 from lgvtool.wire.nav200_payloads import Pose

@@ -10,7 +10,7 @@ import pytest
 from simlogs import simulate_log
 
 from lgvtool.localize import obsstream
-from lgvtool.localize import replay as R
+from lgvtool.localize import replay_driver as R
 from lgvtool.localize.logdata import load_log, scan_batch
 from lgvtool.localize.motion import Increments, MotionSettings, MotionTrack
 from lgvtool.localize.observations import scan_observations

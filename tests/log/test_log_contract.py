@@ -15,9 +15,10 @@ from lgvtool.config import default_config
 from lgvtool.errors import LogFormatError
 from lgvtool.log import LogReader, LogWriter, topics
 from lgvtool.log.inspect import describe
-from lgvtool.log.messages import pose_in_frame, poses_in_frame, stamp
+from lgvtool.log.messages import pose_in_frame, poses_in_frame
 from lgvtool.log.salvage import recover
 from lgvtool.log.schemas import schema_dir, schema_json, schema_names
+from lgvtool.timestamps import stamp
 
 T0 = 1_700_000_000_000_000_000
 MS = 1_000_000

@@ -8,7 +8,8 @@ from pathlib import Path
 from mcap.reader import make_reader
 
 from lgvtool.log import LogReader, LogWriter, topics
-from lgvtool.log.messages import pose_in_frame, stamp
+from lgvtool.log.messages import pose_in_frame
+from lgvtool.timestamps import stamp
 
 T0 = 1_700_000_000_000_000_000
 

@@ -15,7 +15,7 @@ from lgvtool.errors import LogFormatError
 from lgvtool.localize.logdata import load_log
 from lgvtool.log import LogReader, LogWriter, topics
 from lgvtool.log.mcapio import read_summary
-from lgvtool.log.messages import stamp
+from lgvtool.timestamps import stamp
 
 pytestmark = pytest.mark.filterwarnings("ignore::lgvtool.log.reader.LogWarning")
 

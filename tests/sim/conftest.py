@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import Simulation, simulate
+from lgvtool.sim.simulation import Simulation, simulate
 
 
 @pytest.fixture(scope="session")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from lgvtool.sim.calibration import laser_evaluation
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 
 @pytest.mark.parametrize("seed", [5, 6])

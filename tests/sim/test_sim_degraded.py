@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from lgvtool.log import LogReader, topics
-from lgvtool.log.messages import from_stamp
+from lgvtool.timestamps import from_stamp
 
 PROMISED = ("mcu_frame_dropped", "mcu_frame_corrupted", "nav_request_dropped",
             "nav_reply_dropped", "nav_reply_corrupted", "nav_no_position", "reflector_occluded",

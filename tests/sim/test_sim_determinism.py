@@ -19,7 +19,7 @@ import pytest
 from lgvtool.cli import main
 from lgvtool.log import LogReader
 from lgvtool.sim.logfile import write_log
-from lgvtool.sim.run import simulate
+from lgvtool.sim.simulation import simulate
 
 SAMPLE_LOGS = Path(__file__).resolve().parents[2] / "sample_logs"
 

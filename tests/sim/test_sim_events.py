@@ -7,9 +7,9 @@ import math
 import pytest
 
 from lgvtool.errors import ConfigError, InputError
-from lgvtool.sim.events import McuSend, NavScan, NavSolution, TruthSample
-from lgvtool.sim.run import simulate
+from lgvtool.sim.event_stream import McuSend, NavScan, NavSolution, TruthSample
 from lgvtool.sim.settings import SimSettings, apply_overrides
+from lgvtool.sim.simulation import simulate
 
 
 def test_stream_is_time_ordered_and_complete(sim_cache) -> None:

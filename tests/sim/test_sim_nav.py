@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from lgvtool.log import LogReader, topics
-from lgvtool.log.messages import from_stamp
 from lgvtool.sim import nav_model
 from lgvtool.sim.nav_device import Nav200Device
+from lgvtool.timestamps import from_stamp
 from lgvtool.wire import nav200 as proto
 
 QUIET = {"sim.noise": False, "nav.map_sigma_mm": 0.0, "nav.angle_step_deg": 0.0}

@@ -16,7 +16,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from lgvtool.devices.nav350.telegrams import PoseData
-from lgvtool.log.messages import stamp
+from lgvtool.timestamps import stamp
 
 __all__ = ["NO_POSITION", "SCAN_PERIOD", "pose_message", "scan_message"]
 

@@ -28,7 +28,7 @@ LINK_LATENCY, LINK_RATE = 0.0005, 12.5e6
 
 
 def _source(sim: Any) -> RevolutionSource:
-    from lgvtool.sim.events import nav_scans, nav_solutions
+    from lgvtool.sim.event_stream import nav_scans, nav_solutions
 
     revs = []
     for scan, sol in zip(nav_scans(sim), nav_solutions(sim), strict=True):

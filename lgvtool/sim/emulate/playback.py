@@ -72,7 +72,7 @@ class Playback:
     velocity ``vx``, ``vy`` (m/s, along the vehicle's axes) and ``omega`` (rad/s). None when the
     poses are what a device reported (a log)."""
     scans: tuple[Any, ...] = ()
-    """The head revolution of each pose solution (:class:`lgvtool.sim.events.NavScan`, same
+    """The head revolution of each pose solution (:class:`lgvtool.sim.event_stream.NavScan`, same
     index as :attr:`poses`), for devices that report their reflectors (NAV350); empty for a
     log."""
 
@@ -108,8 +108,8 @@ def playback_from_scenario(name: str, *, seed: int = 0, duration: float | None =
     import numpy as np
 
     from lgvtool.sim import nav_model
-    from lgvtool.sim.events import mcu_sends, nav_scans, nav_solutions
-    from lgvtool.sim.run import simulate
+    from lgvtool.sim.event_stream import mcu_sends, nav_scans, nav_solutions
+    from lgvtool.sim.simulation import simulate
 
     sim = simulate(name, seed=seed, config=config, overrides=overrides, duration=duration)
     mcu = tuple(McuChunk(s.t, s.delivered) for s in mcu_sends(sim) if s.delivered)

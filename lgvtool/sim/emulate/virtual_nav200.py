@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lgvtool.angles import circular_mean
 from lgvtool.config import Reflector
-from lgvtool.localize.geometry import circular_mean
 from lgvtool.sim.emulate.playback import Playback, PoseFix
 from lgvtool.wire import nav200 as proto
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from lgvtool.live.server import LiveServer
+    from lgvtool.live.live_server import LiveServer
     from lgvtool.live.tap import LiveFeed
     from lgvtool.log import LogReader
 

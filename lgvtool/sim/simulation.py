@@ -20,7 +20,7 @@ import numpy as np
 
 from lgvtool.config import Config, Vehicle, config_from_dict, default_config
 from lgvtool.errors import ConfigError, InputError
-from lgvtool.sim import events as ev
+from lgvtool.sim import event_stream as ev
 from lgvtool.sim import faults as faultlib
 from lgvtool.sim import mcu_link, mcu_model, nav_link, nav_model
 from lgvtool.sim.faults import Landmarks, Occlusions
@@ -127,7 +127,7 @@ class Simulation:
         return dict(sorted(Counter(f.kind for f in self.faults).items()))
 
     def events(self, truth_rate_hz: float | None = None) -> Iterator[ev.Event]:
-        """The device-side event stream (:func:`lgvtool.sim.events.stream`)."""
+        """The device-side event stream (:func:`lgvtool.sim.event_stream.stream`)."""
         return ev.stream(self, truth_rate_hz)
 
     def metadata(self) -> dict[str, Any]:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
+from lgvtool.calibrate.calibration_run import Calibration
 from lgvtool.calibrate.quantities import QUANTITIES
-from lgvtool.calibrate.run import Calibration
 
 
 def _num(v: float, unit: str) -> str:

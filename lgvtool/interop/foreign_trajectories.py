@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from lgvtool.errors import InputError
-from lgvtool.interop.options import SAFE_NAME, parse_pairs
+from lgvtool.interop.named_options import SAFE_NAME, parse_pairs
 from lgvtool.interop.trajfile import read_trajectory
 
 if TYPE_CHECKING:

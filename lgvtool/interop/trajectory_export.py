@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
-from lgvtool.interop.options import SAFE_NAME
+from lgvtool.interop.named_options import SAFE_NAME
 from lgvtool.outdir import guard_directory
 from lgvtool.outputs import atomic_output
 

@@ -174,7 +174,7 @@ def run_sweep(
     result = SweepResult(out, len(tasks), reused, len(todo), len(failures), 0.0, tidy, summary,
                          written, failures)
     if report:
-        from lgvtool.fleet.report import render_report
+        from lgvtool.fleet.sweep_report import render_report
 
         facts = {"logs": len(files), "settings": len(settings), "seeds": len(seed_list),
                  "tasks": len(tasks), "failed": len(failures),

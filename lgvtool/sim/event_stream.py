@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from lgvtool.sim.run import Simulation
+    from lgvtool.sim.simulation import Simulation
 
 
 @dataclass(frozen=True, slots=True)
