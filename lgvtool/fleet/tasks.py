@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from lgvtool.config import parse_set_options
 from lgvtool.errors import InputError
 from lgvtool.fleet.keys import task_key
+from lgvtool.values import parse_setting, split_assignment
 
 if TYPE_CHECKING:
     from lgvtool.config import Config
@@ -64,23 +64,20 @@ class SweepTask:
 def parse_grid(items: Sequence[str]) -> dict[str, list[Any]]:
     """Parse ``--grid key=v1,v2,...`` options into {key: [values]}.
 
-    Values are read as TOML scalars like ``--set`` (numbers, booleans, quoted strings, else a
-    bare string). A key given twice, an empty value list or a repeated value is an error.
+    Keys and values are read by the parser of ``--set``
+    (:func:`lgvtool.values.split_assignment`, :func:`lgvtool.values.parse_setting`: TOML
+    scalars, else a bare string). A key given twice, an empty value list or a repeated value
+    is an error.
     """
     grid: dict[str, list[Any]] = {}
     for item in items:
-        if "=" not in item:
-            raise InputError(f"--grid expects key=v1,v2,..., got '{item}'")
-        key, raw = item.split("=", 1)
-        key = key.strip()
-        if not key:
-            raise InputError(f"--grid expects key=v1,v2,..., got '{item}'")
+        key, raw = split_assignment(item, "--grid", "key=v1,v2,...")
         if key in grid:
             raise InputError(f"--grid key '{key}' given twice")
         parts = [p.strip() for p in raw.split(",")]
         if not raw.strip() or any(not p for p in parts):
             raise InputError(f"--grid {key}: empty value in '{raw}'")
-        values = [parse_set_options([f"{key}={p}"])[key] for p in parts]
+        values = [parse_setting(p) for p in parts]
         seen: list[Any] = []
         for v in values:
             if any(type(v) is type(s) and v == s for s in seen):
