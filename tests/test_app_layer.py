@@ -116,3 +116,35 @@ def test_the_rule_catches_a_command_that_reaches_into_a_stage() -> None:
     bad = [m for _, m in _imports(ast.parse(source)) if not _allowed(m)]
     assert bad == ["lgvtool.localize.registry"]
     assert _allowed("lgvtool.app.replay_job") and _allowed("lgvtool.devices.nav350.registration")
+
+
+def test_help_imports_no_command_and_no_operation() -> None:
+    import subprocess
+
+    code = ("import sys\nfrom lgvtool.cli import main\ntry:\n    main(['--help'])\n"
+            "except SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.startswith(('lgvtool.app', "
+            "'lgvtool.commands.', 'numpy', 'pandas'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_the_lazy_group_offers_only_commands_whose_module_is_there() -> None:
+    import click
+    from click.testing import CliRunner
+
+    from lgvtool.lazy_group import LazyGroup
+
+    table = {"info": ("lgvtool.commands.info", "info", "Summarise a log."),
+             "gone": ("lgvtool.commands.no_such_command", "gone", "Not in the package.")}
+
+    @click.group(cls=LazyGroup, lazy=table)
+    def group() -> None:
+        """A group."""
+
+    res = CliRunner().invoke(group, ["--help"])
+    assert res.exit_code == 0 and "Summarise a log." in res.output
+    assert "gone" not in res.output
+    assert CliRunner().invoke(group, ["gone"]).exit_code == 2
+    assert isinstance(group.get_command(click.Context(group), "info"), click.Command)
