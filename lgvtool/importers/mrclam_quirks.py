@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from lgvtool.angles import wrap_angle
 from lgvtool.config import Area
 from lgvtool.importers.mrclam import ROBOT_SUBJECTS, FileInfo, MrclamDataset, RobotRecording
 from lgvtool.importers.mrclam_timing import delay_ns, odometry_delay
@@ -144,10 +145,6 @@ def area_of(dataset: MrclamDataset, margin: float) -> Area:
                 y_min=float(lm["y"].min()) - margin, y_max=float(lm["y"].max()) + margin)
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
-
-
 def _s(ns: int | np.integer) -> float:
     return round(int(ns) / NS, 6)
 
@@ -242,7 +239,7 @@ def _predicted(truth: pd.DataFrame, obs: pd.DataFrame, dataset: MrclamDataset,
     lx = lm["x"].reindex(obs["landmark"]).to_numpy()
     ly = lm["y"].reindex(obs["landmark"]).to_numpy()
     rng = np.hypot(lx - x, ly - y)
-    brg = _wrap(np.arctan2(ly - y, lx - x) - th)
+    brg = wrap_angle(np.arctan2(ly - y, lx - x) - th)
     return rng, brg, covered
 
 
@@ -328,7 +325,7 @@ def _outliers(obs: pd.DataFrame, truth: pd.DataFrame, dataset: MrclamDataset,
     """Flag observations inconsistent with ground truth; residual statistics of the rest."""
     rng, brg, covered = _predicted(truth, obs, dataset, settings.truth_interp_max_gap_s)
     dr = obs["range"].to_numpy() - rng
-    db = _wrap(obs["bearing"].to_numpy() - brg)
+    db = wrap_angle(obs["bearing"].to_numpy() - brg)
     with np.errstate(invalid="ignore"):
         r_out = covered & (np.abs(dr) > settings.outlier_range_fraction * rng)
         b_out = covered & (np.abs(db) > settings.outlier_bearing_rad)

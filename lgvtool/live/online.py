@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 import orjson
 
+from lgvtool.angles import wrap_scalar
 from lgvtool.config import Config, Reflector
 from lgvtool.localize.estimator import Estimator, Motion, cloud_sample
 from lgvtool.localize.motion import (
@@ -270,7 +271,7 @@ class OnlineEstimator:
         if e is None:
             return []
         t_ns = self._t0_ns + round(t * 1e9)
-        heading = math.remainder(e.heading, 2.0 * math.pi)
+        heading = wrap_scalar(e.heading)
         pose_t, state_t, cloud_t = self._topics
         out = [
             Output(pose_t, "foxglove.PoseInFrame",

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_angle, wrap_scalar
 from lgvtool.config import Config, default_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
@@ -123,7 +124,7 @@ def truth_pose_at(data: LogData, t: float) -> tuple[float, float, float] | None:
     x = float(np.interp(t, tr["t"], tr["x"]))
     y = float(np.interp(t, tr["t"], tr["y"]))
     h = float(np.interp(t, tr["t"], np.unwrap(tr["heading"])))
-    return x, y, math.remainder(h, 2.0 * math.pi)
+    return x, y, wrap_scalar(h)
 
 
 def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
@@ -364,7 +365,7 @@ def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _
                    progress=progress, cloud_period_s=cloud_period_s, cloud_size=cloud_size)
     table = EstimateTable(
         t0_ns + np.round(rows.t * 1e9).astype(np.int64), rows.x, rows.y,
-        np.remainder(rows.heading + math.pi, 2.0 * math.pi) - math.pi, rows.covariance,
+        wrap_angle(rows.heading), rows.covariance,
         rows.particles, rows.ess)
     clouds = [(t0_ns + round(t * 1e9), x, y, h) for t, x, y, h in rows.clouds]
     return table, clouds
