@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True, slots=True)
 class TruthSample:
-    """True pose of O at ``t``: x, y in m, heading in rad (wrapped to [-pi, pi))."""
+    """True pose of O at ``t``: x, y in m, heading in rad (wrapped to (-pi, pi])."""
 
     t: float
     x: float

@@ -49,7 +49,7 @@ class Scans:
     range: FloatArray
     """Measured range to the landmark centre, m."""
     bearing: FloatArray
-    """Measured bearing in the head frame, CCW from the head's x axis, rad in [-pi, pi)."""
+    """Measured bearing in the head frame, CCW from the head's x axis, rad in (-pi, pi]."""
     landmark: NDArray[np.intp]
     """Landmark index of each column (the same for every scan)."""
     matched: NDArray[np.intp]
@@ -70,7 +70,7 @@ class Solutions:
     x: FloatArray
     y: FloatArray
     heading: FloatArray
-    """Head heading, rad in [-pi, pi)."""
+    """Head heading, rad in (-pi, pi]."""
     used: NDArray[np.int64]
     """Matched reflectors used in the fit."""
     valid: NDArray[np.bool_]
