@@ -31,6 +31,7 @@ from lgvtool.angles import wrap_angle
 from lgvtool.config import Area
 from lgvtool.importers.mrclam import ROBOT_SUBJECTS, FileInfo, MrclamDataset, RobotRecording
 from lgvtool.importers.mrclam_timing import delay_ns, odometry_delay
+from lgvtool.timestamps import seconds_to_ns_array
 
 NS = 1_000_000_000
 _LIST_MAX = 20
@@ -131,11 +132,6 @@ class PreparedRun:
 
     def _streams(self) -> tuple[pd.DataFrame, ...]:
         return (self.odometry, self.truth, self.observations)
-
-
-def seconds_to_ns(t: np.ndarray) -> np.ndarray:
-    """Unix times in s (float) to int64 ns, rounded to the microsecond (exact for float64)."""
-    return np.rint(np.asarray(t, dtype=np.float64) * 1e6).astype(np.int64) * 1000
 
 
 def area_of(dataset: MrclamDataset, margin: float) -> Area:
@@ -407,9 +403,9 @@ def prepare_run(dataset: MrclamDataset, rec: RobotRecording,
     st = settings or ImportSettings()
     col = _Collector()
     broken = {f.name: f.broken for f in rec.files if f.broken}
-    odo = rec.odometry.assign(t_ns=seconds_to_ns(rec.odometry["t"].to_numpy()))
-    tru = rec.truth.assign(t_ns=seconds_to_ns(rec.truth["t"].to_numpy()))
-    meas = rec.measurements.assign(t_ns=seconds_to_ns(rec.measurements["t"].to_numpy()))
+    odo = rec.odometry.assign(t_ns=seconds_to_ns_array(rec.odometry["t"].to_numpy(), 1000))
+    tru = rec.truth.assign(t_ns=seconds_to_ns_array(rec.truth["t"].to_numpy(), 1000))
+    meas = rec.measurements.assign(t_ns=seconds_to_ns_array(rec.measurements["t"].to_numpy(), 1000))
     odo = odo[["t_ns", "v", "omega"]]
     tru = tru[["t_ns", "x", "y", "theta"]]
     meas = meas[["t_ns", "barcode", "range", "bearing"]]

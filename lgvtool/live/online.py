@@ -43,7 +43,7 @@ from lgvtool.localize.observations import PoseObservation, RawScan, scan_observa
 from lgvtool.localize.registry import ESTIMATORS, check_names, resolve_params, split_settings
 from lgvtool.localize.replay_driver import estimator_rng
 from lgvtool.log import messages, topics
-from lgvtool.timestamps import stamp
+from lgvtool.timestamps import message_stamp_ns, seconds_to_ns, stamp
 
 __all__ = ["INPUT_TOPICS", "OnlineEstimator", "Output"]
 
@@ -62,17 +62,6 @@ class Output:
     schema: str
     data: bytes
     t_ns: int
-
-
-def _stamp_ns(doc: Mapping[str, Any], log_ns: int) -> int:
-    """A message's own ``timestamp`` (ns), else its log time."""
-    ts = doc.get("timestamp")
-    if isinstance(ts, Mapping):
-        try:
-            return int(ts["sec"]) * 1_000_000_000 + int(ts["nsec"])
-        except (KeyError, TypeError, ValueError):
-            pass
-    return int(log_ns)
 
 
 class OnlineEstimator:
@@ -125,7 +114,7 @@ class OnlineEstimator:
         if topic not in INPUT_TOPICS:
             return []
         doc = orjson.loads(data)
-        t_ns = _stamp_ns(doc, log_time_ns)
+        t_ns = message_stamp_ns(doc, log_time_ns)
         if self._t0_ns is None:
             self._t0_ns = t_ns
         t = (t_ns - self._t0_ns) * 1e-9
@@ -270,7 +259,7 @@ class OnlineEstimator:
         e = self.est.estimate()
         if e is None:
             return []
-        t_ns = self._t0_ns + round(t * 1e9)
+        t_ns = self._t0_ns + seconds_to_ns(t)
         heading = wrap_scalar(e.heading)
         pose_t, state_t, cloud_t = self._topics
         out = [
