@@ -11,7 +11,7 @@ from lgvtool.errors import InputError
 from lgvtool.fleet.engine import Outcome
 from lgvtool.fleet.keys import HashCache, file_sha256, task_key
 from lgvtool.fleet.results import TaskStore, is_final, summary_table, task_record, tidy_table
-from lgvtool.fleet.stats import describe, t_quantile
+from lgvtool.fleet.stats import describe
 from lgvtool.fleet.tasks import (
     SweepTask,
     build_tasks,
@@ -21,6 +21,7 @@ from lgvtool.fleet.tasks import (
     missing_files,
     parse_grid,
 )
+from lgvtool.quantiles import t_quantile
 
 
 def test_file_hash_is_streamed_sha256(tmp_path):
