@@ -39,7 +39,13 @@ from lgvtool.localize.motion import (
     increments_from_mcu,
     increments_from_twist,
 )
-from lgvtool.localize.observations import PoseObservation, RawScan, scan_observation, sources
+from lgvtool.localize.observations import (
+    PoseObservation,
+    RawScan,
+    ScanBatch,
+    scan_observations,
+    sources,
+)
 from lgvtool.localize.registry import ESTIMATORS, check_names, resolve_params, split_settings
 from lgvtool.localize.replay_driver import estimator_rng
 from lgvtool.log import messages, topics
@@ -158,10 +164,11 @@ class OnlineEstimator:
         started = time.perf_counter()
         track = self._track()
         p = self.params
-        o = scan_observation(scan, self.config.vehicle.nav_x, self.config.vehicle.nav_y,
-                             track=track, deskew=bool(getattr(p, "deskew", False)),
-                             min_range=float(getattr(p, "min_range_m", 0.0)),
-                             max_range=float(getattr(p, "max_range_m", math.inf)))
+        o = scan_observations(ScanBatch.from_scans([scan]), self.config.vehicle.nav_x,
+                              self.config.vehicle.nav_y, track=track,
+                              deskew=bool(getattr(p, "deskew", False)),
+                              min_range=float(getattr(p, "min_range_m", 0.0)),
+                              max_range=float(getattr(p, "max_range_m", math.inf)))[0]
         return self._apply(o, o.t, track, started)
 
     def _on_pose(self, doc: Mapping[str, Any], t: float) -> list[Output]:

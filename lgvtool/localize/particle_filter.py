@@ -15,7 +15,7 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
   (kidnapping, a wrong convergence).
 - ``deskew``: each reflector is placed at the odometry pose of its own measurement time within
   the head revolution (done by the replay driver, see
-  :func:`lgvtool.localize.observations.scan_observation`).
+  :func:`lgvtool.localize.observations.scan_observations`).
 - ``outlier``: each reflector's likelihood is a mixture ``(1 - eps) N + eps U``: a Gaussian in
   range (``sigma_range_m``) and bearing (``sigma_bearing_rad``, i.e. ``r sigma_b`` across the
   ray) plus a uniform density over a disc of radius ``outlier_gate_m``, so a false reflector
