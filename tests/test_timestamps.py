@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -39,7 +40,8 @@ def test_columns_agree_with_one_value() -> None:
 
 
 def test_a_message_without_its_own_stamp_takes_its_log_time() -> None:
-    docs = [{"timestamp": {"sec": 3, "nsec": 7}}, {"x": 1.0}, {"timestamp": None}]
+    docs: list[dict[str, Any]] = [{"timestamp": {"sec": 3, "nsec": 7}}, {"x": 1.0},
+                                  {"timestamp": None}]
     log_ns = np.array([10, 20, 30], dtype=np.int64)
     assert message_stamps_ns(docs, log_ns).tolist() == [3_000_000_007, 20, 30]
     assert message_stamps_ns(docs[:1], log_ns[:1]).tolist() == [3_000_000_007]
