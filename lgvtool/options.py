@@ -26,7 +26,7 @@ lz4 at a decompression speed that is never the bottleneck of a replay (docs/perf
 COMPRESSIONS = ("zstd", "lz4", "none")
 
 
-class Number(click.ParamType):  # type: ignore[type-arg]  # generic only in newer click
+class Number(click.ParamType):  # type: ignore[type-arg,unused-ignore]  # generic in newer click
     """A number option checked by the one coercer (:func:`lgvtool.values.coerce`).
 
     ``kind`` is int or float; the bounds are as for ``coerce`` (an int without ``maximum``

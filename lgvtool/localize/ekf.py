@@ -33,11 +33,11 @@ import numpy as np
 
 from lgvtool.angles import wrap_scalar
 from lgvtool.localize.camera_fix import start_fix
-from lgvtool.localize.chi2 import chi2_quantile
 from lgvtool.localize.estimator import Estimate, Estimator, Motion, Observation
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
+from lgvtool.quantiles import chi2_quantile
 
 POSE = 3
 """Size of the pose part ``(x, y, theta)`` of the state."""

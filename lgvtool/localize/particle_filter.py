@@ -15,7 +15,7 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
   (kidnapping, a wrong convergence).
 - ``deskew``: each reflector is placed at the odometry pose of its own measurement time within
   the head revolution (done by the replay driver, see
-  :func:`lgvtool.localize.observations.scan_observation`).
+  :func:`lgvtool.localize.observations.scan_observations`).
 - ``outlier``: each reflector's likelihood is a mixture ``(1 - eps) N + eps U``: a Gaussian in
   range (``sigma_range_m``) and bearing (``sigma_bearing_rad``, i.e. ``r sigma_b`` across the
   ray) plus a uniform density over a disc of radius ``outlier_gate_m``, so a false reflector
@@ -35,7 +35,6 @@ independent measurements (the likelihood is the product of the per-reflector ter
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
@@ -43,7 +42,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.localize.camera_fix import residual_chi2, start_fix
-from lgvtool.localize.chi2 import chi2_quantile
 from lgvtool.localize.estimator import Estimate, Motion, Observation
 from lgvtool.localize.kld import bin_keys, kld_count
 from lgvtool.localize.noise import MotionParams
@@ -56,15 +54,10 @@ from lgvtool.localize.resampling import (
     multinomial,
     uniform_poses,
 )
+from lgvtool.quantiles import chi2_quantile
 
 FloatArray = NDArray[np.float64]
 _LOG_2PI = math.log(2.0 * math.pi)
-
-
-@functools.lru_cache(maxsize=64)
-def _chi2_quantile(p: float, dof: int) -> float:
-    """The chi-square quantile of probability ``p`` with ``dof`` degrees of freedom (cached)."""
-    return chi2_quantile(p, dof)
 
 
 @dataclass(frozen=True)
@@ -298,8 +291,8 @@ class ParticleFilter(ParticleSet):
         # the cloud's mean explains the frame (2n degrees of freedom): nothing contradicts it
         # (and no fix need be computed)
         if residual_chi2(cloud[:3], obs, self.map, p.sigma_range_m, p.sigma_range_per_m,
-                         p.sigma_bearing_rad) <= _chi2_quantile(p.fix_reset_probability,
-                                                                2 * known):
+                         p.sigma_bearing_rad) <= chi2_quantile(p.fix_reset_probability,
+                                                               2 * known):
             return False
         fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
         if fix is None:
@@ -312,11 +305,11 @@ class ParticleFilter(ParticleSet):
             m2 = float(d @ np.linalg.solve(fcov[:2, :2] + cloud[3][:2, :2], d))
         except np.linalg.LinAlgError:
             return False
-        if m2 <= _chi2_quantile(p.fix_reset_probability, 2):
+        if m2 <= chi2_quantile(p.fix_reset_probability, 2):
             return False
         fit = residual_chi2((fx, fy, fh), obs, self.map, p.sigma_range_m, p.sigma_range_per_m,
                             p.sigma_bearing_rad)
-        return fit <= _chi2_quantile(p.fix_reset_probability, max(1, 2 * known - 3))
+        return fit <= chi2_quantile(p.fix_reset_probability, max(1, 2 * known - 3))
 
     def _around(self, pose: tuple[float, float, float], cov: FloatArray | None, n: int
                 ) -> tuple[FloatArray, FloatArray, FloatArray]:

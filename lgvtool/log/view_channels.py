@@ -20,6 +20,7 @@ import orjson
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
 from lgvtool.log.windows import Source, constant, source
+from lgvtool.timestamps import from_stamp
 
 if TYPE_CHECKING:
     import numpy as np
@@ -56,7 +57,7 @@ def _scan_rows(reader: LogReader) -> tuple[Any, ...]:
     rng, brg, ids, dts = array("d"), array("d"), array("q"), array("d")
     for t, d in _each(reader, T.NAV_REFLECTORS):
         times.append(t)
-        start.append(d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"])
+        start.append(from_stamp(d["timestamp"]))
         obs = d.get("observations", [])
         offsets.append(offsets[-1] + len(obs))
         for o in obs:

@@ -30,6 +30,7 @@ from lgvtool.sim.nav_device import Nav200Device
 from lgvtool.sim.nav_link import FaultEvent, NavTraffic
 from lgvtool.sim.scenarios import Plan, Scenario, get_scenario
 from lgvtool.sim.settings import InstallSettings, SimSettings, apply_overrides, flatten
+from lgvtool.timestamps import seconds_to_ns
 
 STREAMS = ("landmarks", "mcu", "mcu_link", "nav", "nav_link", "faults")
 """Names of the random streams spawned from the seed, in spawn order."""
@@ -120,7 +121,7 @@ class Simulation:
 
     def host_ns(self, t: float) -> int:
         """Host time of simulation time ``t`` s, integer ns since the Unix epoch."""
-        return self.start_ns + round(t * 1e9)
+        return self.start_ns + seconds_to_ns(t)
 
     def fault_counts(self) -> dict[str, int]:
         """How many faults of each kind were injected."""

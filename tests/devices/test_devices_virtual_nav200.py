@@ -29,6 +29,7 @@ def test_wrong_mode_gets_an_error_reply() -> None:
     assert isinstance(pose, proto.Reply) and pose.code == "PP"
     fix = dev.playback.pose_at(2.0)
     assert fix is not None
+    assert isinstance(pose.payload, proto.Pose)
     assert abs(pose.payload.x - fix.x) < 0.001 and pose.payload.valid
     err = ask(dev, proto.request_version())
     assert isinstance(err, proto.ErrorReply) and err.group == 7
@@ -103,7 +104,8 @@ def test_speed_input_compensates_the_turning_skew(circle_run) -> None:
     fast = []
     for t in times:
         reply = ask(dev, proto.request_pose_with_speed(vx, vy, w), t=t)
-        assert isinstance(reply, proto.Reply) and reply.payload.valid
+        assert isinstance(reply, proto.Reply) and isinstance(reply.payload, proto.Pose)
+        assert reply.payload.valid
         fast.append(_o_radial_error(dev.current_fix(t), centre, radius))
     assert dev.speed_inputs and dev.speed_inputs[0][1] == "Pw"
     assert abs(sum(plain) / len(plain)) > 0.03  # the skew: a bias of tens of mm

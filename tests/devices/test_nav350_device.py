@@ -186,8 +186,8 @@ def test_session_reports_error_codes_and_restarts_on_wrong_mode() -> None:
     dev = device()
     dev.faults.error_code, dev.faults.error_until = 5, 3.0
     events = run_session(dev, Nav350Settings(restart_after=100), 4.0)
-    codes = [e.details["error_code"] for e in events if getattr(e, "kind", "") ==
-             "device_error_code"]
+    codes = [getattr(e, "details", {})["error_code"] for e in events
+             if getattr(e, "kind", "") == "device_error_code"]
     assert codes and set(codes) == {5}
     dev = device()
     session_events = run_session(dev, Nav350Settings(), 1.5)
