@@ -36,10 +36,7 @@ DEVICE_SIDE = ("devices", "wire", "sim/emulate")
 """Folders of lgvtool holding device code: codecs, host sessions, device models, emulators."""
 ESTIMATOR_PACKAGES = ("lgvtool.localize",)
 
-PENDING_COMMAND_IMPORTS: frozenset[str] = frozenset({
-    "lgvtool/calibrate/compare.py",  # commands.evaluate.evaluate_log, until it lives in app/
-    "lgvtool/fleet/tasks.py",        # the same
-})
+PENDING_COMMAND_IMPORTS: frozenset[str] = frozenset()
 """Modules outside the command line that still import ``lgvtool.commands``."""
 COMMAND_LINE = ("lgvtool/commands/", "lgvtool/cli.py")
 
