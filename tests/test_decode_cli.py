@@ -9,11 +9,11 @@ from pathlib import Path
 import jsonschema
 import pytest
 
+from lgvtool.devices.mcu.mcu_frame import McuFrame
+from lgvtool.devices.nav200 import nav200_protocol as nav200
 from lgvtool.log import LogReader, LogWriter, topics
 from lgvtool.log.messages import pose_in_frame
 from lgvtool.timestamps import stamp
-from lgvtool.wire import nav200
-from lgvtool.wire.mcu import McuFrame
 
 T0 = 1_700_000_000_000_000_000
 SCHEMAS = Path(__file__).resolve().parent.parent / "schemas"

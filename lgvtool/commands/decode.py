@@ -12,7 +12,7 @@ from lgvtool.options import compression_option, force_option, warn
 
 if TYPE_CHECKING:
     from lgvtool.log import LogReader, LogWriter
-    from lgvtool.wire.events import DecodeEvent
+    from lgvtool.wire.decode_events import DecodeEvent
 
 #: Diagnostic sources that the decoders produce; their old events are replaced.
 DECODER_SOURCES = ("mcu", "nav200", "nav350")
@@ -58,7 +58,7 @@ class DecodeReport:
         """Human-readable lines: frames decoded and error counts per device."""
 
         def errors(stats: dict[str, int]) -> str:
-            from lgvtool.wire.events import DecoderStats
+            from lgvtool.wire.decode_events import DecoderStats
 
             kinds = DecoderStats.ERROR_KINDS
             keys = ("bytes_skipped", *kinds[: kinds.index("seq_gaps") + 1], "frames_missing",
@@ -139,13 +139,14 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
     the log. Every other message and the metadata are copied. Decoded messages get the log time
     of the raw chunk that completed them.
     """
+    from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
+    from lgvtool.devices.nav200.nav200_commands import Reply
+    from lgvtool.devices.nav200.nav200_matcher import Nav200ReplyMatcher
+    from lgvtool.devices.nav200.nav200_payloads import Pose
     from lgvtool.errors import MissingDataError
     from lgvtool.log import LogWriter, topics
-    from lgvtool.wire.mcu_stream import McuStreamDecoder
-    from lgvtool.wire.messages import mcu_frame_message, nav_pose_message, timestamp_from_ns
-    from lgvtool.wire.nav200_commands import Reply
-    from lgvtool.wire.nav200_payloads import Pose
-    from lgvtool.wire.nav200_session import Nav200HostSession
+    from lgvtool.log.messages import mcu_frame_message, nav_pose_message
+    from lgvtool.timestamps import stamp as timestamp_from_ns
 
     present = set(reader.topic_names())
     has_mcu = topics.MCU_RX in present
@@ -165,7 +166,7 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
         replaced.add(topics.NAV_POSE)
         sources.add("nav200")
     if has_nav350:
-        from lgvtool.devices.nav350.logdecode import Nav350LogDecoder
+        from lgvtool.devices.nav350.nav350_logdecode import Nav350LogDecoder
 
         ids = reader.metadata.get("device.nav350", {}).get("global_ids")
         nav350 = Nav350LogDecoder(map_id=None if not isinstance(ids, dict) else
@@ -175,7 +176,7 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
 
     report = DecodeReport(str(reader.path), str(output))
     mcu = McuStreamDecoder()
-    nav = Nav200HostSession()
+    nav = Nav200ReplyMatcher()
     last_mcu_ns = last_nav_ns = 0
     with LogWriter(output, source="decode", compression=compression) as writer:
         for name, record in reader.metadata.items():

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from lgvtool.devices.nav350.registration import record_options as nav350_options
+from lgvtool.devices.nav350.nav350_registration import record_options as nav350_options
 from lgvtool.options import force_option, positive, split_names
 from lgvtool.values import MAX_BYTES, MAX_WALL_S
 
@@ -84,7 +84,7 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
     from pathlib import Path
 
     from lgvtool.config import load_config
-    from lgvtool.devices.nav200_session import Nav200Settings
+    from lgvtool.devices.nav200.nav200_session import Nav200Settings
     from lgvtool.devices.recorder import RecorderSettings
     from lgvtool.devices.recorder import record as do_record
     from lgvtool.errors import InputError
@@ -106,7 +106,7 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
         omega_scale=OMEGA_UNITS_PER_RAD_S if omega_units == "rev"
         else OMEGA_UNITS_PER_RAD_S_HALF_DEG,
     )
-    from lgvtool.devices.nav350.registration import recorder_settings
+    from lgvtool.devices.nav350.nav350_registration import recorder_settings
 
     config = load_config(config_file)
     nav350 = recorder_settings(nav350_url, nav350_cola, layer=layer, upload=not no_map_upload,

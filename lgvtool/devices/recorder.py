@@ -25,13 +25,15 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from lgvtool.config import Config, default_config
-from lgvtool.devices.links import MCU_SERIAL_DEFAULTS, NAV200_SERIAL_DEFAULTS, open_link
+from lgvtool.devices.device_links import MCU_SERIAL_DEFAULTS, NAV200_SERIAL_DEFAULTS, open_link
+from lgvtool.devices.link_worker import LinkTiming
 from lgvtool.devices.logsink import LogSink
-from lgvtool.devices.nav200_session import Nav200Session, Nav200Settings
+from lgvtool.devices.mcu.mcu_worker import McuWorker
+from lgvtool.devices.nav200.nav200_session import Nav200Session, Nav200Settings
+from lgvtool.devices.nav200.nav200_worker import NavWorker
 from lgvtool.devices.status import StatusLine, format_bytes
-from lgvtool.devices.workers import LinkTiming, McuWorker, NavWorker
 from lgvtool.errors import InputError, LgvError
-from lgvtool.wire.events import INFO
+from lgvtool.wire.decode_events import INFO
 
 __all__ = ["RecordError", "RecordResult", "Recorder", "RecorderSettings", "record"]
 
@@ -68,7 +70,7 @@ class RecorderSettings:
     nav350_url: str | None = None
     """The NAV350 (tcp://HOST:2112), recorded by lgvtool.devices.nav350."""
     nav350: Any = None
-    """Its :class:`lgvtool.devices.nav350.session.Nav350Settings` (None: the defaults)."""
+    """Its :class:`lgvtool.devices.nav350.nav350_session.Nav350Settings` (None: the defaults)."""
 
 
 @dataclass
@@ -168,7 +170,7 @@ class Recorder:
                             known_map=self.config.reflectors, mcu=mcu, warn=self._warn)
             self.workers.append(nav)
         if self._nav350_link is not None:
-            from lgvtool.devices.nav350.registration import recorder_worker
+            from lgvtool.devices.nav350.nav350_registration import recorder_worker
 
             self.workers.append(recorder_worker(
                 self._nav350_link, self.sink, self._stop, timing, s.nav350, self.config,

@@ -5,12 +5,12 @@ Modules, one purpose each:
 - :mod:`~lgvtool.sim.kinematics`: the tricycle model, integrated as exact arcs;
 - :mod:`~lgvtool.sim.routes`, :mod:`~lgvtool.sim.scenarios`: routes, speed profiles and the
   scenario catalogue;
-- :mod:`~lgvtool.sim.mcu_model`, :mod:`~lgvtool.sim.mcu_link`: encoders, gyro, drive unit,
+- :mod:`~lgvtool.sim.mcu_model`, :mod:`~lgvtool.devices.mcu.mcu_simlink`: encoders, gyro, drive unit,
   MCU clock and its serial link;
 - :mod:`~lgvtool.sim.nav_model`: the NAV200 head (one instant per reflector) and its pose fit;
-  :mod:`~lgvtool.sim.nav_device`: its replies to host requests;
-  :mod:`~lgvtool.sim.nav_link`: the host polling it;
-- :mod:`~lgvtool.sim.links`: serial timing and read chunking;
+  :mod:`~lgvtool.devices.nav200.nav200_device`: its replies to host requests;
+  :mod:`~lgvtool.devices.nav200.nav200_simlink`: the host polling it;
+- :mod:`~lgvtool.sim.serial_timing`: serial timing and read chunking;
   :mod:`~lgvtool.sim.faults`: landmarks, occlusions and injected faults;
 - :mod:`~lgvtool.sim.settings`: every setting and ``--set`` overrides;
 - :mod:`~lgvtool.sim.simulation`: resolve settings and run; :mod:`~lgvtool.sim.event_stream`: the run as a
@@ -39,7 +39,7 @@ _EXPORTS: dict[str, str] = {
     "TruthSample": "lgvtool.sim.event_stream",
     "LogSummary": "lgvtool.sim.logfile",
     "write_log": "lgvtool.sim.logfile",
-    "Nav200Device": "lgvtool.sim.nav_device",
+    "Nav200Device": "lgvtool.devices.nav200.nav200_device",
     "Setup": "lgvtool.sim.simulation",
     "Simulation": "lgvtool.sim.simulation",
     "resolve": "lgvtool.sim.simulation",

@@ -15,14 +15,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
+from lgvtool.devices.nav200.nav200_commands import Reply
+from lgvtool.devices.nav200.nav200_matcher import Nav200ReplyMatcher
+from lgvtool.devices.nav200.nav200_payloads import Pose
 from lgvtool.log import LogWriter, topics
-from lgvtool.log.messages import pose_in_frame
+from lgvtool.log.messages import mcu_frame_message, nav_pose_message, pose_in_frame
 from lgvtool.sim.event_stream import nav_scans, truth_samples
 from lgvtool.sim.simulation import Simulation
 from lgvtool.timestamps import stamp
-from lgvtool.wire import McuStreamDecoder, Nav200HostSession, mcu_frame_message, nav_pose_message
-from lgvtool.wire.events import DecodeEvent
-from lgvtool.wire.nav200 import Pose, Reply
+from lgvtool.wire.decode_events import DecodeEvent
 
 # order of records that share a log time
 _TRUTH, _FAULT, _MCU, _NAV_TX, _NAV_RX, _SCAN = range(6)
@@ -66,7 +68,7 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
         add(chunk.t, _MCU, chunk)
     late = sim.settings.install.nav_time_offset_ms * 1e-3  # NAV-to-host time offset, s
     if sim.settings.sim.nav_device == "nav350":  # the host side of a NAV350 instead
-        from lgvtool.devices.nav350.simlink import nav350_traffic
+        from lgvtool.devices.nav350.nav350_simlink import nav350_traffic
 
         for t, direction, data in nav350_traffic(sim):
             add(t + late if direction == "rx" else t, _NAV_TX if direction == "tx" else _NAV_RX,
@@ -85,13 +87,13 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
 
     mcu_decoder = McuStreamDecoder()
     nav350 = None
-    session = Nav200HostSession()
+    session = Nav200ReplyMatcher()
     with LogWriter(path, compression=compression, source="simulate", command=command) as w:
         w.add_metadata("simulator", sim.metadata())
         w.write_config(sim.config)
         w.write_map(sim.config.reflectors, sim.start_ns)
         if sim.settings.sim.nav_device == "nav350":
-            from lgvtool.devices.nav350.simlink import Nav350LogWriter
+            from lgvtool.devices.nav350.nav350_simlink import Nav350LogWriter
 
             nav350 = Nav350LogWriter(w)
         for ns, order, _, payload in records:
@@ -137,13 +139,13 @@ def _mcu_read(w: LogWriter, decoder: McuStreamDecoder, ns: int, data: bytes) -> 
     _diagnostics(w, decoder.pop_events(), ns)
 
 
-def _nav_write(w: LogWriter, session: Nav200HostSession, ns: int, data: bytes) -> None:
+def _nav_write(w: LogWriter, session: Nav200ReplyMatcher, ns: int, data: bytes) -> None:
     w.write_raw("nav200", "tx", data, ns)
     session.sent(data)
     _diagnostics(w, session.pop_events(), ns)
 
 
-def _nav_read(w: LogWriter, session: Nav200HostSession, ns: int, data: bytes) -> None:
+def _nav_read(w: LogWriter, session: Nav200ReplyMatcher, ns: int, data: bytes) -> None:
     w.write_raw("nav200", "rx", data, ns)
     for exchange in session.feed(data):
         reply = exchange.reply

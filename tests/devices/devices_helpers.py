@@ -13,8 +13,8 @@ import time
 from pathlib import Path
 
 from lgvtool.config import Vehicle, paper_hall_reflectors
+from lgvtool.devices.mcu.mcu_frame import McuFrame
 from lgvtool.sim.emulate import McuChunk, Playback, PoseFix
-from lgvtool.wire.mcu import McuFrame
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -6,7 +6,9 @@ import math
 
 from devices_helpers import circle_playback
 
-from lgvtool.devices.nav200_session import (
+from lgvtool.devices.nav200 import nav200_protocol as proto
+from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
+from lgvtool.devices.nav200.nav200_session import (
     DeviceIdentity,
     DeviceSilent,
     MapUploaded,
@@ -15,9 +17,7 @@ from lgvtool.devices.nav200_session import (
     PoseReceived,
     PositioningEntered,
 )
-from lgvtool.sim.emulate import VirtualNav200
-from lgvtool.wire import nav200 as proto
-from lgvtool.wire.events import DecodeEvent
+from lgvtool.wire.decode_events import DecodeEvent
 
 PLAYBACK = circle_playback(10.0)
 

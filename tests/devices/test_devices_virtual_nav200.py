@@ -9,8 +9,9 @@ import pytest
 from devices_helpers import circle_playback
 
 from lgvtool.config import Vehicle
-from lgvtool.sim.emulate import Playback, PoseFix, VirtualNav200, playback_from_scenario
-from lgvtool.wire import nav200 as proto
+from lgvtool.devices.nav200 import nav200_protocol as proto
+from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
+from lgvtool.sim.emulate import Playback, PoseFix, playback_from_scenario
 
 
 def ask(dev: VirtualNav200, request: proto.Request, t: float = 1.0) -> proto.AnyReply:

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from lgvtool.devices.nav200 import nav200_protocol as proto
+from lgvtool.devices.nav200.nav200_device import Nav200Device
 from lgvtool.log import LogReader, topics
 from lgvtool.sim import nav_model
-from lgvtool.sim.nav_device import Nav200Device
 from lgvtool.timestamps import from_stamp
-from lgvtool.wire import nav200 as proto
 
 QUIET = {"sim.noise": False, "nav.map_sigma_mm": 0.0, "nav.angle_step_deg": 0.0}
 """Every random error off, the map exact and bearings and ranges to the reflectors' centres."""

@@ -10,16 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from wire_strategies import mcu_frame_strategy
 
-from lgvtool.wire.checksum import crc16_ccitt_false
-from lgvtool.wire.errors import (
-    BadLengthError,
-    BadSyncError,
-    ChecksumError,
-    EncodeError,
-    TruncatedError,
-    UnknownVersionError,
-)
-from lgvtool.wire.mcu import (
+from lgvtool.devices.mcu.mcu_frame import (
     FRAME_SIZE,
     McuFrame,
     McuStatus,
@@ -28,6 +19,15 @@ from lgvtool.wire.mcu import (
     decode_mcu_frame,
     encode_mcu_frame,
     seq_delta,
+)
+from lgvtool.wire.checksum import crc16_ccitt_false
+from lgvtool.wire.wire_errors import (
+    BadLengthError,
+    BadSyncError,
+    ChecksumError,
+    EncodeError,
+    TruncatedError,
+    UnknownVersionError,
 )
 
 #: The worked examples of docs/protocol.md.

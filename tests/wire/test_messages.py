@@ -10,10 +10,11 @@ from typing import Any
 import jsonschema
 import pytest
 
-from lgvtool.wire import nav200
-from lgvtool.wire.events import DecodeEvent
-from lgvtool.wire.mcu import McuFrame, decode_mcu_frame
-from lgvtool.wire.messages import mcu_frame_message, nav_pose_message, timestamp_from_ns
+from lgvtool.devices.mcu.mcu_frame import McuFrame, decode_mcu_frame
+from lgvtool.devices.nav200 import nav200_protocol as nav200
+from lgvtool.log.messages import mcu_frame_message, nav_pose_message
+from lgvtool.timestamps import stamp
+from lgvtool.wire.decode_events import DecodeEvent
 
 SCHEMAS = Path(__file__).resolve().parents[2] / "schemas"
 
@@ -26,8 +27,8 @@ def schema(name: str) -> dict[str, Any]:
 STAMP = {"sec": 1_700_000_000, "nsec": 123_456_789}
 
 
-def test_timestamp_from_ns() -> None:
-    assert timestamp_from_ns(1_700_000_000_123_456_789) == STAMP
+def test_stamp() -> None:
+    assert stamp(1_700_000_000_123_456_789) == STAMP
 
 
 def test_mcu_frame_message() -> None:

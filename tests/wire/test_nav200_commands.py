@@ -6,8 +6,9 @@ import math
 
 import pytest
 
-from lgvtool.wire import nav200
-from lgvtool.wire.errors import (
+from lgvtool.devices.nav200 import nav200_protocol as nav200
+from lgvtool.devices.nav200.nav200_protocol import ErrorReply, Reply, Request
+from lgvtool.wire.wire_errors import (
     BadLengthError,
     BadSyncError,
     ChecksumError,
@@ -17,7 +18,6 @@ from lgvtool.wire.errors import (
     UnexpectedReplyError,
     UnknownCommandError,
 )
-from lgvtool.wire.nav200 import ErrorReply, Reply, Request
 
 # (request code, request LEN, reply code, reply LEN) from the command table.
 TABLE = [

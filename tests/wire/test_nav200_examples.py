@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from lgvtool.wire import nav200
-from lgvtool.wire.nav200 import (
+from lgvtool.devices.nav200 import nav200_protocol as nav200
+from lgvtool.devices.nav200.nav200_protocol import (
     ActionRadii,
     Count,
     Empty,

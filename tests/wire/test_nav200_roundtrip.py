@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from wire_strategies import error_reply_strategy, reply_strategy, request_strategy
 
-from lgvtool.wire import nav200
+from lgvtool.devices.nav200 import nav200_protocol as nav200
+from lgvtool.devices.nav200.nav200_protocol import ErrorReply, Reply, Request
 from lgvtool.wire.checksum import xor_bcc
-from lgvtool.wire.nav200 import ErrorReply, Reply, Request
 
 ROUND_TRIP = settings(max_examples=25, deadline=None)
 

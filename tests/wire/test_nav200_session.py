@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from lgvtool.wire import nav200
-from lgvtool.wire.nav200 import ErrorReply, Nav200HostSession
+from lgvtool.devices.nav200 import nav200_protocol as nav200
+from lgvtool.devices.nav200.nav200_protocol import ErrorReply, Nav200ReplyMatcher
 
 
 def test_pose_polling() -> None:
-    session = Nav200HostSession()
+    session = Nav200ReplyMatcher()
     assert session.send(nav200.request_pose_with_speed(0.3, 0.0, 0.1)) == (
         nav200.request_pose_with_speed(0.3, 0.0, 0.1).encode()
     )
@@ -22,7 +22,7 @@ def test_pose_polling() -> None:
 
 
 def test_replies_with_other_letters_match() -> None:
-    session = Nav200HostSession()
+    session = Nav200ReplyMatcher()
     pairs = [
         (nav200.request_set_reflector_radius(0, 45), nav200.build_radius_reply(0, 45)),
         (nav200.request_positioning_mean(4), nav200.build_ack_reply("PA")),
@@ -36,7 +36,7 @@ def test_replies_with_other_letters_match() -> None:
 
 
 def test_wrong_reply_is_counted_not_raised() -> None:
-    session = Nav200HostSession()
+    session = Nav200ReplyMatcher()
     session.send(nav200.request_pose())
     (exchange,) = session.feed(nav200.build_ack_reply("SA"))
     assert not exchange.matched
@@ -50,7 +50,7 @@ def test_wrong_reply_is_counted_not_raised() -> None:
 
 
 def test_unsolicited_reply_and_unanswered_request() -> None:
-    session = Nav200HostSession()
+    session = Nav200ReplyMatcher()
     (exchange,) = session.feed(nav200.build_pose_reply(0, 0, 0, 50, 3))
     assert exchange.request is None
     session.send(nav200.request_pose())
@@ -64,7 +64,7 @@ def test_unsolicited_reply_and_unanswered_request() -> None:
 
 
 def test_error_reply_answers_pending_request() -> None:
-    session = Nav200HostSession()
+    session = Nav200ReplyMatcher()
     request = nav200.request_upload_next(0)
     session.send(request)
     (exchange,) = session.feed(nav200.build_error_reply(request, 1, 5, 10))
@@ -75,7 +75,7 @@ def test_error_reply_answers_pending_request() -> None:
 
 
 def test_redecoding_logged_traffic() -> None:
-    session = Nav200HostSession()
+    session = Nav200ReplyMatcher()
     tx = nav200.request_positioning_mode().encode() + nav200.request_pose().encode()
     # The host wrote PA; the device answered; then PP and its answer, in separate chunks.
     assert [r.code for r in session.sent(tx[:5])] == ["PA"]

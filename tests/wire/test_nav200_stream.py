@@ -18,10 +18,10 @@ from wire_strategies import (
     split,
 )
 
-from lgvtool.wire import nav200
-from lgvtool.wire.events import DecoderStats
-from lgvtool.wire.nav200 import Nav200ReplyDecoder, Nav200RequestDecoder, Reply, Request
-from lgvtool.wire.stream import StreamDecoder
+from lgvtool.devices.nav200 import nav200_protocol as nav200
+from lgvtool.devices.nav200.nav200_protocol import Nav200ReplyDecoder, Nav200RequestDecoder, Reply, Request
+from lgvtool.wire.decode_events import DecoderStats
+from lgvtool.wire.resync_stream import StreamDecoder
 
 T = TypeVar("T")
 
