@@ -85,7 +85,7 @@ def build_log(path: Path) -> None:
 
 
 def test_decode_rebuilds_channels(tmp_path: Path) -> None:
-    from lgvtool.commands.decode import decode_log
+    from lgvtool.app.decode_job import decode_log
 
     src, out = tmp_path / "in.mcap", tmp_path / "out.mcap"
     build_log(src)

@@ -26,11 +26,10 @@ from typing import Any, TextIO
 
 from lgvtool.config import Config, default_config
 from lgvtool.devices.device_links import MCU_SERIAL_DEFAULTS, NAV200_SERIAL_DEFAULTS, open_link
+from lgvtool.devices.device_registry import registration
 from lgvtool.devices.link_worker import LinkTiming
 from lgvtool.devices.logsink import LogSink
-from lgvtool.devices.mcu.mcu_worker import McuWorker
-from lgvtool.devices.nav200.nav200_session import Nav200Session, Nav200Settings
-from lgvtool.devices.nav200.nav200_worker import NavWorker
+from lgvtool.devices.nav200.nav200_session import Nav200Settings
 from lgvtool.devices.status import StatusLine, format_bytes
 from lgvtool.errors import InputError, LgvError
 from lgvtool.wire.decode_events import INFO
@@ -158,23 +157,21 @@ class Recorder:
         self._stream.flush()
 
     def _build_workers(self) -> None:
+        """One worker per link, made by its family's registration (the MCU's first: the NAV
+        workers take their speed input from it)."""
         s, timing = self.settings, self.settings.timing
-        mcu: McuWorker | None = None
-        if self._mcu_link is not None:
-            mcu = McuWorker(self._mcu_link, self.sink, self._stop, timing,
-                            self.config.vehicle, warn=self._warn)
-            self.workers.append(mcu)
-        if self._nav_link is not None:
-            nav = NavWorker(self._nav_link, self.sink, self._stop, timing,
-                            Nav200Session(s.nav), vehicle=self.config.vehicle,
-                            known_map=self.config.reflectors, mcu=mcu, warn=self._warn)
-            self.workers.append(nav)
-        if self._nav350_link is not None:
-            from lgvtool.devices.nav350.nav350_registration import recorder_worker
-
-            self.workers.append(recorder_worker(
-                self._nav350_link, self.sink, self._stop, timing, s.nav350, self.config,
-                mcu=mcu, warn=self._warn))
+        mcu: Any = None
+        for family, link, settings in (("mcu", self._mcu_link, None),
+                                       ("nav200", self._nav_link, s.nav),
+                                       ("nav350", self._nav350_link, s.nav350)):
+            if link is None:
+                continue
+            worker = registration(family).recorder_worker(
+                link, self.sink, self._stop, timing, settings, self.config, mcu=mcu,
+                warn=self._warn)
+            if family == "mcu":
+                mcu = worker
+            self.workers.append(worker)
 
     def _recording_metadata(self) -> dict[str, Any]:
         s = self.settings

@@ -223,7 +223,7 @@ def run(setup: Setup, seed: int) -> Simulation:
     scans = nav_model.measure(truth, vehicle, s.nav, marks, occl, s.nav_noise,
                               s.faults.false_detection_probability, rngs["nav"])
     solutions = nav_model.solve(scans, truth, vehicle, s.nav, marks)
-    device = Nav200Device(solutions, cfg.reflectors)
+    device = nav200_simlink.simulated_device(solutions, cfg.reflectors)
     mcu = mcu_model.simulate(truth, vehicle, s.mcu, s.mcu_noise, rngs["mcu"])
     mcu_traffic = mcu_simlink.simulate(mcu, s.mcu, s.faults, s.mcu_noise, rngs["mcu_link"],
                                     rngs["faults"])

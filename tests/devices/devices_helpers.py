@@ -14,7 +14,8 @@ from pathlib import Path
 
 from lgvtool.config import Vehicle, paper_hall_reflectors
 from lgvtool.devices.mcu.mcu_frame import McuFrame
-from lgvtool.sim.emulate import McuChunk, Playback, PoseFix
+from lgvtool.devices.nav200.nav200_device import PoseFix
+from lgvtool.sim.emulate import McuChunk, Playback
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -10,8 +10,9 @@ from devices_helpers import circle_playback
 
 from lgvtool.config import Vehicle
 from lgvtool.devices.nav200 import nav200_protocol as proto
+from lgvtool.devices.nav200.nav200_device import PoseFix
 from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
-from lgvtool.sim.emulate import Playback, PoseFix, playback_from_scenario
+from lgvtool.sim.emulate import Playback, playback_from_scenario
 
 
 def ask(dev: VirtualNav200, request: proto.Request, t: float = 1.0) -> proto.AnyReply:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from lgvtool.devices.nav200 import nav200_protocol as proto
-from lgvtool.devices.nav200.nav200_device import Nav200Device
+from lgvtool.devices.nav200.nav200_simlink import simulated_device
 from lgvtool.log import LogReader, topics
 from lgvtool.sim import nav_model
 from lgvtool.timestamps import from_stamp
@@ -123,7 +123,7 @@ def test_polls_every_450_ms_and_replies_after_the_request(log_cache) -> None:
 
 def test_device_answers_requests_as_an_emulator_would(sim_cache) -> None:
     sim = sim_cache("paper-circle")
-    device = Nav200Device(sim.solutions, sim.config.reflectors)
+    device = simulated_device(sim.solutions, sim.config.reflectors)
     assert device.latest(0.0) == -1
     reply = proto.decode_reply(proto.parse_telegram(device.answer(proto.request_pose(), 0.0)))
     assert reply.payload.quality == 0xFF

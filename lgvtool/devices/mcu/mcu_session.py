@@ -88,7 +88,14 @@ class McuLink:
 
     def feed(self, data: bytes) -> list[McuFrame]:
         """Received bytes in, decoded frames out (in stream order)."""
-        frames = self._decoder.feed(data)
+        return self.feed_frames(self._decoder.feed(data))
+
+    def flush(self) -> list[McuFrame]:
+        """End of the stream: the frames still buffered (a cut-off one counts as truncated)."""
+        return self.feed_frames(self._decoder.flush())
+
+    def feed_frames(self, frames: list[McuFrame]) -> list[McuFrame]:
+        """Track the motion over ``frames`` (decoded in stream order); return them."""
         for frame in frames:
             if self._last is not None:
                 motion = motion_between(self._last, frame, self.vehicle)

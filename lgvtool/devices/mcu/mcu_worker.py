@@ -1,20 +1,26 @@
-"""The recorder's MCU thread: reads the MCU frame stream into /mcu/rx, /mcu/frame and gaps."""
+"""The recorder's MCU thread: reads the MCU frame stream into /mcu/rx, /mcu/frame and gaps.
+
+The bytes are decoded by the MCU's log decoder through the one decoding path
+(:func:`lgvtool.devices.log_decoding.decode_chunk`), over the worker's
+:class:`~lgvtool.devices.mcu.mcu_session.McuLink`, which also tracks the vehicle's motion.
+"""
 
 from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Mapping
 from typing import Any
 
 from lgvtool.config import Vehicle
 from lgvtool.devices.device_links import Link
 from lgvtool.devices.link_worker import READ_SLICE, LinkTiming, LinkWorker
+from lgvtool.devices.log_decoding import decode_chunk
 from lgvtool.devices.logsink import LogSink
+from lgvtool.devices.mcu.mcu_logdecode import McuLogDecoder
 from lgvtool.devices.mcu.mcu_session import McuLink, Motion
 from lgvtool.log import topics
-from lgvtool.log.messages import mcu_frame_message
-from lgvtool.timestamps import stamp as to_stamp
-from lgvtool.wire.decode_events import ERROR, INFO
+from lgvtool.wire.decode_events import ERROR, INFO, DecodeEvent
 
 __all__ = ["McuWorker"]
 
@@ -28,6 +34,7 @@ class McuWorker(LinkWorker):
                  vehicle: Vehicle, warn: Any = None) -> None:
         super().__init__(link, sink, stop, timing, warn)
         self.decoder = McuLink(vehicle)
+        self.log_decoder = McuLogDecoder(self.decoder)
         self._last_data = time.monotonic()
         self._opened_at = self._last_data
         self._silent = False
@@ -69,17 +76,23 @@ class McuWorker(LinkWorker):
             self._silent = False
         self._last_data = now
         self.state = "ok"
-        stamp = to_stamp(t)
-        for frame in self.decoder.feed(data):
-            self.sink.message(topics.MCU_FRAME, mcu_frame_message(frame, stamp), t)
-            if not self._described:
-                self._described = True
-                self.sink.set_metadata("device.mcu", {
-                    "link": self.link.spec.url, "frame_version": frame.version,
-                    "gyro_scale_deg_s": frame.gyro_scale_deg_s})
+        decode_chunk(self.log_decoder, topics.MCU_RX, data, t, self)
         if self.decoder.motion is not None:
             self.motion = (now, self.decoder.motion)
-        self._flush_events(t)
+
+    def message(self, topic: str, message: Mapping[str, Any], t_ns: int) -> None:
+        """A decoded frame (the worker is its decoder's output): to the sink; the first one
+        also describes the MCU in the metadata."""
+        self.sink.message(topic, message, t_ns)
+        if not self._described:
+            self._described = True
+            self.sink.set_metadata("device.mcu", {
+                "link": self.link.spec.url, "frame_version": message["version"],
+                "gyro_scale_deg_s": message["gyro_scale"]})
+
+    def event(self, event: DecodeEvent, t_ns: int) -> None:
+        """A decoder event: to the sink."""
+        self.sink.event(event, t_ns)
 
     def _flush_events(self, t: int) -> None:
         for event in self.decoder.pop_events():

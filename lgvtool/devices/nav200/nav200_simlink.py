@@ -2,30 +2,69 @@
 
 Every ``poll_period_s`` (plus scheduling jitter) the host writes a PP request. The request takes
 5 characters of 11 bits (19200 baud, 8E1) on the wire; the device composes its reply
-``reply_delay_s`` after the last request byte, from its newest completed solution
-(:class:`lgvtool.devices.nav200.nav200_device.Nav200Device`), and the 17-byte reply reaches the host in one or
-two reads (:mod:`lgvtool.sim.serial_timing`). Faults: a request lost before the device, a reply lost,
-a reply with one bit flipped in its data (the BCC fails), a reply forced to "no valid
-position".
+``reply_delay_s`` after the last request byte, from its newest completed solution (the shared
+model :class:`lgvtool.devices.nav200.nav200_device.Nav200Device`, in positioning mode, reporting
+the head's solutions through a :class:`SolutionSource`), and the 17-byte reply reaches the host
+in one or two reads (:mod:`lgvtool.sim.serial_timing`). Faults: a request lost before the
+device, a reply lost, a reply with one bit flipped in its data (the BCC fails), a reply forced
+to "no valid position".
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.config import Reflector
 from lgvtool.devices.nav200 import nav200_protocol as proto
-from lgvtool.devices.nav200.nav200_device import Nav200Device
+from lgvtool.devices.nav200.nav200_device import Nav200Device, PoseFix
 from lgvtool.sim import faults as faultlib
 from lgvtool.sim.kinematics import FloatArray
+from lgvtool.sim.nav_model import Solutions
 from lgvtool.sim.serial_timing import BITS_8E1, Chunk, deliver, wire_time
 from lgvtool.sim.settings import FaultSettings, NavSettings
 
 REPLY_SIZE = 17
 """Bytes of a PP reply."""
+
+
+@dataclass(frozen=True)
+class SolutionSource:
+    """The head's pose solution of every revolution, reportable from the time it is
+    available, as a :class:`~lgvtool.devices.nav200.nav200_device.Nav200Source`."""
+
+    solutions: Solutions
+    reflectors: Sequence[Reflector]
+    resolve: Callable[[int, float, float, float], PoseFix] | None = None
+    per_revolution: bool = False
+
+    @cached_property
+    def poses(self) -> tuple[PoseFix, ...]:
+        """The solutions as pose fixes, in time order."""
+        s = self.solutions
+        return tuple(PoseFix(float(s.available[i]), float(s.x[i]), float(s.y[i]),
+                             float(s.heading[i]), int(s.quality[i]), int(s.used[i]),
+                             bool(s.valid[i])) for i in range(len(s.available)))
+
+    def index_at(self, t: float) -> int:
+        """Index of the newest solution available at ``t`` s, -1 when none is yet."""
+        return int(np.searchsorted(self.solutions.available, t, side="right")) - 1
+
+    def pose_at(self, t: float) -> PoseFix | None:
+        """The newest solution available at ``t`` s, None before the first."""
+        i = self.index_at(t)
+        return self.poses[i] if i >= 0 else None
+
+
+def simulated_device(solutions: Solutions, reflectors: Sequence[Reflector]) -> Nav200Device:
+    """The NAV200 the simulated host polls: positioning from the start, reporting the newest
+    available solution of ``solutions``, with the stored map ``reflectors``."""
+    return Nav200Device(SolutionSource(solutions, tuple(reflectors)), mode="positioning")
 
 
 @dataclass(frozen=True)

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
+from lgvtool.devices.log_decoding import error_summary
 from lgvtool.devices.nav350.nav350_clock import ClockEstimator
 from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 from lgvtool.devices.nav350.nav350_telegrams import PoseData, Telegram
@@ -26,9 +27,14 @@ _REPLY_KIND = {"sMN": "sAN", "sRN": "sRA", "sWN": "sWA", "sEN": "sEA"}
 
 @dataclass
 class Nav350LogDecoder:
-    """Feed raw chunks with :meth:`sent` and :meth:`received` (host ns); collect messages
+    """The NAV350's :class:`~lgvtool.devices.log_decoding.LogDecoder`: feed raw chunks with
+    :meth:`chunk` (or :meth:`sent` and :meth:`received`; host ns); collect messages
     ``(topic, message, log_time_ns)`` from :meth:`pop_messages` and events from
     :meth:`pop_events`. ``map_id``: device global id -> map id (None: the same)."""
+
+    decoded_topics: ClassVar[frozenset[str]] = frozenset({topics.NAV_POSE,
+                                                          topics.NAV_REFLECTORS})
+    sources: ClassVar[frozenset[str]] = frozenset({"nav350"})
 
     map_id: Mapping[int, int] | None = None
     requests: Nav350StreamDecoder = field(default_factory=Nav350StreamDecoder)
@@ -37,12 +43,23 @@ class Nav350LogDecoder:
     poses: int = 0
     scans: int = 0
     landmarks: int = 0
+    last_ns: int = 0
     _pending: list[tuple[Telegram, int]] = field(default_factory=list)
     _messages: list[tuple[str, dict[str, Any], int]] = field(default_factory=list)
 
     def _host_ns(self, tick: int) -> int | None:
         host = self.clock.host_time_of(tick)
         return None if host is None else round(host * 1e9)
+
+    def chunk(self, topic: str, data: bytes, t_ns: int) -> None:
+        """One raw chunk of /nav350/tx (host wrote) or /nav350/rx (host read) at ``t_ns``."""
+        if topic == topics.NAV350_TX:
+            self.sent(data, t_ns)
+        elif topic == topics.NAV350_RX:
+            self.received(data, t_ns)
+        else:
+            return
+        self.last_ns = t_ns
 
     def sent(self, data: bytes, t_ns: int) -> None:
         """Bytes the host wrote at ``t_ns``."""
@@ -94,11 +111,25 @@ class Nav350LogDecoder:
         """Decoder events of both directions since the last call."""
         return [*self.requests.pop_events(), *self.replies.pop_events()]
 
-    def flush(self) -> None:
-        """End of the log: count telegrams cut off at its end."""
+    def finish(self, t_ns: int) -> None:
+        """End of the log: decode what remains (at ``t_ns``), count telegrams cut off."""
         self.requests.flush()
         for reply in self.replies.flush():
-            self._on_reply(reply, 0)
+            self._on_reply(reply, t_ns)
+
+    def report(self) -> dict[str, Any]:
+        """``{"poses", "scans", "landmarks", "stats"}`` (stats: of the reply stream)."""
+        return {"poses": self.poses, "scans": self.scans, "landmarks": self.landmarks,
+                "stats": self.stats.as_dict()}
+
+    def summary(self) -> list[str]:
+        """``nav350: N poses, M scans (K landmarks); errors: ...``."""
+        return [f"nav350: {self.poses} poses, {self.scans} scans ({self.landmarks} landmarks);"
+                f" errors: {error_summary(self.stats.as_dict())}"]
+
+    def stats_metadata(self) -> dict[str, dict[str, int]]:
+        """``{"nav350": reply stats}``."""
+        return {"nav350": self.stats.as_dict()}
 
     @property
     def stats(self) -> DecoderStats:

@@ -6,6 +6,7 @@ Everything the rest of lgvtool needs to know about the device family is here, im
 - topics: raw traffic on ``/nav350/tx`` and ``/nav350/rx``; decoded data on the shared
   ``/nav/pose`` and ``/nav/reflectors``;
 - :func:`stream_decoder`: the resynchronising decoder of either direction;
+- :func:`log_decoder`: its :class:`~lgvtool.devices.log_decoding.LogDecoder`;
 - :func:`emulator`: the virtual NAV350 of ``simulate serve --nav350 PORT``;
 - :func:`record_options` / :func:`recorder_settings` / :func:`recorder_worker`: ``record
   --nav350 tcp://HOST:2112`` and its thread.
@@ -13,20 +14,26 @@ Everything the rest of lgvtool needs to know about the device family is here, im
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import click
 
 from lgvtool.log import topics
 
-__all__ = ["DEVICE", "RX", "TOPICS", "TX", "emulator", "record_options", "recorder_settings",
-           "recorder_worker", "stream_decoder"]
+__all__ = ["ABSENT_METADATA", "ABSENT_REPORT", "DEVICE", "RAW_TOPICS", "RX", "TOPICS", "TX",
+           "emulator", "log_decoder", "record_options", "recorder_settings", "recorder_worker",
+           "split_port_spec", "stream_decoder"]
 
 DEVICE = "nav350"
 RX, TX = topics.NAV350_RX, topics.NAV350_TX
 #: topic -> schema of the NAV350's own topics
 TOPICS = {RX: "lgvtool.RawBytes", TX: "lgvtool.RawBytes"}
+#: the raw topics the NAV350's traffic is logged on
+RAW_TOPICS = (TX, RX)
+#: a log without NAV350 traffic has no NAV350 section in the decode report
+ABSENT_REPORT: dict[str, Any] | None = None
+ABSENT_METADATA: dict[str, dict[str, int]] = {}
 DEFAULT_PORT = 2112
 
 
@@ -37,11 +44,29 @@ def stream_decoder(*, deliver_unknown: bool = False) -> Any:
     return Nav350StreamDecoder(deliver_unknown=deliver_unknown)
 
 
+def log_decoder(metadata: Mapping[str, Any]) -> Any:
+    """A :class:`~lgvtool.devices.nav350.nav350_logdecode.Nav350LogDecoder`; the global ids of
+    the log's ``device.nav350`` metadata (if any) map the landmarks to map ids."""
+    from lgvtool.devices.nav350.nav350_logdecode import Nav350LogDecoder
+
+    ids = metadata.get("device.nav350", {}).get("global_ids")
+    return Nav350LogDecoder(map_id=None if not isinstance(ids, dict) else
+                            {int(k): int(v) for k, v in ids.items()})
+
+
 def emulator(playback: Any, **clock: float) -> Any:
     """A :class:`~lgvtool.devices.nav350.nav350_emulator.VirtualNav350` playing ``playback``."""
     from lgvtool.devices.nav350.nav350_emulator import VirtualNav350
 
     return VirtualNav350(playback, **clock)  # type: ignore[arg-type]
+
+
+def split_port_spec(spec: str) -> tuple[str, dict[str, float]]:
+    """``simulate serve --nav350 PORT?drift_ppm=..&offset_ms=..``: the port and the clock
+    settings of the emulator (:func:`emulator`); InputError for a bad setting."""
+    from lgvtool.devices.nav350.nav350_emulator import split_port_spec as split
+
+    return split(spec)
 
 
 def record_options(f: Callable[..., Any]) -> Callable[..., Any]:

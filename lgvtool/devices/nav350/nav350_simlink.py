@@ -3,8 +3,8 @@
 With ``--set sim.nav_device=nav350`` the simulated head is a NAV350: the recorder's own host
 session (:class:`~lgvtool.devices.nav350.nav350_session.Nav350Session`) talks to the shared device model
 (:class:`~lgvtool.devices.nav350.nav350_device.Nav350Device`) over a simulated TCP link, in simulation
-time, and the log gets the traffic both ways (/nav350/tx, /nav350/rx) and what the recorder
-would decode from it (/nav/pose, /nav/reflectors), exactly as ``record --nav350`` writes them.
+time, and the log gets the traffic both ways (/nav350/tx, /nav350/rx) and what the NAV350's
+log decoder makes of it (/nav/pose, /nav/reflectors), as ``record --nav350`` writes them.
 The host polls with mask 1 (pose and landmarks, no scan: a simulated DIST1 scan carries no
 information the estimators use). The device clock runs ``DRIFT_PPM`` fast.
 """
@@ -15,11 +15,10 @@ from typing import Any
 
 from lgvtool.devices.nav350 import nav350_telegrams as tg
 from lgvtool.devices.nav350.nav350_device import Nav350Device, Observation, Revolution, RevolutionSource
-from lgvtool.devices.nav350.nav350_logdecode import Nav350LogDecoder
 from lgvtool.devices.nav350.nav350_session import Nav350Session, Nav350Settings
 from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 
-__all__ = ["DRIFT_PPM", "LINK_LATENCY", "Nav350LogWriter", "nav350_traffic"]
+__all__ = ["DRIFT_PPM", "LINK_LATENCY", "nav350_traffic"]
 
 #: Device clock error of the simulated NAV350, ppm (fast), and its reading at t = 0, ms.
 DRIFT_PPM, OFFSET_MS = 50.0, 987_654
@@ -85,24 +84,3 @@ def nav350_traffic(sim: Any) -> list[tuple[float, str, bytes]]:
         t = max(t + 1e-6, min(times))
     return out
 
-
-class Nav350LogWriter:
-    """Writes simulated NAV350 chunks as the recorder does: raw bytes, then what they decode
-    to (and the decoder's diagnostics)."""
-
-    def __init__(self, writer: Any) -> None:
-        self.w = writer
-        self.decoder = Nav350LogDecoder()
-
-    def chunk(self, ns: int, direction: str, data: bytes) -> None:
-        """One chunk at host time ``ns``."""
-        self.w.write_raw("nav350", direction, data, ns)
-        if direction == "tx":
-            self.decoder.sent(data, ns)
-        else:
-            self.decoder.received(data, ns)
-        for topic, message, at in self.decoder.pop_messages():
-            self.w.write(topic, message, at)
-        for e in self.decoder.pop_events():
-            self.w.write_diagnostic(e.source, e.kind, e.message, ns, level=e.level,
-                                    count=e.count, details=e.details)

@@ -18,7 +18,6 @@ Example (a test or a notebook)::
 from lgvtool.sim.emulate.emulator_playback import (
     McuChunk,
     Playback,
-    PoseFix,
     playback_from_log,
     playback_from_scenario,
 )
@@ -29,7 +28,6 @@ __all__ = [
     "Fault",
     "McuChunk",
     "Playback",
-    "PoseFix",
     "TranscriptEntry",
     "parse_fault",
     "playback_from_log",

@@ -27,9 +27,10 @@ from typing import Any
 
 from lgvtool.config import Config, Reflector
 from lgvtool.devices.mcu.mcu_frame import McuFrame
+from lgvtool.devices.nav200.nav200_device import PoseFix
 from lgvtool.errors import MissingDataError
 
-__all__ = ["McuChunk", "Playback", "PoseFix", "playback_from_log", "playback_from_scenario"]
+__all__ = ["McuChunk", "Playback", "playback_from_log", "playback_from_scenario"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,21 +39,6 @@ class McuChunk:
 
     t: float
     data: bytes
-
-
-@dataclass(frozen=True, slots=True)
-class PoseFix:
-    """A NAV200 pose solution of the head, reportable from ``t`` s on: x, y in m, heading in
-    rad, quality and reflectors used as the device reports them, ``valid`` False for
-    "no valid position"."""
-
-    t: float
-    x: float
-    y: float
-    heading: float
-    quality: int
-    reflectors_used: int
-    valid: bool
 
 
 @dataclass(frozen=True)

@@ -30,8 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from lgvtool.devices.mcu.mcu_emulator import VirtualMcu
-from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
+from lgvtool.devices.device_registry import registration
 from lgvtool.errors import InputError
 from lgvtool.sim.emulate.emulator_playback import Playback
 from lgvtool.sim.emulate.endpoints import PTY_SETTLE, Endpoint, PtyEndpoint, TcpEndpoint
@@ -142,14 +141,13 @@ class EmulatorServer:
         self.speed = float(speed)
         self.wait = wait
         self.faults = sorted(faults, key=lambda f: f.at)
-        self.nav200 = VirtualNav200(playback)
+        # the devices, made by their families' registrations
+        self.nav200 = registration("nav200").emulator(playback)
         self.nav350 = None
         if nav350 is not None:
-            from lgvtool.devices.nav350.nav350_emulator import VirtualNav350, split_port_spec
-
-            nav350, clock = split_port_spec(nav350)
-            self.nav350 = VirtualNav350(playback, **clock)  # type: ignore[arg-type]
-        self.mcu = VirtualMcu(playback, loop=loop)
+            nav350, clock = registration("nav350").split_port_spec(nav350)
+            self.nav350 = registration("nav350").emulator(playback, **clock)
+        self.mcu = registration("mcu").emulator(playback, loop=loop)
         self._rng = random.Random(seed)
         self._own_dir: Path | None = None
         self._file: IO[str] | None = None
