@@ -13,11 +13,13 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+from lgvtool.config import Vehicle
 from lgvtool.devices.device_links import Link, LinkDown, LinkFatal
+from lgvtool.devices.head_speed import head_velocity
 from lgvtool.devices.logsink import LogSink
 from lgvtool.wire.decode_events import ERROR, INFO, WARNING
 
-__all__ = ["READ_SLICE", "LinkTiming", "LinkWorker"]
+__all__ = ["READ_SLICE", "LinkTiming", "LinkWorker", "SessionWorker"]
 
 #: Longest single wait for bytes, s (bounds the reaction time to a stop request).
 READ_SLICE = 0.1
@@ -143,3 +145,54 @@ class LinkWorker(threading.Thread):
         raise NotImplementedError
 
 
+class SessionWorker(LinkWorker):
+    """The request/read cycle of a polled device: runs a family's host session (``poll``,
+    ``feed``, ``next_deadline``, ``link_up``/``link_down``, ``set_speed``, all with the time
+    passed in) over the link, logs the traffic as /DEVICE/tx and /DEVICE/rx, and sends the
+    MCU worker's latest motion as speed input when the session's settings ask for it.
+    Subclasses implement ``_handle`` (the session's events at host time ``t`` ns)."""
+
+    def __init__(self, link: Link, sink: LogSink, stop: threading.Event, timing: LinkTiming,
+                 session: Any, *, vehicle: Vehicle, mcu: Any = None, warn: Any = None) -> None:
+        super().__init__(link, sink, stop, timing, warn)
+        self.session = session
+        self.vehicle = vehicle
+        self._mcu = mcu
+
+    def _opened(self, now: float) -> None:
+        self.session.link_up(now)
+
+    def _lost(self) -> None:
+        self.session.link_down(time.monotonic())
+
+    def _cycle(self) -> None:
+        now = time.monotonic()
+        self._speed_input(now)
+        request = self.session.poll(now)
+        if request is not None:
+            data = request.encode()
+            self.link.write(data)
+            self.sink.raw(self.device, "tx", data, time.time_ns())
+        self._handle(time.time_ns())
+        wait = min(READ_SLICE, max(0.0, self.session.next_deadline(now) - time.monotonic()))
+        data = self.link.read(wait)
+        if data:
+            t = time.time_ns()
+            self.sink.raw(self.device, "rx", data, t)
+            self.session.feed(data, time.monotonic())
+            self._handle(t)
+        self.state = self.session.state
+
+    def _speed_input(self, now: float) -> None:
+        if not self.session.settings.speed_input or self._mcu is None:
+            return
+        latest = self._mcu.motion
+        if latest is None:
+            return
+        at, motion = latest
+        vx, vy = head_velocity(motion, self.vehicle)
+        self.session.set_speed(vx, vy, motion.omega, at)
+
+    def _handle(self, t: int) -> None:
+        """The session's events since the last call, at host time ``t`` ns."""
+        raise NotImplementedError

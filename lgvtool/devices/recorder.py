@@ -2,7 +2,7 @@
 
 ::
 
-    NAV200 link ──► NavWorker (Nav200Session) ──┐
+    NAV200 link ──► Nav200Worker (Nav200Session)┐
     NAV350 link ──► Nav350Worker (Nav350Session)├─► LogSink queue ──► writer thread ──► OUT.mcap
     MCU link ─────► McuWorker (McuLink) ────────┘        (chunks closed every second, fsync)
 

@@ -7,7 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from lgvtool.devices.nav200 import nav200_protocol as proto
+from lgvtool.devices.nav200.nav200_commands import decode_reply
+from lgvtool.devices.nav200.nav200_framing import parse_telegram
+from lgvtool.devices.nav200.nav200_requests import request_pose, request_positioning_mode
 from lgvtool.devices.nav200.nav200_simlink import simulated_device
 from lgvtool.log import LogReader, topics
 from lgvtool.sim import nav_model
@@ -125,15 +127,15 @@ def test_device_answers_requests_as_an_emulator_would(sim_cache) -> None:
     sim = sim_cache("paper-circle")
     device = simulated_device(sim.solutions, sim.config.reflectors)
     assert device.latest(0.0) == -1
-    reply = proto.decode_reply(proto.parse_telegram(device.answer(proto.request_pose(), 0.0)))
+    reply = decode_reply(parse_telegram(device.answer(request_pose(), 0.0)))
     assert reply.payload.quality == 0xFF
     t = 50.0
-    reply = proto.decode_reply(proto.parse_telegram(device.answer(proto.request_pose(), t)))
+    reply = decode_reply(parse_telegram(device.answer(request_pose(), t)))
     i = device.latest(t)
     assert sim.solutions.available[i] <= t < sim.solutions.available[i + 1]
     assert reply.payload.x == pytest.approx(sim.solutions.x[i], abs=5e-4)
-    ack = proto.decode_reply(proto.parse_telegram(
-        device.answer(proto.request_positioning_mode(), t)))
+    ack = decode_reply(parse_telegram(
+        device.answer(request_positioning_mode(), t)))
     assert ack.code == "PA"
 
 

@@ -14,13 +14,11 @@ from lgvtool.devices.mcu.mcu_frame import (
     FRAME_SIZE,
     McuFrame,
     McuStatus,
-    clock_delta_ms,
-    counter_delta,
     decode_mcu_frame,
     encode_mcu_frame,
-    seq_delta,
 )
 from lgvtool.wire.checksum import crc16_ccitt_false
+from lgvtool.wire.units import clock_delta_ms, counter_delta, seq_delta
 from lgvtool.wire.wire_errors import (
     BadLengthError,
     BadSyncError,

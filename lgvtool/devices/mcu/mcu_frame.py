@@ -33,10 +33,7 @@ from lgvtool.wire.units import (
     INT16_MAX,
     INT16_MIN,
     centideg_to_rad,
-    clock_delta_ms,
-    counter_delta,
     rad_to_centideg,
-    seq_delta,
     wrap_i32,
     wrap_u16,
     wrap_u32,
@@ -58,15 +55,9 @@ __all__ = [
     "V1_LEN",
     "McuFrame",
     "McuStatus",
-    "clock_delta_ms",
-    "counter_delta",
     "decode_mcu_frame",
     "encode_mcu_frame",
     "frame_size_for_len",
-    "seq_delta",
-    "wrap_i32",
-    "wrap_u16",
-    "wrap_u32",
 ]
 
 #: The two sync bytes that start every MCU frame.

@@ -3,7 +3,7 @@
 The MCU streams one frame every 100 ms without being asked. :class:`McuLink` feeds the bytes
 to the resynchronising decoder of :mod:`lgvtool.devices.mcu.mcu_stream` (bad checksums, garbage and
 sequence gaps become diagnostics) and keeps the latest velocity estimate, which the NAV200
-session can send as speed input (:func:`head_velocity`).
+session can send as speed input (:func:`lgvtool.devices.head_speed.head_velocity`).
 """
 
 from __future__ import annotations
@@ -12,11 +12,12 @@ import math
 from dataclasses import dataclass
 
 from lgvtool.config import Vehicle
-from lgvtool.devices.mcu.mcu_frame import McuFrame, McuStatus, clock_delta_ms, counter_delta
+from lgvtool.devices.mcu.mcu_frame import McuFrame, McuStatus
 from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
 from lgvtool.wire.decode_events import DecodeEvent, DecoderStats
+from lgvtool.wire.units import clock_delta_ms, counter_delta
 
-__all__ = ["McuLink", "Motion", "head_velocity", "motion_between"]
+__all__ = ["McuLink", "Motion", "motion_between"]
 
 #: Frames further apart than this (MCU clock) give no velocity estimate, s.
 MAX_VELOCITY_GAP = 1.0
@@ -57,15 +58,6 @@ def motion_between(prev: McuFrame, cur: McuFrame, vehicle: Vehicle) -> Motion | 
     else:
         return None
     return Motion(v, omega, cur.mcu_time_ms)
-
-
-def head_velocity(motion: Motion, vehicle: Vehicle) -> tuple[float, float]:
-    """Velocity (vx, vy) of the NAV200 head in the vehicle frame, m/s.
-
-    The head sits at (nav_x, nav_y) from O, so it moves with v + omega x d:
-    ``vx = v - omega * nav_y``, ``vy = omega * nav_x``.
-    """
-    return (motion.v - motion.omega * vehicle.nav_y, motion.omega * vehicle.nav_x)
 
 
 class McuLink:

@@ -10,11 +10,11 @@ from lgvtool.devices.mcu.mcu_frame import (
     McuStatus,
     decode_mcu_frame,
     frame_size_for_len,
-    seq_delta,
 )
 from lgvtool.wire.checksum import crc16_ccitt_false
 from lgvtool.wire.decode_events import INFO, WARNING
 from lgvtool.wire.resync_stream import Accept, Reject, SkipFrame, StreamDecoder, Verdict, Wait
+from lgvtool.wire.units import seq_delta
 
 #: A forward sequence jump of at least this many steps is taken as a jump backwards.
 SEQ_BACKWARDS = 0x8000

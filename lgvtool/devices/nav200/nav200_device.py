@@ -38,7 +38,36 @@ import numpy as np
 
 from lgvtool.angles import circular_mean
 from lgvtool.config import Reflector
-from lgvtool.devices.nav200 import nav200_protocol as proto
+from lgvtool.devices.nav200.nav200_commands import Reply, Request
+from lgvtool.devices.nav200.nav200_payloads import (
+    ActionRadii,
+    Count,
+    Layer,
+    Payload,
+    ReflectorAddress,
+    ReflectorPosition,
+    ReflectorRadius,
+    Speed,
+    SpeedOmega,
+)
+from lgvtool.devices.nav200.nav200_replies import (
+    CLASS_USER_SOFTWARE,
+    DETAIL_WRONG_COMMAND,
+    NO_POSITION,
+    build_ack_reply,
+    build_download_reply,
+    build_echo_reply,
+    build_error_reply,
+    build_mapping_reply,
+    build_no_position_reply,
+    build_pose_reply,
+    build_radius_reply,
+    build_serial_reply,
+    build_upload_reply,
+    build_version_reply,
+    build_version_text_reply,
+)
+from lgvtool.wire.units import OMEGA_UNITS_PER_RAD_S
 
 __all__ = ["MODE_GROUP", "SERIAL_NUMBER", "SPEED_MAX_AGE", "VERSION", "Nav200Device",
            "Nav200Source", "PoseFix"]
@@ -121,7 +150,7 @@ class _State:
     nearest: int = 0
     layer: int = 0
     radius: dict[int, int] = field(default_factory=dict)
-    download: list[proto.ReflectorPosition] = field(default_factory=list)
+    download: list[ReflectorPosition] = field(default_factory=list)
 
 
 class Nav200Device:
@@ -135,7 +164,7 @@ class Nav200Device:
     """
 
     def __init__(self, source: Nav200Source,
-                 omega_scale: float = proto.OMEGA_UNITS_PER_RAD_S, *,
+                 omega_scale: float = OMEGA_UNITS_PER_RAD_S, *,
                  mode: str = "standby") -> None:
         self.source = source
         self.omega_scale = omega_scale
@@ -150,10 +179,10 @@ class Nav200Device:
         #: (t, code) of every request decoded
         self.requests: list[tuple[float, str]] = []
         #: (t, code, payload) of every pose request that carried speed input
-        self.speed_inputs: list[tuple[float, str, proto.Payload]] = []
+        self.speed_inputs: list[tuple[float, str, Payload]] = []
         #: error replies sent
         self.errors_sent = 0
-        self._handlers: dict[str, Callable[[proto.Request], bytes]] = {
+        self._handlers: dict[str, Callable[[Request], bytes]] = {
             "SV": self._version, "ST": self._version_text, "SS": self._serial,
             "SR": self._read_reflector, "SC": self._change_reflector,
             "SI": self._insert_reflector, "SD": self._delete_reflector,
@@ -182,17 +211,17 @@ class Nav200Device:
         fix = self.current_fix(t)
         i = self.latest(t)
         if no_position and fix is not None:
-            fix = PoseFix(fix.t, 0.0, 0.0, 0.0, proto.NO_POSITION, fix.reflectors_used, False)
+            fix = PoseFix(fix.t, 0.0, 0.0, 0.0, NO_POSITION, fix.reflectors_used, False)
         return self._pose_bytes(fix), i
 
     # ------------------------------------------------------------------ replies
-    def _error(self, request: proto.Request, detail: int, group: int | None = None) -> bytes:
+    def _error(self, request: Request, detail: int, group: int | None = None) -> bytes:
         self.errors_sent += 1
-        return proto.build_error_reply(request, proto.CLASS_USER_SOFTWARE,
+        return build_error_reply(request, CLASS_USER_SOFTWARE,
                                        MODE_GROUP[self._state.mode] if group is None else group,
                                        detail)
 
-    def answer(self, request: proto.Request, t: float) -> bytes:
+    def answer(self, request: Request, t: float) -> bytes:
         """The reply to one decoded request received at ``t`` s."""
         code = request.code
         self.requests.append((t, code))
@@ -200,7 +229,7 @@ class Nav200Device:
         if code in _MODE_CHANGE:
             st.mode = _MODE_CHANGE[code]
             if code == "PN":
-                assert isinstance(request.payload, proto.Count)
+                assert isinstance(request.payload, Count)
                 st.sliding_mean = request.payload.n
             elif code == "PA":
                 st.sliding_mean = 1
@@ -208,27 +237,27 @@ class Nav200Device:
                 st.upload_cursor, st.upload_done = 0, False
             if code == "DA":
                 st.download = []
-            return proto.build_ack_reply(request)
+            return build_ack_reply(request)
         if _MODE_OF.get(code[0]) != st.mode:
-            return self._error(request, proto.DETAIL_WRONG_COMMAND)
+            return self._error(request, DETAIL_WRONG_COMMAND)
         if code in _POSE:
             if code != "PP":
                 self.speed_inputs.append((t, code, request.payload))
                 self._speeds.append((t, *self._vehicle_speed(code, request.payload, t)))
             return self._pose(t)
         if code in _ECHO:
-            return proto.build_echo_reply(request)
+            return build_echo_reply(request)
         handler = self._handlers.get(code)
         if handler is None:
             return self._error(request, 2)  # not implemented
         return handler(request)
 
-    def _vehicle_speed(self, code: str, payload: proto.Payload, t: float
+    def _vehicle_speed(self, code: str, payload: Payload, t: float
                        ) -> tuple[float, float, float]:
         """A speed input as (vx, vy, omega) along the vehicle's axes: m/s, m/s, rad/s."""
-        if isinstance(payload, proto.Speed):
+        if isinstance(payload, Speed):
             return payload.vx, payload.vy, 0.0
-        assert isinstance(payload, proto.SpeedOmega)
+        assert isinstance(payload, SpeedOmega)
         vx, vy, omega = payload.vx, payload.vy, payload.omega(self.omega_scale)
         if code == "PV":  # world frame: into the vehicle frame with the device's own heading
             fix = self.source.pose_at(t)
@@ -282,8 +311,8 @@ class Nav200Device:
     def _pose_bytes(fix: PoseFix | None) -> bytes:
         if fix is None or not fix.valid:
             used = 0 if fix is None else min(fix.reflectors_used, 255)
-            return proto.build_no_position_reply(proto.NO_POSITION, used)
-        return proto.build_pose_reply(fix.x, fix.y, fix.heading, min(fix.quality, 0xFD),
+            return build_no_position_reply(NO_POSITION, used)
+        return build_pose_reply(fix.x, fix.y, fix.heading, min(fix.quality, 0xFD),
                                       min(fix.reflectors_used, 255))
 
     def _layer_numbers(self, layer: int) -> list[int]:
@@ -291,98 +320,98 @@ class Nav200Device:
 
     def _rp_reply(self, code: str, layer: int, number: int) -> bytes:
         x, y = self.store[(layer, number)]
-        return proto.Reply(code, proto.ReflectorPosition(layer, number, x, y)).encode()
+        return Reply(code, ReflectorPosition(layer, number, x, y)).encode()
 
-    def _version(self, request: proto.Request) -> bytes:
-        return proto.build_version_reply(*VERSION)
+    def _version(self, request: Request) -> bytes:
+        return build_version_reply(*VERSION)
 
-    def _version_text(self, request: proto.Request) -> bytes:
-        return proto.build_version_text_reply("NAV200 V{}.{}.{} (virtual)".format(*VERSION))
+    def _version_text(self, request: Request) -> bytes:
+        return build_version_text_reply("NAV200 V{}.{}.{} (virtual)".format(*VERSION))
 
-    def _serial(self, request: proto.Request) -> bytes:
-        return proto.build_serial_reply(SERIAL_NUMBER)
+    def _serial(self, request: Request) -> bytes:
+        return build_serial_reply(SERIAL_NUMBER)
 
-    def _read_reflector(self, request: proto.Request) -> bytes:
+    def _read_reflector(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.ReflectorAddress)
+        assert isinstance(p, ReflectorAddress)
         if (p.layer, p.number) not in self.store:
             return self._error(request, _NOT_AVAILABLE, group=3)
         return self._rp_reply("SR", p.layer, p.number)
 
-    def _change_reflector(self, request: proto.Request) -> bytes:
+    def _change_reflector(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.ReflectorPosition)
+        assert isinstance(p, ReflectorPosition)
         if (p.layer, p.number) not in self.store:
             return self._error(request, _NOT_AVAILABLE, group=3)
         self.store[(p.layer, p.number)] = (p.x_mm, p.y_mm)
-        return proto.build_echo_reply(request)
+        return build_echo_reply(request)
 
-    def _insert_reflector(self, request: proto.Request) -> bytes:
+    def _insert_reflector(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.ReflectorPosition)
+        assert isinstance(p, ReflectorPosition)
         if p.number >= END_NUMBER:
             return self._error(request, _WRONG_NUMBER, group=3)
         self.store[(p.layer, p.number)] = (p.x_mm, p.y_mm)
-        return proto.build_echo_reply(request)
+        return build_echo_reply(request)
 
-    def _delete_reflector(self, request: proto.Request) -> bytes:
+    def _delete_reflector(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.ReflectorAddress)
+        assert isinstance(p, ReflectorAddress)
         if (p.layer, p.number) not in self.store:
             return self._error(request, _NOT_AVAILABLE, group=3)
         reply = self._rp_reply("SD", p.layer, p.number)
         del self.store[(p.layer, p.number)]
         return reply
 
-    def _get_radius(self, request: proto.Request) -> bytes:
+    def _get_radius(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.Layer)
-        return proto.build_radius_reply(p.layer, self._state.radius.get(p.layer, 45))
+        assert isinstance(p, Layer)
+        return build_radius_reply(p.layer, self._state.radius.get(p.layer, 45))
 
-    def _set_radius(self, request: proto.Request) -> bytes:
+    def _set_radius(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.ReflectorRadius)
+        assert isinstance(p, ReflectorRadius)
         self._state.radius[p.layer] = p.radius
-        return proto.build_radius_reply(p.layer, p.radius)
+        return build_radius_reply(p.layer, p.radius)
 
-    def _map(self, request: proto.Request) -> bytes:
+    def _map(self, request: Request) -> bytes:
         layer = getattr(request.payload, "layer", 0)
-        return proto.build_mapping_reply(layer, min(len(self._layer_numbers(layer)), 255))
+        return build_mapping_reply(layer, min(len(self._layer_numbers(layer)), 255))
 
-    def _mapped_reflector(self, request: proto.Request) -> bytes:
+    def _mapped_reflector(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.ReflectorAddress)
+        assert isinstance(p, ReflectorAddress)
         numbers = self._layer_numbers(p.layer)
         if p.number >= len(numbers):
             return self._error(request, _WRONG_NUMBER)
         x, y = self.store[(p.layer, numbers[p.number])]
-        return proto.Reply("MR", proto.ReflectorPosition(p.layer, p.number, x, y)).encode()
+        return Reply("MR", ReflectorPosition(p.layer, p.number, x, y)).encode()
 
-    def _action_radii(self, request: proto.Request) -> bytes:
+    def _action_radii(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.ActionRadii)
+        assert isinstance(p, ActionRadii)
         if not 0 <= p.r_min_mm < p.r_max_mm:
             return self._error(request, _WRONG_RADII)
         self._state.action_radii_mm = (p.r_min_mm, p.r_max_mm)
-        return proto.build_echo_reply(request)
+        return build_echo_reply(request)
 
-    def _upload_next(self, request: proto.Request) -> bytes:
+    def _upload_next(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.Layer)
+        assert isinstance(p, Layer)
         st = self._state
         numbers = self._layer_numbers(p.layer)
         if st.upload_done:
             return self._error(request, _ALL_TRANSFERRED)
         if st.upload_cursor >= len(numbers):
             st.upload_done = True
-            return proto.build_upload_reply(p.layer, END_NUMBER, 0.0, 0.0)
+            return build_upload_reply(p.layer, END_NUMBER, 0.0, 0.0)
         number = numbers[st.upload_cursor]
         st.upload_cursor += 1
         return self._rp_reply("UR", p.layer, number)
 
-    def _download(self, request: proto.Request) -> bytes:
+    def _download(self, request: Request) -> bytes:
         p = request.payload
-        assert isinstance(p, proto.ReflectorPosition)
+        assert isinstance(p, ReflectorPosition)
         st = self._state
         if p.number == END_NUMBER:
             for layer in {r.layer for r in st.download}:
@@ -393,7 +422,7 @@ class Nav200Device:
             st.download = []
         else:
             st.download.append(p)
-        return proto.build_download_reply(p.layer, p.number)
+        return build_download_reply(p.layer, p.number)
 
     def reflectors(self) -> tuple[Reflector, ...]:
         """The stored map as reflectors (m)."""

@@ -7,8 +7,9 @@ with the request decoder of its serial line: host bytes in, reply telegrams out.
 
 from __future__ import annotations
 
-from lgvtool.devices.nav200 import nav200_protocol as proto
 from lgvtool.devices.nav200.nav200_device import Nav200Device, Nav200Source
+from lgvtool.devices.nav200.nav200_stream import Nav200RequestDecoder
+from lgvtool.wire.units import OMEGA_UNITS_PER_RAD_S
 
 __all__ = ["VirtualNav200"]
 
@@ -21,16 +22,16 @@ class VirtualNav200(Nav200Device):
     """
 
     def __init__(self, playback: Nav200Source,
-                 omega_scale: float = proto.OMEGA_UNITS_PER_RAD_S) -> None:
+                 omega_scale: float = OMEGA_UNITS_PER_RAD_S) -> None:
         super().__init__(playback, omega_scale)
         self.playback = playback
-        self._decoder = proto.Nav200RequestDecoder()
+        self._decoder = Nav200RequestDecoder()
 
     def reset(self) -> None:
         """Power cycle: back to standby with the settings forgotten (the map is kept), and
         the line's half-received telegram dropped."""
         super().reset()
-        self._decoder = proto.Nav200RequestDecoder()
+        self._decoder = Nav200RequestDecoder()
 
     def feed(self, data: bytes, t: float) -> list[bytes]:
         """Bytes from the host at ``t`` s in, reply telegrams out (garbage is ignored)."""

@@ -1,4 +1,8 @@
-"""A pure NAV200 host session: matches each reply to the request it answers.
+"""The NAV200 reply matcher: pairs each reply with the request it answers (part of the codec).
+
+Not a session: the host session of a recording is
+:class:`lgvtool.devices.nav200.nav200_session.Nav200Session`, which runs one of these; the log
+decoder (:mod:`lgvtool.devices.nav200.nav200_logdecode`) runs another over logged traffic.
 
 No I/O and no clock: the caller writes the bytes that :meth:`Nav200ReplyMatcher.send` returns,
 feeds what it reads, and calls :meth:`Nav200ReplyMatcher.cancel` when its own timeout expires.

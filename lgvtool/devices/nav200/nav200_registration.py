@@ -50,7 +50,7 @@ def recorder_worker(link: Any, sink: Any, stop: Any, timing: Any, settings: Any,
     """The recorder thread of one NAV200 link: a :class:`Nav200Session` with ``settings``
     (:class:`~lgvtool.devices.nav200.nav200_session.Nav200Settings`), speed input from ``mcu``."""
     from lgvtool.devices.nav200.nav200_session import Nav200Session
-    from lgvtool.devices.nav200.nav200_worker import NavWorker
+    from lgvtool.devices.nav200.nav200_worker import Nav200Worker
 
-    return NavWorker(link, sink, stop, timing, Nav200Session(settings), vehicle=config.vehicle,
+    return Nav200Worker(link, sink, stop, timing, Nav200Session(settings), vehicle=config.vehicle,
                      known_map=config.reflectors, mcu=mcu, warn=warn)

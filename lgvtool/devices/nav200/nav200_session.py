@@ -32,17 +32,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from lgvtool.devices.head_speed import HeadSpeed
-from lgvtool.devices.nav200.nav200_protocol import (
+from lgvtool.devices.nav200.nav200_commands import ErrorReply, Reply, Request
+from lgvtool.devices.nav200.nav200_matcher import Nav200ReplyMatcher
+from lgvtool.devices.nav200.nav200_payloads import Pose, ReflectorPosition, SerialNumber, Version
+from lgvtool.devices.nav200.nav200_requests import (
     DOWNLOAD_END_NUMBER,
-    OMEGA_UNITS_PER_RAD_S,
-    ErrorReply,
-    Nav200ReplyMatcher,
-    Pose,
-    ReflectorPosition,
-    Reply,
-    Request,
-    SerialNumber,
-    Version,
     request_action_radii,
     request_nearest_reflectors,
     request_pose,
@@ -55,16 +49,16 @@ from lgvtool.devices.nav200.nav200_protocol import (
     request_upload_next,
     request_version,
 )
+from lgvtool.devices.session_events import DeviceSilent, PositioningEntered
 from lgvtool.wire.decode_events import ERROR, INFO, WARNING, DecodeEvent, DecoderStats
+from lgvtool.wire.units import OMEGA_UNITS_PER_RAD_S
 
 __all__ = [
     "DeviceIdentity",
-    "DeviceSilent",
     "MapUploaded",
     "Nav200Session",
     "Nav200Settings",
     "PoseReceived",
-    "PositioningEntered",
     "SessionEvent",
 ]
 
@@ -151,20 +145,6 @@ class MapUploaded:
 
     layer: int
     reflectors: tuple[ReflectorPosition, ...]
-
-
-@dataclass(frozen=True)
-class PositioningEntered:
-    """The device confirmed positioning; ``settings`` lists what was applied."""
-
-    settings: dict[str, Any]
-
-
-@dataclass(frozen=True)
-class DeviceSilent:
-    """The device stopped answering (``timeouts`` in a row); the link may be dead."""
-
-    timeouts: int
 
 
 SessionEvent = PoseReceived | DeviceIdentity | MapUploaded | PositioningEntered | DeviceSilent \

@@ -21,8 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.config import Reflector
-from lgvtool.devices.nav200 import nav200_protocol as proto
 from lgvtool.devices.nav200.nav200_device import Nav200Device, PoseFix
+from lgvtool.devices.nav200.nav200_replies import NO_POSITION
+from lgvtool.devices.nav200.nav200_requests import request_pose
 from lgvtool.sim import faults as faultlib
 from lgvtool.sim.kinematics import FloatArray
 from lgvtool.sim.nav_model import Solutions
@@ -95,7 +96,7 @@ def simulate(device: Nav200Device, nav: NavSettings, fault: FaultSettings, durat
              noise: bool, rng_link: np.random.Generator,
              rng_faults: np.random.Generator) -> NavTraffic:
     """Poll ``device`` from ``nav.poll_start_s`` until the end of the run."""
-    request = proto.request_pose()
+    request = request_pose()
     request_bytes = request.encode()
     t_request = float(wire_time(len(request_bytes), nav.baud, BITS_8E1))
     t_reply = float(wire_time(REPLY_SIZE, nav.baud, BITS_8E1))
@@ -129,7 +130,7 @@ def simulate(device: Nav200Device, nav: NavSettings, fault: FaultSettings, durat
         if forced:
             events.append(FaultEvent(float(compose[i]), "simulator", "nav_no_position",
                                      "NAV200 replies 'no valid position' (quality 0xFF)",
-                                     {"quality": proto.NO_POSITION}))
+                                     {"quality": NO_POSITION}))
         if lost_reply[i]:
             events.append(FaultEvent(float(compose[i]), "simulator", "nav_reply_dropped",
                                      "PP reply lost on the way to the host"))

@@ -8,27 +8,25 @@ from typing import Any
 
 from lgvtool.config import Reflector, Vehicle
 from lgvtool.devices.device_links import Link
-from lgvtool.devices.link_worker import READ_SLICE, LinkTiming, LinkWorker
+from lgvtool.devices.link_worker import LinkTiming, SessionWorker
 from lgvtool.devices.logsink import LogSink
-from lgvtool.devices.mcu.mcu_session import head_velocity
 from lgvtool.devices.mcu.mcu_worker import McuWorker
 from lgvtool.devices.nav200.nav200_session import (
     DeviceIdentity,
-    DeviceSilent,
     MapUploaded,
     Nav200Session,
     PoseReceived,
-    PositioningEntered,
 )
+from lgvtool.devices.session_events import DeviceSilent, PositioningEntered
 from lgvtool.log import topics
 from lgvtool.log.messages import nav_pose_message
 from lgvtool.timestamps import stamp
 from lgvtool.wire.decode_events import INFO, DecodeEvent
 
-__all__ = ["NavWorker"]
+__all__ = ["Nav200Worker"]
 
 
-class NavWorker(LinkWorker):
+class Nav200Worker(SessionWorker):
     """Runs the NAV200 host session over its link: /nav200/tx, /nav200/rx, /nav/pose, the map,
     the device identity, and every error reply and timeout on /diagnostics."""
 
@@ -38,48 +36,12 @@ class NavWorker(LinkWorker):
                  session: Nav200Session, *, vehicle: Vehicle,
                  known_map: tuple[Reflector, ...] = (), mcu: McuWorker | None = None,
                  warn: Any = None) -> None:
-        super().__init__(link, sink, stop, timing, warn)
-        self.session = session
-        self.vehicle = vehicle
+        super().__init__(link, sink, stop, timing, session, vehicle=vehicle, mcu=mcu, warn=warn)
+        self.session: Nav200Session = session
         self._radius = {r.id: r.radius for r in known_map}
-        self._mcu = mcu
         self.identity: dict[str, Any] = {}
         self.applied: dict[str, Any] = {}
         self.map: tuple[Reflector, ...] | None = None
-
-    def _opened(self, now: float) -> None:
-        self.session.link_up(now)
-
-    def _lost(self) -> None:
-        self.session.link_down(time.monotonic())
-
-    def _cycle(self) -> None:
-        now = time.monotonic()
-        self._speed_input(now)
-        request = self.session.poll(now)
-        if request is not None:
-            data = request.encode()
-            self.link.write(data)
-            self.sink.raw(self.device, "tx", data, time.time_ns())
-        self._handle(time.time_ns())
-        wait = min(READ_SLICE, max(0.0, self.session.next_deadline(now) - time.monotonic()))
-        data = self.link.read(wait)
-        if data:
-            t = time.time_ns()
-            self.sink.raw(self.device, "rx", data, t)
-            self.session.feed(data, time.monotonic())
-            self._handle(t)
-        self.state = self.session.state
-
-    def _speed_input(self, now: float) -> None:
-        if not self.session.settings.speed_input or self._mcu is None:
-            return
-        latest = self._mcu.motion
-        if latest is None:
-            return
-        at, motion = latest
-        vx, vy = head_velocity(motion, self.vehicle)
-        self.session.set_speed(vx, vy, motion.omega, at)
 
     def _handle(self, t: int) -> None:
         for event in self.session.pop_events():

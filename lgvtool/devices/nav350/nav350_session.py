@@ -31,17 +31,16 @@ from dataclasses import dataclass
 from typing import Any
 
 from lgvtool.devices.head_speed import HeadSpeed
-from lgvtool.devices.nav200.nav200_session import DeviceSilent, PositioningEntered
 from lgvtool.devices.nav350 import nav350_telegrams as tg
 from lgvtool.devices.nav350.nav350_clock import ClockEstimate, ClockEstimator
 from lgvtool.devices.nav350.nav350_cola import BINARY
 from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 from lgvtool.devices.nav350.nav350_telegrams import ERROR_CODES, LayoutLandmark, PoseData, Telegram
+from lgvtool.devices.session_events import DeviceSilent, PositioningEntered
 from lgvtool.wire.decode_events import ERROR, WARNING, DecodeEvent, DecoderStats
 
 __all__ = [
     "ClockRead",
-    "DeviceSilent",
     "Identity",
     "LayoutUploaded",
     "Nav350Session",

@@ -14,13 +14,11 @@ from typing import Any
 
 from lgvtool.config import Reflector, Vehicle
 from lgvtool.devices.device_links import Link
-from lgvtool.devices.link_worker import LinkTiming
+from lgvtool.devices.link_worker import LinkTiming, SessionWorker
 from lgvtool.devices.logsink import LogSink
 from lgvtool.devices.mcu.mcu_worker import McuWorker
-from lgvtool.devices.nav200.nav200_worker import NavWorker
 from lgvtool.devices.nav350.nav350_session import (
     ClockRead,
-    DeviceSilent,
     Identity,
     LayoutUploaded,
     Nav350Session,
@@ -28,6 +26,7 @@ from lgvtool.devices.nav350.nav350_session import (
     PoseDataReceived,
     SessionFatal,
 )
+from lgvtool.devices.session_events import DeviceSilent
 from lgvtool.errors import LgvError
 from lgvtool.log import topics
 from lgvtool.log.messages import nav350_pose_message, nav350_scan_message
@@ -40,8 +39,8 @@ class Nav350Stopped(LgvError):
     """The NAV350 cannot be recorded (e.g. it refused the login); the log holds what came."""
 
 
-class Nav350Worker(NavWorker):
-    """One NAV350 link of a recording (see the module docstring): the NAV200 worker's
+class Nav350Worker(SessionWorker):
+    """One NAV350 link of a recording (see the module docstring): the polled devices'
     request/read cycle and speed input, with the NAV350 session's events."""
 
     device = "nav350"
@@ -50,9 +49,8 @@ class Nav350Worker(NavWorker):
                  session: Nav350Session, *, vehicle: Vehicle,
                  known_map: tuple[Reflector, ...] = (), mcu: McuWorker | None = None,
                  warn: Any = None) -> None:
-        super().__init__(link, sink, stop, timing, session,  # type: ignore[arg-type]
-                         vehicle=vehicle, known_map=known_map, mcu=mcu, warn=warn)
-        self.session: Nav350Session = session  # type: ignore[assignment]
+        super().__init__(link, sink, stop, timing, session, vehicle=vehicle, mcu=mcu, warn=warn)
+        self.session: Nav350Session = session
         self._known = known_map
         self._map_id: dict[int, int] | None = None
         self._identity: dict[str, str] = {}

@@ -1,17 +1,33 @@
-"""The NAV200 host session: replies matched to pending requests."""
+"""The NAV200 reply matcher: replies matched to pending requests."""
 
 from __future__ import annotations
 
-from lgvtool.devices.nav200 import nav200_protocol as nav200
-from lgvtool.devices.nav200.nav200_protocol import ErrorReply, Nav200ReplyMatcher
+from lgvtool.devices.nav200.nav200_commands import ErrorReply
+from lgvtool.devices.nav200.nav200_matcher import Nav200ReplyMatcher
+from lgvtool.devices.nav200.nav200_replies import (
+    build_ack_reply,
+    build_error_reply,
+    build_mapping_reply,
+    build_pose_reply,
+    build_radius_reply,
+)
+from lgvtool.devices.nav200.nav200_requests import (
+    request_map_scans,
+    request_pose,
+    request_pose_with_speed,
+    request_positioning_mean,
+    request_positioning_mode,
+    request_set_reflector_radius,
+    request_upload_next,
+)
 
 
 def test_pose_polling() -> None:
     session = Nav200ReplyMatcher()
-    assert session.send(nav200.request_pose_with_speed(0.3, 0.0, 0.1)) == (
-        nav200.request_pose_with_speed(0.3, 0.0, 0.1).encode()
+    assert session.send(request_pose_with_speed(0.3, 0.0, 0.1)) == (
+        request_pose_with_speed(0.3, 0.0, 0.1).encode()
     )
-    reply = nav200.build_pose_reply(1.0, 2.0, 0.5, 100, 6)
+    reply = build_pose_reply(1.0, 2.0, 0.5, 100, 6)
     assert session.feed(reply[:7]) == []
     (exchange,) = session.feed(reply[7:])
     assert exchange.matched
@@ -24,9 +40,9 @@ def test_pose_polling() -> None:
 def test_replies_with_other_letters_match() -> None:
     session = Nav200ReplyMatcher()
     pairs = [
-        (nav200.request_set_reflector_radius(0, 45), nav200.build_radius_reply(0, 45)),
-        (nav200.request_positioning_mean(4), nav200.build_ack_reply("PA")),
-        (nav200.request_map_scans(0, 2, 0, 0, 0, 45), nav200.build_mapping_reply(0, 12)),
+        (request_set_reflector_radius(0, 45), build_radius_reply(0, 45)),
+        (request_positioning_mean(4), build_ack_reply("PA")),
+        (request_map_scans(0, 2, 0, 0, 0, 45), build_mapping_reply(0, 12)),
     ]
     for request, reply in pairs:
         session.send(request)
@@ -37,26 +53,26 @@ def test_replies_with_other_letters_match() -> None:
 
 def test_wrong_reply_is_counted_not_raised() -> None:
     session = Nav200ReplyMatcher()
-    session.send(nav200.request_pose())
-    (exchange,) = session.feed(nav200.build_ack_reply("SA"))
+    session.send(request_pose())
+    (exchange,) = session.feed(build_ack_reply("SA"))
     assert not exchange.matched
     assert session.stats.unexpected_reply == 1
     assert session.pending is not None  # still waiting for the pose
     (event,) = session.pop_events()
     assert event.kind == "unexpected_reply"
     assert event.details == {"reply": "SA", "expected_reply": "PP"}
-    (exchange,) = session.feed(nav200.build_pose_reply(0, 0, 0, 50, 3))
+    (exchange,) = session.feed(build_pose_reply(0, 0, 0, 50, 3))
     assert exchange.matched
 
 
 def test_unsolicited_reply_and_unanswered_request() -> None:
     session = Nav200ReplyMatcher()
-    (exchange,) = session.feed(nav200.build_pose_reply(0, 0, 0, 50, 3))
+    (exchange,) = session.feed(build_pose_reply(0, 0, 0, 50, 3))
     assert exchange.request is None
-    session.send(nav200.request_pose())
-    session.send(nav200.request_pose())
+    session.send(request_pose())
+    session.send(request_pose())
     assert session.stats.unanswered == 1
-    assert session.cancel() == nav200.request_pose()
+    assert session.cancel() == request_pose()
     assert session.stats.unanswered == 2
     assert session.cancel() is None
     kinds = [e.kind for e in session.pop_events()]
@@ -65,9 +81,9 @@ def test_unsolicited_reply_and_unanswered_request() -> None:
 
 def test_error_reply_answers_pending_request() -> None:
     session = Nav200ReplyMatcher()
-    request = nav200.request_upload_next(0)
+    request = request_upload_next(0)
     session.send(request)
-    (exchange,) = session.feed(nav200.build_error_reply(request, 1, 5, 10))
+    (exchange,) = session.feed(build_error_reply(request, 1, 5, 10))
     assert exchange.request == request
     assert isinstance(exchange.reply, ErrorReply)
     assert exchange.reply.detail_meaning == "all reflectors transferred"
@@ -76,12 +92,12 @@ def test_error_reply_answers_pending_request() -> None:
 
 def test_redecoding_logged_traffic() -> None:
     session = Nav200ReplyMatcher()
-    tx = nav200.request_positioning_mode().encode() + nav200.request_pose().encode()
+    tx = request_positioning_mode().encode() + request_pose().encode()
     # The host wrote PA; the device answered; then PP and its answer, in separate chunks.
     assert [r.code for r in session.sent(tx[:5])] == ["PA"]
-    (first,) = session.feed(nav200.build_ack_reply("PA"))
+    (first,) = session.feed(build_ack_reply("PA"))
     assert [r.code for r in session.sent(tx[5:])] == ["PP"]
-    (second,) = session.feed(nav200.build_pose_reply(3.0, 4.0, -1.0, 80, 5))
+    (second,) = session.feed(build_pose_reply(3.0, 4.0, -1.0, 80, 5))
     assert first.matched and second.matched
     assert session.flush() == []
     assert session.request_stats.frames == 2
