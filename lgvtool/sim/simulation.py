@@ -22,12 +22,12 @@ from lgvtool.config import Config, Vehicle, config_from_dict, default_config
 from lgvtool.devices.mcu import mcu_simlink
 from lgvtool.devices.nav200 import nav200_simlink
 from lgvtool.devices.nav200.nav200_device import Nav200Device
-from lgvtool.devices.nav200.nav200_simlink import FaultEvent, NavTraffic
+from lgvtool.devices.nav200.nav200_simlink import NavTraffic
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.sim import event_stream as ev
 from lgvtool.sim import faults as faultlib
 from lgvtool.sim import mcu_model, nav_model
-from lgvtool.sim.faults import Landmarks, Occlusions
+from lgvtool.sim.faults import FaultEvent, Landmarks, Occlusions
 from lgvtool.sim.kinematics import Trajectory, integrate
 from lgvtool.sim.mcu_model import McuOutput
 from lgvtool.sim.scenarios import Plan, Scenario, get_scenario

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lgvtool.devices.nav200.nav200_simlink import FaultEvent
 from lgvtool.sim import faults as faultlib
+from lgvtool.sim.faults import FaultEvent
 from lgvtool.sim.mcu_model import McuOutput
 from lgvtool.sim.serial_timing import BITS_8N1, Chunk, deliver
 from lgvtool.sim.settings import FaultSettings, McuSettings

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -25,6 +25,7 @@ from lgvtool.devices.nav200.nav200_device import Nav200Device, PoseFix
 from lgvtool.devices.nav200.nav200_replies import NO_POSITION
 from lgvtool.devices.nav200.nav200_requests import request_pose
 from lgvtool.sim import faults as faultlib
+from lgvtool.sim.faults import FaultEvent
 from lgvtool.sim.kinematics import FloatArray
 from lgvtool.sim.nav_model import Solutions
 from lgvtool.sim.serial_timing import BITS_8E1, Chunk, deliver, wire_time
@@ -66,17 +67,6 @@ def simulated_device(solutions: Solutions, reflectors: Sequence[Reflector]) -> N
     """The NAV200 the simulated host polls: positioning from the start, reporting the newest
     available solution of ``solutions``, with the stored map ``reflectors``."""
     return Nav200Device(SolutionSource(solutions, tuple(reflectors)), mode="positioning")
-
-
-@dataclass(frozen=True)
-class FaultEvent:
-    """A fault the simulator injected, at time ``t`` (s), for /diagnostics."""
-
-    t: float
-    source: str
-    kind: str
-    message: str
-    details: dict[str, object] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
