@@ -11,11 +11,13 @@ through it.
 Shared by the families (the generic codec base is :mod:`lgvtool.wire`):
 
 - :mod:`~lgvtool.devices.device_links`: ``serial://`` and ``tcp://`` URLs to :class:`Link` objects;
-- :mod:`~lgvtool.devices.link_worker`: the recorder's per-link thread base (open, backoff, read);
+- :mod:`~lgvtool.devices.link_worker`: the recorder's per-link thread base (open, backoff, read)
+  and the polled devices' request/read cycle;
 - :mod:`~lgvtool.devices.log_decoding`: the one path from raw device bytes to log messages;
 - :mod:`~lgvtool.devices.logsink`: the single writer thread, file splitting, disk-full handling;
 - :mod:`~lgvtool.devices.recorder`: the recording loop behind ``lgvtool record``;
 - :mod:`~lgvtool.devices.status`: the recorder's status line;
+- :mod:`~lgvtool.devices.session_events`: the events every host session reports;
 - :mod:`~lgvtool.devices.head_speed`: the head velocity a session sends as speed input.
 
 This package re-exports nothing: every name has one import path, its module.

@@ -1,8 +1,9 @@
-"""Device emulators: a simulated or logged run served as a virtual NAV200 and a virtual MCU.
+"""Device emulators: a simulated or logged run served as a virtual NAV200, NAV350 and MCU.
+
+The virtual devices are their families' emulators (``lgvtool/devices/<family>/<family>_emulator.py``,
+made through :mod:`lgvtool.devices.device_registry`); this package serves them:
 
 - :mod:`~lgvtool.sim.emulate.emulator_playback`: the run to play (from a scenario or a log);
-- :mod:`~lgvtool.devices.nav200.nav200_emulator`: the NAV200's side of the host protocol, with modes;
-- :mod:`~lgvtool.devices.mcu.mcu_emulator`: the MCU's frame stream;
 - :mod:`~lgvtool.sim.emulate.endpoints`: pseudo-terminals and TCP ports;
 - :mod:`~lgvtool.sim.emulate.emulator_server`: the real-time loop, fault injection, the transcript;
 - :mod:`~lgvtool.sim.emulate.serve`: the ``lgvtool simulate serve`` command.
