@@ -131,3 +131,18 @@ def progress_option(help_text: str = "Progress on stderr once the work takes ove
     """``--progress/--no-progress`` (parameter ``show_progress``), on every long command."""
     return click.option("--progress/--no-progress", "show_progress", default=True,
                         show_default=True, help=help_text)
+
+
+def print_output(output: Any, as_json: bool) -> None:
+    """Print a :class:`lgvtool.app.job_output.JobOutput`: its document as indented JSON with
+    ``--json``, else its warnings, its text and its epilogue (on stderr)."""
+    if as_json:
+        import json
+
+        click.echo(json.dumps(output.document, indent=2))
+        return
+    for w in output.warnings:
+        warn(w)
+    click.echo(output.text)
+    if output.epilogue is not None:
+        click.echo(output.epilogue, err=True)

@@ -11,10 +11,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from lgvtool.app.job_output import JobOutput
+
 if TYPE_CHECKING:
     from lgvtool.log import LogReader
 
-__all__ = ["DecodeReport", "decode_log"]
+__all__ = ["DecodeReport", "decode_file", "decode_log"]
 
 
 @dataclass
@@ -172,3 +174,28 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
             metadata.update(decoder.stats_metadata())
         writer.add_metadata("decode", metadata)
     return report
+
+
+def decode_file(log: str, output: str, *, compression: str = "zstd",
+                force: bool = False) -> JobOutput:
+    """``lgvtool decode``: :func:`decode_log` of the log at ``log`` into ``output`` (through a
+    temporary file; an existing one is replaced only with ``force``, an input never). The
+    document is :meth:`DecodeReport.as_dict`, the text its summary; the warnings are the
+    reader's (e.g. corrupt chunks skipped).
+
+    :raises InputError: (exit 2) an unreadable log, no raw device traffic, a refused output.
+    """
+    import warnings
+
+    from lgvtool.log import LogReader
+    from lgvtool.outputs import atomic_output, guard_output, printable
+
+    guard_output(output, [log], force=force)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        reader = LogReader(log)
+    with atomic_output(output) as tmp:
+        report = decode_log(reader, tmp, compression=compression)
+    report.output = output
+    return JobOutput(report.as_dict(), printable(report.summary()),
+                     warnings=list(reader.warnings))

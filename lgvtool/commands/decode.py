@@ -1,11 +1,11 @@
-"""``lgvtool decode``: re-decode the raw device traffic of a log into fresh decoded channels."""
+"""``lgvtool decode``: re-decode the raw device traffic of a log into fresh decoded channels
+(:func:`lgvtool.app.decode_job.decode_file`)."""
 
 from __future__ import annotations
 
 import click
 
-from lgvtool.app.decode_job import decode_log
-from lgvtool.options import compression_option, force_option, warn
+from lgvtool.options import compression_option, force_option, print_output
 
 
 @click.command()
@@ -23,26 +23,12 @@ from lgvtool.options import compression_option, force_option, warn
 def decode(log: str, output: str, compression: str, force: bool, as_json: bool) -> None:
     """Re-decode the raw traffic of LOG (/mcu/rx, /nav200/tx, /nav200/rx, /nav350/tx,
     /nav350/rx) into fresh /mcu/frame, /nav/pose, /nav/reflectors and /diagnostics channels
-    in OUTPUT, copying every other channel and
-    the metadata; print the frames decoded and the error counts per device (bad checksums,
-    bad lengths, skipped bytes, truncated frames, sequence gaps, NAV200 error replies, ...).
+    in OUTPUT, copying every other channel and the metadata; print the frames decoded and the
+    error counts per device (bad checksums, bad lengths, skipped bytes, truncated frames,
+    sequence gaps, NAV200 error replies, ...).
 
     Use it after a decoder fix: raw bytes are always logged, so nothing is lost.
     """
-    import json
-    import warnings
+    from lgvtool.app.decode_job import decode_file
 
-    from lgvtool.log import LogReader
-    from lgvtool.outputs import atomic_output, guard_output, printable
-
-    guard_output(output, [log], force=force)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        reader = LogReader(log)
-    if not as_json:
-        for w in reader.warnings:
-            warn(w)
-    with atomic_output(output) as tmp:
-        report = decode_log(reader, tmp, compression=compression)
-    report.output = output
-    click.echo(json.dumps(report.as_dict(), indent=2) if as_json else printable(report.summary()))
+    print_output(decode_file(log, output, compression=compression, force=force), as_json)

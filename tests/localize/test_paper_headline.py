@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lgvtool.commands.evaluate import evaluate_log
+from lgvtool.app.evaluate_job import evaluate_log
 from lgvtool.localize.replay_driver import load_log, replay_data
 from lgvtool.log import LogReader
 from lgvtool.sim.logfile import write_log
