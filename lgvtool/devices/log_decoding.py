@@ -17,8 +17,8 @@ from typing import Any, Protocol
 
 from lgvtool.wire.decode_events import DecodeEvent, DecoderStats
 
-__all__ = ["Decoded", "DecodedOutput", "LogDecoder", "WriterOutput", "decode_chunk", "error_summary",
-           "finish_decoding"]
+__all__ = ["Decoded", "DecodedOutput", "DecodedQueue", "LogDecoder", "WriterOutput", "decode_chunk",
+           "error_summary", "finish_decoding"]
 
 #: A decoded message: topic, message dict, log time in ns.
 Decoded = tuple[str, dict[str, Any], int]
@@ -55,6 +55,24 @@ class LogDecoder(Protocol):
 
     def stats_metadata(self) -> dict[str, dict[str, int]]:
         """Decoder counters for the ``decode`` metadata record, name -> stats."""
+
+
+class DecodedQueue:
+    """What a family's log decoder shares: the messages decoded since the last
+    :meth:`pop_messages`, and the log time of the last chunk fed (:attr:`last_ns`)."""
+
+    def __init__(self) -> None:
+        self.last_ns = 0
+        self._messages: list[Decoded] = []
+
+    def emit(self, topic: str, message: dict[str, Any], t_ns: int) -> None:
+        """Queue ``message`` for ``topic`` at log time ``t_ns``."""
+        self._messages.append((topic, message, t_ns))
+
+    def pop_messages(self) -> list[Decoded]:
+        """Decoded messages since the last call, in order."""
+        out, self._messages = self._messages, []
+        return out
 
 
 class DecodedOutput(Protocol):

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from lgvtool.devices.log_decoding import Decoded, error_summary
+from lgvtool.devices.log_decoding import DecodedQueue, error_summary
 from lgvtool.devices.mcu.mcu_session import McuLink
 from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
 from lgvtool.log import topics
@@ -22,7 +22,7 @@ from lgvtool.wire.decode_events import DecodeEvent
 __all__ = ["McuLogDecoder"]
 
 
-class McuLogDecoder:
+class McuLogDecoder(DecodedQueue):
     """The MCU's :class:`~lgvtool.devices.log_decoding.LogDecoder`: /mcu/rx -> /mcu/frame.
 
     :param stream: the stream decoder to feed (default: a fresh
@@ -33,15 +33,14 @@ class McuLogDecoder:
     sources = frozenset({"mcu"})
 
     def __init__(self, stream: McuStreamDecoder | McuLink | None = None) -> None:
+        super().__init__()
         self.stream = stream if stream is not None else McuStreamDecoder()
         self.frames = 0
-        self.last_ns = 0
-        self._messages: list[Decoded] = []
 
     def _frames(self, frames: list[Any], t_ns: int) -> None:
         ts = stamp(t_ns)
         for frame in frames:
-            self._messages.append((topics.MCU_FRAME, mcu_frame_message(frame, ts), t_ns))
+            self.emit(topics.MCU_FRAME, mcu_frame_message(frame, ts), t_ns)
         self.frames += len(frames)
 
     def chunk(self, topic: str, data: bytes, t_ns: int) -> None:
@@ -53,11 +52,6 @@ class McuLogDecoder:
     def finish(self, t_ns: int) -> None:
         """End of the log: the frames still buffered, at ``t_ns``."""
         self._frames(self.stream.flush(), t_ns)
-
-    def pop_messages(self) -> list[Decoded]:
-        """Decoded frames since the last call."""
-        out, self._messages = self._messages, []
-        return out
 
     def pop_events(self) -> list[DecodeEvent]:
         """Decoder events since the last call."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from lgvtool.devices.log_decoding import Decoded, error_summary
+from lgvtool.devices.log_decoding import DecodedQueue, error_summary
 from lgvtool.devices.nav200.nav200_commands import Reply
 from lgvtool.devices.nav200.nav200_matcher import Exchange, Nav200ReplyMatcher
 from lgvtool.devices.nav200.nav200_payloads import Pose
@@ -27,7 +27,7 @@ __all__ = ["Nav200LogDecoder"]
 _NOT_ERRORS = ("bytes_received", "bytes_decoded", "frames")
 
 
-class Nav200LogDecoder:
+class Nav200LogDecoder(DecodedQueue):
     """The NAV200's :class:`~lgvtool.devices.log_decoding.LogDecoder`:
     /nav200/tx + /nav200/rx -> /nav/pose."""
 
@@ -35,18 +35,16 @@ class Nav200LogDecoder:
     sources = frozenset({"nav200"})
 
     def __init__(self) -> None:
+        super().__init__()
         self.matcher = Nav200ReplyMatcher()
         self.requests = self.replies = self.poses = 0
-        self.last_ns = 0
-        self._messages: list[Decoded] = []
 
     def _exchanges(self, exchanges: list[Exchange], t_ns: int) -> None:
         for exchange in exchanges:
             self.replies += 1
             reply = exchange.reply
             if isinstance(reply, Reply) and isinstance(reply.payload, Pose):
-                self._messages.append((topics.NAV_POSE, nav_pose_message(reply, stamp(t_ns)),
-                                       t_ns))
+                self.emit(topics.NAV_POSE, nav_pose_message(reply, stamp(t_ns)), t_ns)
                 self.poses += 1
 
     def chunk(self, topic: str, data: bytes, t_ns: int) -> None:
@@ -62,11 +60,6 @@ class Nav200LogDecoder:
     def finish(self, t_ns: int) -> None:
         """End of the log: the replies still buffered, at ``t_ns``."""
         self._exchanges(self.matcher.flush(), t_ns)
-
-    def pop_messages(self) -> list[Decoded]:
-        """Decoded poses since the last call."""
-        out, self._messages = self._messages, []
-        return out
 
     def pop_events(self) -> list[DecodeEvent]:
         """Decoder and matching events since the last call."""
