@@ -625,7 +625,7 @@ def test_a_failed_write_leaves_the_old_output(world: Path, tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     """decode, recover, replay and simulate write through a temporary file: a run that fails
     half way leaves an existing output as it was and no temporary file."""
-    import lgvtool.commands.decode as decode_mod
+    import lgvtool.app.decode_job as decode_mod
     import lgvtool.log.salvage as salvage_mod
     from lgvtool.errors import InputError
 

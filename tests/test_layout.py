@@ -22,14 +22,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "lgvtool"
 
-PENDING_DUPLICATES: frozenset[str] = frozenset({
-    "errors.py",          # lgvtool/errors.py, lgvtool/wire/errors.py
-    "links.py",           # lgvtool/devices/links.py, lgvtool/sim/links.py
-    "mcu_link.py",        # lgvtool/devices/mcu_link.py, lgvtool/sim/mcu_link.py
-    "messages.py",        # lgvtool/log, lgvtool/wire, lgvtool/devices/nav350
-    "nav200_session.py",  # lgvtool/devices/nav200_session.py, lgvtool/wire/nav200_session.py
-    "stream.py",          # lgvtool/wire/stream.py, lgvtool/devices/nav350/stream.py
-})
+PENDING_DUPLICATES: frozenset[str] = frozenset()
 """Basenames that still repeat until the device code is one folder per device family."""
 
 DEVICE_SIDE = ("devices", "wire", "sim/emulate")

@@ -40,8 +40,8 @@ def record_devices(output: str, *, nav_url: str | None = None, mcu_url: str | No
     from pathlib import Path
 
     from lgvtool.config import load_config
-    from lgvtool.devices.nav200_session import Nav200Settings
-    from lgvtool.devices.nav350.registration import recorder_settings
+    from lgvtool.devices.nav200.nav200_session import Nav200Settings
+    from lgvtool.devices.nav350.nav350_registration import recorder_settings
     from lgvtool.devices.recorder import RecorderSettings, record
     from lgvtool.errors import InputError
     from lgvtool.outputs import guard_output

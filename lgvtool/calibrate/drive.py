@@ -29,7 +29,7 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 MCU_FRAME_BYTES = 30
-"""Length of a version-1 MCU frame on the wire, bytes (lgvtool.wire.mcu.FRAME_SIZE)."""
+"""Length of a version-1 MCU frame on the wire, bytes (lgvtool.devices.mcu.mcu_frame.FRAME_SIZE)."""
 MCU_BAUD = 115_200
 """The MCU link's speed when the log does not say, baud (8N1: 10 bits a byte)."""
 TWIST_NODE_RATE_HZ = 1.0

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from lgvtool.devices.nav350.registration import record_options as nav350_options
+from lgvtool.devices.nav350.nav350_registration import record_options as nav350_options
 from lgvtool.options import force_option, positive, print_output, split_names
 from lgvtool.values import MAX_BYTES, MAX_WALL_S
 
