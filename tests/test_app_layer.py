@@ -23,8 +23,9 @@ COMMANDS = PACKAGE / "commands"
 
 COMMAND_IMPORTS = ("lgvtool.app.", "lgvtool.options", "lgvtool.values", "lgvtool.errors",
                    "lgvtool.outputs", "lgvtool.lazy_group", "lgvtool.cli")
-"""The lgvtool modules a command module may import (and ``lgvtool.devices.<family>.
-<family>_registration``, which contributes a device family's options to ``record``)."""
+"""The lgvtool modules a command module may import (and the device registry
+``lgvtool.devices.device_registry`` and its ``lgvtool.devices.<family>.<family>_registration``
+modules, which contribute every device family's options to ``record``)."""
 
 MAX_CALLBACK_STATEMENTS = 25
 """Most statements (nested ones counted) in a command's callback: parse, call, print."""
@@ -79,7 +80,8 @@ def _allowed(module: str) -> bool:
     top = module.split(".")[0]
     if top != "lgvtool":
         return top in sys.stdlib_module_names or top == "click"
-    if module.startswith("lgvtool.devices.") and module.endswith("_registration"):
+    if module == "lgvtool.devices.device_registry" or (
+            module.startswith("lgvtool.devices.") and module.endswith("_registration")):
         return True
     return module in COMMAND_IMPORTS or module.startswith(COMMAND_IMPORTS[0])
 

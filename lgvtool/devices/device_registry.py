@@ -1,11 +1,23 @@
 """The device families lgvtool knows, and how to find a family's parts.
 
 Each family is a folder ``lgvtool/devices/<family>/`` with a registration module
-``<family>_registration.py`` that names its topics (``DEVICE``, ``RAW_TOPICS``, ``TOPICS``) and
-makes its parts on demand (``log_decoder``, ``emulator``, ``recorder_worker``; the NAV350 also
-its ``record`` options). ``lgvtool decode``, the recorder, the simulator's log writer and
-``simulate serve`` go through :func:`registration`; adding a family means its folder and a line
-in :data:`FAMILIES`. Registrations are imported on first use (``lgvtool --help`` stays light).
+``<family>_registration.py``, the same interface for every family:
+
+- names: ``DEVICE``, ``TITLE`` (in messages), ``RAW_TOPICS``, ``TOPICS``, ``ODOMETRY`` (the
+  recorder's odometry source: the other families' speed input);
+- decoding: ``log_decoder(metadata)``, ``ABSENT_REPORT``, ``ABSENT_METADATA``;
+- ``lgvtool record``: ``record_options`` (click decorators), ``RECORD_URL_OPTION`` /
+  ``RECORD_URL_PARAM`` (the option naming its link), ``recorder_settings(options, *, layer,
+  upload, speed_input, reply_timeout, config)`` (takes its options out of ``options``; a
+  :class:`~lgvtool.devices.recorder.RecordedDevice` or None), ``recorder_link(url)``,
+  ``recorder_worker(...)`` and ``recorder_metadata(device)``;
+- ``lgvtool simulate serve``: ``serve_options`` (click decorators), ``SERVE_PARAM`` /
+  ``SERVE_DEFAULT`` (its port parameter) and ``serve_emulator(playback, spec, *, loop)``.
+
+``lgvtool decode``, ``record``, ``simulate serve``, the recorder and the simulator's log writer
+go through :func:`registration` and :func:`registrations`; adding a family means its folder and
+a line in :data:`FAMILIES`. Registrations are imported on first use (``lgvtool --help`` stays
+light).
 """
 
 from __future__ import annotations
@@ -13,10 +25,14 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-__all__ = ["FAMILIES", "family_of_topic", "registration", "registrations"]
+__all__ = ["FAMILIES", "SERVE_PORT_HELP", "family_of_topic", "listed", "registration",
+           "registrations"]
 
 #: The device families, in the order their decoders run and their reports are listed.
 FAMILIES = ("mcu", "nav200", "nav350")
+
+#: The help of a ``simulate serve`` port option, after "Where the virtual DEVICE listens: ".
+SERVE_PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) or 'none'."
 
 
 def registration(family: str) -> ModuleType:
@@ -29,6 +45,13 @@ def registration(family: str) -> ModuleType:
 def registrations() -> list[ModuleType]:
     """The registration modules of every family, in :data:`FAMILIES` order."""
     return [registration(f) for f in FAMILIES]
+
+
+def listed() -> list[ModuleType]:
+    """The registrations in the order devices are named to people (usage lines, served
+    ports): the sensors in :data:`FAMILIES` order, then the odometry sources."""
+    regs = registrations()
+    return [r for r in regs if not r.ODOMETRY] + [r for r in regs if r.ODOMETRY]
 
 
 def family_of_topic(topic: str) -> str | None:

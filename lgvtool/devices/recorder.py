@@ -19,22 +19,22 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, TextIO
 
 from lgvtool.config import Config, default_config
-from lgvtool.devices.device_links import MCU_SERIAL_DEFAULTS, NAV200_SERIAL_DEFAULTS, open_link
-from lgvtool.devices.device_registry import registration
+from lgvtool.devices.device_registry import listed, registration, registrations
 from lgvtool.devices.link_worker import LinkTiming
 from lgvtool.devices.logsink import LogSink
-from lgvtool.devices.nav200.nav200_session import Nav200Settings
 from lgvtool.devices.status import StatusLine, format_bytes
 from lgvtool.errors import InputError, LgvError
 from lgvtool.wire.decode_events import INFO
 
-__all__ = ["RecordError", "RecordResult", "Recorder", "RecorderSettings", "record"]
+__all__ = ["RecordError", "RecordResult", "RecordedDevice", "Recorder", "RecorderSettings",
+           "no_device_message", "record"]
 
 
 class RecordError(LgvError):
@@ -42,15 +42,31 @@ class RecordError(LgvError):
 
 
 @dataclass(frozen=True)
+class RecordedDevice:
+    """One device to record: its link URL (``serial://...`` or ``tcp://HOST:PORT``) and its
+    family's settings (e.g. :class:`~lgvtool.devices.nav200.nav200_session.Nav200Settings`;
+    None: the family's defaults)."""
+
+    url: str
+    settings: Any = None
+
+
+def no_device_message() -> str:
+    """The usage line of a recording without a device:
+    ``record: give --nav URL, --nav350 URL, --mcu URL or several``."""
+    options = [f"{r.RECORD_URL_OPTION} URL" for r in listed()]
+    return f"record: give {', '.join(options)} or several"
+
+
+@dataclass(frozen=True)
 class RecorderSettings:
     """What to record and how. Times in s, sizes in bytes."""
 
     output: Path
-    nav_url: str | None = None
-    mcu_url: str | None = None
+    devices: Mapping[str, RecordedDevice] = field(default_factory=dict)
+    """Family (:data:`~lgvtool.devices.device_registry.FAMILIES`) -> the device to record."""
     duration: float | None = None
     """Stop after this long; None: until SIGINT/SIGTERM."""
-    nav: Nav200Settings = field(default_factory=Nav200Settings)
     split_bytes: int | None = None
     split_seconds: float | None = None
     config: Config | None = None
@@ -66,10 +82,6 @@ class RecorderSettings:
     """Serve the recording live here (a ``lgvtool.live.live_server.LiveAddress``); None: not."""
     live_estimators: tuple[str, ...] = ()
     """Online estimators whose estimate the live view shows."""
-    nav350_url: str | None = None
-    """The NAV350 (tcp://HOST:2112), recorded by lgvtool.devices.nav350."""
-    nav350: Any = None
-    """Its :class:`lgvtool.devices.nav350.nav350_session.Nav350Settings` (None: the defaults)."""
 
 
 @dataclass
@@ -96,7 +108,8 @@ class RecordResult:
 
 
 class Recorder:
-    """Record the NAV200 and the MCU into a log (or a series of split logs).
+    """Record the devices (the NAV200, the NAV350, the MCU) into a log (or a series of split
+    logs).
 
     Use :meth:`run` from the main thread (it installs SIGINT/SIGTERM handlers there) or from
     any thread with :meth:`stop` to end it.
@@ -104,8 +117,8 @@ class Recorder:
 
     def __init__(self, settings: RecorderSettings, *, status_stream: TextIO | None = None
                  ) -> None:
-        if settings.nav_url is None and settings.mcu_url is None and settings.nav350_url is None:
-            raise InputError("record: give --nav URL, --nav350 URL, --mcu URL or several")
+        if not settings.devices:
+            raise InputError(no_device_message())
         if settings.duration is not None and settings.duration <= 0:
             raise InputError("record: --duration must be positive")
         self.settings = settings
@@ -113,12 +126,8 @@ class Recorder:
         self._stream = status_stream if status_stream is not None else sys.stderr
         self._stop = threading.Event()
         self._reason = "stopped"
-        self._nav_link = None if settings.nav_url is None else open_link(
-            settings.nav_url, NAV200_SERIAL_DEFAULTS)
-        self._mcu_link = None if settings.mcu_url is None else open_link(
-            settings.mcu_url, MCU_SERIAL_DEFAULTS)
-        self._nav350_link = None if settings.nav350_url is None else open_link(
-            settings.nav350_url, NAV200_SERIAL_DEFAULTS)
+        self._links = {family: registration(family).recorder_link(device.url)
+                       for family, device in settings.devices.items()}
         out = Path(settings.output)
         if out.exists() and not settings.overwrite:
             raise InputError(f"record: {out} exists (use --force to overwrite it)")
@@ -157,28 +166,28 @@ class Recorder:
         self._stream.flush()
 
     def _build_workers(self) -> None:
-        """One worker per link, made by its family's registration (the MCU's first: the NAV
-        workers take their speed input from it)."""
-        s, timing = self.settings, self.settings.timing
+        """One worker per link, made by its family's registration (the odometry source's
+        first: the other workers take their speed input from it)."""
+        regs = registrations()
         mcu: Any = None
-        for family, link, settings in (("mcu", self._mcu_link, None),
-                                       ("nav200", self._nav_link, s.nav),
-                                       ("nav350", self._nav350_link, s.nav350)):
-            if link is None:
+        for reg in [r for r in regs if r.ODOMETRY] + [r for r in regs if not r.ODOMETRY]:
+            device = self.settings.devices.get(reg.DEVICE)
+            if device is None:
                 continue
-            worker = registration(family).recorder_worker(
-                link, self.sink, self._stop, timing, settings, self.config, mcu=mcu,
-                warn=self._warn)
-            if family == "mcu":
+            worker = reg.recorder_worker(
+                self._links[reg.DEVICE], self.sink, self._stop, self.settings.timing,
+                device.settings, self.config, mcu=mcu, warn=self._warn)
+            if reg.ODOMETRY:
                 mcu = worker
             self.workers.append(worker)
 
     def _recording_metadata(self) -> dict[str, Any]:
         s = self.settings
+        devices: dict[str, Any] = {}
+        for reg in registrations():
+            devices.update(reg.recorder_metadata(s.devices.get(reg.DEVICE)))
         return {
-            "nav_url": s.nav_url, "mcu_url": s.mcu_url, "duration_s": s.duration,
-            "nav350_url": s.nav350_url,
-            "poll_period_s": s.nav.poll_period if s.nav_url else None,
+            **devices, "duration_s": s.duration,
             "split_bytes": s.split_bytes, "split_seconds": s.split_seconds,
             "chunk_seconds": s.chunk_seconds, "fsync": s.fsync,
             "host": platform.node(), "pid": os.getpid(),

@@ -17,7 +17,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "devices"))
 from devices_helpers import start_emulator, wait_for
 from foxglove_client import collect
 
-from lgvtool.devices.recorder import Recorder, RecorderSettings
+from lgvtool.devices.recorder import RecordedDevice, Recorder, RecorderSettings
 from lgvtool.live.live_server import LiveAddress
 from lgvtool.log import LogReader, topics
 
@@ -27,7 +27,8 @@ def test_record_live_serves_the_recording_and_survives_a_vanishing_client(tmp_pa
     server = start_emulator(tmp_path, "tcp", duration=20.0, speed=4.0)
     out = tmp_path / "run.mcap"
     urls = server.urls
-    rec = Recorder(RecorderSettings(output=out, nav_url=urls["nav200"], mcu_url=urls["mcu"],
+    rec = Recorder(RecorderSettings(output=out, devices={"nav200": RecordedDevice(urls["nav200"]),
+                                                         "mcu": RecordedDevice(urls["mcu"])},
                                     duration=6.0, status=False, fsync=False,
                                     live=LiveAddress("127.0.0.1", 0),
                                     live_estimators=("ekf",)))

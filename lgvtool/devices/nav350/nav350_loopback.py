@@ -50,7 +50,7 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
     from lgvtool.devices.link_worker import LinkTiming
     from lgvtool.devices.nav350.nav350_registration import recorder_settings
     from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
-    from lgvtool.devices.recorder import Recorder, RecorderSettings
+    from lgvtool.devices.recorder import RecordedDevice, Recorder, RecorderSettings
     from lgvtool.log import LogReader, topics
     from lgvtool.sim.emulate.emulator_server import EmulatorServer, parse_fault
 
@@ -60,11 +60,12 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
                             faults=[parse_fault(f) for f in faults], seed=1)
     try:
         config = default_config()
-        nav350 = recorder_settings(server.urls["nav350"], dialect, layer=0, upload=True,
-                                   speed_input=speed_input, reply_timeout=1.0, config=config)
-        settings = RecorderSettings(output=out, mcu_url=server.urls["mcu"],
-                                    nav350_url=server.urls["nav350"], duration=seconds,
-                                    config=config, status=False, fsync=False, nav350=nav350,
+        nav350 = recorder_settings({"nav350_url": server.urls["nav350"], "nav350_cola": dialect},
+                                   layer=0, upload=True, speed_input=speed_input,
+                                   reply_timeout=1.0, config=config)
+        settings = RecorderSettings(output=out, devices={"mcu": RecordedDevice(server.urls["mcu"]),
+                                                         "nav350": nav350},
+                                    duration=seconds, config=config, status=False, fsync=False,
                                     timing=LinkTiming(backoff_max=0.5), overwrite=True)
         recorder = Recorder(settings)
         server.start()

@@ -7,9 +7,11 @@ Everything the rest of lgvtool needs to know about the device family is here, im
   ``/nav/pose`` and ``/nav/reflectors``;
 - :func:`stream_decoder`: the resynchronising decoder of either direction;
 - :func:`log_decoder`: its :class:`~lgvtool.devices.log_decoding.LogDecoder`;
-- :func:`emulator`: the virtual NAV350 of ``simulate serve --nav350 PORT``;
-- :func:`record_options` / :func:`recorder_settings` / :func:`recorder_worker`: ``record
-  --nav350 tcp://HOST:2112`` and its thread.
+- :func:`serve_options` / :func:`serve_emulator` / :func:`emulator`: the virtual NAV350 of
+  ``simulate serve --nav350 PORT``;
+- :func:`record_options` / :func:`recorder_settings` / :func:`recorder_link` /
+  :func:`recorder_worker` / :func:`recorder_metadata`: ``record --nav350 tcp://HOST:2112`` and
+  its thread.
 """
 
 from __future__ import annotations
@@ -21,11 +23,21 @@ import click
 
 from lgvtool.log import topics
 
-__all__ = ["ABSENT_METADATA", "ABSENT_REPORT", "DEVICE", "RAW_TOPICS", "RX", "TOPICS", "TX",
-           "emulator", "log_decoder", "record_options", "recorder_settings", "recorder_worker",
-           "split_port_spec", "stream_decoder"]
+__all__ = ["ABSENT_METADATA", "ABSENT_REPORT", "DEVICE", "ODOMETRY", "RAW_TOPICS",
+           "RECORD_URL_OPTION", "RECORD_URL_PARAM", "RX", "SERVE_DEFAULT", "SERVE_PARAM", "TITLE",
+           "TOPICS", "TX", "emulator", "log_decoder", "record_options", "recorder_link",
+           "recorder_metadata", "recorder_settings", "recorder_worker", "serve_emulator",
+           "serve_options", "split_port_spec", "stream_decoder"]
 
 DEVICE = "nav350"
+#: the device in messages: "the NAV350"
+TITLE = "the NAV350"
+#: not an odometry source (its speed input comes from the MCU)
+ODOMETRY = False
+#: ``record``'s option naming the NAV350's link, and its parameter name
+RECORD_URL_OPTION, RECORD_URL_PARAM = "--nav350", "nav350_url"
+#: ``simulate serve``'s parameter of the NAV350's port, and its default (not served)
+SERVE_PARAM, SERVE_DEFAULT = "nav350", None
 RX, TX = topics.NAV350_RX, topics.NAV350_TX
 #: topic -> schema of the NAV350's own topics
 TOPICS = {RX: "lgvtool.RawBytes", TX: "lgvtool.RawBytes"}
@@ -69,6 +81,26 @@ def split_port_spec(spec: str) -> tuple[str, dict[str, float]]:
     return split(spec)
 
 
+def serve_options(f: Callable[..., Any]) -> Callable[..., Any]:
+    """The ``simulate serve`` option of the NAV350 (``--nav350 PORT[?CLOCK]``)."""
+    return click.option("--nav350", SERVE_PARAM, default="none", show_default=True,
+                        metavar="PORT",
+                        help="Where a virtual NAV350 listens (SOPAS CoLa-A and CoLa-B): "
+                             "tcp://HOST:PORT, 'pty' or 'none'; '?drift_ppm=50&offset_ms=987654' "
+                             "sets its millisecond clock.")(f)
+
+
+def serve_emulator(playback: Any, spec: str | None, *, loop: bool = False
+                   ) -> tuple[str | None, Any]:
+    """``simulate serve``'s NAV350: the port of ``spec`` (:func:`split_port_spec`; None: not
+    served, and no emulator) and its :func:`emulator` with the spec's clock settings
+    (``loop``: unused, it only answers and streams on request)."""
+    if spec is None:
+        return None, None
+    port, clock = split_port_spec(spec)
+    return port, emulator(playback, **clock)
+
+
 def record_options(f: Callable[..., Any]) -> Callable[..., Any]:
     """The ``record`` options of the NAV350 (``--nav350 URL``, ``--nav350-cola``)."""
     f = click.option("--nav350-cola", "nav350_cola", type=click.Choice(["binary", "ascii"]),
@@ -81,15 +113,21 @@ def record_options(f: Callable[..., Any]) -> Callable[..., Any]:
                              "device's rate; --speed-input sends mNPOSSetSpeed.")(f)
 
 
-def recorder_settings(url: str | None, cola: str, *, layer: int, upload: bool,
-                      speed_input: bool, reply_timeout: float, config: Any) -> Any:
-    """The :class:`~lgvtool.devices.nav350.nav350_session.Nav350Settings` of the record options
-    (None without ``--nav350``); InputError for a URL that is not TCP."""
+def recorder_settings(options: dict[str, Any], *, layer: int, upload: bool, speed_input: bool,
+                      reply_timeout: float, config: Any) -> Any:
+    """Take the NAV350's :func:`record_options` out of ``options``: its
+    :class:`~lgvtool.devices.recorder.RecordedDevice` with
+    :class:`~lgvtool.devices.nav350.nav350_session.Nav350Settings` (the shared ``layer``,
+    ``upload``, ``speed_input``, ``reply_timeout`` s; the map of ``config``), None without
+    ``--nav350``; InputError for a URL that is not TCP."""
+    url = options.pop(RECORD_URL_PARAM, None)
+    cola = options.pop("nav350_cola", "binary")
     if url is None:
         return None
     from lgvtool.devices.device_links import parse_link_url
     from lgvtool.devices.nav350.nav350_session import Nav350Settings
     from lgvtool.devices.nav350.nav350_telegrams import LayoutLandmark
+    from lgvtool.devices.recorder import RecordedDevice
     from lgvtool.errors import InputError
 
     if parse_link_url(url).scheme != "tcp":
@@ -102,8 +140,23 @@ def recorder_settings(url: str | None, cola: str, *, layer: int, upload: bool,
         layout = tuple(LayoutLandmark(round(r.x * 1000), round(r.y * 1000), 1, 1,
                                       max(1, round(r.radius * 2000)), (layer,))
                        for r in config.reflectors if r.layer == layer)
-    return Nav350Settings(dialect=cola, layer=layer, layout=layout, speed_input=speed_input,
-                          reply_timeout=reply_timeout)
+    return RecordedDevice(url, Nav350Settings(dialect=cola, layer=layer, layout=layout,
+                                              speed_input=speed_input,
+                                              reply_timeout=reply_timeout))
+
+
+def recorder_link(url: str) -> Any:
+    """The NAV350's link at ``url`` (tcp://HOST:2112; :func:`recorder_settings` refuses
+    others)."""
+    from lgvtool.devices.device_links import NAV200_SERIAL_DEFAULTS, open_link
+
+    return open_link(url, NAV200_SERIAL_DEFAULTS)
+
+
+def recorder_metadata(device: Any) -> dict[str, Any]:
+    """The NAV350's entries of the log's ``recorder`` metadata (``device``: its
+    :class:`~lgvtool.devices.recorder.RecordedDevice`, None when not recorded)."""
+    return {"nav350_url": None if device is None else device.url}
 
 
 def recorder_worker(link: Any, sink: Any, stop: Any, timing: Any, settings: Any, config: Any,

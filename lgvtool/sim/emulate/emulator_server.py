@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from lgvtool.devices.device_registry import registration
+from lgvtool.devices.device_registry import listed
 from lgvtool.errors import InputError
 from lgvtool.sim.emulate.emulator_playback import Playback
 from lgvtool.sim.emulate.endpoints import PTY_SETTLE, Endpoint, PtyEndpoint, TcpEndpoint
@@ -115,8 +115,10 @@ class TranscriptEntry:
 class EmulatorServer:
     """Serve a :class:`Playback` as a virtual NAV200 and a virtual MCU.
 
-    :param nav: ``"pty"``, ``"tcp://HOST:PORT"`` (port 0: any free port) or None (no NAV200).
-    :param mcu: as ``nav``, for the MCU.
+    :param ports: by each family's ``SERVE_PARAM`` (``nav``: the NAV200, ``nav350``, ``mcu``),
+        where its device listens: ``"pty"``, ``"tcp://HOST:PORT"`` (port 0: any free port) or
+        None (not served); an unnamed family gets its ``SERVE_DEFAULT`` (the NAV200 and the
+        MCU ``"pty"``, the NAV350 None).
     :param link_dir: where the pseudo-terminal links go (default: a new temporary folder).
     :param speed: run-clock seconds per wall-clock second.
     :param faults: scheduled faults.
@@ -127,43 +129,49 @@ class EmulatorServer:
     :param seed: seed of the garbage bytes.
     """
 
-    def __init__(self, playback: Playback, *, nav: str | None = "pty", mcu: str | None = "pty",
-                 link_dir: str | Path | None = None, speed: float = 1.0,
-                 faults: tuple[Fault, ...] | list[Fault] = (), wait: bool = True,
-                 loop: bool = False, transcript: str | Path | None = None,
-                 seed: int = 0, nav350: str | None = None) -> None:
+    def __init__(self, playback: Playback, *, link_dir: str | Path | None = None,
+                 speed: float = 1.0, faults: tuple[Fault, ...] | list[Fault] = (),
+                 wait: bool = True, loop: bool = False, transcript: str | Path | None = None,
+                 seed: int = 0, **ports: str | None) -> None:
         if not speed > 0:
             raise InputError(f"speed must be positive, got {speed}")
-        if nav is None and mcu is None and nav350 is None:
-            raise InputError("serve: at least one of the NAV200, the NAV350 and the MCU must be "
-                             "served")
+        regs = listed()
+        unknown = set(ports) - {r.SERVE_PARAM for r in regs}
+        if unknown:
+            raise TypeError(f"EmulatorServer: no device family serves {', '.join(sorted(unknown))}")
+        specs = {r.DEVICE: ports.get(r.SERVE_PARAM, r.SERVE_DEFAULT) for r in regs}
+        if all(spec is None for spec in specs.values()):
+            *first, last = [str(r.TITLE) for r in regs]
+            raise InputError(f"serve: at least one of {', '.join(first)} and {last} must be "
+                             f"served")
         self.playback = playback
         self.speed = float(speed)
         self.wait = wait
         self.faults = sorted(faults, key=lambda f: f.at)
         # the devices, made by their families' registrations
-        self.nav200 = registration("nav200").emulator(playback)
-        self.nav350 = None
-        if nav350 is not None:
-            nav350, clock = registration("nav350").split_port_spec(nav350)
-            self.nav350 = registration("nav350").emulator(playback, **clock)
-        self.mcu = registration("mcu").emulator(playback, loop=loop)
+        self.emulators: dict[str, Any] = {}
+        for reg in regs:
+            specs[reg.DEVICE], self.emulators[reg.DEVICE] = reg.serve_emulator(
+                playback, specs[reg.DEVICE], loop=loop)
+        self.nav200 = self.emulators["nav200"]
+        self.nav350 = self.emulators["nav350"]
+        self.mcu = self.emulators["mcu"]
         self._rng = random.Random(seed)
         self._own_dir: Path | None = None
         self._file: IO[str] | None = None
         self.endpoints: dict[str, Endpoint] = {}
-        specs = {"the NAV200": nav, "the NAV350": nav350, "the MCU": mcu}
-        named = [(who, listen) for who, listen in specs.items()
+        titles = {r.DEVICE: r.TITLE for r in regs}
+        named = [(titles[name], listen) for name, listen in specs.items()
                  if listen is not None and listen != "pty" and not listen.endswith(":0")]
         for i, (who, where) in enumerate(named):
             for other, where2 in named[i + 1:]:
                 if where == where2:
                     raise InputError(f"serve: {who} and {other} cannot both listen on {where}")
-        if link_dir is None and "pty" in (nav, mcu):
+        if link_dir is None and "pty" in specs.values():
             self._own_dir = Path(tempfile.mkdtemp(prefix="lgvtool-serve-"))
         self.link_dir = Path(link_dir) if link_dir is not None else self._own_dir
         try:
-            for name, spec in (("nav200", nav), ("nav350", nav350), ("mcu", mcu)):
+            for name, spec in specs.items():
                 if spec is not None:
                     self.endpoints[name] = self._endpoint(name, spec)
             if transcript is not None:

@@ -1,15 +1,25 @@
-"""``lgvtool simulate serve``: a virtual NAV200 and a virtual MCU for ``lgvtool record``."""
+"""``lgvtool simulate serve``: a virtual NAV200 and a virtual MCU (and a NAV350) for ``lgvtool
+record``; each device family's port option comes from its registration
+(:mod:`lgvtool.devices.device_registry`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import click
 
+from lgvtool.devices.device_registry import listed
 from lgvtool.options import Number, force_option, positive, set_option
 from lgvtool.values import MAX_SEED, MAX_SIM_DURATION_S, MAX_WALL_S
 
-_PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) or 'none'."
+
+def _port_options(f: Callable[..., Any]) -> Callable[..., Any]:
+    """Every registered device family's ``serve`` port option, in the order the ports are
+    listed."""
+    for reg in reversed(listed()):
+        f = reg.serve_options(f)
+    return f
 
 
 @click.command()
@@ -25,14 +35,7 @@ _PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) 
 @set_option("Override a simulator setting (repeatable), as for 'lgvtool simulate'.")
 @click.option("--speed", type=positive(1000.0), default=1.0,
               show_default=True, metavar="N", help="Play N times faster than real time.")
-@click.option("--nav", "nav", default="pty", show_default=True, metavar="PORT",
-              help=f"Where the virtual NAV200 listens: {_PORT_HELP}")
-@click.option("--nav350", "nav350", default="none", show_default=True, metavar="PORT",
-              help="Where a virtual NAV350 listens (SOPAS CoLa-A and CoLa-B): "
-                   "tcp://HOST:PORT, 'pty' or 'none'; '?drift_ppm=50&offset_ms=987654' sets "
-                   "its millisecond clock.")
-@click.option("--mcu", "mcu", default="pty", show_default=True, metavar="PORT",
-              help=f"Where the virtual MCU streams: {_PORT_HELP}")
+@_port_options
 @click.option("--pty-dir", type=click.Path(file_okay=False, exists=True), metavar="DIR",
               help="Put the pseudo-terminal links here (default: a new temporary folder).")
 @click.option("--fault", "faults", multiple=True, metavar="SPEC",
@@ -50,12 +53,11 @@ _PORT_HELP = "'pty' (a pseudo-terminal), tcp://HOST:PORT (port 0: any free one) 
               help="Exit S seconds (wall clock) after the run has been played "
                    "(default: serve until Ctrl-C).")
 @click.pass_context
-def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int | None,
+def serve(ctx: click.Context, /, log: str | None, scenario: str | None, seed: int | None,
           duration: float | None, config_path: str | None, sets: tuple[str, ...],
-          speed: float, nav: str, nav350: str, mcu: str, pty_dir: str | None,
-          faults: tuple[str, ...], transcript: str | None, loop: bool, start_now: bool,
-          force: bool,
-          exit_after: float | None) -> None:
+          speed: float, pty_dir: str | None, faults: tuple[str, ...], transcript: str | None,
+          loop: bool, start_now: bool, force: bool, exit_after: float | None,
+          **ports: str) -> None:
     """Serve a run as devices for 'lgvtool record': a virtual NAV200 that answers the host
     protocol (modes, identity, the map upload, error replies to requests in the wrong mode)
     and a virtual MCU that streams its frames, over pseudo-terminals or TCP.
@@ -84,29 +86,29 @@ def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int |
     fault_list = [parse_fault(f) for f in faults]
     playback = _playback(log, scenario or "paper-circle", seed, duration, config_path, sets)
     if transcript is None:
-        _serve(playback, nav, nav350, mcu, pty_dir, speed, fault_list, start_now, loop, None,
-               seed, exit_after)
+        _serve(playback, ports, pty_dir, speed, fault_list, start_now, loop, None, seed,
+               exit_after)
         return
     from lgvtool.outputs import atomic_output
 
     with atomic_output(transcript) as tmp:
-        _serve(playback, nav, nav350, mcu, pty_dir, speed, fault_list, start_now, loop,
-               str(tmp), seed, exit_after)
+        _serve(playback, ports, pty_dir, speed, fault_list, start_now, loop, str(tmp), seed,
+               exit_after)
 
 
-def _serve(playback: Any, nav: str, nav350: str, mcu: str, pty_dir: str | None, speed: float,
+def _serve(playback: Any, ports: dict[str, str], pty_dir: str | None, speed: float,
            fault_list: list[Any], start_now: bool, loop: bool, transcript: str | None,
            seed: int, exit_after: float | None) -> None:
-    """Serve ``playback`` until it is played (``exit_after``) or stopped; print the counts."""
+    """Serve ``playback`` on the families' ``ports`` (by parameter name; 'none': not served)
+    until it is played (``exit_after``) or stopped; print the counts."""
     import signal
 
     from lgvtool.sim.emulate.emulator_server import EmulatorServer
 
-    server = EmulatorServer(playback, nav=None if nav == "none" else nav,
-                            mcu=None if mcu == "none" else mcu, link_dir=pty_dir, speed=speed,
-                            faults=fault_list, wait=not start_now, loop=loop,
-                            transcript=transcript, seed=seed,
-                            nav350=None if nav350 == "none" else nav350)
+    server = EmulatorServer(playback, link_dir=pty_dir, speed=speed, faults=fault_list,
+                            wait=not start_now, loop=loop, transcript=transcript, seed=seed,
+                            **{name: None if spec == "none" else spec
+                               for name, spec in ports.items()})
     try:
         for name, ep in server.endpoints.items():
             click.echo(f"{name}: {ep.url}")
