@@ -150,9 +150,11 @@ class Recorder:
 
         estimators = [OnlineEstimator(n, self.config) for n in self.settings.live_estimators]
         server = LiveServer(self.settings.live)
-        # the contract's fixed topics a recorder may write (not the simulator's or importers')
-        server.prepare({t: s for t, s in topics.FIXED.items()
-                        if t not in (topics.TRUTH, topics.ODOM)})
+        # the contract's fixed topics a recorder may write (not the simulator's or importers'),
+        # and every family's own topics (its raw traffic)
+        fixed = {t: s for t, s in topics.FIXED.items() if t not in (topics.TRUTH, topics.ODOM)}
+        server.prepare({**fixed, **{t: s for reg in registrations()
+                                    for t, s in reg.TOPICS.items()}})
         return LiveFeed(server, estimators, warn=self._warn)
 
     def stop(self, reason: str = "stopped") -> None:

@@ -147,8 +147,12 @@ def recorder_metadata(device: Any) -> dict[str, Any]:
     """The NAV200's entries of the log's ``recorder`` metadata (``device``: its
     :class:`~lgvtool.devices.recorder.RecordedDevice`, None when not recorded): the URL and the
     poll period, s."""
-    return {"nav_url": None if device is None else device.url,
-            "poll_period_s": None if device is None else device.settings.poll_period}
+    if device is None:
+        return {"nav_url": None, "poll_period_s": None}
+    from lgvtool.devices.nav200.nav200_session import Nav200Settings
+
+    settings = device.settings if device.settings is not None else Nav200Settings()
+    return {"nav_url": device.url, "poll_period_s": settings.poll_period}
 
 
 def recorder_worker(link: Any, sink: Any, stop: Any, timing: Any, settings: Any, config: Any,

@@ -1,0 +1,89 @@
+"""A device family is its folder and a line in the registry: a fourth family, registered by
+patching the registry's table only, gets its ``record`` and ``simulate serve`` options and
+its log decoder with no other lgvtool file changed."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import fourth_family
+import pytest
+from click.testing import CliRunner
+
+from lgvtool.app.decode_job import decode_log
+from lgvtool.devices import device_registry
+from lgvtool.log import LogReader, LogWriter, topics
+
+#: the modules that apply every family's options when they are imported
+_COMMAND_MODULES = ("lgvtool.commands.record", "lgvtool.sim.emulate.serve")
+
+
+def _reload_commands() -> None:
+    for name in _COMMAND_MODULES:
+        importlib.reload(importlib.import_module(name))
+
+
+@pytest.fixture
+def fourth() -> Iterator[None]:
+    """The registry with the ``fake`` family appended; the command modules re-imported with
+    it, and again without it afterwards."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(device_registry, "FAMILIES", (*device_registry.FAMILIES, "fake"))
+        mp.setitem(sys.modules, "lgvtool.devices.fake.fake_registration", fourth_family)
+        _reload_commands()
+        yield
+    _reload_commands()
+
+
+def _help(*command: str) -> str:
+    from lgvtool.cli import cli
+
+    result = CliRunner().invoke(cli, [*command, "--help"])
+    assert result.exit_code == 0, result.output
+    return result.output
+
+
+def test_the_fourth_family_is_registered(fourth: None) -> None:
+    assert device_registry.registration("fake") is fourth_family
+    assert device_registry.registrations()[-1] is fourth_family
+    assert device_registry.family_of_topic("/fake/rx") == "fake"
+
+
+def test_record_and_serve_show_its_options(fourth: None) -> None:
+    record = _help("record")
+    assert "--fake URL" in record and "Fake device link, recorded by no one." in record
+    assert "--nav URL" in record and "--mcu URL" in record and "--nav350 URL" in record
+    serve = _help("simulate", "serve")
+    assert "--fake PORT" in serve and "Where the fake device listens." in serve
+
+
+def test_the_usage_line_names_its_option(fourth: None) -> None:
+    from lgvtool.devices.recorder import no_device_message
+
+    assert no_device_message() == ("record: give --nav URL, --nav350 URL, --fake URL, "
+                                   "--mcu URL or several")
+
+
+def test_without_it_the_commands_have_no_such_option() -> None:
+    assert "--fake" not in _help("record")
+    assert "--fake" not in _help("simulate", "serve")
+
+
+def test_decode_finds_its_log_decoder(fourth: None, tmp_path: Path) -> None:
+    src, out = tmp_path / "fake.mcap", tmp_path / "decoded.mcap"
+    t0 = 1_700_000_000_000_000_000
+    with LogWriter(src, source="test") as w:
+        for i, chunk in enumerate((b"\x01\x02", b"\x03", b"\x04\x05\x06")):
+            w.write_raw("fake", "rx", chunk, t0 + i * 1_000_000)
+    report = decode_log(LogReader(src), out)
+    assert report.sections["fake"] == {"chunks": 3, "bytes": 6}
+    assert "fake: 3 chunks" in report.lines
+    reader = LogReader(out)
+    diags = [m.data for m in reader.messages([topics.DIAGNOSTICS])]
+    assert [(d["source"], d["kind"]) for d in diags] == [("fake", "chunk")] * 3
+    assert [m.log_time_ns for m in reader.messages(["/fake/rx"])] == [t0, t0 + 1_000_000,
+                                                                       t0 + 2_000_000]
+    assert reader.metadata["decode"]["fake"] == {"chunks": 3}
