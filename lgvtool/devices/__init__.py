@@ -4,9 +4,9 @@ A family folder (:mod:`~lgvtool.devices.mcu`, :mod:`~lgvtool.devices.nav200`,
 :mod:`~lgvtool.devices.nav350`) holds the family's codec (pure), its host session (pure, time
 passed in), its device model (shared by the simulator and the emulator), its emulator, its
 simulator link, its recorder worker, its log decoder and its registration (topics, decoders,
-emulator, recorder options). :mod:`~lgvtool.devices.device_registry` lists the families; ``lgvtool
-decode``, the recorder, the simulator's log writer and ``simulate serve`` find a family's parts
-through it.
+``record`` and ``simulate serve`` options, emulator, recorder settings and worker).
+:mod:`~lgvtool.devices.device_registry` lists the families; ``lgvtool decode``, ``record``, the
+recorder, the simulator's log writer and ``simulate serve`` find a family's parts through it.
 
 Shared by the families (the generic codec base is :mod:`lgvtool.wire`):
 

@@ -30,6 +30,37 @@ class _Out:
         self.events.append((event.kind, t_ns))
 
 
+#: what every registration holds (lgvtool.devices.device_registry): names, then functions
+INTERFACE_NAMES = ("DEVICE", "TITLE", "ODOMETRY", "RAW_TOPICS", "TOPICS", "ABSENT_REPORT",
+                   "ABSENT_METADATA", "RECORD_URL_OPTION", "RECORD_URL_PARAM", "SERVE_PARAM",
+                   "SERVE_DEFAULT")
+INTERFACE_FUNCTIONS = ("log_decoder", "record_options", "recorder_settings", "recorder_link",
+                       "recorder_worker", "recorder_metadata", "serve_options",
+                       "serve_emulator")
+
+
+def test_every_family_has_the_same_interface() -> None:
+    for family in FAMILIES:
+        reg = registration(family)
+        assert [n for n in INTERFACE_NAMES if not hasattr(reg, n)] == [], family
+        assert [n for n in INTERFACE_FUNCTIONS if not callable(getattr(reg, n, None))] == [], \
+            family
+    assert [registration(f).ODOMETRY for f in FAMILIES] == [True, False, False]
+
+
+def test_a_family_takes_only_its_own_record_options() -> None:
+    options = {"nav_url": "tcp://h:1", "poll_period": 0.2, "mcu_url": "tcp://h:2",
+               "nav350_cola": "ascii"}
+    shared = {"layer": 0, "upload": True, "speed_input": False, "reply_timeout": 1.0,
+              "config": None}
+    mcu = registration("mcu").recorder_settings(options, **shared)
+    assert mcu.url == "tcp://h:2" and mcu.settings is None
+    nav = registration("nav200").recorder_settings(options, **shared)
+    assert nav.url == "tcp://h:1" and nav.settings.poll_period == 0.2
+    assert registration("nav350").recorder_settings(options, **shared) is None
+    assert options == {}
+
+
 def test_every_family_registers_its_parts() -> None:
     assert FAMILIES == ("mcu", "nav200", "nav350")
     for family in FAMILIES:

@@ -47,6 +47,9 @@ def _help(*command: str) -> str:
 
 
 def test_the_fourth_family_is_registered(fourth: None) -> None:
+    from test_device_registry import INTERFACE_FUNCTIONS, INTERFACE_NAMES
+
+    assert all(hasattr(fourth_family, n) for n in INTERFACE_NAMES + INTERFACE_FUNCTIONS)
     assert device_registry.registration("fake") is fourth_family
     assert device_registry.registrations()[-1] is fourth_family
     assert device_registry.family_of_topic("/fake/rx") == "fake"

@@ -7,5 +7,6 @@
   emulator (:mod:`~lgvtool.devices.mcu.mcu_emulator`) plays; simulator link:
   :mod:`~lgvtool.devices.mcu.mcu_simlink`;
 - log: :mod:`~lgvtool.devices.mcu.mcu_logdecode`; recorder: :mod:`~lgvtool.devices.mcu.mcu_worker`;
-- :mod:`~lgvtool.devices.mcu.mcu_registration`: topics, decoder, emulator, recorder worker.
+- :mod:`~lgvtool.devices.mcu.mcu_registration`: topics, decoder, serve and record options,
+  emulator, recorder settings and worker.
 """

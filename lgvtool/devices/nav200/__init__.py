@@ -7,5 +7,6 @@
 - device model (shared by the simulator and the emulator): :mod:`~lgvtool.devices.nav200.nav200_device`;
   emulator: ``nav200_emulator``; simulator link: ``nav200_simlink``;
 - log: ``nav200_logdecode``; recorder: ``nav200_worker``;
-- :mod:`~lgvtool.devices.nav200.nav200_registration`: topics, decoder, emulator, recorder worker.
+- :mod:`~lgvtool.devices.nav200.nav200_registration`: topics, decoder, serve and record
+  options, emulator, recorder settings and worker.
 """

@@ -7,5 +7,6 @@
   ``nav350_emulator``; simulator link: ``nav350_simlink``; ``nav350_loopback``: recorder against
   emulator, end to end;
 - log: ``nav350_logdecode``; recorder: ``nav350_worker``;
-- :mod:`~lgvtool.devices.nav350.nav350_registration`: topics, decoders, emulator, record options.
+- :mod:`~lgvtool.devices.nav350.nav350_registration`: topics, decoders, serve and record
+  options, emulator, recorder settings and worker.
 """
