@@ -361,9 +361,14 @@ def read_metadata(f: IO[bytes], index: MetadataIndex) -> Metadata:
     return Metadata(name, c.string_map())
 
 
+ZSTD_LEVEL = 1
+"""zstd level of the chunks written: on lgvtool's logs (JSON messages) level 1 compresses
+about twice as fast as level 3 and as small or smaller (docs/performance.md)."""
+
+
 def _compress(kind: str, data: bytes) -> bytes:
     if kind == "zstd":
-        return zstandard.ZstdCompressor(level=3).compress(data)
+        return zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(data)
     if kind == "lz4":
         return bytes(lz4.frame.compress(data))
     return data
@@ -898,6 +903,40 @@ def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
             return None
         out.append(records[at + 31:at + 9 + length])
     return times, out
+
+
+def indexed_times(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex]
+                  ) -> dict[int, NDArray[np.int64]] | None:
+    """The log times (ns) of every message per channel, read from the chunks' message
+    indexes alone (nothing is decompressed), sorted; None when a chunk has no message index
+    or one does not parse (the chunks must then be read)."""
+    import numpy as np
+
+    parts: dict[int, list[bytes]] = {}
+    u16, u32 = _U16.unpack_from, _U32.unpack_from
+    for ci in chunk_indexes:
+        if not ci.message_index_offsets and ci.uncompressed_size:
+            return None
+        if not ci.message_index_offsets:
+            continue
+        lo = min(ci.message_index_offsets.values())
+        f.seek(lo)
+        buf = f.read(ci.message_index_length)
+        for cid, off in ci.message_index_offsets.items():
+            at = off - lo
+            if at < 0 or at + 15 > len(buf) or buf[at] != OP_MESSAGE_INDEX:
+                return None
+            (got,) = u16(buf, at + 9)
+            (nbytes,) = u32(buf, at + 11)
+            if got != cid or nbytes % 16 or at + 15 + nbytes > len(buf):
+                return None
+            parts.setdefault(cid, []).append(buf[at + 15:at + 15 + nbytes])
+    out: dict[int, NDArray[np.int64]] = {}
+    for cid, chunks in parts.items():
+        t = np.frombuffer(b"".join(chunks), dtype="<u8")[0::2].astype(np.int64)
+        t.sort(kind="stable")
+        out[cid] = t
+    return out
 
 
 def iter_channel_chunks(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex],

@@ -419,26 +419,62 @@ class LogReader:
         return sorted({c.topic for c in self._channels.values()})
 
     def topics(self) -> dict[str, TopicInfo]:
-        """Per topic: schema, count, first and last time, largest gap (reads every message)."""
+        """Per topic: schema, count, first and last time, largest gap. Every chunk is checked
+        (:meth:`verify_chunks`); the times come from the sound chunks' message indexes, or,
+        without indexes, from reading every message."""
         if self._topic_info is None:
             schema_of = {c.topic: self._schemas[c.schema_id].name if c.schema_id in self._schemas
                          else "" for c in self._channels.values()}
-            acc: dict[str, list[int]] = {}
-            for m in self._raw_messages(None):
-                a = acc.get(m.topic)
-                if a is None:
-                    acc[m.topic] = [1, m.log_time_ns, m.log_time_ns, 0]
-                else:
-                    gap = m.log_time_ns - a[2]
-                    a[0] += 1
-                    a[2] = m.log_time_ns
-                    if gap > a[3]:
-                        a[3] = gap
+            acc = self._indexed_topic_times()
+            if acc is None:
+                acc = self._read_topic_times()
             self._topic_info = {
                 t: TopicInfo(schema_of.get(t, ""), a[0], a[1], a[2], a[3])
                 for t, a in sorted(acc.items())
             }
         return self._topic_info
+
+    def _indexed_topic_times(self) -> dict[str, list[int]] | None:
+        """(count, first, last, largest gap) per topic from the message indexes of the sound
+        chunks; None for a salvaged file or one whose chunks lack indexes."""
+        import numpy as np
+
+        from lgvtool.log.mcapio import indexed_times
+
+        if self._salvaged is not None:
+            return None
+        self.verify_chunks()
+        sound = [ci for ci in self._chunk_indexes if ci.chunk_start_offset in self._verified]
+        with open(self.path, "rb") as f:
+            per_channel = indexed_times(f, sound)
+        if per_channel is None:
+            return None
+        by_topic: dict[str, list[NDArray[np.int64]]] = {}
+        for cid, t in per_channel.items():
+            c = self._channels.get(cid)
+            if c is not None and len(t):
+                by_topic.setdefault(c.topic, []).append(t)
+        acc: dict[str, list[int]] = {}
+        for topic, parts in by_topic.items():
+            t = np.sort(np.concatenate(parts), kind="stable") if len(parts) > 1 else parts[0]
+            gap = int(np.diff(t).max()) if len(t) > 1 else 0
+            acc[topic] = [len(t), int(t[0]), int(t[-1]), max(gap, 0)]
+        return acc
+
+    def _read_topic_times(self) -> dict[str, list[int]]:
+        """(count, first, last, largest gap) per topic, reading every message."""
+        acc: dict[str, list[int]] = {}
+        for m in self._raw_messages(None):
+            a = acc.get(m.topic)
+            if a is None:
+                acc[m.topic] = [1, m.log_time_ns, m.log_time_ns, 0]
+            else:
+                gap = m.log_time_ns - a[2]
+                a[0] += 1
+                a[2] = m.log_time_ns
+                if gap > a[3]:
+                    a[3] = gap
+        return acc
 
     def has_topic(self, topic: str) -> bool:
         """Whether the log has a channel for ``topic`` (it may hold no messages)."""
@@ -446,12 +482,18 @@ class LogReader:
 
     def dataframe(self, topic: str) -> pd.DataFrame:
         """One table of ``topic`` with SI-unit columns; ``t`` is the log time in s."""
-        from lgvtool.log.frames import to_dataframe
+        from lgvtool.log.frames import pose_table, to_dataframe
 
         schema = next((self._schemas[c.schema_id].name for c in self._channels.values()
                        if c.topic == topic and c.schema_id in self._schemas),
                       T.schema_for_topic(topic) or "")
         try:
+            if schema == "foxglove.PoseInFrame":  # a whole topic: read through the indexes
+                found = self.raw_columns([topic]).get(topic)
+                if found is None:
+                    return pose_table(())
+                return pose_table(zip(found[0].tolist(), map(orjson.loads, found[1]),
+                                      strict=True))
             return to_dataframe(schema, self.messages([topic]))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise LogFormatError(f"{self.path}: topic {topic}: messages do not match schema "
