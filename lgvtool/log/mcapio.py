@@ -1042,11 +1042,26 @@ def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Ite
     return out
 
 
+MERGED_BLOCK = 4096
+"""Messages per block that :func:`iter_indexed_blocks` yields from overlapping chunks."""
+
+
 def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
                  wanted: set[int] | None, on_corrupt: OnCorrupt | None = None,
                  verified: set[int] | None = None) -> Iterator[tuple[int, int, int, bytes]]:
     """Messages of the ``wanted`` channels in log-time order across (possibly overlapping)
-    chunks: (log_time, channel_id, publish_time, data). Chunks are read lazily and checked
+    chunks: (log_time, channel_id, publish_time, data); see :func:`iter_indexed_blocks`."""
+    for block in iter_indexed_blocks(stream, chunk_indexes, wanted, on_corrupt, verified):
+        yield from block
+
+
+def iter_indexed_blocks(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
+                 wanted: set[int] | None, on_corrupt: OnCorrupt | None = None,
+                 verified: set[int] | None = None
+                 ) -> Iterator[list[tuple[int, int, int, bytes]]]:
+    """Messages of the ``wanted`` channels in log-time order across (possibly overlapping)
+    chunks, in lists (a chunk's messages, or up to :data:`MERGED_BLOCK` merged from
+    overlapping chunks): (log_time, channel_id, publish_time, data). Chunks are read lazily and checked
     (:func:`verified_records`); a corrupt one is passed to ``on_corrupt`` and skipped (without
     ``on_corrupt`` it raises :class:`CorruptChunkError`); sound ones are added to
     ``verified`` (file offsets)."""
@@ -1071,16 +1086,21 @@ def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
         return msgs
 
     heap: list[tuple[int, int, int, int, int, bytes]] = []
+    merged: list[tuple[int, int, int, bytes]] = []
     seq = 0
     i = 0
     while i < len(order) or heap:
         if not heap and i < len(order):
+            if merged:
+                yield merged
+                merged = []
             ci = order[i]
             i += 1
             msgs = load(ci)
             # fast path: this chunk ends before the next one starts -> no merging needed
             if i >= len(order) or ci.message_end_time < order[i].message_start_time:
-                yield from msgs
+                if msgs:
+                    yield msgs
                 continue
             for m in msgs:
                 heapq.heappush(heap, (m[0], seq, m[1], m[2], 0, m[3]))
@@ -1093,4 +1113,9 @@ def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
                 seq += 1
             i += 1
         lt, _, cid, pub, _, data = heapq.heappop(heap)
-        yield lt, cid, pub, data
+        merged.append((lt, cid, pub, data))
+        if len(merged) >= MERGED_BLOCK or not heap:
+            yield merged
+            merged = []
+    if merged:
+        yield merged

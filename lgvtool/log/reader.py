@@ -31,6 +31,7 @@ from lgvtool.log.mcapio import (
     data_section_crc,
     iter_channel_chunks,
     iter_indexed,
+    iter_indexed_blocks,
     read_channels,
     read_metadata,
     read_summary,
@@ -279,6 +280,26 @@ class LogReader:
                                                          self._note_corrupt, self._verified):
                 topic, schema = topic_of[cid]
                 yield RawMessage(topic, schema, log_time, pub, data)
+
+    def raw_blocks(self) -> Iterator[list[tuple[int, int, int, bytes]]]:
+        """Every stored message in log-time order, undecoded, in blocks (about a chunk's):
+        ``(log time ns, channel id, publish time ns, data)``; :meth:`channel_topic` names a
+        channel id. The same messages in the same order as :meth:`raw_messages`."""
+        self.check_topics(None)
+        if self._salvaged is not None:
+            block = [(m.log_time, m.channel_id, m.publish_time, m.data) for m in self._salvaged]
+            if block:
+                yield block
+            return
+        with open(self.path, "rb") as f:
+            yield from iter_indexed_blocks(f, self._chunk_indexes, None, self._note_corrupt,
+                                           self._verified)
+
+    def channel_topic(self, channel_id: int) -> tuple[str, str]:
+        """Topic and schema name of a channel id."""
+        c = self._channels[channel_id]
+        s = self._schemas.get(c.schema_id)
+        return c.topic, s.name if s is not None else ""
 
     def raw_columns(self, topics: Iterable[str]) -> dict[str, tuple[NDArray[np.int64],
                                                                    list[bytes]]]:
