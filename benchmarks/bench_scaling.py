@@ -6,7 +6,8 @@ Run by hand (never a timed test)::
     python benchmarks/bench_scaling.py [--hours 0.5,1,2,4] [--cache DIR] [--tree CHECKOUT]
                                        [--repeat 1] [--commands pf-paper,replay,evaluate]
 
-Per log: ``lgvtool replay LOG -o OUT --seed 0`` (the five default estimators and the view
+Wall time and CPU time (user + system, which depends less on the machine's other load) are
+printed. Per log: ``lgvtool replay LOG -o OUT --seed 0`` (the five default estimators and the view
 channels: "replay five estimators"), ``lgvtool evaluate LOG -o DIR --seed 0`` on the raw log
 (it runs the five estimators and writes Table 1 and report.html: "evaluate raw"), and on the
 one-hour log ``lgvtool replay LOG -o OUT --estimator pf-paper --particles 150 --seed 0 --json``
@@ -22,48 +23,24 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_memory import simulate
+from bench_memory import measure, simulate
 
 REPO = Path(__file__).resolve().parents[1]
-
-#: runs a command in a child and prints its peak RSS (KiB), wall time (s) and stdout as JSON
-_MEASURE = r"""
-import json, resource, subprocess, sys, time
-t0 = time.perf_counter()
-res = subprocess.run(sys.argv[1:], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-wall = time.perf_counter() - t0
-peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-print(json.dumps({"rc": res.returncode, "wall_s": wall, "peak_kib": peak,
-                  "stdout": res.stdout[-20000:], "stderr": res.stderr[-400:]}))
-"""
 
 TARGETS = {"replay pf-paper end to end": 0.72, "replay five estimators": 3.0,
            "evaluate raw": 5.0}
 """Wall-time targets on the one-hour log, s (evaluate of the 4-hour log: 25 s, 500 MB)."""
 
 
-def measure(tree: Path, args: list[str]) -> dict[str, object]:
-    """Peak RSS (MB), wall time (s) and stdout of ``lgvtool ARGS`` of ``tree``."""
-    env = dict(os.environ, PYTHONPATH=str(tree))
-    res = subprocess.run([sys.executable, "-c", _MEASURE, sys.executable, "-m", "lgvtool",
-                          *args], capture_output=True, text=True, check=True, env=env)
-    out = json.loads(res.stdout)
-    if out["rc"] != 0:
-        raise SystemExit(f"lgvtool {' '.join(args)} failed: {out['stderr'].strip()}")
-    return {"peak_mb": out["peak_kib"] / 1024.0, "wall_s": out["wall_s"],
-            "stdout": out["stdout"]}
-
-
 def median_run(tree: Path, args: list[str], repeat: int) -> dict[str, object]:
     """The run of median wall time of ``repeat`` runs (with every run's wall time)."""
-    runs = sorted((measure(tree, args) for _ in range(repeat)),
+    runs = sorted((measure(args, tree) for _ in range(repeat)),
                   key=lambda r: float(r["wall_s"]))  # type: ignore[arg-type]
     best = dict(runs[len(runs) // 2])
     best["walls"] = [float(r["wall_s"]) for r in runs]  # type: ignore[arg-type]
@@ -100,7 +77,8 @@ def main() -> None:
                                   "--particles", "150", "--seed", "0", "--json", "--force"],
                            opts.repeat)
             sec = json.loads(str(r["stdout"]))["seconds"]
-            print(f"replay pf-paper end to end, 1 h: {r['wall_s']:.2f} s wall (runs "
+            print(f"replay pf-paper end to end, 1 h: {r['wall_s']:.2f} s wall, "
+                  f"{r['cpu_s']:.2f} s CPU (walls "
                   f"{', '.join(f'{w:.2f}' for w in r['walls'])}; target "  # type: ignore[attr-defined]
                   f"{TARGETS['replay pf-paper end to end']} s), peak {r['peak_mb']:.0f} MB; "
                   f"inside: read {sec['read']:.2f} s, filter {sec['filter']:.2f} s, write "
@@ -113,15 +91,15 @@ def main() -> None:
                 r = median_run(tree, ["replay", str(log), "-o", str(out), "--seed", "0",
                                       "--force", "--no-progress"], opts.repeat)
                 rows.append(("replay five estimators", h, r))
-                print(f"replay five estimators {h:4g} h: {r['wall_s']:7.2f} s, peak "
-                      f"{r['peak_mb']:6.0f} MB", flush=True)
+                print(f"replay five estimators {h:4g} h: {r['wall_s']:7.2f} s wall, "
+                      f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
             if "evaluate" in wanted:
                 folder = Path(tmp) / f"report-{h:g}"
                 r = median_run(tree, ["evaluate", str(log), "-o", str(folder), "--seed", "0",
                                       "--force", "--no-progress"], opts.repeat)
                 rows.append(("evaluate raw", h, r))
-                print(f"evaluate raw           {h:4g} h: {r['wall_s']:7.2f} s, peak "
-                      f"{r['peak_mb']:6.0f} MB", flush=True)
+                print(f"evaluate raw           {h:4g} h: {r['wall_s']:7.2f} s wall, "
+                      f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
     if rows:
         print("\n| run | " + " | ".join(f"{h:g} h" for h in hours) + " |")
         print("|---|" + "---:|" * len(hours))
@@ -129,6 +107,8 @@ def main() -> None:
             cells = {h: r for n, h, r in rows if n == name}
             print(f"| {name}: wall, s | " + " | ".join(
                 f"{float(cells[h]['wall_s']):.2f}" if h in cells else "" for h in hours) + " |")
+            print(f"| {name}: CPU, s | " + " | ".join(
+                f"{float(cells[h]['cpu_s']):.2f}" if h in cells else "" for h in hours) + " |")
             print(f"| {name}: peak RSS, MB | " + " | ".join(
                 f"{float(cells[h]['peak_mb']):.0f}" if h in cells else "" for h in hours) + " |")
     print(load())

@@ -503,22 +503,49 @@ class LogReader:
 
     def dataframe(self, topic: str) -> pd.DataFrame:
         """One table of ``topic`` with SI-unit columns; ``t`` is the log time in s."""
-        from lgvtool.log.frames import pose_table, to_dataframe
+        from lgvtool.log.frames import to_dataframe
 
         schema = next((self._schemas[c.schema_id].name for c in self._channels.values()
                        if c.topic == topic and c.schema_id in self._schemas),
                       T.schema_for_topic(topic) or "")
         try:
-            if schema == "foxglove.PoseInFrame":  # a whole topic: read through the indexes
-                found = self.raw_columns([topic]).get(topic)
-                if found is None:
-                    return pose_table(())
-                return pose_table(zip(found[0].tolist(), map(orjson.loads, found[1]),
-                                      strict=True))
+            if schema == "foxglove.PoseInFrame":
+                table = self._pose_table(topic)
+                if table is not None:
+                    return table
             return to_dataframe(schema, self.messages([topic]))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise LogFormatError(f"{self.path}: topic {topic}: messages do not match schema "
                                  f"{schema} ({type(exc).__name__}: {exc})") from None
+
+    def _pose_table(self, topic: str) -> pd.DataFrame | None:
+        """The table of a foxglove.PoseInFrame topic read a chunk at a time through the chunk
+        indexes (:func:`lgvtool.log.frames.pose_table`); None when the chunks hold its
+        messages out of log-time order (:meth:`messages` then merges them)."""
+        import numpy as np
+
+        from lgvtool.log.frames import pose_table
+
+        last = [-1 << 63]
+        ordered = [True]
+        loads = orjson.loads
+
+        def rows() -> Iterator[tuple[int, dict[str, Any]]]:
+            for block in self.raw_column_chunks([topic]):
+                found = block.get(topic)
+                if found is None:
+                    continue
+                t = found[0]
+                if not len(t):
+                    continue
+                if int(t[0]) < last[0] or bool((np.diff(t) < 0).any()):
+                    ordered[0] = False
+                    return
+                last[0] = int(t[-1])
+                yield from zip(t.tolist(), map(loads, found[1]), strict=True)
+
+        table = pose_table(rows())
+        return table if ordered[0] else None
 
     # ------------------------------------------------------------------ run facts
     def config(self) -> Config:
