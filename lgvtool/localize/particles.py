@@ -11,7 +11,9 @@ over the reflectors of a scan.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +27,27 @@ from lgvtool.localize.resampling import uniform_poses
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 _TWO_PI = 2.0 * math.pi
+
+#: environment variable choosing the filters' inner loops: ``numba`` (the compiled kernels of
+#: :mod:`lgvtool.localize.pf_kernels`, an ImportError without numba), ``numpy`` (the array
+#: operations, the reference); anything else, or unset: the kernels when numba is installed
+KERNELS_ENV = "LGVTOOL_KERNELS"
+
+
+def fused_kernels() -> ModuleType | None:
+    """The compiled kernels (:mod:`lgvtool.localize.pf_kernels`) the filters use, or None for
+    the numpy path (numba not installed, or ``LGVTOOL_KERNELS=numpy``). Importing them imports
+    numba, so this is called when a filter is made, never at start-up."""
+    mode = os.environ.get(KERNELS_ENV, "auto").strip().lower()
+    if mode == "numpy":
+        return None
+    try:
+        from lgvtool.localize import pf_kernels
+    except ImportError:
+        if mode == "numba":
+            raise
+        return None
+    return pf_kernels
 
 
 @dataclass(frozen=True)
@@ -179,29 +202,6 @@ class ParticleSet(Estimator):
             jb, _ = self.map.nearest(p.real[far], p.imag[far])
             e[far] = mz[jb] - p[far]
         return e
-
-    def nearest_distances(self, obs: ScanObservation, brute_tail: int = 0) -> FloatArray:
-        """Distance from every particle's measured point to the nearest map reflector, (M, K),
-        m (the paper's association; ids only speed the search up). Exact: a candidate
-        reflector (:meth:`_reference_nearest`) is the nearest for every point within half its
-        spacing to its own nearest neighbour; the other points, and the last ``brute_tail``
-        particles (those spread uniformly, which are never near), are compared with the whole
-        map."""
-        p = self.world_points(obs)
-        mz = self.map.z
-        m = len(p)
-        n = m - brute_tail
-        j1 = self._reference_nearest(obs)
-        d = np.empty(p.shape)
-        near = d[:n]
-        np.abs(mz[j1] - p[:n], out=near)
-        far = near >= self.map.half_sep[j1]
-        if far.any():
-            near[far] = self.map.nearest_distance(p[:n][far])
-        if brute_tail > 0:
-            tail = p[n:]
-            d[n:] = np.abs(mz[:, None, None] - tail[None, :, :]).min(axis=0)
-        return d
 
     def _reference_pose(self) -> tuple[float, float, float]:
         """A pose near the bulk of the particles: the last estimate, else the heaviest one."""
