@@ -46,7 +46,7 @@ from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.obsstream import BlockwiseMap
 from lgvtool.localize.params import param
-from lgvtool.localize.particles import ParticleInitParams, ParticleSet, fused_kernels
+from lgvtool.localize.particles import ParticleInitParams, ParticleSet
 from lgvtool.localize.resampling import RedistributionDraws, RedistributionPlan
 
 if TYPE_CHECKING:
@@ -148,8 +148,6 @@ class PaperParticleFilter(ParticleSet):
         self._packing: tuple[ComplexArray, ComplexArray, ComplexArray] | None = None
         self._buffers: dict[tuple[int, int, int], tuple[FloatArray, ...]] = {}
         self._map_z3 = self.map.z[:, None, None]
-        #: the compiled kernels, or None for the numpy path (the reference)
-        self._kern = fused_kernels()
         self._map_z = np.ascontiguousarray(self.map.z)
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)

@@ -75,6 +75,8 @@ class ParticleSet(Estimator):
         self.last_ess = 0.0
         #: a pose near the bulk of the particles (the last estimate moved by the odometry)
         self._ref: tuple[float, float, float] | None = None
+        #: the compiled kernels, or None for the numpy path (the reference)
+        self._kern = fused_kernels()
 
     @property
     def th(self) -> FloatArray:
@@ -141,6 +143,10 @@ class ParticleSet(Estimator):
         else:
             self.z = self.z + self.rot * (dx + 1j * dy)
             self._set_headings(self.th + dth)
+        self._move_ref(motion)
+
+    def _move_ref(self, motion: Motion) -> None:
+        """Move the reference pose by the odometry motion (noise-free)."""
         if self._ref is not None:
             x, y, t = self._ref
             c0, s0 = math.cos(t), math.sin(t)
@@ -224,8 +230,13 @@ class ParticleSet(Estimator):
 
         All weighted sums come from one product with the weights: with ``d = z - mean`` and
         ``h`` the heading deviations, ``sum w d^2 = Sxx - Syy + 2i Sxy``,
-        ``sum w |d|^2 = Sxx + Syy``, ``sum w d h = Sxh + i Syh``.
+        ``sum w |d|^2 = Sxx + Syy``, ``sum w d h = Sxh + i Syh`` (the kernels: one pass
+        summing each entry).
         """
+        if self._kern is not None:
+            c = np.empty((3, 3))
+            x, y, t = self._kern.weighted_pose(self.z, self.rot, np.ascontiguousarray(w), c)
+            return x, y, t, c
         mz = complex(w @ self.z)
         mr = complex(w @ self.rot)
         mt = math.atan2(mr.imag, mr.real)

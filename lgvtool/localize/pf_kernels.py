@@ -96,15 +96,13 @@ def _rotor(x: float) -> complex:
 
 @_jit
 def _wrap_pi(th: float) -> float:
-    """``np.remainder(th + pi, 2 pi) - pi``, operation for operation (rad)."""
+    """``np.remainder(th + pi, 2 pi) - pi`` (rad): both take the floored remainder from the
+    exact ``fmod``, so the bits are the same (and the remainder of a number in [0, 2 pi) is
+    itself)."""
     a = th + math.pi
-    mod = math.fmod(a, _TWO_PI)
-    if mod != 0.0:
-        if mod < 0.0:
-            mod += _TWO_PI
-    else:
-        mod = 0.0
-    return mod - math.pi
+    if 0.0 <= a < _TWO_PI:
+        return a - math.pi
+    return a % _TWO_PI - math.pi
 
 
 @_jit
@@ -291,3 +289,271 @@ def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
     cov[1, 2] = cov[2, 1] = a12
     cov[2, 2] = a22
     return 1.0 / sw2
+
+
+# ---------------------------------------------------------------------------- pf
+@_jit
+def pf_predict(z: ComplexArray, th: FloatArray, rot: ComplexArray, g: FloatArray, dx: float,
+               dy: float, dth: float, sa: float, sl: float, st: float, z_out: ComplexArray,
+               th_out: FloatArray, rot_out: ComplexArray) -> None:
+    """Eq. 9 with motion noise: particle ``i`` moved by ``(dx + sa g[0, i], dy + sl g[1, i])``
+    (m, its body frame) and turned by ``dth + st g[2, i]`` (rad), ``g`` the standard normal
+    numbers the numpy path draws; the heading wrapped to [-pi, pi) as the numpy path does.
+    The rotor is turned by the turn's own rotor (:func:`_rotor`) instead of being made anew
+    from the heading (the same to an ulp per step)."""
+    for i in range(z.shape[0]):
+        ddx = dx + sa * g[0, i]
+        ddy = dy + sl * g[1, i]
+        ddth = dth + st * g[2, i]
+        r = rot[i]
+        z_out[i] = z[i] + r * complex(ddx, ddy)
+        th_out[i] = _wrap_pi(th[i] + ddth)
+        rot_out[i] = r * _rotor(ddth)
+
+
+#: ``1 + exp(-t)`` is 1 in double precision beyond this ``t``
+_EXP_NEGLIGIBLE = 38.0
+#: ``exp(-t) = 2^-n exp(-r)``: ln 2 split in a part exact in any multiple by n < 2^20 and
+#: the rest, and the powers 2^-n
+_LN2_HI = 6.93147180369123816490e-01
+_LN2_LO = 1.90821492927058770002e-10
+_INV_LN2 = 1.0 / math.log(2.0)
+_POW2_NEG = np.array([2.0 ** -n for n in range(64)])
+#: points weighed per block of :func:`pf_scan_loglik` (the product of the mixture factors, at
+#: most 2 each, is taken as a logarithm once per block)
+_POINTS = 512
+
+
+@_jit
+def _exp_neg(t: float) -> float:
+    """``exp(-t)`` for ``t`` in [0, 38] without a library call (so that loops over it run in
+    SIMD registers): ``2^-n exp(-r)``, ``|r| <= ln 2 / 2``, with the Taylor series of the
+    latter to the 13th order (truncation below 1e-17; within a few ulps of ``math.exp``)."""
+    k = int(t * _INV_LN2 + 0.5)  # t >= 0: the truncation is the floor
+    n = float(k)
+    x = n * _LN2_LO - (t - n * _LN2_HI)
+    p = 1.0 + x * (1.0 + x * (1.0 / 2.0 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (
+        1.0 / 120.0 + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (1.0 / 40320.0 + x * (
+            1.0 / 362880.0 + x * (1.0 / 3628800.0 + x * (1.0 / 39916800.0 + x * (
+                1.0 / 479001600.0 + x * (1.0 / 6227020800.0)))))))))))))
+    out: float = p * _POW2_NEG[k]
+    return out
+
+
+@_jit
+def _ray_loglik(ex: float, ey: float, rr: float, ri: float, ucr: float, uci: float,
+                sr: float, st: float, const: float) -> float:
+    """The Gaussian log-likelihood of a residual ``(ex, ey)`` (world frame, m) split along
+    and across its ray: the residual times ``conj(rot) conj(u)`` (``rot = rr + i ri``,
+    ``conj(u) = ucr + i uci``), the numpy path's products in its order."""
+    wr = rr * ucr + ri * uci
+    wi = rr * uci - ri * ucr
+    a = (ex * wr - ey * wi) / sr
+    b = (ex * wi + ey * wr) / st
+    return -0.5 * (a * a + b * b) - const
+
+
+@_jit
+def _mixture(v: float, log_in: float, log_out: float) -> tuple[float, float]:
+    """``logaddexp(log_in + v, log_out)`` as ``(max, factor)``: the sum is
+    ``max + log(factor)``, ``factor = 1 + exp(-|difference|)`` in [1, 2]."""
+    x = log_in + v
+    if x >= log_out:
+        top = x
+        t = x - log_out
+    else:
+        top = log_out
+        t = log_out - x
+    return top, 1.0 + _exp_neg(min(t, _EXP_NEGLIGIBLE))
+
+
+@_jit
+def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: ComplexArray,
+                   cand: ComplexArray, half: FloatArray, map_z: ComplexArray,
+                   sr: FloatArray, st: FloatArray, const: FloatArray, outlier: bool,
+                   log_in: float, log_out: float, ll: FloatArray) -> None:
+    """Log-likelihood of a scan for every particle (into ``ll``): each measured point ``q[k]``
+    (body frame, m) put into the world, associated with its nearest map reflector (the
+    candidate ``cand[k]`` when nearer than ``half[k]``, else a search of ``map_z`` by squared
+    distance), its residual split along and across the ray (``u_conj``: the conjugate unit
+    ray, body frame), a Gaussian with ``sr[k]``, ``st[k]`` (m) and the constant ``const[k]``
+    (``log 2 pi + log sr + log st``); with ``outlier``, the mixture
+    ``logaddexp(log_in + ll, log_out)``; summed over the points.
+
+    The mixture's sum is taken as ``sum max(a, b) + log prod (1 + exp(-|a - b|))``: one
+    exponential (:func:`_exp_neg`) per point and one logarithm per particle instead of an
+    exponential and a ``log1p`` per point (the same value to about 1e-15 per point). The
+    particles go in chunks laid out as separate arrays (SIMD); a particle with a point not
+    provably nearest its candidate is weighed again alone, searching the map for it."""
+    m = z.shape[0]
+    k = q.shape[0]
+    zr = np.empty(_CHUNK)
+    zi = np.empty(_CHUNK)
+    rr = np.empty(_CHUNK)
+    ri = np.empty(_CHUNK)
+    tot = np.empty(_CHUNK)
+    prod = np.empty(_CHUNK)
+    far = np.empty(_CHUNK)
+    half2 = half * half
+    for a in range(0, m, _CHUNK):
+        n = min(_CHUNK, m - a)
+        for i in range(n):
+            zr[i] = z[a + i].real
+            zi[i] = z[a + i].imag
+            rr[i] = rot[a + i].real
+            ri[i] = rot[a + i].imag
+            tot[i] = 0.0
+            prod[i] = 1.0
+            far[i] = -math.inf
+        for j0 in range(0, k, _POINTS):
+            for j in range(j0, min(k, j0 + _POINTS)):
+                qr = q[j].real
+                qi = q[j].imag
+                cr = cand[j].real
+                ci = cand[j].imag
+                h2 = half2[j]
+                ucr = u_conj[j].real
+                uci = u_conj[j].imag
+                sj = sr[j]
+                tj = st[j]
+                cj = const[j]
+                for i in range(n):
+                    ex = cr - (zr[i] + (rr[i] * qr - ri[i] * qi))
+                    ey = ci - (zi[i] + (rr[i] * qi + ri[i] * qr))
+                    far[i] = max(far[i], ex * ex + ey * ey - h2)
+                    v = _ray_loglik(ex, ey, rr[i], ri[i], ucr, uci, sj, tj, cj)
+                    if outlier:
+                        top, f = _mixture(v, log_in, log_out)
+                        tot[i] += top
+                        prod[i] *= f
+                    else:
+                        tot[i] += v
+            if outlier:
+                for i in range(n):
+                    tot[i] += math.log(prod[i])
+                    prod[i] = 1.0
+        for i in range(n):
+            if far[i] >= 0.0:
+                tot[i] = _particle_loglik(zr[i], zi[i], rr[i], ri[i], q, u_conj, cand, half2,
+                                          map_z, sr, st, const, outlier, log_in, log_out)
+            ll[a + i] = tot[i]
+
+
+@_jit
+def _particle_loglik(zr: float, zi: float, rr: float, ri: float, q: ComplexArray,
+                     u_conj: ComplexArray, cand: ComplexArray, half2: FloatArray,
+                     map_z: ComplexArray, sr: FloatArray, st: FloatArray, const: FloatArray,
+                     outlier: bool, log_in: float, log_out: float) -> float:
+    """:func:`pf_scan_loglik` for one particle, searching the map for the points not
+    provably nearest their candidate (the same arithmetic in the same order)."""
+    total = 0.0
+    prod = 1.0
+    for j0 in range(0, q.shape[0], _POINTS):
+        for j in range(j0, min(q.shape[0], j0 + _POINTS)):
+            px = zr + (rr * q[j].real - ri * q[j].imag)
+            py = zi + (rr * q[j].imag + ri * q[j].real)
+            ex = cand[j].real - px
+            ey = cand[j].imag - py
+            if ex * ex + ey * ey - half2[j] >= 0.0:
+                r = _nearest_index(complex(px, py), map_z)
+                ex = map_z[r].real - px
+                ey = map_z[r].imag - py
+            v = _ray_loglik(ex, ey, rr, ri, u_conj[j].real, u_conj[j].imag, sr[j], st[j],
+                            const[j])
+            if outlier:
+                top, f = _mixture(v, log_in, log_out)
+                total += top
+                prod *= f
+            else:
+                total += v
+        if outlier:
+            total += math.log(prod)
+            prod = 1.0
+    return total
+
+
+@_jit
+def pf_log_weights(logw: FloatArray, ll: FloatArray, w: FloatArray, logw_out: FloatArray
+                   ) -> tuple[float, float]:
+    """Log weights times the likelihoods, normalised by log-sum-exp: ``w`` (normalised) and
+    ``logw_out``. Returns the log of the weighted mean likelihood, ``log sum w p``, and the
+    effective sample size ``1 / sum w^2``; ``-inf, 0`` when every log weight is -inf (the
+    arrays then unchanged)."""
+    n = logw.shape[0]
+    top = -math.inf
+    for i in range(n):
+        v = logw[i] + ll[i]
+        logw_out[i] = v
+        if v > top:
+            top = v
+    if not math.isfinite(top):
+        return -math.inf, 0.0
+    total = 0.0
+    for i in range(n):
+        e = math.exp(logw_out[i] - top)
+        w[i] = e
+        total += e
+    log_avg = top + math.log(total)
+    sw2 = 0.0
+    for i in range(n):
+        wi = w[i] / total
+        w[i] = wi
+        sw2 += wi * wi
+        logw_out[i] = logw_out[i] - log_avg
+    return log_avg, 1.0 / sw2
+
+
+@_jit
+def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatArray
+                  ) -> tuple[float, float, float]:
+    """Weighted mean pose (x, y m; heading rad, the circular mean) of particles with
+    normalised weights ``w``, and their covariance of ``(x, y, heading)`` (into ``cov``; the
+    heading deviations from the circular mean)."""
+    mz = 0j
+    mr = 0j
+    for i in range(z.shape[0]):
+        mz += w[i] * z[i]
+        mr += w[i] * rot[i]
+    mrc = mr.conjugate()
+    sxx = sxy = syy = sxh = syh = shh = 0.0
+    for i in range(z.shape[0]):
+        d = z[i] - mz
+        r = rot[i] * mrc
+        h = math.atan2(r.imag, r.real)
+        wi = w[i]
+        sxx += wi * d.real * d.real
+        sxy += wi * d.real * d.imag
+        syy += wi * d.imag * d.imag
+        sxh += wi * d.real * h
+        syh += wi * d.imag * h
+        shh += wi * h * h
+    cov[0, 0] = sxx
+    cov[0, 1] = cov[1, 0] = sxy
+    cov[0, 2] = cov[2, 0] = sxh
+    cov[1, 1] = syy
+    cov[1, 2] = cov[2, 1] = syh
+    cov[2, 2] = shh
+    return mz.real, mz.imag, math.atan2(mr.imag, mr.real)
+
+
+@_jit
+def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: FloatArray,
+                        rot: ComplexArray, z_out: ComplexArray, th_out: FloatArray,
+                        rot_out: ComplexArray, idx: IntArray, wrap: bool) -> None:
+    """Low-variance resampling of ``n`` particles from the normalised weights ``w`` with the
+    offset ``u0`` (the numpy path's ``rng.random()``), in one merge over the cumulative
+    weights (the indices of ``searchsorted(c, (u0 + i) / n, 'right')``, into ``idx``), and the
+    copy of the chosen particles (with ``wrap``, the heading wrapped again as the numpy path
+    does, the rotor the parent's)."""
+    m = w.shape[0]
+    j = 0
+    c = w[0] if m > 1 else 1.0
+    for i in range(n):
+        u = (u0 + i) / n
+        while j < m - 1 and not (c > u):
+            j += 1
+            c = c + w[j] if j < m - 1 else 1.0
+        idx[i] = j
+        z_out[i] = z[j]
+        th_out[i] = _wrap_pi(th[j]) if wrap else th[j]
+        rot_out[i] = rot[j]

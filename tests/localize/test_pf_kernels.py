@@ -1,5 +1,5 @@
 """The particle filters' compiled kernels against their numpy path (the reference), and the
-paper filter's block path against its predict / update / estimate steps.
+paper filter's block path against its predict / update / estimate steps (pf has one path).
 
 Same seed, same machine: the random stream is the same on both paths (checked on the
 generator's state after the run), the estimates agree within 1e-9 m (rad), and the paper
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from localize_synth import circle_log
 
-from lgvtool.localize.estimator import Estimator, EstimateRows
+from lgvtool.localize.estimator import EstimateRows, Estimator
 from lgvtool.localize.motion import MotionTrack
 from lgvtool.localize.particles import KERNELS_ENV, fused_kernels
 from lgvtool.localize.registry import ESTIMATORS, resolve_params
@@ -106,14 +106,32 @@ def test_paper_run_equals_its_steps(monkeypatch: pytest.MonkeyPatch, mode: str,
     _same(block, steps)
 
 
+PF_SETTINGS = [
+    {},  # the defaults: KLD, recovery, outlier mixture, association by id
+    {"kld": False, "particles": 500},  # fixed count: low-variance resampling in the kernel
+    {"kld": False, "use_ids": False, "outlier": False, "resample": "always"},
+    {"log_weights": False, "resampler": "multinomial"},
+]
+
+
+@pytest.mark.parametrize("settings", PF_SETTINGS)
+def test_pf_kernels_match_the_numpy_path(monkeypatch: pytest.MonkeyPatch,
+                                         settings: dict[str, Any]) -> None:
+    fast, fast_state, fast_est = _run(monkeypatch, "numba", "pf", settings)
+    ref, ref_state, ref_est = _run(monkeypatch, "numpy", "pf", settings)
+    assert len(ref.x) > 100
+    assert fast_state == ref_state  # the same random numbers were drawn
+    assert fast_est.resamplings == ref_est.resamplings > 0  # type: ignore[attr-defined]
+    _close(fast, ref)
+
+
 def test_paper_redistribution_kernel_matches_numpy() -> None:
     """One redistribution from the same uniform numbers: the positions bit for bit, the
     rotors within an ulp (the kernel's small-angle series)."""
     from lgvtool.config import Area
+    from lgvtool.localize import pf_kernels as kern
     from lgvtool.localize.resampling import RedistributionPlan
 
-    kern = fused_kernels()
-    assert kern is not None
     rng = np.random.default_rng(5)
     m = 400
     s = np.empty((m, 3), dtype=np.complex128)
@@ -140,3 +158,33 @@ def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
     assert fused_kernels() is None
     monkeypatch.setenv(KERNELS_ENV, "numba")
     assert fused_kernels() is not None
+
+
+def test_kernel_pieces_against_numpy() -> None:
+    """The wrap bit for bit, the resampling's indices exactly, the series within ulps."""
+    from lgvtool.localize import pf_kernels as k
+    from lgvtool.localize.resampling import low_variance
+
+    rng = np.random.default_rng(11)
+    th = np.concatenate((rng.uniform(-20.0, 20.0, 2000), [0.0, -math.pi, math.pi, 2 * math.pi]))
+    wrapped = np.array([k._wrap_pi(float(v)) for v in th])
+    assert np.array_equal(wrapped, np.remainder(th + math.pi, 2 * math.pi) - math.pi)
+    t = rng.uniform(0.0, 38.0, 2000)
+    e = np.array([k._exp_neg(float(v)) for v in t])
+    np.testing.assert_allclose(e, np.exp(-t), rtol=5e-16, atol=0)
+    x = rng.uniform(-0.2, 0.2, 2000)
+    r = np.array([k._rotor(float(v)) for v in x])
+    assert np.abs(r - np.exp(1j * x)).max() <= 2.5e-16
+    for m, n in ((1, 5), (7, 7), (300, 120), (1000, 4000)):
+        w = rng.random(m) ** 4
+        w /= w.sum()
+        ref = low_variance(w, n, np.random.default_rng(m))
+        z = rng.random(m) + 1j * rng.random(m)
+        ths = rng.uniform(-math.pi, math.pi, m)
+        out = (np.empty(n, dtype=np.complex128), np.empty(n), np.empty(n, dtype=np.complex128),
+               np.empty(n, dtype=np.intp))
+        k.low_variance_gather(w, np.random.default_rng(m).random(), n, z, ths, np.exp(1j * ths),
+                              *out, True)
+        assert np.array_equal(out[3], ref)
+        assert np.array_equal(out[0], z[ref])
+        assert np.array_equal(out[1], np.remainder(ths[ref] + math.pi, 2 * math.pi) - math.pi)
