@@ -137,8 +137,10 @@ def main() -> None:
 
 def kernels() -> str:
     """Which inner loops the filters run: numba (with its version) or numpy."""
-    from lgvtool.localize.particles import fused_kernels
-
+    try:
+        from lgvtool.localize.particles import fused_kernels
+    except ImportError:  # a tree without kernels
+        return "numpy"
     if fused_kernels() is None:
         return "numpy"
     import numba

@@ -35,7 +35,6 @@ IntArray = NDArray[np.intp]
 
 _F = TypeVar("_F", bound=Callable[..., Any])
 
-_LOG2 = math.log(2.0)
 _TWO_PI = 2.0 * math.pi
 
 
@@ -105,23 +104,19 @@ def _wrap_pi(th: float) -> float:
     return a % _TWO_PI - math.pi
 
 
-@_jit
-def _logaddexp(x: float, y: float) -> float:
-    """``np.logaddexp`` for finite or infinite ``x``, ``y``."""
-    if x == y:
-        return x + _LOG2
-    tmp = x - y
-    if tmp > 0.0:
-        return x + math.log1p(math.exp(-tmp))
-    if tmp <= 0.0:
-        return y + math.log1p(math.exp(tmp))
-    return tmp
-
-
 # ---------------------------------------------------------------------------- pf-paper
 #: particles moved and weighed together by :func:`paper_exponents` (their coordinates are
 #: laid out as separate arrays, so that the loop over them runs in SIMD registers)
 _CHUNK = 256
+
+
+@_jit
+def _chunk_arrays() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                             FloatArray, FloatArray]:
+    """Scratch of a chunk of particles: x, y (m), the rotor's two parts, a sum, a product and
+    a flag per particle."""
+    return (np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK),
+            np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK))
 
 
 @_jit
@@ -138,12 +133,7 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
     """
     m = prev.shape[0]
     k = q.shape[0]
-    zr = np.empty(_CHUNK)
-    zi = np.empty(_CHUNK)
-    rr = np.empty(_CHUNK)
-    ri = np.empty(_CHUNK)
-    tot = np.empty(_CHUNK)
-    far = np.empty(_CHUNK)
+    zr, zi, rr, ri, tot, _, far = _chunk_arrays()
     for a in range(0, m, _CHUNK):
         n = min(_CHUNK, m - a)
         for i in range(n):
@@ -258,6 +248,18 @@ def paper_redistribute(s: ComplexArray, top: IntArray, u: FloatArray, n_top: int
 
 
 @_jit
+def _symmetric(cov: FloatArray, xx: float, xy: float, xh: float, yy: float, yh: float,
+               hh: float) -> None:
+    """Write the symmetric 3 x 3 covariance of (x, y, heading) from its six entries."""
+    cov[0, 0] = xx
+    cov[0, 1] = cov[1, 0] = xy
+    cov[0, 2] = cov[2, 0] = xh
+    cov[1, 1] = yy
+    cov[1, 2] = cov[2, 1] = yh
+    cov[2, 2] = hh
+
+
+@_jit
 def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
                  sum_rot: complex, cov: FloatArray) -> float:
     """Covariance of ``(x, y, heading)`` (into ``cov``, 3 x 3; m^2, m rad, rad^2) and effective
@@ -282,12 +284,7 @@ def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
         a12 += dy * wn * h
         a22 += h * wn * h
         sw2 += wn * wn
-    cov[0, 0] = a00
-    cov[0, 1] = cov[1, 0] = a01
-    cov[0, 2] = cov[2, 0] = a02
-    cov[1, 1] = a11
-    cov[1, 2] = cov[2, 1] = a12
-    cov[2, 2] = a22
+    _symmetric(cov, a00, a01, a02, a11, a12, a22)
     return 1.0 / sw2
 
 
@@ -387,13 +384,7 @@ def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: 
     provably nearest its candidate is weighed again alone, searching the map for it."""
     m = z.shape[0]
     k = q.shape[0]
-    zr = np.empty(_CHUNK)
-    zi = np.empty(_CHUNK)
-    rr = np.empty(_CHUNK)
-    ri = np.empty(_CHUNK)
-    tot = np.empty(_CHUNK)
-    prod = np.empty(_CHUNK)
-    far = np.empty(_CHUNK)
+    zr, zi, rr, ri, tot, prod, far = _chunk_arrays()
     half2 = half * half
     for a in range(0, m, _CHUNK):
         n = min(_CHUNK, m - a)
@@ -527,12 +518,7 @@ def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatA
         sxh += wi * d.real * h
         syh += wi * d.imag * h
         shh += wi * h * h
-    cov[0, 0] = sxx
-    cov[0, 1] = cov[1, 0] = sxy
-    cov[0, 2] = cov[2, 0] = sxh
-    cov[1, 1] = syy
-    cov[1, 2] = cov[2, 1] = syh
-    cov[2, 2] = shh
+    _symmetric(cov, sxx, sxy, sxh, syy, syh, shh)
     return mz.real, mz.imag, math.atan2(mr.imag, mr.real)
 
 
