@@ -47,15 +47,16 @@ def _jit(f: _F) -> _F:
 # ---------------------------------------------------------------------------- shared pieces
 @_jit
 def _nearest_distance(px: float, py: float, map_z: ComplexArray) -> float:
-    """Distance from the point ``(px, py)`` to the nearest map reflector, m."""
+    """Distance from the point ``(px, py)`` to the nearest map reflector, m (the square root
+    of the least squared distance: the same number as the least distance)."""
     best = math.inf
     for r in range(map_z.shape[0]):
         ex = map_z[r].real - px
         ey = map_z[r].imag - py
-        e = math.sqrt(ex * ex + ey * ey)
+        e = ex * ex + ey * ey
         if e < best:
             best = e
-    return best
+    return math.sqrt(best)
 
 
 @_jit
@@ -91,6 +92,19 @@ def _rotor(x: float) -> complex:
             1.0 / 362880.0)))))
         return complex(c, sn)
     return complex(math.cos(x), math.sin(x))
+
+
+@_jit
+def _heading(y: float, x: float) -> float:
+    """``atan2(y, x)`` (rad). For ``|y| < 0.05 x`` (a particle's heading near the circular
+    mean) from the Taylor series of ``atan(y / x)`` to the 13th order (truncation below
+    1e-19, within an ulp or two of the library's function, and several times faster)."""
+    if x > 0.0 and abs(y) < _SMALL_ANGLE * x:
+        u = y / x
+        u2 = u * u
+        return u * (1.0 - u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0 - u2 * (
+            1.0 / 9.0 - u2 * (1.0 / 11.0 - u2 * (1.0 / 13.0)))))))
+    return math.atan2(y, x)
 
 
 @_jit
@@ -229,10 +243,18 @@ def paper_redistribute(s: ComplexArray, top: IntArray, u: FloatArray, n_top: int
     arithmetic, in the same order, as the numpy path's
     :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
     turn's rotor for small angles (:func:`_rotor`: within an ulp)."""
-    for i in range(out.shape[0]):
-        ox = u[1, i] * width[0, i] + low[0, i]
-        oy = u[2, i] * width[1, i] + low[1, i]
-        oh = u[3, i] * width[2, i] + low[2, i]
+    m = out.shape[0]
+    # the widths are the same for every local particle, and for every uniform one
+    wx, wy, wh, lx, ly, lh = width[0, 0], width[1, 0], width[2, 0], low[0, 0], low[1, 0], \
+        low[2, 0]
+    fx, fy, fh, gx, gy, gh = width[0, m - 1], width[1, m - 1], width[2, m - 1], \
+        low[0, m - 1], low[1, m - 1], low[2, m - 1]
+    for i in range(m):
+        if i == n_local:
+            wx, wy, wh, lx, ly, lh = fx, fy, fh, gx, gy, gh
+        ox = u[1, i] * wx + lx
+        oy = u[2, i] * wy + ly
+        oh = u[3, i] * wh + lh
         turn = _rotor(oh)
         if i < n_local:
             src = top[int(u[0, i] * n_top)]
@@ -274,7 +296,7 @@ def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
         wn = w[i] / total
         d = s[i, 0] - mean
         r = s[i, 1] * rc
-        h = math.atan2(r.imag, r.real)
+        h = _heading(r.imag, r.real)
         dx = d.real
         dy = d.imag
         a00 += dx * wn * dx
@@ -510,7 +532,7 @@ def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatA
     for i in range(z.shape[0]):
         d = z[i] - mz
         r = rot[i] * mrc
-        h = math.atan2(r.imag, r.real)
+        h = _heading(r.imag, r.real)
         wi = w[i]
         sxx += wi * d.real * d.real
         sxy += wi * d.real * d.imag
