@@ -332,43 +332,22 @@ def pf_predict(z: ComplexArray, th: FloatArray, rot: ComplexArray, g: FloatArray
 
 #: ``1 + exp(-t)`` is 1 in double precision beyond this ``t``
 _EXP_NEGLIGIBLE = 38.0
-#: ``exp(-t) = 2^-n exp(-r)``: ln 2 split in a part exact in any multiple by n < 2^20 and
-#: the rest, and the powers 2^-n
-_LN2_HI = 6.93147180369123816490e-01
-_LN2_LO = 1.90821492927058770002e-10
-_INV_LN2 = 1.0 / math.log(2.0)
-_POW2_NEG = np.array([2.0 ** -n for n in range(64)])
 #: points weighed per block of :func:`pf_scan_loglik` (the product of the mixture factors, at
 #: most 2 each, is taken as a logarithm once per block)
 _POINTS = 512
 
 
 @_jit
-def _exp_neg(t: float) -> float:
-    """``exp(-t)`` for ``t`` in [0, 38] without a library call (so that loops over it run in
-    SIMD registers): ``2^-n exp(-r)``, ``|r| <= ln 2 / 2``, with the Taylor series of the
-    latter to the 13th order (truncation below 1e-17; within a few ulps of ``math.exp``)."""
-    k = int(t * _INV_LN2 + 0.5)  # t >= 0: the truncation is the floor
-    n = float(k)
-    x = n * _LN2_LO - (t - n * _LN2_HI)
-    p = 1.0 + x * (1.0 + x * (1.0 / 2.0 + x * (1.0 / 6.0 + x * (1.0 / 24.0 + x * (
-        1.0 / 120.0 + x * (1.0 / 720.0 + x * (1.0 / 5040.0 + x * (1.0 / 40320.0 + x * (
-            1.0 / 362880.0 + x * (1.0 / 3628800.0 + x * (1.0 / 39916800.0 + x * (
-                1.0 / 479001600.0 + x * (1.0 / 6227020800.0)))))))))))))
-    out: float = p * _POW2_NEG[k]
-    return out
-
-
-@_jit
 def _ray_loglik(ex: float, ey: float, rr: float, ri: float, ucr: float, uci: float,
-                sr: float, st: float, const: float) -> float:
+                inv_sr: float, inv_st: float, const: float) -> float:
     """The Gaussian log-likelihood of a residual ``(ex, ey)`` (world frame, m) split along
     and across its ray: the residual times ``conj(rot) conj(u)`` (``rot = rr + i ri``,
-    ``conj(u) = ucr + i uci``), the numpy path's products in its order."""
+    ``conj(u) = ucr + i uci``), the numpy path's products in its order, scaled by the
+    reciprocal standard deviations (1/m; the numpy path divides: within an ulp)."""
     wr = rr * ucr + ri * uci
     wi = rr * uci - ri * ucr
-    a = (ex * wr - ey * wi) / sr
-    b = (ex * wi + ey * wr) / st
+    a = (ex * wr - ey * wi) * inv_sr
+    b = (ex * wi + ey * wr) * inv_st
     return -0.5 * (a * a + b * b) - const
 
 
@@ -383,7 +362,7 @@ def _mixture(v: float, log_in: float, log_out: float) -> tuple[float, float]:
     else:
         top = log_out
         t = log_out - x
-    return top, 1.0 + _exp_neg(min(t, _EXP_NEGLIGIBLE))
+    return top, 1.0 + math.exp(-min(t, _EXP_NEGLIGIBLE))
 
 
 @_jit
@@ -400,7 +379,7 @@ def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: 
     ``logaddexp(log_in + ll, log_out)``; summed over the points.
 
     The mixture's sum is taken as ``sum max(a, b) + log prod (1 + exp(-|a - b|))``: one
-    exponential (:func:`_exp_neg`) per point and one logarithm per particle instead of an
+    exponential per point and one logarithm per particle instead of an
     exponential and a ``log1p`` per point (the same value to about 1e-15 per point). The
     particles go in chunks laid out as separate arrays (SIMD); a particle with a point not
     provably nearest its candidate is weighed again alone, searching the map for it."""
@@ -408,6 +387,8 @@ def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: 
     k = q.shape[0]
     zr, zi, rr, ri, tot, prod, far = _chunk_arrays()
     half2 = half * half
+    inv_sr = 1.0 / sr
+    inv_st = 1.0 / st
     for a in range(0, m, _CHUNK):
         n = min(_CHUNK, m - a)
         for i in range(n):
@@ -427,8 +408,8 @@ def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: 
                 h2 = half2[j]
                 ucr = u_conj[j].real
                 uci = u_conj[j].imag
-                sj = sr[j]
-                tj = st[j]
+                sj = inv_sr[j]
+                tj = inv_st[j]
                 cj = const[j]
                 for i in range(n):
                     ex = cr - (zr[i] + (rr[i] * qr - ri[i] * qi))
@@ -448,15 +429,16 @@ def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: 
         for i in range(n):
             if far[i] >= 0.0:
                 tot[i] = _particle_loglik(zr[i], zi[i], rr[i], ri[i], q, u_conj, cand, half2,
-                                          map_z, sr, st, const, outlier, log_in, log_out)
+                                          map_z, inv_sr, inv_st, const, outlier, log_in,
+                                          log_out)
             ll[a + i] = tot[i]
 
 
 @_jit
 def _particle_loglik(zr: float, zi: float, rr: float, ri: float, q: ComplexArray,
                      u_conj: ComplexArray, cand: ComplexArray, half2: FloatArray,
-                     map_z: ComplexArray, sr: FloatArray, st: FloatArray, const: FloatArray,
-                     outlier: bool, log_in: float, log_out: float) -> float:
+                     map_z: ComplexArray, inv_sr: FloatArray, inv_st: FloatArray,
+                     const: FloatArray, outlier: bool, log_in: float, log_out: float) -> float:
     """:func:`pf_scan_loglik` for one particle, searching the map for the points not
     provably nearest their candidate (the same arithmetic in the same order)."""
     total = 0.0
@@ -471,8 +453,8 @@ def _particle_loglik(zr: float, zi: float, rr: float, ri: float, q: ComplexArray
                 r = _nearest_index(complex(px, py), map_z)
                 ex = map_z[r].real - px
                 ey = map_z[r].imag - py
-            v = _ray_loglik(ex, ey, rr, ri, u_conj[j].real, u_conj[j].imag, sr[j], st[j],
-                            const[j])
+            v = _ray_loglik(ex, ey, rr, ri, u_conj[j].real, u_conj[j].imag, inv_sr[j],
+                            inv_st[j], const[j])
             if outlier:
                 top, f = _mixture(v, log_in, log_out)
                 total += top
