@@ -49,7 +49,7 @@ def _run(monkeypatch: pytest.MonkeyPatch, mode: str, name: str, settings: dict[s
     data, cfg, cls, params, (times, obs), steps = _inputs(name, settings)
     est = cls(params, vehicle=cfg.vehicle, reflectors=data.reflectors, area=cfg.area,
               rng=estimator_rng(seed, name))
-    assert (est._kern is None) == (mode == "numpy")  # type: ignore[attr-defined]
+    assert (est._kern is None) == (mode == "numpy")
     run = Estimator.run if steps_only else type(est).run
     rows = run(est, times, obs, steps, cloud_size=20)
     return rows, est.rng.bit_generator.state, est
