@@ -6,7 +6,7 @@ reported):
 - ``cli``: ``lgvtool import mrclam DATASET --robot N -o rN.mcap && lgvtool evaluate rN.mcap
   --estimator pf`` as two processes, Python start-up and module imports included;
 - ``python``: :func:`lgvtool.importers.mrclam_log.import_robot` then
-  :func:`lgvtool.commands.evaluate.evaluate_log` with ``estimators=["pf"]`` in this process,
+  :func:`lgvtool.app.evaluate_job.evaluate_log` with ``estimators=["pf"]`` in this process,
   split into import and evaluate (read, replay, metrics).
 
 The estimator runs with the settings the importer stores in the log (docs/mrclam.md). The
@@ -75,7 +75,7 @@ def time_python(dataset: Path, robot: int, workdir: Path, estimator: str
                 ) -> dict[str, float]:
     """Seconds of the import and of the evaluation (read, replay, metrics) in this process,
     and the RMSE at the estimate times that evaluate reports (m)."""
-    from lgvtool.commands.evaluate import evaluate_log
+    from lgvtool.app.evaluate_job import evaluate_log
     from lgvtool.importers.mrclam_log import import_robot
 
     log = workdir / f"p{robot}.mcap"

@@ -20,7 +20,7 @@ TARGET_US = 200.0
 
 
 def full_reply() -> object:
-    from lgvtool.devices.nav350 import telegrams as tg
+    from lgvtool.devices.nav350 import nav350_telegrams as tg
 
     marks = tuple(tg.Landmark((1000 * i, -2000 * i), (3000 + 17 * i, 45000 * i),
                               tg.LandmarkInfo(i, 10 + i, 1, 1, 90, 1000 + i, 80, 5, 200, 10, 12))
@@ -33,7 +33,7 @@ def full_reply() -> object:
 
 
 def per_reply_us(raw: bytes, repeat: int) -> tuple[float, float]:
-    from lgvtool.devices.nav350.stream import Nav350StreamDecoder
+    from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 
     dec = Nav350StreamDecoder()
     batches = []

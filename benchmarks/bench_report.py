@@ -37,7 +37,7 @@ def main() -> None:
             subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "-s", "paper-circle",
                             "--seed", "1", "--duration", str(args.hours * 3600), "-o",
                             str(log)], check=True, capture_output=True)
-        from lgvtool.commands.evaluate import _write_outputs, evaluate_log
+        from lgvtool.app.evaluate_job import evaluate_log, write_outputs
         from lgvtool.evaluate.document import build_document
 
         t0 = time.perf_counter()
@@ -45,7 +45,7 @@ def main() -> None:
         t1 = time.perf_counter()
         doc = build_document([res])
         out = Path(tmp) / "report"
-        _write_outputs(out, [res], doc, png=False)
+        write_outputs(out, [res], doc, png=False)
         t2 = time.perf_counter()
         size = (out / "report.html").stat().st_size
     total = t2 - t0

@@ -83,7 +83,7 @@ def true_geometry_laser(logs: list[str], truth: dict[str, float]) -> dict[str, f
     time offset and mean pose age in the configuration."""
     from dataclasses import replace
 
-    from lgvtool.commands.evaluate import evaluate_log
+    from lgvtool.app.evaluate_job import evaluate_log
     from lgvtool.log import LogReader
 
     out: dict[str, float] = {}

@@ -40,8 +40,8 @@ def main() -> int:
     parser.add_argument("--duration", type=float, default=120.0, help="simulated drive, s")
     args = parser.parse_args()
 
+    from lgvtool.app.evaluate_job import evaluate_log
     from lgvtool.cli import main as cli
-    from lgvtool.commands.evaluate import evaluate_log
     from lgvtool.interop.trajectory_export import export_log
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -30,14 +30,14 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from lgvtool.devices.nav200.nav200_commands import Reply  # noqa: E402
+from lgvtool.devices.nav200.nav200_payloads import Pose  # noqa: E402
+from lgvtool.devices.nav200.nav200_replies import build_pose_reply  # noqa: E402
+from lgvtool.devices.nav200.nav200_stream import Nav200ReplyDecoder  # noqa: E402
 from lgvtool.localize.gate import gate_poses  # noqa: E402
 from lgvtool.localize.logdata import load_log  # noqa: E402
 from lgvtool.localize.motion import MotionSettings, MotionTrack  # noqa: E402
 from lgvtool.log import LogReader  # noqa: E402
-from lgvtool.wire.nav200_commands import Reply  # noqa: E402
-from lgvtool.wire.nav200_payloads import Pose  # noqa: E402
-from lgvtool.wire.nav200_replies import build_pose_reply  # noqa: E402
-from lgvtool.wire.nav200_stream import Nav200ReplyDecoder  # noqa: E402
 
 
 def corpus(x: float, y: float, h: float, rng: random.Random, tries: int

@@ -51,7 +51,7 @@ def measure(log: Path, settings: dict[str, Any]) -> dict[str, dict[str, float]]:
     """Per estimator: per-rotation radial RMSE (mm) and variance (mm^2), and the RMSE of the
     true position error per rotation (mm), each averaged over the rotations (Table 1's
     Average row)."""
-    from lgvtool.commands.evaluate import evaluate_log
+    from lgvtool.app.evaluate_job import evaluate_log
 
     res = evaluate_log(log, settings=settings)
     out = {}

@@ -2,9 +2,10 @@
 
 The package is split along the data flow:
 
-- :mod:`lgvtool.wire` byte protocols (NAV200 telegrams, the MCU frame), pure;
+- :mod:`lgvtool.wire` the generic codec base (checksums, units, resync stream, events), pure;
 - :mod:`lgvtool.log` the MCAP log contract: topics, schemas, writer, reader, salvage;
-- :mod:`lgvtool.devices` serial/TCP links and the recorder;
+- :mod:`lgvtool.devices` one folder per device family (codec, session, model, emulator),
+  links and the recorder;
 - :mod:`lgvtool.sim` the simulator and device emulators;
 - :mod:`lgvtool.importers` real datasets into the log contract;
 - :mod:`lgvtool.localize` estimators and the replay driver, pure;

@@ -9,7 +9,6 @@ Errors are one line on stderr; set ``LGVTOOL_DEBUG=1`` to see the traceback of a
 
 from __future__ import annotations
 
-import importlib
 import os
 import sys
 from typing import Any
@@ -17,6 +16,7 @@ from typing import Any
 import click
 
 from lgvtool import __version__
+from lgvtool.lazy_group import LazyGroup
 
 #: command name -> (module, attribute, one-line help shown by ``lgvtool --help``)
 COMMANDS: dict[str, tuple[str, str, str]] = {
@@ -85,28 +85,8 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 }
 
 
-class LazyGroup(click.Group):
-    """A click group that imports a command's module only when that command is used."""
-
-    def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted(COMMANDS)
-
-    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
-        spec = COMMANDS.get(cmd_name)
-        if spec is None:
-            return None
-        module = importlib.import_module(spec[0])
-        command = getattr(module, spec[1])
-        assert isinstance(command, click.Command)
-        return command
-
-    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
-        rows = [(name, COMMANDS[name][2]) for name in self.list_commands(ctx)]
-        with formatter.section("Commands"):
-            formatter.write_dl(rows)
-
-
-@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=LazyGroup, lazy=COMMANDS,
+             context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="lgvtool")
 def cli() -> None:
     """lgvtool: how well does a laser-guided vehicle know where it is?

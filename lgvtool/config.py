@@ -45,7 +45,7 @@ from pathlib import Path
 from typing import Any
 
 from lgvtool.errors import ConfigError
-from lgvtool.values import coerce
+from lgvtool.values import coerce, parse_setting, split_assignment
 
 
 @dataclass(frozen=True)
@@ -363,20 +363,12 @@ def load_config(path: str | Path | None) -> Config:
 
 
 def parse_set_options(items: tuple[str, ...] | list[str]) -> dict[str, Any]:
-    """Parse ``--set key=value`` options; values are read as TOML scalars (numbers, booleans,
-    quoted strings), falling back to a bare string."""
+    """Parse ``--set key=value`` options; values are read by
+    :func:`lgvtool.values.parse_setting` (TOML scalars, else a bare string), as ``--grid``'s."""
     out: dict[str, Any] = {}
     for item in items:
-        if "=" not in item:
-            raise ConfigError(f"--set expects key=value, got '{item}'")
-        key, raw = item.split("=", 1)
-        key = key.strip()
-        if not key:
-            raise ConfigError(f"--set expects key=value, got '{item}'")
-        try:
-            out[key] = tomllib.loads(f"v = {raw.strip()}")["v"]
-        except tomllib.TOMLDecodeError:
-            out[key] = raw.strip()
+        key, raw = split_assignment(item, "--set")
+        out[key] = parse_setting(raw)
     return out
 
 

@@ -26,7 +26,7 @@ lz4 at a decompression speed that is never the bottleneck of a replay (docs/perf
 COMPRESSIONS = ("zstd", "lz4", "none")
 
 
-class Number(click.ParamType):  # type: ignore[type-arg]  # generic only in newer click
+class Number(click.ParamType):  # type: ignore[type-arg,unused-ignore]  # generic in newer click
     """A number option checked by the one coercer (:func:`lgvtool.values.coerce`).
 
     ``kind`` is int or float; the bounds are as for ``coerce`` (an int without ``maximum``
@@ -131,3 +131,18 @@ def progress_option(help_text: str = "Progress on stderr once the work takes ove
     """``--progress/--no-progress`` (parameter ``show_progress``), on every long command."""
     return click.option("--progress/--no-progress", "show_progress", default=True,
                         show_default=True, help=help_text)
+
+
+def print_output(output: Any, as_json: bool) -> None:
+    """Print a :class:`lgvtool.app.job_output.JobOutput`: its document as indented JSON with
+    ``--json``, else its warnings, its text and its epilogue (on stderr)."""
+    if as_json:
+        import json
+
+        click.echo(json.dumps(output.document, indent=2))
+        return
+    for w in output.warnings:
+        warn(w)
+    click.echo(output.text)
+    if output.epilogue is not None:
+        click.echo(output.epilogue, err=True)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import os
+import tomllib
 from collections.abc import Sequence
 from typing import Any
 
@@ -85,6 +86,26 @@ def parse_scalar(text: str, kind: type) -> Any:
     if kind is float:
         return float(word)
     return word
+
+
+def split_assignment(item: str, option: str = "--set", form: str = "key=value") -> tuple[str, str]:
+    """``KEY=VALUE`` of ``option`` (``--set``, ``--grid``) as (key, raw value), the key
+    stripped; ConfigError (exit 2) ``<option> expects <form>, got '<item>'`` without a key."""
+    key, sep, raw = item.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ConfigError(f"{option} expects {form}, got '{item}'")
+    return key, raw
+
+
+def parse_setting(raw: str) -> Any:
+    """A setting's value as given on the command line (``--set``, each ``--grid`` value): a
+    TOML scalar (number, boolean, quoted string), else the bare string, stripped. The type is
+    checked later, by :func:`coerce` against the setting's own type."""
+    try:
+        return tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        return raw.strip()
 
 
 def coerce(where: str, value: Any, kind: type, *, minimum: float | None = None,

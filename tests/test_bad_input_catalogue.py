@@ -625,7 +625,7 @@ def test_a_failed_write_leaves_the_old_output(world: Path, tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     """decode, recover, replay and simulate write through a temporary file: a run that fails
     half way leaves an existing output as it was and no temporary file."""
-    import lgvtool.commands.decode as decode_mod
+    import lgvtool.app.decode_job as decode_mod
     import lgvtool.log.salvage as salvage_mod
     from lgvtool.errors import InputError
 
@@ -633,7 +633,7 @@ def test_a_failed_write_leaves_the_old_output(world: Path, tmp_path: Path,
         Path(args[1]).write_bytes(b"half a log")  # every writer's second argument: the output
         raise InputError("disk trouble")
 
-    import lgvtool.commands.replay as replay_mod
+    import lgvtool.app.replay_job as replay_mod
     import lgvtool.sim.logfile as logfile_mod
 
     old = tmp_path / "out.mcap"
@@ -642,7 +642,7 @@ def test_a_failed_write_leaves_the_old_output(world: Path, tmp_path: Path,
     for module, name, argv in (
             (decode_mod, "decode_log", ["decode", log]),
             (salvage_mod, "recover", ["recover", log]),
-            (replay_mod, "_write", ["replay", log, "-e", "laser"]),
+            (replay_mod, "write_replay_log", ["replay", log, "-e", "laser"]),
             (logfile_mod, "write_log", ["simulate", "-s", "paper-circle", "--duration", "10"])):
         monkeypatch.setattr(module, name, half_then_fail)
         code, _, err = _run([*argv, "-o", str(old), "--force"], capsys)

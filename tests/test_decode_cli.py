@@ -9,11 +9,12 @@ from pathlib import Path
 import jsonschema
 import pytest
 
+from lgvtool.devices.mcu.mcu_frame import McuFrame
+from lgvtool.devices.nav200.nav200_replies import build_error_reply, build_pose_reply
+from lgvtool.devices.nav200.nav200_requests import request_pose_with_speed
 from lgvtool.log import LogReader, LogWriter, topics
 from lgvtool.log.messages import pose_in_frame
 from lgvtool.timestamps import stamp
-from lgvtool.wire import nav200
-from lgvtool.wire.mcu import McuFrame
 
 T0 = 1_700_000_000_000_000_000
 SCHEMAS = Path(__file__).resolve().parent.parent / "schemas"
@@ -72,12 +73,12 @@ def build_log(path: Path) -> None:
         w.write(topics.TRUTH, pose_in_frame(T0, 1.0, 2.0, 0.5), T0)
         for k in range(10):
             t = T0 + k * 200_000_000
-            request = nav200.request_pose_with_speed(0.36, 0.0, 0.26)
+            request = request_pose_with_speed(0.36, 0.0, 0.26)
             w.write_raw("nav200", "tx", request.encode(), t)
             if k == 4:
-                reply = nav200.build_error_reply(request, 1, 7, 9)
+                reply = build_error_reply(request, 1, 7, 9)
             else:
-                reply = nav200.build_pose_reply(k * 0.1, -1.0, math.pi / 4, 90, 6)
+                reply = build_pose_reply(k * 0.1, -1.0, math.pi / 4, 90, 6)
             if k == 6:
                 reply = b"\x02\x11\x50" + reply
             w.write_raw("nav200", "rx", reply[:5], t + 50_000_000)
@@ -85,7 +86,7 @@ def build_log(path: Path) -> None:
 
 
 def test_decode_rebuilds_channels(tmp_path: Path) -> None:
-    from lgvtool.commands.decode import decode_log
+    from lgvtool.app.decode_job import decode_log
 
     src, out = tmp_path / "in.mcap", tmp_path / "out.mcap"
     build_log(src)

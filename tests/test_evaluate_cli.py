@@ -203,7 +203,7 @@ def test_bad_inputs(capsys, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
     assert code == 2 and err.startswith("lgvtool: error:")
     bare = write_log(tmp_path / "bare.mcap", estimates=False, truth=False, mcu=False)
     none = Config(reference=Reference(steering_angle_deg=None))
-    from lgvtool.commands.evaluate import evaluate_log
+    from lgvtool.app.evaluate_job import evaluate_log
 
     fake_replay(monkeypatch, circle(0.1, 2.2))
     with pytest.raises(InputError, match="no steering angle"):

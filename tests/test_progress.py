@@ -34,7 +34,7 @@ def test_terminal_redraws_in_place_and_ends_with_a_newline() -> None:
 def test_disabled_and_delayed_bars_draw_nothing() -> None:
     for kw in ({"enabled": False}, {"delay_s": 60.0}):
         out = io.StringIO()
-        with Progress(10, "x", stream=out, **kw) as bar:  # type: ignore[arg-type]
+        with Progress(10, "x", stream=out, **kw) as bar:
             for _ in range(10):
                 bar.advance()
             bar.stage("next", 5)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -50,7 +51,7 @@ def test_replay_output_is_complete_and_valid(logs: dict[str, Path], tmp_path: Pa
     src_topics, dst_topics = src.topics(), dst.topics()
     for t, info in src_topics.items():
         assert dst_topics[t].count == info.count, t
-    validators = {}
+    validators: dict[str, Any] = {}
     seen = set()
     for m in dst.messages():
         if not m.topic.startswith(topics.ESTIMATE_PREFIX):

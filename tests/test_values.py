@@ -60,3 +60,22 @@ def test_command_line_words() -> None:
 
 def test_worker_limit_follows_the_memory() -> None:
     assert 1 <= max_workers() <= 256
+
+
+def test_grid_values_are_read_as_set_values() -> None:
+    from lgvtool.config import parse_set_options
+    from lgvtool.errors import ConfigError
+    from lgvtool.fleet.tasks import parse_grid
+    from lgvtool.values import parse_setting, split_assignment
+
+    words = ["300", "1e3", "0.25", "true", "'quoted'", "bare", " spaced "]
+    grid = parse_grid(["k=" + ",".join(words)])
+    assert grid["k"] == [parse_set_options([f"k={w}"])["k"] for w in words]
+    assert grid["k"] == [300, 1000.0, 0.25, True, "quoted", "bare", "spaced"]
+    assert [type(v) for v in grid["k"]] == [int, float, float, bool, str, str, str]
+    assert parse_setting(" 7 ") == 7 and split_assignment(" a.b =x=y") == ("a.b", "x=y")
+    for bad, option in (("novalue", "--set"), ("=3", "--set")):
+        with pytest.raises(ConfigError, match=f"{option} expects key=value, got '{bad}'"):
+            parse_set_options([bad])
+    with pytest.raises(ConfigError, match=r"--grid expects key=v1,v2,\.\.\., got '=1,2'"):
+        parse_grid(["=1,2"])

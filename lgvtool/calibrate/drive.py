@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.config import Reflector, Vehicle
+from lgvtool.config import Reflector
 from lgvtool.errors import MissingDataError
 from lgvtool.localize.logdata import LogData, scan_batch
 from lgvtool.localize.motion import unwrap_counter
@@ -29,7 +29,7 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 MCU_FRAME_BYTES = 30
-"""Length of a version-1 MCU frame on the wire, bytes (lgvtool.wire.mcu.FRAME_SIZE)."""
+"""Length of a version-1 MCU frame on the wire, bytes (lgvtool.devices.mcu.mcu_frame.FRAME_SIZE)."""
 MCU_BAUD = 115_200
 """The MCU link's speed when the log does not say, baud (8N1: 10 bits a byte)."""
 TWIST_NODE_RATE_HZ = 1.0
@@ -78,11 +78,6 @@ class Drive:
     pose_y: FloatArray = field(default_factory=lambda: np.zeros(0))
     pose_heading: FloatArray = field(default_factory=lambda: np.zeros(0))
     info: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def intervals(self) -> int:
-        """Number of intervals between nodes."""
-        return max(0, len(self.t) - 1)
 
     @property
     def duration(self) -> float:
@@ -233,19 +228,3 @@ def log_mcu_baud(metadata: dict[str, dict[str, Any]]) -> float:
         if isinstance(baud, int | float) and baud > 0:
             return float(baud)
     return float(MCU_BAUD)
-
-
-def drive_figures(drive: Drive, vehicle: Vehicle) -> dict[str, float]:
-    """What the drive contains, for the observability hints: travel (m), rotation (rad),
-    standstill (s), duration (s)."""
-    if drive.motion == "mcu":
-        k = 2.0 * math.pi / vehicle.encoder_ppr
-        dl = drive.counts_left * k * vehicle.wheel_radius_left
-        dr = drive.counts_right * k * vehicle.wheel_radius_right
-        ds, dth = 0.5 * (dl + dr), (dr - dl) / vehicle.track
-    else:
-        ds, dth = drive.dist, drive.turn
-    dt = np.diff(drive.t)
-    still = float(dt[np.abs(ds) < 1e-4 * np.maximum(dt, 1e-3)].sum()) if len(dt) else 0.0
-    return {"travel_m": float(np.abs(ds).sum()), "rotation_rad": float(np.abs(dth).sum()),
-            "standstill_s": still, "duration_s": drive.duration}

@@ -31,6 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_angle
 from lgvtool.calibrate.drive import Drive
 
 FloatArray = NDArray[np.float64]
@@ -330,7 +331,7 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                 add(er, g["range"], ghx, ghy, ghx * dhx_dth + ghy * dhy_dth, 0.0)
                 _mount_cols(rows, pre, c_mx, c_my, ghx, ghy, ct, st)
                 bh = np.arctan2(dy, dx) - p[:, 2] - myaw
-                eb = (np.remainder(brg - bh + math.pi, 2 * math.pi) - math.pi) / sig_b
+                eb = wrap_angle(brg - bh) / sig_b
                 ghx, ghy = -dy / (q2 * sig_b), dx / (q2 * sig_b)
                 pre = len(rows.res)
                 add(eb, g["bearing"], ghx, ghy, ghx * dhx_dth + ghy * dhy_dth + 1.0 / sig_b,
@@ -351,7 +352,7 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                     # d h / d mount: (c, s) for nav_x and (-s, c) for nav_y
                     _mount_cols(rows, pre, c_mx, c_my, one if comp == 0 else zero,
                                 zero if comp == 0 else one, ct, st)
-                eh = np.remainder(p[:, 2] + myaw - qh + math.pi, 2 * math.pi) - math.pi
+                eh = wrap_angle(p[:, 2] + myaw - qh)
                 add(eh / sig_h, g["pose_heading"], zero, zero, np.full(len(kk), 1.0 / sig_h),
                     1.0 / sig_h)
     # ---------------------------------------------------------------- priors

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_angle
 from lgvtool.calibrate.drive import Drive
 
 FloatArray = NDArray[np.float64]
@@ -34,10 +35,6 @@ RATE_STEP_S = 0.01
 def _heading(drive: Drive, pose: FloatArray, t: FloatArray) -> FloatArray:
     """Heading of O on the trajectory at ``t`` (s), unwrapped along the nodes, rad."""
     return np.interp(t, drive.t, np.unwrap(pose[:, 2]))
-
-
-def _wrap(a: FloatArray) -> FloatArray:
-    return np.asarray(np.remainder(a + math.pi, 2.0 * math.pi) - math.pi)
 
 
 @dataclass(frozen=True)
@@ -103,7 +100,7 @@ def _fit(drives: list[Drive], poses: list[FloatArray], values: dict[str, float],
             th = _heading(drive, poses[d], t)
             rate = (th - _heading(drive, poses[d], t - RATE_STEP_S)) / RATE_STEP_S
             # e(age) = reported - yaw - theta(t_recv - tau - age); de/dage = +rate
-            res = _wrap(drive.pose_heading[inside] - yaw - th)
+            res = wrap_angle(drive.pose_heading[inside] - yaw - th)
             parts.append((rate, res, t, d))
         if not parts:
             return start, math.inf, 0

@@ -1,10 +1,17 @@
-"""``lgvtool calibrate``: estimate the vehicle's installation from logs into a configuration."""
+"""``lgvtool calibrate``: estimate the vehicle's installation from logs into a configuration
+(:func:`lgvtool.app.calibrate_job.calibrate_logs`)."""
 
 from __future__ import annotations
 
 import click
 
-from lgvtool.options import force_option, progress_option, seed_option, split_names
+from lgvtool.options import (
+    force_option,
+    print_output,
+    progress_option,
+    seed_option,
+    split_names,
+)
 
 
 def _names(value: str | None) -> list[str]:
@@ -49,26 +56,12 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
     input, a drive that cannot observe what is asked (unless --allow-unobservable), or an
     output that is an input.
     """
-    import json
+    from lgvtool.app.calibrate_job import calibrate_logs
 
-    from lgvtool.calibrate.calibration_run import calibrate as run_calibration
-    from lgvtool.calibrate.calibration_tables import text, toml
-    from lgvtool.config import load_config
-    from lgvtool.outputs import atomic_output, guard_output, printable
-
-    out = guard_output(output, [*logs, config_path], force=force)
-    cfg = load_config(config_path) if config_path else None
     chosen = [] if compare_with.strip().lower() == "none" else _names(compare_with)
-    from lgvtool.progress import Progress
-
-    with Progress(0, "calibrate", enabled=show_progress, delay_s=1.0) as bar:
-        result = run_calibration(list(logs), config=cfg, estimate=_names(estimate) or None,
-                                 fix=_names(fix), observations=observations,
-                                 allow_unobservable=allow_unobservable, compare_with=chosen,
-                                 seed=seed, start_at_truth=start_at_truth, progress=bar)
-    with atomic_output(out) as tmp:
-        tmp.write_text(toml(result), encoding="utf-8")
-    if as_json:
-        click.echo(json.dumps(dict(result.to_dict(), output=str(out)), indent=2))
-        return
-    click.echo(printable(text(result, str(out))))
+    print_output(calibrate_logs(logs, output, config_path=config_path,
+                                estimate=_names(estimate) or None, fix=_names(fix),
+                                observations=observations,
+                                allow_unobservable=allow_unobservable, compare_with=chosen,
+                                seed=seed, start_at_truth=start_at_truth, force=force,
+                                show_progress=show_progress), as_json)

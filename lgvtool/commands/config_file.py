@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from lgvtool.options import print_output
+
 
 @click.command()
 @click.argument("file", required=False, type=click.Path(dir_okay=False, path_type=str))
@@ -13,10 +15,6 @@ def config(file: str | None, as_json: bool) -> None:
 
     Units: lengths in m, angles in rad unless the key ends in _deg. See docs/config.md.
     """
-    import json
+    from lgvtool.app.config_job import effective_config
 
-    from lgvtool.config import load_config, to_toml
-    from lgvtool.outputs import printable
-
-    cfg = load_config(file)
-    click.echo(json.dumps(cfg.to_dict(), indent=2) if as_json else printable(to_toml(cfg.to_dict())))
+    print_output(effective_config(file), as_json)

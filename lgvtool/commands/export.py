@@ -46,14 +46,11 @@ def export(log: str, outdir: str, fmt: str, estimators: tuple[str, ...], seed: i
     """
     import json
 
-    from lgvtool.config import load_config, parse_set_options
-    from lgvtool.interop.trajectory_export import export_log
+    from lgvtool.app.export_job import export_trajectories
 
-    names = split_names(estimators) or None
-    summary = export_log(log, outdir, fmt, estimators=names,
-                         config=load_config(config_path) if config_path else None, seed=seed,
-                         settings=parse_set_options(sets), start_at_truth=start_at_truth,
-                         force=force)
+    summary = export_trajectories(log, outdir, fmt, estimators=split_names(estimators) or None,
+                                  seed=seed, sets=sets, config_path=config_path,
+                                  start_at_truth=start_at_truth, force=force)
     for w in summary.warnings:
         warn(w)
     click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())

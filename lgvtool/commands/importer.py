@@ -53,64 +53,19 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
     """
     import json
 
-    from lgvtool.errors import InputError
-    from lgvtool.importers.mrclam_log import import_all, import_robot
-    from lgvtool.importers.mrclam_quirks import ImportSettings
+    from lgvtool.app.import_job import import_mrclam
 
-    if (robot is None) == (not all_robots):
-        raise InputError("lgvtool import mrclam: give exactly one of --robot N and --all")
-    if not gap_threshold > 0:
-        raise InputError(f"--gap-threshold must be positive, got {gap_threshold}")
-    if not landmark_radius >= 0:
-        raise InputError(f"--landmark-radius must not be negative, got {landmark_radius}")
-    if not area_margin >= 0:
-        raise InputError(f"--area-margin must not be negative, got {area_margin}")
-    from pathlib import Path
-
-    from lgvtool.importers.mrclam import ROBOT_SUBJECTS
-    from lgvtool.outdir import guard_directory
-    from lgvtool.outputs import guard_output
-
-    inputs: list[str | Path] = [dataset_dir, *(Path(dataset_dir).glob("*.dat")
-                                                if Path(dataset_dir).is_dir() else [])]
+    summaries = import_mrclam(dataset_dir, output, robot=robot, all_robots=all_robots,
+                              gap_threshold=gap_threshold, landmark_radius=landmark_radius,
+                              area_margin=area_margin, odometry_delay=odometry_delay,
+                              compression=compression, force=force, show_progress=show_progress)
     if robot is not None:
-        guard_output(output, inputs, force=force)
-    else:
-        guard_directory(output, [f"robot{r}.mcap" for r in ROBOT_SUBJECTS], inputs, force=force)
-    settings = ImportSettings(gap_threshold_s=gap_threshold, landmark_radius_m=landmark_radius,
-                              area_margin_m=area_margin,
-                              odometry_delay_s=_delay(odometry_delay))
-    from lgvtool.progress import Progress
-
-    with Progress(0, "import", enabled=show_progress, delay_s=1.0) as bar:
-        if robot is not None:
-            summary = import_robot(dataset_dir, robot, output, settings=settings,
-                                   compression=compression, progress=bar)
-        else:
-            summaries = import_all(dataset_dir, output, settings=settings,
-                                   compression=compression, progress=bar)
-    if robot is not None:
+        (summary,) = summaries
         click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())
-        return
-    if as_json:
+    elif as_json:
         click.echo(json.dumps([s.to_dict() for s in summaries], indent=2))
     else:
         click.echo("\n".join(s.format_text() for s in summaries))
-
-
-def _delay(text: str) -> float | None:
-    """``--odometry-delay``: None for auto, else seconds in [0, 5]."""
-    from lgvtool.errors import InputError
-
-    if text.strip().lower() == "auto":
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"--odometry-delay expects seconds or auto, got '{text}'") from None
-    if not 0.0 <= value <= 5.0:
-        raise InputError(f"--odometry-delay must be within 0 to 5 s, got '{text}'")
-    return value
 
 
 @import_.command(short_help="A ROS 2 bag (rosbag2 MCAP or SQLite) into a log.")
@@ -140,8 +95,8 @@ def ros2(bag: str, output: str, topic_options: tuple[str, ...], config_path: str
     """
     import json
 
-    from lgvtool.interop.ros2_import import import_bag
+    from lgvtool.app.import_job import import_ros2
 
-    summary = import_bag(bag, output, topic_options=topic_options, config=config_path,
-                         sensor_frame=sensor_frame, compression=compression, force=force)
+    summary = import_ros2(bag, output, topic_options=topic_options, config_path=config_path,
+                          sensor_frame=sensor_frame, compression=compression, force=force)
     click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from lgvtool.options import warn
+from lgvtool.options import print_output
 
 
 @click.command()
@@ -16,30 +16,6 @@ def info(log: str, as_json: bool) -> None:
 
     Any other MCAP file (a ROS 2 bag, a protobuf recording) is described too: its topics,
     schemas, encodings and message counts, and that it is not an lgvtool log (exit 0)."""
-    import json
-    import warnings
+    from lgvtool.app.info_job import describe_log
 
-    from lgvtool.errors import LogFormatError
-    from lgvtool.log import LogReader
-    from lgvtool.log.inspect import describe, format_text
-    from lgvtool.outputs import printable
-
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            reader = LogReader(log)
-            summary = describe(reader)  # its corrupt-chunk warnings are printed below
-    except LogFormatError as exc:
-        if "not an lgvtool log" not in str(exc):
-            raise
-        from lgvtool.log.any_mcap import describe_any, format_any
-
-        foreign = describe_any(log)  # an MCAP file of another tool: show what it holds
-        click.echo(json.dumps(foreign, indent=2) if as_json else printable(format_any(foreign)))
-        return
-    if as_json:
-        click.echo(json.dumps(summary, indent=2))
-    else:
-        for w in reader.warnings:
-            warn(w)
-        click.echo(printable(format_text(summary)))
+    print_output(describe_log(log), as_json)

@@ -1,11 +1,12 @@
-"""``lgvtool record``: the MCU and the NAV200 into a crash-safe log."""
+"""``lgvtool record``: the MCU and the NAV200 into a crash-safe log
+(:func:`lgvtool.app.record_job.record_devices`)."""
 
 from __future__ import annotations
 
 import click
 
-from lgvtool.devices.nav350.registration import record_options as nav350_options
-from lgvtool.options import force_option, positive, split_names
+from lgvtool.devices.nav350.nav350_registration import record_options as nav350_options
+from lgvtool.options import force_option, positive, print_output, split_names
 from lgvtool.values import MAX_BYTES, MAX_WALL_S
 
 _POSITIVE = positive(MAX_WALL_S)
@@ -78,74 +79,16 @@ def record(nav_url: str | None, mcu_url: str | None, output: str, duration: floa
     backoff and the recording goes on. Ctrl-C or SIGTERM finishes the file; after a crash,
     'lgvtool recover' saves all but about the last second. See docs/recording.md.
     """
-    import json
     import shlex
     import sys
-    from pathlib import Path
 
-    from lgvtool.config import load_config
-    from lgvtool.devices.nav200_session import Nav200Settings
-    from lgvtool.devices.recorder import RecorderSettings
-    from lgvtool.devices.recorder import record as do_record
-    from lgvtool.errors import InputError
-    from lgvtool.outputs import guard_output
-    from lgvtool.wire.units import OMEGA_UNITS_PER_RAD_S, OMEGA_UNITS_PER_RAD_S_HALF_DEG
+    from lgvtool.app.record_job import record_devices
 
-    guard_output(output, [config_file], force=force)
-    if nav_url is None and mcu_url is None and nav350_url is None:
-        raise InputError("record: give --nav URL, --nav350 URL, --mcu URL or several")
-    if speed_input and mcu_url is None:
-        raise InputError("record: --speed-input needs the MCU's odometry (--mcu URL)")
-    if action_radii is not None and action_radii[0] >= action_radii[1]:
-        raise InputError("record: --action-radii RMIN must be below RMAX")
-    live_at = _live_options(live, live_estimators)
-    nav = Nav200Settings(
-        poll_period=poll_period, reply_timeout=reply_timeout, layer=layer,
-        sliding_mean=sliding_mean, action_radii=action_radii, nearest_reflectors=nearest,
-        upload_map=not no_map_upload, speed_input=speed_input,
-        omega_scale=OMEGA_UNITS_PER_RAD_S if omega_units == "rev"
-        else OMEGA_UNITS_PER_RAD_S_HALF_DEG,
-    )
-    from lgvtool.devices.nav350.registration import recorder_settings
-
-    config = load_config(config_file)
-    nav350 = recorder_settings(nav350_url, nav350_cola, layer=layer, upload=not no_map_upload,
-                               speed_input=speed_input, reply_timeout=reply_timeout,
-                               config=config)
-    settings = RecorderSettings(
-        output=Path(output), nav_url=nav_url, mcu_url=mcu_url, duration=duration, nav=nav,
-        split_bytes=None if split_size is None else int(split_size * 1e6),
-        split_seconds=split_duration, config=config, status=status,
-        overwrite=force, command=shlex.join(["lgvtool", *sys.argv[1:]]),
-        live=live_at, live_estimators=tuple(split_names(live_estimators)),
-        nav350_url=nav350_url, nav350=nav350,
-    )
-    result = do_record(settings)
-    if as_json:
-        click.echo(json.dumps({
-            "files": [str(p) for p in result.files], "counts": result.counts,
-            "errors": result.errors, "elapsed_s": round(result.elapsed, 3),
-            "bytes": result.bytes, "stop_reason": result.stop_reason,
-            "devices": result.devices, "live": result.live,
-        }, indent=2))
-    else:
-        click.echo(result.summary())
-        if result.live is not None:
-            from lgvtool.live.tap import describe
-
-            click.echo(describe(result.live), err=True)
-
-
-def _live_options(live: str | None, estimators: tuple[str, ...]) -> object:
-    """The live server's address (None without --live); checks --live-estimator names."""
-    from lgvtool.errors import InputError
-
-    if live is None:
-        if estimators:
-            raise InputError("record: --live-estimator needs --live [HOST:]PORT")
-        return None
-    from lgvtool.live.live_server import parse_address
-    from lgvtool.localize.registry import check_names
-
-    check_names(split_names(estimators))
-    return parse_address(live)
+    print_output(record_devices(
+        output, nav_url=nav_url, mcu_url=mcu_url, duration=duration, poll_period=poll_period,
+        speed_input=speed_input, omega_units=omega_units, sliding_mean=sliding_mean,
+        action_radii=action_radii, nearest=nearest, layer=layer,
+        upload_map=not no_map_upload, reply_timeout=reply_timeout, split_size=split_size,
+        split_duration=split_duration, config_file=config_file, status=status, force=force,
+        live=live, live_estimators=split_names(live_estimators), nav350_url=nav350_url,
+        nav350_cola=nav350_cola, command=shlex.join(["lgvtool", *sys.argv[1:]])), as_json)

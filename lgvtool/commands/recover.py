@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from lgvtool.options import compression_option, force_option
+from lgvtool.options import compression_option, force_option, print_output
 
 
 @click.command()
@@ -17,14 +17,6 @@ from lgvtool.options import compression_option, force_option
 def recover(broken: str, output: str, compression: str, force: bool, as_json: bool) -> None:
     """Write every intact message of BROKEN (a log cut off by a crash, power loss or a full
     disk) into a complete, indexed log, and say how much was saved."""
-    import warnings
+    from lgvtool.app.recover_job import recover_log
 
-    from lgvtool.log.salvage import recover as do_recover
-    from lgvtool.log.salvage import report_json
-    from lgvtool.outputs import atomic_output, guard_output
-
-    guard_output(output, [broken], force=force)
-    with warnings.catch_warnings(), atomic_output(output) as tmp:
-        warnings.simplefilter("ignore")
-        report = do_recover(broken, tmp, compression=compression)
-    click.echo(report_json(report) if as_json else report.summary())
+    print_output(recover_log(broken, output, compression=compression, force=force), as_json)

@@ -3,12 +3,11 @@ emulators) are imported only when used."""
 
 from __future__ import annotations
 
-import importlib
-from pathlib import Path
 from typing import Any
 
 import click
 
+from lgvtool.lazy_group import LazyGroup
 from lgvtool.options import Number, compression_option, force_option, seed_option, set_option
 from lgvtool.values import MAX_SIM_DURATION_S
 
@@ -19,37 +18,7 @@ SUBCOMMANDS: dict[str, tuple[str, str, str]] = {
 }
 
 
-class LazySubcommands(click.Group):
-    """A group whose subcommands are imported only when they run (``--help`` stays light).
-
-    A subcommand whose module is not installed is not offered.
-    """
-
-    def _available(self) -> list[str]:
-        # look for the module's file rather than import its packages: help stays instant
-        root = Path(__file__).resolve().parent.parent.parent
-        return sorted(name for name, (module, _, _) in SUBCOMMANDS.items()
-                      if (root / (module.replace(".", "/") + ".py")).is_file())
-
-    def list_commands(self, ctx: click.Context) -> list[str]:
-        return self._available()
-
-    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
-        if cmd_name not in self._available():
-            return None
-        module, attribute, _ = SUBCOMMANDS[cmd_name]
-        command = getattr(importlib.import_module(module), attribute)
-        assert isinstance(command, click.Command)
-        return command
-
-    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
-        rows = [(name, SUBCOMMANDS[name][2]) for name in self._available()]
-        if rows:
-            with formatter.section("Commands"):
-                formatter.write_dl(rows)
-
-
-@click.group(cls=LazySubcommands, invoke_without_command=True)
+@click.group(cls=LazyGroup, lazy=SUBCOMMANDS, invoke_without_command=True)
 @click.option("--scenario", "-s", metavar="NAME",
               help="Scenario to simulate (see --list).")
 @seed_option("Seed of every random draw; the same seed gives the same messages.")
@@ -94,61 +63,49 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
         if given:
             raise InputError(f"--list describes the scenarios and writes nothing; "
                              f"drop {', '.join(given)}")
-        from lgvtool.sim.scenarios import SCENARIOS
-        from lgvtool.sim.settings import INSTALLATION, SimSettings, setting_value
+        from lgvtool.app.simulate_job import describe_scenarios
 
-        nominal = SimSettings()
-        if as_json:
-            listing: dict[str, Any] = {name: {"description": sc.description,
-                                              "parameters": dict(sc.defaults),
-                                              "presets": dict(sc.presets)}
-                                       for name, sc in SCENARIOS.items()}
-            listing["installation"] = {k: {"default": setting_value(nominal, k),
-                                           "description": d} for k, d in INSTALLATION.items()}
-            click.echo(json.dumps(listing, indent=2))
-            return
-        for name, sc in SCENARIOS.items():
-            click.echo(name)
-            click.echo(click.wrap_text(sc.description, initial_indent="  ",
-                                       subsequent_indent="  ", width=96))
-            params = " ".join(f"{k}={v:g}" for k, v in sc.defaults.items())
-            click.echo(click.wrap_text(f"scenario.*: {params}", initial_indent="  ",
-                                       subsequent_indent="    ", width=96))
-            if sc.presets:
-                presets = " ".join(f"{k}={_text(v)}" for k, v in sc.presets.items())
-                click.echo(click.wrap_text(f"presets: {presets}", initial_indent="  ",
-                                           subsequent_indent="    ", width=96))
-        click.echo("installation errors (--set; the log's configuration keeps the nominal "
-                   "vehicle; docs/calibration.md)")
-        for key, meaning in INSTALLATION.items():
-            click.echo(f"  {key}={_text(setting_value(nominal, key))}: {meaning}")
+        listing = describe_scenarios()
+        click.echo(json.dumps(listing, indent=2) if as_json else _listing_text(listing))
         return
     if scenario is None:
         raise InputError("simulate needs --scenario NAME (see lgvtool simulate --list)")
     if output is None:
         raise InputError("simulate needs -o OUT.mcap")
+    from lgvtool.app.simulate_job import simulate_log
 
-    from lgvtool.config import load_config, parse_set_options
-    from lgvtool.outputs import atomic_output, guard_output
-    from lgvtool.sim.logfile import write_log
-    from lgvtool.sim.simulation import simulate as run_simulation
-
-    guard_output(output, [config_path], force=force)
-    config = load_config(config_path)
-    overrides = parse_set_options(sets)
-    sim = run_simulation(scenario, seed=seed, config=config, overrides=overrides,
-                         duration=duration)
-    with atomic_output(output) as tmp:
-        summary = write_log(sim, tmp, compression=compression)
-    result = {"output": output, "scenario": scenario, "seed": seed,
-              "duration_s": summary.duration_s, "messages": summary.messages,
-              "faults": summary.faults}
+    result = simulate_log(scenario, output, seed=seed, config_path=config_path, sets=sets,
+                          duration=duration, compression=compression, force=force)
     if as_json:
         click.echo(json.dumps(result, indent=2))
         return
-    faults = ", ".join(f"{k} {v}" for k, v in summary.faults.items()) or "none"
-    click.echo(f"wrote {output}: {scenario}, seed {seed}, {summary.duration_s:.1f} s, "
-               f"{summary.messages} messages; injected faults: {faults}")
+    faults = ", ".join(f"{k} {v}" for k, v in result["faults"].items()) or "none"
+    click.echo(f"wrote {output}: {scenario}, seed {seed}, {result['duration_s']:.1f} s, "
+               f"{result['messages']} messages; injected faults: {faults}")
+
+
+def _listing_text(listing: dict[str, Any]) -> str:
+    """``simulate --list`` for the terminal: each scenario, its parameters and presets, then
+    the installation errors."""
+    lines: list[str] = []
+    for name, sc in listing.items():
+        if name == "installation":
+            continue
+        lines.append(name)
+        lines.append(click.wrap_text(sc["description"], initial_indent="  ",
+                                     subsequent_indent="  ", width=96))
+        params = " ".join(f"{k}={v:g}" for k, v in sc["parameters"].items())
+        lines.append(click.wrap_text(f"scenario.*: {params}", initial_indent="  ",
+                                     subsequent_indent="    ", width=96))
+        if sc["presets"]:
+            presets = " ".join(f"{k}={_text(v)}" for k, v in sc["presets"].items())
+            lines.append(click.wrap_text(f"presets: {presets}", initial_indent="  ",
+                                         subsequent_indent="    ", width=96))
+    lines.append("installation errors (--set; the log's configuration keeps the nominal "
+                 "vehicle; docs/calibration.md)")
+    for key, item in listing["installation"].items():
+        lines.append(f"  {key}={_text(item['default'])}: {item['description']}")
+    return "\n".join(lines)
 
 
 def _text(value: Any) -> str:

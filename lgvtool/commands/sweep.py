@@ -1,4 +1,5 @@
-"""``lgvtool sweep``: parameter sweeps over many logs and seeds on a Dask cluster."""
+"""``lgvtool sweep``: parameter sweeps over many logs and seeds on a Dask cluster
+(:func:`lgvtool.app.sweep_job.sweep_logs`)."""
 
 from __future__ import annotations
 
@@ -19,9 +20,6 @@ from lgvtool.values import MAX_SEEDS
 
 MAX_LISTED = 10
 """Failed tasks named one by one on stderr before the rest are only counted."""
-OUTPUT_FILES = ("results.parquet", "results.csv", "summary.parquet", "summary.csv",
-                "report.html", "sweep.json")
-"""Files a sweep writes into OUTDIR (beside its tasks/ cache, which is always reused)."""
 
 
 @click.command()
@@ -70,29 +68,14 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
     Exit 0 when the sweep ran (failed logs are reported, not fatal), 2 bad input.
     """
     import json
-    from pathlib import Path
 
-    from lgvtool.config import load_config, parse_set_options
-    from lgvtool.errors import InputError
-    from lgvtool.fleet.connect import require_fleet, scheduler_spec
-    from lgvtool.outdir import guard_directory
+    from lgvtool.app.sweep_job import sweep_logs
 
-    require_fleet("sweep", ("dask", "distributed", "pyarrow"))
-    from lgvtool.fleet.sweep_run import run_sweep
-    from lgvtool.fleet.tasks import check_settings, grid_settings, parse_grid
-
-    if scheduler is not None and workers is not None:
-        raise InputError("give --scheduler or --workers, not both")
-    guard_directory(outdir, OUTPUT_FILES, [*logs, config_path], force=force)
-    cluster = scheduler_spec(scheduler, tls_ca_file, tls_cert, tls_key)
-    grid = parse_grid(grid_items)
-    fixed = parse_set_options(sets)
-    config = load_config(config_path) if config_path else None
-    names = check_settings(split_names(estimators), grid_settings(grid, fixed), config)
-    result = run_sweep(
-        logs, Path(outdir), grid=grid, fixed=fixed, seeds=seeds, estimators=names,
-        config=config, config_path=config_path, scheduler=cluster, workers=workers,
-        progress=show_progress, retry_failed=retry_failed)
+    result = sweep_logs(logs, outdir, estimators=split_names(estimators), grid_items=grid_items,
+                        sets=sets, seeds=seeds, scheduler=scheduler,
+                        tls=(tls_ca_file, tls_cert, tls_key), force=force, workers=workers,
+                        config_path=config_path, retry_failed=retry_failed,
+                        show_progress=show_progress)
     for i, f in enumerate(result.failures):
         if i == MAX_LISTED:
             warn(f"sweep: {len(result.failures) - MAX_LISTED} more failed task(s), see summary.csv")

@@ -1,10 +1,19 @@
-"""``lgvtool view``: play a log to the live view (Foxglove WebSocket) at N x speed."""
+"""``lgvtool view``: play a log to the live view (Foxglove WebSocket) at N x speed
+(:func:`lgvtool.app.view_job.view_log`)."""
 
 from __future__ import annotations
 
 import click
 
-from lgvtool.options import Number, progress_option, seed_option, set_option, split_names, warn
+from lgvtool.options import (
+    Number,
+    print_output,
+    progress_option,
+    seed_option,
+    set_option,
+    split_names,
+    warn,
+)
 
 
 @click.command()
@@ -33,61 +42,9 @@ def view(log: str, live: str, speed: float, live_estimators: tuple[str, ...], se
     at the recorded pace times --speed, and the estimates of --live-estimator computed online
     as the recorder's --live does. Ctrl-C stops. See docs/live.md.
     """
-    import json
-    import signal
-    import threading
-    import warnings
+    from lgvtool.app.view_job import view_log
 
-    from lgvtool.config import parse_set_options
-    from lgvtool.live.live_playback import play, prepare_channels
-    from lgvtool.live.live_server import LiveServer, parse_address
-    from lgvtool.live.online import OnlineEstimator
-    from lgvtool.live.tap import LiveFeed, describe
-    from lgvtool.localize.registry import check_names
-    from lgvtool.log import LogReader, topics
-    from lgvtool.progress import Progress
-
-    address = parse_address(live)
-    names = check_names(split_names(live_estimators))
-    settings = parse_set_options(sets)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        reader = LogReader(log)
-    for w in reader.warnings:
-        warn(w)
-    cfg = reader.config()
-    estimators = [OnlineEstimator(n, cfg, seed=seed, settings=settings) for n in names]
-    skip = frozenset(t for n in names for t in (topics.estimate_pose(n), topics.estimate_state(n),
-                                                 topics.estimate_particles(n)))
-    infos = reader.topics()
-    starts = [i.start_ns for i in infos.values() if i.count]
-    ends = [i.end_ns for i in infos.values() if i.count]
-    span = (max(ends) - min(starts)) * 1e-9 if starts else 0.0
-    server = LiveServer(address)
-    prepare_channels(server, reader, skip)
-    feed = LiveFeed(server, estimators,
-                    warn=warn)
-    stop = threading.Event()
-    previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
-    click.echo(f"lgvtool: live view on {feed.server.url}: {log} ({span:.1f} s of data) at "
-               f"{speed:g}x", err=True)
-    bar = Progress(max(1, round(span)), "view", unit="s", enabled=show_progress)
-    try:
-        if wait_s > 0:
-            stop.wait(wait_s)
-        result = play(reader, feed, speed=speed, skip_topics=skip, stop=stop,
-                      progress=lambda s: bar.set(round(s)))
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        bar.close()
-        feed.close()
-    stats = feed.stats()
-    if as_json:
-        click.echo(json.dumps({"log": log, "messages": result.messages,
-                               "log_seconds": round(result.log_seconds, 3),
-                               "wall_seconds": round(result.wall_seconds, 3),
-                               "stop_reason": result.stop_reason, "live": stats}, indent=2))
-    else:
-        click.echo(f"played {result.messages} messages, {result.log_seconds:.1f} s of data in "
-                   f"{result.wall_seconds:.1f} s ({result.stop_reason})")
-        click.echo(describe(stats), err=True)
+    print_output(view_log(log, live=live, speed=speed,
+                          live_estimators=split_names(live_estimators), seed=seed, sets=sets,
+                          wait_s=wait_s, show_progress=show_progress, warn=warn,
+                          notify=lambda line: click.echo(line, err=True)), as_json)

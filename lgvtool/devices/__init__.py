@@ -1,39 +1,24 @@
-"""Devices on the vehicle: links, the NAV200 host session, the MCU stream, the recorder.
+"""Devices on the vehicle: one folder per device family, and the pieces the families share.
 
-- :mod:`~lgvtool.devices.links`: ``serial://`` and ``tcp://`` URLs to :class:`Link` objects;
-- :mod:`~lgvtool.devices.nav200_session`: the NAV200 host state machine (pure: bytes and
-  times in, requests and events out);
-- :mod:`~lgvtool.devices.mcu_link`: MCU stream decoding and the vehicle's motion;
-- :mod:`~lgvtool.devices.workers`: one thread per device link;
+A family folder (:mod:`~lgvtool.devices.mcu`, :mod:`~lgvtool.devices.nav200`,
+:mod:`~lgvtool.devices.nav350`) holds the family's codec (pure), its host session (pure, time
+passed in), its device model (shared by the simulator and the emulator), its emulator, its
+simulator link, its recorder worker, its log decoder and its registration (topics, decoders,
+emulator, recorder options). :mod:`~lgvtool.devices.device_registry` lists the families; ``lgvtool
+decode``, the recorder, the simulator's log writer and ``simulate serve`` find a family's parts
+through it.
+
+Shared by the families (the generic codec base is :mod:`lgvtool.wire`):
+
+- :mod:`~lgvtool.devices.device_links`: ``serial://`` and ``tcp://`` URLs to :class:`Link` objects;
+- :mod:`~lgvtool.devices.link_worker`: the recorder's per-link thread base (open, backoff, read)
+  and the polled devices' request/read cycle;
+- :mod:`~lgvtool.devices.log_decoding`: the one path from raw device bytes to log messages;
 - :mod:`~lgvtool.devices.logsink`: the single writer thread, file splitting, disk-full handling;
-- :mod:`~lgvtool.devices.recorder`: the recording loop behind ``lgvtool record``.
+- :mod:`~lgvtool.devices.recorder`: the recording loop behind ``lgvtool record``;
+- :mod:`~lgvtool.devices.status`: the recorder's status line;
+- :mod:`~lgvtool.devices.session_events`: the events every host session reports;
+- :mod:`~lgvtool.devices.head_speed`: the head velocity a session sends as speed input.
+
+This package re-exports nothing: every name has one import path, its module.
 """
-
-from lgvtool.devices.links import Link, LinkDown, LinkSpec, open_link, parse_link_url
-from lgvtool.devices.mcu_link import McuLink, Motion, head_velocity
-from lgvtool.devices.nav200_session import Nav200Session, Nav200Settings
-from lgvtool.devices.recorder import (
-    Recorder,
-    RecordError,
-    RecorderSettings,
-    RecordResult,
-    record,
-)
-
-__all__ = [
-    "Link",
-    "LinkDown",
-    "LinkSpec",
-    "McuLink",
-    "Motion",
-    "Nav200Session",
-    "Nav200Settings",
-    "RecordError",
-    "RecordResult",
-    "Recorder",
-    "RecorderSettings",
-    "head_velocity",
-    "open_link",
-    "parse_link_url",
-    "record",
-]

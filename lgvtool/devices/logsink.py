@@ -23,7 +23,7 @@ from typing import Any
 from lgvtool.config import Config, Reflector
 from lgvtool.log import topics
 from lgvtool.log.writer import LogWriter
-from lgvtool.wire.events import WARNING, DecodeEvent
+from lgvtool.wire.decode_events import WARNING, DecodeEvent
 
 __all__ = ["LogSink", "SinkFailure", "split_name"]
 
@@ -143,11 +143,6 @@ class LogSink:
             self._thread.join(timeout)
 
     # ------------------------------------------------------------------ state
-    @property
-    def current_path(self) -> Path | None:
-        """The file being written."""
-        return self._path
-
     def bytes_written(self) -> int:
         """Bytes on disk in every file so far (the chunk in progress not included)."""
         current = 0

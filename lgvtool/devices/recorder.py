@@ -2,7 +2,7 @@
 
 ::
 
-    NAV200 link ──► NavWorker (Nav200Session) ──┐
+    NAV200 link ──► Nav200Worker (Nav200Session)┐
     NAV350 link ──► Nav350Worker (Nav350Session)├─► LogSink queue ──► writer thread ──► OUT.mcap
     MCU link ─────► McuWorker (McuLink) ────────┘        (chunks closed every second, fsync)
 
@@ -25,13 +25,14 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from lgvtool.config import Config, default_config
-from lgvtool.devices.links import MCU_SERIAL_DEFAULTS, NAV200_SERIAL_DEFAULTS, open_link
+from lgvtool.devices.device_links import MCU_SERIAL_DEFAULTS, NAV200_SERIAL_DEFAULTS, open_link
+from lgvtool.devices.device_registry import registration
+from lgvtool.devices.link_worker import LinkTiming
 from lgvtool.devices.logsink import LogSink
-from lgvtool.devices.nav200_session import Nav200Session, Nav200Settings
+from lgvtool.devices.nav200.nav200_session import Nav200Settings
 from lgvtool.devices.status import StatusLine, format_bytes
-from lgvtool.devices.workers import LinkTiming, McuWorker, NavWorker
 from lgvtool.errors import InputError, LgvError
-from lgvtool.wire.events import INFO
+from lgvtool.wire.decode_events import INFO
 
 __all__ = ["RecordError", "RecordResult", "Recorder", "RecorderSettings", "record"]
 
@@ -68,7 +69,7 @@ class RecorderSettings:
     nav350_url: str | None = None
     """The NAV350 (tcp://HOST:2112), recorded by lgvtool.devices.nav350."""
     nav350: Any = None
-    """Its :class:`lgvtool.devices.nav350.session.Nav350Settings` (None: the defaults)."""
+    """Its :class:`lgvtool.devices.nav350.nav350_session.Nav350Settings` (None: the defaults)."""
 
 
 @dataclass
@@ -156,23 +157,21 @@ class Recorder:
         self._stream.flush()
 
     def _build_workers(self) -> None:
+        """One worker per link, made by its family's registration (the MCU's first: the NAV
+        workers take their speed input from it)."""
         s, timing = self.settings, self.settings.timing
-        mcu: McuWorker | None = None
-        if self._mcu_link is not None:
-            mcu = McuWorker(self._mcu_link, self.sink, self._stop, timing,
-                            self.config.vehicle, warn=self._warn)
-            self.workers.append(mcu)
-        if self._nav_link is not None:
-            nav = NavWorker(self._nav_link, self.sink, self._stop, timing,
-                            Nav200Session(s.nav), vehicle=self.config.vehicle,
-                            known_map=self.config.reflectors, mcu=mcu, warn=self._warn)
-            self.workers.append(nav)
-        if self._nav350_link is not None:
-            from lgvtool.devices.nav350.registration import recorder_worker
-
-            self.workers.append(recorder_worker(
-                self._nav350_link, self.sink, self._stop, timing, s.nav350, self.config,
-                mcu=mcu, warn=self._warn))
+        mcu: Any = None
+        for family, link, settings in (("mcu", self._mcu_link, None),
+                                       ("nav200", self._nav_link, s.nav),
+                                       ("nav350", self._nav350_link, s.nav350)):
+            if link is None:
+                continue
+            worker = registration(family).recorder_worker(
+                link, self.sink, self._stop, timing, settings, self.config, mcu=mcu,
+                warn=self._warn)
+            if family == "mcu":
+                mcu = worker
+            self.workers.append(worker)
 
     def _recording_metadata(self) -> dict[str, Any]:
         s = self.settings

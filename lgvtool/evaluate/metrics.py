@@ -21,16 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
+
+from lgvtool.angles import wrap_angle
 
 TRUTH_MAX_GAP = 0.5
 """Longest gap between two truth samples that interpolation always bridges, s. Longer
 intervals are bridged too as long as they are within 5 times the truth's median interval."""
-
-
-def wrap_angle(a: ArrayLike) -> NDArray[np.float64]:
-    """Angles wrapped to [-pi, pi), rad."""
-    return (np.asarray(a, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 @dataclass(frozen=True)

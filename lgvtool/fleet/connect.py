@@ -51,7 +51,7 @@ class SchedulerSpec:
             return None
         from distributed.security import Security
 
-        return Security(tls_ca_file=self.ca_file, tls_client_cert=self.cert,  # type: ignore[no-untyped-call]
+        return Security(tls_ca_file=self.ca_file, tls_client_cert=self.cert,  # type: ignore[no-untyped-call,unused-ignore]
                         tls_client_key=self.key, require_encryption=True)
 
     def __str__(self) -> str:

@@ -205,7 +205,7 @@ def summary_table(tidy: pd.DataFrame, *, grid_keys: Sequence[str] = (),
     import numpy as np
     import pandas as pd
 
-    from lgvtool.fleet.stats import t_quantile
+    from lgvtool.quantiles import t_quantile
 
     metrics = metric_columns(tidy, grid_keys)
     start = list(tidy.columns).index("setting") + 1

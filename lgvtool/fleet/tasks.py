@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from lgvtool.config import parse_set_options
 from lgvtool.errors import InputError
 from lgvtool.fleet.keys import task_key
+from lgvtool.values import parse_setting, split_assignment
 
 if TYPE_CHECKING:
     from lgvtool.config import Config
@@ -64,23 +64,20 @@ class SweepTask:
 def parse_grid(items: Sequence[str]) -> dict[str, list[Any]]:
     """Parse ``--grid key=v1,v2,...`` options into {key: [values]}.
 
-    Values are read as TOML scalars like ``--set`` (numbers, booleans, quoted strings, else a
-    bare string). A key given twice, an empty value list or a repeated value is an error.
+    Keys and values are read by the parser of ``--set``
+    (:func:`lgvtool.values.split_assignment`, :func:`lgvtool.values.parse_setting`: TOML
+    scalars, else a bare string). A key given twice, an empty value list or a repeated value
+    is an error.
     """
     grid: dict[str, list[Any]] = {}
     for item in items:
-        if "=" not in item:
-            raise InputError(f"--grid expects key=v1,v2,..., got '{item}'")
-        key, raw = item.split("=", 1)
-        key = key.strip()
-        if not key:
-            raise InputError(f"--grid expects key=v1,v2,..., got '{item}'")
+        key, raw = split_assignment(item, "--grid", "key=v1,v2,...")
         if key in grid:
             raise InputError(f"--grid key '{key}' given twice")
         parts = [p.strip() for p in raw.split(",")]
         if not raw.strip() or any(not p for p in parts):
             raise InputError(f"--grid {key}: empty value in '{raw}'")
-        values = [parse_set_options([f"{key}={p}"])[key] for p in parts]
+        values = [parse_setting(p) for p in parts]
         seen: list[Any] = []
         for v in values:
             if any(type(v) is type(s) and v == s for s in seen):
@@ -251,7 +248,7 @@ def missing_files(paths: Sequence[str], limit: int = 5) -> list[str]:
 
 def evaluate_task(task: SweepTask) -> dict[str, Any]:
     """Run the estimators over the task's log with its settings and seed, and evaluate them
-    (:func:`lgvtool.commands.evaluate.evaluate_log`, the same figures as ``lgvtool evaluate
+    (:func:`lgvtool.app.evaluate_job.evaluate_log`, the same figures as ``lgvtool evaluate
     --json``). Runs on a worker; opens only this task's log.
 
     Returns :func:`document_metrics` of the evaluation. Raises
@@ -259,7 +256,7 @@ def evaluate_task(task: SweepTask) -> dict[str, Any]:
     FileNotFoundError (not an input error: the task runs again next time) when this worker
     does not see the log at its path.
     """
-    from lgvtool.commands.evaluate import evaluate_log
+    from lgvtool.app.evaluate_job import evaluate_log
     from lgvtool.evaluate.document import build_document
     from lgvtool.log import LogReader
 

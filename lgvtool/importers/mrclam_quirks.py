@@ -27,9 +27,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from lgvtool.angles import wrap_angle
 from lgvtool.config import Area
 from lgvtool.importers.mrclam import ROBOT_SUBJECTS, FileInfo, MrclamDataset, RobotRecording
 from lgvtool.importers.mrclam_timing import delay_ns, odometry_delay
+from lgvtool.timestamps import seconds_to_ns_array
 
 NS = 1_000_000_000
 _LIST_MAX = 20
@@ -132,20 +134,11 @@ class PreparedRun:
         return (self.odometry, self.truth, self.observations)
 
 
-def seconds_to_ns(t: np.ndarray) -> np.ndarray:
-    """Unix times in s (float) to int64 ns, rounded to the microsecond (exact for float64)."""
-    return np.rint(np.asarray(t, dtype=np.float64) * 1e6).astype(np.int64) * 1000
-
-
 def area_of(dataset: MrclamDataset, margin: float) -> Area:
     """The landmarks' bounding box grown by ``margin`` m on every side."""
     lm = dataset.landmarks
     return Area(x_min=float(lm["x"].min()) - margin, x_max=float(lm["x"].max()) + margin,
                 y_min=float(lm["y"].min()) - margin, y_max=float(lm["y"].max()) + margin)
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def _s(ns: int | np.integer) -> float:
@@ -242,7 +235,7 @@ def _predicted(truth: pd.DataFrame, obs: pd.DataFrame, dataset: MrclamDataset,
     lx = lm["x"].reindex(obs["landmark"]).to_numpy()
     ly = lm["y"].reindex(obs["landmark"]).to_numpy()
     rng = np.hypot(lx - x, ly - y)
-    brg = _wrap(np.arctan2(ly - y, lx - x) - th)
+    brg = wrap_angle(np.arctan2(ly - y, lx - x) - th)
     return rng, brg, covered
 
 
@@ -328,7 +321,7 @@ def _outliers(obs: pd.DataFrame, truth: pd.DataFrame, dataset: MrclamDataset,
     """Flag observations inconsistent with ground truth; residual statistics of the rest."""
     rng, brg, covered = _predicted(truth, obs, dataset, settings.truth_interp_max_gap_s)
     dr = obs["range"].to_numpy() - rng
-    db = _wrap(obs["bearing"].to_numpy() - brg)
+    db = wrap_angle(obs["bearing"].to_numpy() - brg)
     with np.errstate(invalid="ignore"):
         r_out = covered & (np.abs(dr) > settings.outlier_range_fraction * rng)
         b_out = covered & (np.abs(db) > settings.outlier_bearing_rad)
@@ -410,9 +403,9 @@ def prepare_run(dataset: MrclamDataset, rec: RobotRecording,
     st = settings or ImportSettings()
     col = _Collector()
     broken = {f.name: f.broken for f in rec.files if f.broken}
-    odo = rec.odometry.assign(t_ns=seconds_to_ns(rec.odometry["t"].to_numpy()))
-    tru = rec.truth.assign(t_ns=seconds_to_ns(rec.truth["t"].to_numpy()))
-    meas = rec.measurements.assign(t_ns=seconds_to_ns(rec.measurements["t"].to_numpy()))
+    odo = rec.odometry.assign(t_ns=seconds_to_ns_array(rec.odometry["t"].to_numpy(), 1000))
+    tru = rec.truth.assign(t_ns=seconds_to_ns_array(rec.truth["t"].to_numpy(), 1000))
+    meas = rec.measurements.assign(t_ns=seconds_to_ns_array(rec.measurements["t"].to_numpy(), 1000))
     odo = odo[["t_ns", "v", "omega"]]
     tru = tru[["t_ns", "x", "y", "theta"]]
     meas = meas[["t_ns", "barcode", "range", "bearing"]]

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 import orjson
 
+from lgvtool.angles import wrap_scalar
 from lgvtool.config import Config, Reflector
 from lgvtool.localize.estimator import Estimator, Motion, cloud_sample
 from lgvtool.localize.motion import (
@@ -38,11 +39,17 @@ from lgvtool.localize.motion import (
     increments_from_mcu,
     increments_from_twist,
 )
-from lgvtool.localize.observations import PoseObservation, RawScan, scan_observation, sources
+from lgvtool.localize.observations import (
+    PoseObservation,
+    RawScan,
+    ScanBatch,
+    scan_observations,
+    sources,
+)
 from lgvtool.localize.registry import ESTIMATORS, check_names, resolve_params, split_settings
 from lgvtool.localize.replay_driver import estimator_rng
 from lgvtool.log import messages, topics
-from lgvtool.timestamps import stamp
+from lgvtool.timestamps import message_stamp_ns, seconds_to_ns, stamp
 
 __all__ = ["INPUT_TOPICS", "OnlineEstimator", "Output"]
 
@@ -61,17 +68,6 @@ class Output:
     schema: str
     data: bytes
     t_ns: int
-
-
-def _stamp_ns(doc: Mapping[str, Any], log_ns: int) -> int:
-    """A message's own ``timestamp`` (ns), else its log time."""
-    ts = doc.get("timestamp")
-    if isinstance(ts, Mapping):
-        try:
-            return int(ts["sec"]) * 1_000_000_000 + int(ts["nsec"])
-        except (KeyError, TypeError, ValueError):
-            pass
-    return int(log_ns)
 
 
 class OnlineEstimator:
@@ -124,7 +120,7 @@ class OnlineEstimator:
         if topic not in INPUT_TOPICS:
             return []
         doc = orjson.loads(data)
-        t_ns = _stamp_ns(doc, log_time_ns)
+        t_ns = message_stamp_ns(doc, log_time_ns)
         if self._t0_ns is None:
             self._t0_ns = t_ns
         t = (t_ns - self._t0_ns) * 1e-9
@@ -168,10 +164,11 @@ class OnlineEstimator:
         started = time.perf_counter()
         track = self._track()
         p = self.params
-        o = scan_observation(scan, self.config.vehicle.nav_x, self.config.vehicle.nav_y,
-                             track=track, deskew=bool(getattr(p, "deskew", False)),
-                             min_range=float(getattr(p, "min_range_m", 0.0)),
-                             max_range=float(getattr(p, "max_range_m", math.inf)))
+        o = scan_observations(ScanBatch.from_scans([scan]), self.config.vehicle.nav_x,
+                              self.config.vehicle.nav_y, track=track,
+                              deskew=bool(getattr(p, "deskew", False)),
+                              min_range=float(getattr(p, "min_range_m", 0.0)),
+                              max_range=float(getattr(p, "max_range_m", math.inf)))[0]
         return self._apply(o, o.t, track, started)
 
     def _on_pose(self, doc: Mapping[str, Any], t: float) -> list[Output]:
@@ -269,8 +266,8 @@ class OnlineEstimator:
         e = self.est.estimate()
         if e is None:
             return []
-        t_ns = self._t0_ns + round(t * 1e9)
-        heading = math.remainder(e.heading, 2.0 * math.pi)
+        t_ns = self._t0_ns + seconds_to_ns(t)
+        heading = wrap_scalar(e.heading)
         pose_t, state_t, cloud_t = self._topics
         out = [
             Output(pose_t, "foxglove.PoseInFrame",

@@ -26,7 +26,6 @@ whose variance grows with the distance travelled and the angle turned (:func:`sc
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import ModuleType
@@ -36,11 +35,12 @@ import numpy as np
 
 from lgvtool.angles import wrap_scalar
 from lgvtool.localize.camera_fix import start_fix
-from lgvtool.localize.chi2 import chi2_quantile
 from lgvtool.localize.estimator import Estimate, EstimateRows, Estimator, Motion, Observation
+from lgvtool.localize.kernel_choice import compiled
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
+from lgvtool.quantiles import chi2_quantile
 
 if TYPE_CHECKING:
     from lgvtool.localize.estimator import FloatArray
@@ -51,27 +51,10 @@ POSE = 3
 SCALED = 5
 """Size of the state with the odometry scales, ``(x, y, theta, s_v, s_w)``."""
 
-KERNELS_ENV = "LGVTOOL_KERNELS"
-"""Environment variable choosing the estimators' inner loops: ``numba`` (the compiled loops of
-:mod:`lgvtool.localize.ekf_kernels`; an ImportError without numba), ``numpy`` (the array
-operations, the reference); anything else, or unset: the compiled loops when numba is
-installed."""
-
-
 def gaussian_kernels() -> ModuleType | None:
     """The compiled loops of the Gaussian estimators (:mod:`lgvtool.localize.ekf_kernels`), or
-    None for the numpy path (numba not installed, or ``LGVTOOL_KERNELS=numpy``). Importing
-    them imports numba, so this is called when an estimator runs, never at start-up."""
-    mode = os.environ.get(KERNELS_ENV, "auto").strip().lower()
-    if mode == "numpy":
-        return None
-    try:
-        from lgvtool.localize import ekf_kernels
-    except ImportError:
-        if mode == "numba":
-            raise
-        return None
-    return ekf_kernels
+    None for the numpy path (numba not installed, or ``LGVTOOL_KERNELS=numpy``)."""
+    return compiled("lgvtool.localize.ekf_kernels")
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_angle, wrap_scalar
+
 FloatArray = NDArray[np.float64]
 
 #: position tolerance (m): at least GATE_POSITION_M, else GATE_POSITION_MEDIANS times the
@@ -84,7 +86,7 @@ def gate_poses(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
         h1 = h0 + dth
         px = o_x + math.cos(h1) * nav_x - math.sin(h1) * nav_y
         py = o_y + math.sin(h1) * nav_x + math.cos(h1) * nav_y
-        return (math.hypot(xs[k] - px, ys[k] - py), abs(math.remainder(hs[k] - h1, 2 * math.pi)),
+        return (math.hypot(xs[k] - px, ys[k] - py), abs(wrap_scalar(hs[k] - h1)),
                 abs(odist[k] - odist[last]), abs(orot[k] - orot[last]))
 
     judged = np.nonzero(valid)[0].tolist()
@@ -147,6 +149,6 @@ def _consecutive(idx: NDArray[np.int64], x: FloatArray, y: FloatArray, heading: 
     h1 = h0 + (oth[k] - oth[a])
     px = o_x + np.cos(h1) * nav_x - np.sin(h1) * nav_y
     py = o_y + np.sin(h1) * nav_x + np.cos(h1) * nav_y
-    dh = np.abs(np.remainder(heading[k] - h1 + math.pi, 2 * math.pi) - math.pi)
+    dh = np.abs(wrap_angle(heading[k] - h1))
     return (np.hypot(x[k] - px, y[k] - py), dh, np.abs(odist[k] - odist[a]),
             np.abs(orot[k] - orot[a]))

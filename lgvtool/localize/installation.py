@@ -23,6 +23,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from lgvtool.angles import wrap_angle
 from lgvtool.config import Vehicle
 from lgvtool.localize.logdata import LazyScans, LogData
 from lgvtool.localize.observations import RawScan, ScanBatch
@@ -87,5 +88,5 @@ def apply_installation(data: LogData, vehicle: Vehicle) -> LogData:
     if nav is not None and (age != 0.0 or yaw != 0.0):
         heading = np.asarray(nav["heading"], dtype=np.float64) - yaw
         nav = dict(nav, t=nav["t"] - age,
-                   heading=np.remainder(heading + np.pi, 2.0 * np.pi) - np.pi)
+                   heading=wrap_angle(heading))
     return replace(data, mcu=mcu, twist=twist, nav=nav, scans=correct_scans(data.scans, off, yaw))

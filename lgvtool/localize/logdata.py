@@ -24,6 +24,7 @@ from lgvtool.localize.motion import (
 )
 from lgvtool.localize.observations import RawScan, ScanBatch
 from lgvtool.localize.packed import PackedBytes
+from lgvtool.timestamps import message_stamps_ns
 
 if TYPE_CHECKING:
     from lgvtool.log import LogReader
@@ -206,25 +207,11 @@ def _decode_columns(raw: Sequence[bytes], log_ns: NDArray[np.int64],
     parts: list[tuple[NDArray[Any], ...]] = []
     for a in range(0, len(raw), _DECODE_BLOCK):
         docs = [loads(x) for x in raw[a:a + _DECODE_BLOCK]]
-        stamps.append(_stamps_ns(docs, log_ns[a:a + _DECODE_BLOCK]))
+        stamps.append(message_stamps_ns(docs, log_ns[a:a + _DECODE_BLOCK]))
         parts.append(fields(docs))
     if not parts:
         return np.zeros(0, dtype=np.int64), []
     return np.concatenate(stamps), [np.concatenate(c, axis=-1) for c in zip(*parts, strict=True)]
-
-
-def _stamps_ns(docs: list[dict[str, Any]], log_ns: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Each message's own timestamp (ns since the epoch), else its log time."""
-    try:
-        return np.array([ts["sec"] * 1_000_000_000 + ts["nsec"]
-                         for ts in map(itemgetter("timestamp"), docs)], dtype=np.int64)
-    except (KeyError, TypeError):
-        out = log_ns.copy()
-        for i, d in enumerate(docs):
-            ts = d.get("timestamp")
-            if ts:
-                out[i] = ts["sec"] * 1_000_000_000 + ts["nsec"]
-        return out
 
 
 def _columns(docs: list[dict[str, Any]], keys: Sequence[str], dtype: type) -> NDArray[Any]:

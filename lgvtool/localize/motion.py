@@ -255,12 +255,3 @@ class MotionTrack:
         c, s = np.cos(th0), np.sin(th0)
         ex, ey = x1 - x0, y1 - y0
         return Deltas(c * ex + s * ey, -s * ex + c * ey, th1 - th0, d1 - d0, r1 - r0)
-
-    def speed_at(self, tq: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Forward speed (m/s) and yaw rate (rad/s) of the sample interval holding each time."""
-        tq = np.asarray(tq, dtype=np.float64)
-        if len(self.t) < 2:
-            return np.zeros(tq.shape), np.zeros(tq.shape)
-        i = np.clip(np.searchsorted(self.t, tq, side="right") - 1, 0, len(self.t) - 2)
-        span = np.maximum(self.t[i + 1] - self.t[i], 1e-9)
-        return self.ds[i] / span, self.dth[i] / span

@@ -10,7 +10,7 @@ Two kinds of observation reach an estimator:
   the mounting offset and, when de-skewed, the vehicle's own motion between the measurement
   and ``t``), plus the measured range and bearing.
 
-:func:`scan_observation` builds the latter from a raw scan; with a motion track it de-skews
+:func:`scan_observations` builds the latter from raw scans; with a motion track it de-skews
 each reflector by its time within the revolution.
 """
 
@@ -163,14 +163,6 @@ class ScanObservation:
         i = np.full(k, -1, dtype=np.int64) if ids is None else np.asarray(ids, dtype=np.int64)
         return cls.from_sensor(t, np.full(k, float(nav_x)), np.full(k, float(nav_y)),
                                np.zeros(k), r, np.asarray(bearings, dtype=np.float64), i)
-
-
-def scan_observation(scan: RawScan, nav_x: float, nav_y: float, *,
-                     track: MotionTrack | None = None, deskew: bool = False,
-                     min_range: float = 0.0, max_range: float = math.inf) -> ScanObservation:
-    """One raw scan as body-frame geometry (see :func:`scan_observations`)."""
-    return scan_observations(ScanBatch.from_scans([scan]), nav_x, nav_y, track=track,
-                             deskew=deskew, min_range=min_range, max_range=max_range)[0]
 
 
 def scan_observations(scans: ScanBatch, nav_x: float, nav_y: float, *,

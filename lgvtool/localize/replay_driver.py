@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_angle, wrap_scalar
 from lgvtool.config import Config, default_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
@@ -44,6 +45,7 @@ from lgvtool.localize.registry import (
     resolve_params,
     split_settings,
 )
+from lgvtool.timestamps import seconds_to_ns, seconds_to_ns_array
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -123,7 +125,7 @@ def truth_pose_at(data: LogData, t: float) -> tuple[float, float, float] | None:
     x = float(np.interp(t, tr["t"], tr["x"]))
     y = float(np.interp(t, tr["t"], tr["y"]))
     h = float(np.interp(t, tr["t"], np.unwrap(tr["heading"])))
-    return x, y, math.remainder(h, 2.0 * math.pi)
+    return x, y, wrap_scalar(h)
 
 
 def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
@@ -303,7 +305,7 @@ def apply_pose_gate(data: LogData, vehicle: Any,
     verdict = gate_poses(nav["t"], nav["x"], nav["y"], nav["heading"], nav["valid"], odometry,
                          vehicle.nav_x, vehicle.nav_y)
     nav["gate"] = verdict.accepted | ~nav["valid"]
-    t_ns = data.t0_ns + np.round(nav["t"] * 1e9).astype(np.int64)
+    t_ns = data.t0_ns + seconds_to_ns_array(nav["t"])
     return [(int(t_ns[k]), f"NAV pose ({nav['x'][k]:.3f}, {nav['y'][k]:.3f}) m left out: "
              f"{dpos:.3f} m and {math.degrees(dh):.2f} deg from the odometry's prediction "
              f"(allowed {tol_p:.3f} m, {math.degrees(tol_h):.2f} deg)")
@@ -363,10 +365,10 @@ def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _
     rows = est.run(times, todo, steps,
                    progress=progress, cloud_period_s=cloud_period_s, cloud_size=cloud_size)
     table = EstimateTable(
-        t0_ns + np.round(rows.t * 1e9).astype(np.int64), rows.x, rows.y,
-        np.remainder(rows.heading + math.pi, 2.0 * math.pi) - math.pi, rows.covariance,
+        t0_ns + seconds_to_ns_array(rows.t), rows.x, rows.y,
+        wrap_angle(rows.heading), rows.covariance,
         rows.particles, rows.ess)
-    clouds = [(t0_ns + round(t * 1e9), x, y, h) for t, x, y, h in rows.clouds]
+    clouds = [(t0_ns + seconds_to_ns(t), x, y, h) for t, x, y, h in rows.clouds]
     return table, clouds
 
 

@@ -22,7 +22,7 @@ import orjson
 
 from lgvtool.log import topics
 from lgvtool.log.messages import FRAME_ID, pose, quaternion_from_yaw
-from lgvtool.timestamps import stamp
+from lgvtool.timestamps import seconds_to_ns, seconds_to_ns_array, stamp, stamp_columns
 
 if TYPE_CHECKING:
     import numpy as np
@@ -191,7 +191,7 @@ def scan_scene(ns: int, observations: Iterable[tuple[float, float, int] |
                "scale_invariant": True,
                "points": [{"x": 0.0, "y": 0.0, "z": 0.0}, {"x": px, "y": py, "z": 0.0}],
                "color": color(source, 0.5), "colors": [], "indices": []}
-        entities.append(_entity(ns + round(dt * 1e9), head_frame(source), f"{source}/scan/{k}",
+        entities.append(_entity(ns + seconds_to_ns(dt), head_frame(source), f"{source}/scan/{k}",
                                 spheres=[sphere], lines=[ray]))
     out = scene(*entities)
     out["deletions"] = [{"timestamp": stamp(ns), "type": 1, "id": ""}]
@@ -269,14 +269,6 @@ def numbers(values: ArrayLike) -> list[bytes]:
     return text[1:-1].split(b",") if len(text) > 2 else []
 
 
-def stamps(t_ns: ArrayLike) -> tuple[list[int], list[int]]:
-    """Seconds and nanoseconds of integer ns since the epoch."""
-    import numpy as np
-
-    sec, nsec = np.divmod(np.asarray(t_ns, dtype=np.int64), 1_000_000_000)
-    return sec.tolist(), nsec.tolist()
-
-
 def _finite(*cols: NDArray[np.float64]) -> NDArray[np.bool_]:
     import numpy as np
 
@@ -304,7 +296,7 @@ def pose_in_frame_many(t_ns: ArrayLike, x: ArrayLike, y: ArrayLike, heading: Arr
     template = (b'{"timestamp":' + _STAMP + _lit(b',"frame_id":' + orjson.dumps(frame_id))
                 + b',"pose":' + _POSE + b"}")
     half = 0.5 * np.asarray(heading, dtype=np.float64)
-    return [template % row for row in zip(*stamps(t_ns), numbers(x), numbers(y),
+    return [template % row for row in zip(*stamp_columns(t_ns), numbers(x), numbers(y),
                                           numbers(np.sin(half)), numbers(np.cos(half)),
                                           strict=True)]
 
@@ -320,7 +312,7 @@ def pose_estimate_many(name: str, t_ns: ArrayLike, x: ArrayLike, y: ArrayLike,
     cov = numbers(np.asarray(covariance, dtype=np.float64).ravel())
     rows = [b",".join(cov[i:i + 9]) for i in range(0, len(cov), 9)]
     return [template % row for row in zip(
-        *stamps(t_ns), numbers(x), numbers(y), numbers(heading), rows,
+        *stamp_columns(t_ns), numbers(x), numbers(y), numbers(heading), rows,
         np.asarray(particles, dtype=np.int64).tolist(), numbers(ess), strict=True)]
 
 
@@ -348,7 +340,7 @@ def poses_in_frame_many(clouds: Sequence[tuple[int, ArrayLike, ArrayLike, ArrayL
         parts[2 * j::9] = [glue[j]] * n
         parts[2 * j + 1::9] = cols[j]
     parts[8::9] = [glue[4]] * n
-    secs, nsecs = stamps([c[0] for c in clouds])
+    secs, nsecs = stamp_columns([c[0] for c in clouds])
     out: list[bytes] = []
     at = 0
     for sec, nsec, k in zip(secs, nsecs, sizes, strict=True):
@@ -377,7 +369,7 @@ def frame_transforms_many(source: str, t_ns: ArrayLike, x: ArrayLike, y: ArrayLi
                 b'{"x":0.0,"y":0.0,"z":%b,"w":%b}},{"timestamp":' + _STAMP + _lit(mount)
                 + b"]}")
     half = 0.5 * ha
-    secs, nsecs = stamps(t)
+    secs, nsecs = stamp_columns(t)
     return t.tolist(), [template % (s, n, px, py, qz, qw, s, n) for s, n, px, py, qz, qw in zip(
         secs, nsecs, numbers(xa), numbers(ya), numbers(np.sin(half)), numbers(np.cos(half)),
         strict=True)]
@@ -409,7 +401,7 @@ def covariance_ellipse_many(source: str, t_ns: ArrayLike, x: ArrayLike, y: Array
                 + _POSE + b',"size":{"x":%b,"y":%b,"z":' + orjson.dumps(ELLIPSE_HEIGHT) + b"}"
                 + _lit(tail))
     h = 0.5 * angle
-    secs, nsecs = stamps(t)
+    secs, nsecs = stamp_columns(t)
     return t.tolist(), [template % row for row in zip(
         secs, nsecs, numbers(xa), numbers(ya), numbers(np.sin(h)), numbers(np.cos(h)),
         numbers(2.0 * SIGMAS * a), numbers(2.0 * SIGMAS * b), strict=True)]
@@ -454,9 +446,9 @@ def scan_scenes_many(scans: Sequence[tuple[int, ArrayLike, ArrayLike, ArrayLike,
     ids = np.concatenate([np.asarray(sc[3], dtype=np.int64) for sc in scans]).tolist()
     start = np.repeat(np.array([sc[0] for sc in scans], dtype=np.int64), sizes)
     dts = np.concatenate([np.asarray(sc[4], dtype=np.float64) for sc in scans])
-    secs, nsecs = stamps(start + np.rint(dts * 1e9).astype(np.int64))
+    secs, nsecs = stamp_columns(start + seconds_to_ns_array(dts))
     px, py = numbers(rng * np.cos(brg)), numbers(rng * np.sin(brg))
-    s0, n0 = stamps([sc[0] for sc in scans])
+    s0, n0 = stamp_columns([sc[0] for sc in scans])
     out: list[bytes] = []
     at = 0
     for j, n in enumerate(sizes):

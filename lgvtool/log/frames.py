@@ -16,17 +16,14 @@ import pandas as pd
 
 from lgvtool.log.messages import yaw_from_quaternion
 from lgvtool.log.reader import LogMessage
-
-
-def _stamp_s(d: dict[str, Any]) -> float:
-    ts = d.get("timestamp")
-    return ts["sec"] + ts["nsec"] * 1e-9 if ts else math.nan
+from lgvtool.timestamps import stamp_seconds
 
 
 def _pose_row(t: float, d: dict[str, Any]) -> dict[str, Any]:
     p = d["pose"]
-    return {"t": t, "stamp": _stamp_s(d), "x": p["position"]["x"], "y": p["position"]["y"],
-            "z": p["position"].get("z", 0.0), "heading": yaw_from_quaternion(p["orientation"])}
+    return {"t": t, "stamp": stamp_seconds(d.get("timestamp")), "x": p["position"]["x"],
+            "y": p["position"]["y"], "z": p["position"].get("z", 0.0),
+            "heading": yaw_from_quaternion(p["orientation"])}
 
 
 #: rows turned into a DataFrame at a time (the row dicts of one block are then freed)
@@ -43,7 +40,7 @@ def pose_table(messages: Iterable[tuple[int, dict[str, Any]]]) -> pd.DataFrame:
         p = d["pose"]
         pos, q = p["position"], p["orientation"]
         t.append(ns * 1e-9)
-        stamp.append(_stamp_s(d))
+        stamp.append(stamp_seconds(d.get("timestamp")))
         x.append(pos["x"])
         y.append(pos["y"])
         z.append(pos.get("z", 0.0))
@@ -74,25 +71,25 @@ def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:
             for i, p in enumerate(d["poses"]):
                 rows.append(_pose_row(t, {"timestamp": d["timestamp"], "pose": p}) | {"index": i})
         elif schema == "lgvtool.ReflectorScan":
-            base = {"t": t, "stamp": _stamp_s(d), "scan_period": d["scan_period"]}
+            base = {"t": t, "stamp": stamp_seconds(d.get("timestamp")), "scan_period": d["scan_period"]}
             for o in d["observations"]:
                 rows.append(base | {"range": o["range"], "bearing": o["bearing"],
                                     "time_in_scan": o["time_in_scan"], "id": o["id"]})
         elif schema == "lgvtool.ReflectorMap":
             for r in d["reflectors"]:
-                rows.append({"t": t, "stamp": _stamp_s(d)} | r)
+                rows.append({"t": t, "stamp": stamp_seconds(d.get("timestamp"))} | r)
         elif schema == "lgvtool.RawBytes":
             data = base64.b64decode(d["data"])
-            rows.append({"t": t, "stamp": _stamp_s(d), "device": d["device"],
+            rows.append({"t": t, "stamp": stamp_seconds(d.get("timestamp")), "device": d["device"],
                          "direction": d["direction"], "size": len(data), "data": data})
         elif schema == "lgvtool.McuFrame":
-            row = {"t": t, "stamp": _stamp_s(d)}
+            row = {"t": t, "stamp": stamp_seconds(d.get("timestamp"))}
             row.update({k: v for k, v in d.items() if k != "timestamp"})
             row["mcu_time"] = row.pop("mcu_time_ms") * 1e-3
             row["gyro_scale"] = math.radians(row["gyro_scale"])
             rows.append(row)
         else:
-            row = {"t": t, "stamp": _stamp_s(d)}
+            row = {"t": t, "stamp": stamp_seconds(d.get("timestamp"))}
             for k, v in d.items():
                 if k == "timestamp":
                     continue

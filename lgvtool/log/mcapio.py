@@ -582,11 +582,6 @@ class McapWriter:
                 self.close_chunk()
             i = j
 
-    @property
-    def chunk_open(self) -> bool:
-        """Whether the open chunk holds any message."""
-        return self._chunk.count > 0
-
     def close_chunk(self, hold_ns: int = 0) -> None:
         """Compress and write the open chunk and its message indexes (no-op when empty).
 

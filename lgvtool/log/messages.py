@@ -1,25 +1,33 @@
-"""Builders and helpers for message dicts: time stamps, poses, the map scene, diagnostics.
+"""The one mapping from domain objects to the log's own messages: every message dict lgvtool
+writes is built here (poses, the map and its scene, diagnostics, MCU frames, NAV200 and NAV350
+poses, reflector scans).
 
-Message dicts are plain JSON-able dicts laid out as the schemas in ``schemas/``.
+Message dicts are plain JSON-able dicts laid out as the schemas in ``schemas/``; ``timestamp``
+fields are ``{"sec", "nsec"}`` (:func:`lgvtool.timestamps.stamp`). The byte-template fast
+paths of the replay's estimate channels (foxglove.PoseInFrame, lgvtool.PoseEstimate,
+foxglove.PosesInFrame) are :mod:`lgvtool.log.foxglove`'s ``*_many`` encoders, which write the
+same layouts as :func:`pose_in_frame` and :func:`poses_in_frame`.
+
+The device types are imported for type checking only: this module depends on no device code.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
-from typing import Any
+from collections.abc import Callable, Iterable, Mapping
+from typing import TYPE_CHECKING, Any
 
 from lgvtool.config import Reflector
 from lgvtool.timestamps import stamp
 
+if TYPE_CHECKING:
+    from lgvtool.devices.mcu.mcu_frame import McuFrame
+    from lgvtool.devices.nav200.nav200_commands import Reply
+    from lgvtool.devices.nav200.nav200_payloads import Pose
+    from lgvtool.devices.nav350.nav350_telegrams import PoseData
+
 FRAME_ID = "map"
 """Frame of every map-frame pose in lgvtool logs."""
-
-
-
-
-
-
 
 
 def quaternion_from_yaw(yaw: float) -> dict[str, float]:
@@ -121,3 +129,153 @@ def log_message_of(diag: Mapping[str, Any]) -> dict[str, Any]:
         "message": f"[{diag['kind']}] {diag['message']}",
         "name": diag["source"], "file": "", "line": 0,
     }
+
+
+# ---------------------------------------------------------------------------------- devices
+def _stamp(timestamp: Mapping[str, int]) -> dict[str, int]:
+    return {"sec": int(timestamp["sec"]), "nsec": int(timestamp["nsec"])}
+
+
+def mcu_frame_message(frame: McuFrame, timestamp: Mapping[str, int]) -> dict[str, Any]:
+    """An ``lgvtool.McuFrame`` message: raw counts plus SI values.
+
+    ``gyro_scale`` in deg/s per count, ``gyro_rate`` rad/s, ``steering_angle`` rad,
+    ``drive_speed`` m/s.
+    """
+    return {
+        "timestamp": _stamp(timestamp),
+        "version": frame.version,
+        "seq": frame.seq,
+        "mcu_time_ms": frame.mcu_time_ms,
+        "enc_left": frame.enc_left,
+        "enc_right": frame.enc_right,
+        "gyro_raw": frame.gyro_raw,
+        "gyro_scale": frame.gyro_scale_deg_s,
+        "gyro_rate": frame.gyro_rate,
+        "steering_angle": frame.steering_angle,
+        "drive_speed": frame.drive_speed,
+        "status": frame.status,
+    }
+
+
+def nav_pose_message(pose: Pose | Reply, timestamp: Mapping[str, int]) -> dict[str, Any]:
+    """An ``lgvtool.NavPose`` message from a NAV200 PP reply or its payload.
+
+    x, y in m, heading in rad within (-pi, pi], ``valid`` False for quality 0xFE/0xFF.
+    """
+    from lgvtool.devices.nav200.nav200_commands import Reply
+    from lgvtool.devices.nav200.nav200_payloads import Pose
+
+    if isinstance(pose, Reply):
+        if not isinstance(pose.payload, Pose):
+            raise TypeError(f"NAV200 {pose.code} reply carries no pose")
+        pose = pose.payload
+    return {
+        "timestamp": _stamp(timestamp),
+        "x": pose.x,
+        "y": pose.y,
+        "heading": pose.heading,
+        "quality": pose.quality,
+        "reflectors_used": pose.reflectors_used,
+        "valid": pose.valid,
+    }
+
+
+def reflector_scan_message(start_ns: int, period: float, observations: Iterable[Any]
+                           ) -> dict[str, Any]:
+    """An ``lgvtool.ReflectorScan`` of one head revolution: start time in ns, ``period`` in s,
+    observations with ``range`` (m), ``bearing`` (rad), ``time_in_scan`` (s) and ``id``."""
+    return {
+        "timestamp": stamp(start_ns),
+        "scan_period": period,
+        "observations": [{"range": o.range, "bearing": o.bearing,
+                          "time_in_scan": o.time_in_scan, "id": o.id} for o in observations],
+    }
+
+
+# ---------------------------------------------------------------------------------- NAV350
+# Both times are logged: ``timestamp`` of the pose is the host time the reply was received (as
+# for the NAV200), ``device_time_ms`` the NAV350 tick, and ``device_stamp`` the host time of that
+# tick by the online clock estimate (absent until the estimate exists). A scan's ``timestamp`` is
+# the host time of its start tick (DIST1 ``timestampStart``, else the first landmark's tick) and
+# each reflector's ``time_in_scan`` comes from its own tick, so the de-skew uses the device's
+# landmark timestamps. Angles: the NAV350's mdeg, counter-clockwise, turned into rad in
+# (-pi, pi].
+
+#: ``quality`` of a NAV350 pose without a valid position (the NAV350 has no quality byte:
+#: 0 otherwise, its own figures are ``mean_dev``, ``nav_mode`` and ``reflectors_used``).
+NAV350_NO_POSITION = 0xFF
+#: Head revolution period the NAV350 runs at (8 Hz), s.
+NAV350_SCAN_PERIOD = 0.125
+
+
+def _mdeg_angle(mdeg: int) -> float:
+    a = math.radians(mdeg / 1000.0)
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def nav350_pose_message(data: PoseData, received_ns: int,
+                 host_ns_of_tick: Callable[[int], int | None]) -> dict[str, Any] | None:
+    """The ``lgvtool.NavPose`` of a NAV350 pose-data reply (None when it has neither pose nor pose
+    information). ``host_ns_of_tick`` maps a device tick to host ns (None: no estimate yet)."""
+    if data.pose is None and data.info is None:
+        return None
+    info = data.info
+    valid = data.pose is not None and data.error_code == 0
+    x, y, phi = data.pose if data.pose is not None else (0, 0, 0)
+    msg: dict[str, Any] = {
+        "timestamp": stamp(received_ns), "x": x / 1000.0, "y": y / 1000.0,
+        "heading": _mdeg_angle(phi), "quality": 0 if valid else NAV350_NO_POSITION,
+        "reflectors_used": 0 if info is None else info.used_reflectors, "valid": valid,
+        "error_code": data.error_code,
+    }
+    if info is not None:
+        msg.update(device_time_ms=info.timestamp_ms, mean_dev=info.mean_dev,
+                   nav_mode=info.nav_mode, info_state=info.info_state,
+                   output_mode=info.output_mode)
+        ns = host_ns_of_tick(info.timestamp_ms)
+        if ns is not None:
+            msg["device_stamp"] = stamp(ns)
+    return msg
+
+
+def nav350_scan_message(data: PoseData, received_ns: int,
+                 host_ns_of_tick: Callable[[int], int | None],
+                 map_id: Mapping[int, int] | None = None) -> dict[str, Any] | None:
+    """The ``lgvtool.ReflectorScan`` of a reply's landmark block (None without one): every
+    landmark with a polar measurement; ``map_id`` turns the device's global ids into map ids
+    (None: the same; a global id not in it: -1)."""
+    block = data.landmarks
+    if block is None:
+        return None
+    marks = [m for m in block.landmarks if m.polar is not None]
+    ticks = [m.info.timestamp_ms for m in marks if m.info is not None]
+    start_tick: int | None = None
+    if data.scans:
+        start_tick = data.scans[0].timestamp_ms
+    elif ticks:
+        start_tick = min(ticks, key=lambda t: (t - ticks[0] + 2**31) % 2**32)
+    start_ns = None if start_tick is None else host_ns_of_tick(start_tick)
+    if start_ns is None:
+        start_ns = received_ns - round(NAV350_SCAN_PERIOD * 1e9)
+    observations = []
+    for m in marks:
+        assert m.polar is not None
+        dist, phi = m.polar
+        o: dict[str, Any] = {"range": dist / 1000.0, "bearing": _mdeg_angle(phi),
+                             "time_in_scan": 0.0, "id": -1}
+        info = m.info
+        if info is not None:
+            gid = info.global_id
+            o["id"] = (gid if gid != 0xFFFF else -1) if map_id is None else map_id.get(gid, -1)
+            if start_tick is not None:
+                dt = ((info.timestamp_ms - start_tick + 2**31) % 2**32 - 2**31) / 1000.0
+                o["time_in_scan"] = max(0.0, dt)
+            o.update(local_id=info.local_id, global_id=gid, quality=info.quality,
+                     device_time_ms=info.timestamp_ms)
+        observations.append(o)
+    msg: dict[str, Any] = {"timestamp": stamp(start_ns), "scan_period": NAV350_SCAN_PERIOD,
+                           "observations": observations}
+    if start_tick is not None:
+        msg["device_time_ms"] = start_tick
+    return msg

@@ -6,7 +6,6 @@ Pure functions; the reader raises :class:`lgvtool.errors.LogFormatError` with th
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
@@ -54,9 +53,3 @@ def check_finite(topic: str, columns: Mapping[str, Sequence[float] | Any]) -> No
         if arr.size and not bool(np.isfinite(arr).all()):
             bad = float(arr[~np.isfinite(arr)][0])
             raise ValueError(f"topic {topic}: field {name!r} holds {bad} (not a finite number)")
-
-
-def finite(value: Any) -> bool:
-    """Whether ``value`` is a finite real number (bools excluded)."""
-    return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value))

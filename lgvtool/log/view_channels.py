@@ -19,6 +19,7 @@ import orjson
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
 from lgvtool.log.windows import Source, constant, source
+from lgvtool.timestamps import from_stamp
 
 if TYPE_CHECKING:
     import numpy as np
@@ -42,7 +43,7 @@ def _scan_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
     in scan (s)."""
     obs = [d.get("observations", []) for d in docs]
     flat = [o for os in obs for o in os]
-    return ([d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"] for d in docs],
+    return ([from_stamp(d["timestamp"]) for d in docs],
             [len(os) for os in obs], [float(o["range"]) for o in flat],
             [float(o["bearing"]) for o in flat], [int(o.get("id", -1)) for o in flat],
             [float(o.get("time_in_scan", 0.0)) for o in flat])

@@ -5,17 +5,17 @@ Modules, one purpose each:
 - :mod:`~lgvtool.sim.kinematics`: the tricycle model, integrated as exact arcs;
 - :mod:`~lgvtool.sim.routes`, :mod:`~lgvtool.sim.scenarios`: routes, speed profiles and the
   scenario catalogue;
-- :mod:`~lgvtool.sim.mcu_model`, :mod:`~lgvtool.sim.mcu_link`: encoders, gyro, drive unit,
-  MCU clock and its serial link;
-- :mod:`~lgvtool.sim.nav_model`: the NAV200 head (one instant per reflector) and its pose fit;
-  :mod:`~lgvtool.sim.nav_device`: its replies to host requests;
-  :mod:`~lgvtool.sim.nav_link`: the host polling it;
-- :mod:`~lgvtool.sim.links`: serial timing and read chunking;
+- :mod:`~lgvtool.sim.mcu_model`: encoders, gyro, drive unit and MCU clock (its serial link is
+  the MCU family's :mod:`lgvtool.devices.mcu.mcu_simlink`);
+- :mod:`~lgvtool.sim.nav_model`: the NAV200 head (one instant per reflector) and its pose fit
+  (the device answering the host is the family's shared model,
+  :mod:`lgvtool.devices.nav200.nav200_device`, polled by :mod:`lgvtool.devices.nav200.nav200_simlink`);
+- :mod:`~lgvtool.sim.serial_timing`: serial timing and read chunking;
   :mod:`~lgvtool.sim.faults`: landmarks, occlusions and injected faults;
 - :mod:`~lgvtool.sim.settings`: every setting and ``--set`` overrides;
-- :mod:`~lgvtool.sim.simulation`: resolve settings and run; :mod:`~lgvtool.sim.event_stream`: the run as a
-  time-ordered device-side event stream (for emulators); :mod:`~lgvtool.sim.logfile`: the run
-  as a log.
+- :mod:`~lgvtool.sim.simulation`: resolve settings and run; :mod:`~lgvtool.sim.event_stream`:
+  the run as a time-ordered device-side event stream (for emulators);
+  :mod:`~lgvtool.sim.logfile`: the run as a log.
 
 Typical use::
 
@@ -39,7 +39,6 @@ _EXPORTS: dict[str, str] = {
     "TruthSample": "lgvtool.sim.event_stream",
     "LogSummary": "lgvtool.sim.logfile",
     "write_log": "lgvtool.sim.logfile",
-    "Nav200Device": "lgvtool.sim.nav_device",
     "Setup": "lgvtool.sim.simulation",
     "Simulation": "lgvtool.sim.simulation",
     "resolve": "lgvtool.sim.simulation",

@@ -16,13 +16,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from lgvtool.angles import wrap_angle
+
 if TYPE_CHECKING:
     from lgvtool.sim.simulation import Simulation
 
 
 @dataclass(frozen=True, slots=True)
 class TruthSample:
-    """True pose of O at ``t``: x, y in m, heading in rad (wrapped to [-pi, pi))."""
+    """True pose of O at ``t``: x, y in m, heading in rad (wrapped to (-pi, pi])."""
 
     t: float
     x: float
@@ -84,7 +86,7 @@ def truth_samples(sim: Simulation, rate_hz: float) -> Iterator[TruthSample]:
     n = int(np.floor(sim.duration * rate_hz + 1e-9)) + 1
     t = np.arange(n, dtype=np.float64) / rate_hz
     x, y, th = sim.truth.pose_at(t)
-    th = (th + np.pi) % (2 * np.pi) - np.pi
+    th = wrap_angle(th)
     for i in range(n):
         yield TruthSample(float(t[i]), float(x[i]), float(y[i]), float(th[i]))
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +22,17 @@ from lgvtool.sim.settings import FaultSettings
 
 FALSE_ID = -1
 """Id of the shiny false reflector in reflector scans."""
+
+
+@dataclass(frozen=True)
+class FaultEvent:
+    """A fault the simulator injected, at time ``t`` (s), for /diagnostics."""
+
+    t: float
+    source: str
+    kind: str
+    message: str
+    details: dict[str, object] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

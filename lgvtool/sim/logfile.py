@@ -2,8 +2,10 @@
 
 The host side of the run goes into the log in log-time order: raw reads and writes of both
 serial ports (/mcu/rx, /nav200/tx, /nav200/rx) in the chunks the ports delivered, the frames and
-poses decoded from those bytes by the same stream decoders the recorder uses (/mcu/frame,
-/nav/pose, with decoder errors on /diagnostics), the head's reflector observations per
+poses decoded from those bytes by the devices' log decoders, the one decoding path that
+``lgvtool decode`` and the recorder use (:mod:`lgvtool.devices.log_decoding`: /mcu/frame,
+/nav/pose, with decoder errors on /diagnostics; what the end of the run completes is written
+at its end), the head's reflector observations per
 revolution (/nav/reflectors, logged when the revolution's solution is available), the ground
 truth of O (/truth/pose), the injected faults (/diagnostics, source 'simulator'), the reflector
 map and the metadata ('simulator' with every setting and the seed, and 'config').
@@ -15,14 +17,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from lgvtool.devices.device_registry import registration
+from lgvtool.devices.log_decoding import WriterOutput, decode_chunk, finish_decoding
 from lgvtool.log import LogWriter, topics
-from lgvtool.log.messages import pose_in_frame
+from lgvtool.log.messages import pose_in_frame, reflector_scan_message
 from lgvtool.sim.event_stream import nav_scans, truth_samples
 from lgvtool.sim.simulation import Simulation
-from lgvtool.timestamps import stamp
-from lgvtool.wire import McuStreamDecoder, Nav200HostSession, mcu_frame_message, nav_pose_message
-from lgvtool.wire.events import DecodeEvent
-from lgvtool.wire.nav200 import Pose, Reply
 
 # order of records that share a log time
 _TRUTH, _FAULT, _MCU, _NAV_TX, _NAV_RX, _SCAN = range(6)
@@ -41,15 +41,6 @@ class LogSummary:
     """Injected faults by kind."""
 
 
-def _scan_message(start_ns: int, period: float, obs: Any) -> dict[str, Any]:
-    return {
-        "timestamp": stamp(start_ns),
-        "scan_period": period,
-        "observations": [{"range": o.range, "bearing": o.bearing,
-                          "time_in_scan": o.time_in_scan, "id": o.id} for o in obs],
-    }
-
-
 def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | None = None,
               compression: str = "zstd") -> LogSummary:
     """Write ``sim`` to ``path`` (see the module docstring); return what was written."""
@@ -65,8 +56,9 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
     for chunk in sim.mcu_traffic.rx:
         add(chunk.t, _MCU, chunk)
     late = sim.settings.install.nav_time_offset_ms * 1e-3  # NAV-to-host time offset, s
-    if sim.settings.sim.nav_device == "nav350":  # the host side of a NAV350 instead
-        from lgvtool.devices.nav350.simlink import nav350_traffic
+    nav_family = sim.settings.sim.nav_device
+    if nav_family == "nav350":  # the host side of a NAV350 instead
+        from lgvtool.devices.nav350.nav350_simlink import nav350_traffic
 
         for t, direction, data in nav350_traffic(sim):
             add(t + late if direction == "rx" else t, _NAV_TX if direction == "tx" else _NAV_RX,
@@ -83,17 +75,18 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
             add(float(available[k]) + late, _SCAN, scan)
     records.sort(key=lambda r: (r[0], r[1], r[2]))
 
-    mcu_decoder = McuStreamDecoder()
-    nav350 = None
-    session = Nav200HostSession()
+    mcu = registration("mcu").log_decoder({})
+    nav = registration(nav_family).log_decoder({})
     with LogWriter(path, compression=compression, source="simulate", command=command) as w:
+        out = WriterOutput(w)
+
+        def feed(family: str, direction: str, decoder: Any, ns: int, data: bytes) -> None:
+            w.write_raw(family, direction, data, ns)
+            decode_chunk(decoder, topics.raw_topic(family, direction), data, ns, out)
+
         w.add_metadata("simulator", sim.metadata())
         w.write_config(sim.config)
         w.write_map(sim.config.reflectors, sim.start_ns)
-        if sim.settings.sim.nav_device == "nav350":
-            from lgvtool.devices.nav350.simlink import Nav350LogWriter
-
-            nav350 = Nav350LogWriter(w)
         for ns, order, _, payload in records:
             if order == _TRUTH:
                 w.write(topics.TRUTH, pose_in_frame(ns, payload.x, payload.y, payload.heading),
@@ -102,51 +95,18 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
                 w.write_diagnostic(payload.source, payload.kind, payload.message, ns, level=3,
                                    details=payload.details)
             elif order == _MCU:
-                _mcu_read(w, mcu_decoder, ns, payload.data)
-            elif nav350 is not None and order in (_NAV_TX, _NAV_RX):
-                nav350.chunk(ns, "tx" if order == _NAV_TX else "rx", payload)
-            elif order == _NAV_TX:
-                _nav_write(w, session, ns, payload.data)
-            elif order == _NAV_RX:
-                _nav_read(w, session, ns, payload.data)
+                feed("mcu", "rx", mcu, ns, payload.data)
+            elif order in (_NAV_TX, _NAV_RX):
+                data = payload if isinstance(payload, bytes) else payload.data
+                feed(nav_family, "tx" if order == _NAV_TX else "rx", nav, ns, data)
             else:
                 w.write(topics.NAV_REFLECTORS,
-                        _scan_message(sim.host_ns(payload.start + late), payload.period,
-                                      payload.observations), ns)
+                        reflector_scan_message(sim.host_ns(payload.start + late),
+                                               payload.period, payload.observations), ns)
         end_ns = sim.host_ns(sim.duration)
-        for frame in mcu_decoder.flush():
-            w.write(topics.MCU_FRAME, mcu_frame_message(frame, stamp(end_ns)), end_ns)
-        _diagnostics(w, mcu_decoder.pop_events(), end_ns)
-        session.flush()
-        _diagnostics(w, session.pop_events(), end_ns)
+        finish_decoding(mcu, out, end_ns)
+        finish_decoding(nav, out, end_ns)
         total = w.message_count
     return LogSummary(path=str(path), messages=total, duration_s=sim.duration,
                       faults=sim.fault_counts())
 
-
-def _diagnostics(w: LogWriter, events: list[DecodeEvent], ns: int) -> None:
-    for e in events:
-        w.write_diagnostic(e.source, e.kind, e.message, ns, level=e.level, count=e.count,
-                           details=e.details)
-
-
-def _mcu_read(w: LogWriter, decoder: McuStreamDecoder, ns: int, data: bytes) -> None:
-    w.write_raw("mcu", "rx", data, ns)
-    for frame in decoder.feed(data):
-        w.write(topics.MCU_FRAME, mcu_frame_message(frame, stamp(ns)), ns)
-    _diagnostics(w, decoder.pop_events(), ns)
-
-
-def _nav_write(w: LogWriter, session: Nav200HostSession, ns: int, data: bytes) -> None:
-    w.write_raw("nav200", "tx", data, ns)
-    session.sent(data)
-    _diagnostics(w, session.pop_events(), ns)
-
-
-def _nav_read(w: LogWriter, session: Nav200HostSession, ns: int, data: bytes) -> None:
-    w.write_raw("nav200", "rx", data, ns)
-    for exchange in session.feed(data):
-        reply = exchange.reply
-        if isinstance(reply, Reply) and isinstance(reply.payload, Pose):
-            w.write(topics.NAV_POSE, nav_pose_message(reply, stamp(ns)), ns)
-    _diagnostics(w, session.pop_events(), ns)

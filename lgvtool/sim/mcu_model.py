@@ -3,7 +3,7 @@
 Every ``period_s`` by its own (drifting) clock, give or take a little loop jitter, the MCU
 latches the cumulative counts of both encoders, takes the mean gyro rate over the frame
 interval, reads the drive unit's steering angle and wheel speed, and sends a version-1 frame
-(:mod:`lgvtool.wire.mcu`).
+(:mod:`lgvtool.devices.mcu.mcu_frame`).
 
 - Encoders: the count follows the wheel's true rolling distance divided by its *true* radius
   (nominal x (1 + wheel_radius_error)), plus a slip random walk, quantised at ``encoder_ppr``
@@ -21,9 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.config import Vehicle
+from lgvtool.devices.mcu.mcu_frame import McuFrame, McuStatus
 from lgvtool.sim.kinematics import FloatArray, Trajectory
 from lgvtool.sim.settings import McuSettings
-from lgvtool.wire.mcu import McuFrame, McuStatus
 
 
 @dataclass(frozen=True)

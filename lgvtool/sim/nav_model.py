@@ -23,6 +23,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import TWO_PI, wrap_angle
 from lgvtool.config import Vehicle
 from lgvtool.sim.faults import Landmarks, Occlusions
 from lgvtool.sim.kinematics import FloatArray, Trajectory
@@ -30,14 +31,6 @@ from lgvtool.sim.settings import NavSettings
 
 NO_POSITION = 0xFF
 """Quality byte of a scan without a valid position."""
-
-TWO_PI = 2.0 * math.pi
-
-
-def wrap_pi(a: FloatArray) -> FloatArray:
-    """Angles wrapped into [-pi, pi), rad."""
-    return (a + math.pi) % TWO_PI - math.pi
-
 
 @dataclass(frozen=True)
 class Scans:
@@ -56,7 +49,7 @@ class Scans:
     range: FloatArray
     """Measured range to the landmark centre, m."""
     bearing: FloatArray
-    """Measured bearing in the head frame, CCW from the head's x axis, rad in [-pi, pi)."""
+    """Measured bearing in the head frame, CCW from the head's x axis, rad in (-pi, pi]."""
     landmark: NDArray[np.intp]
     """Landmark index of each column (the same for every scan)."""
     matched: NDArray[np.intp]
@@ -77,7 +70,7 @@ class Solutions:
     x: FloatArray
     y: FloatArray
     heading: FloatArray
-    """Head heading, rad in [-pi, pi)."""
+    """Head heading, rad in (-pi, pi]."""
     used: NDArray[np.int64]
     """Matched reflectors used in the fit."""
     valid: NDArray[np.bool_]
@@ -141,7 +134,7 @@ def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmar
         grid)
     sigma_r = (nav.sigma_range_mm + nav.sigma_range_per_m_mm * true_range) * 1e-3
     meas_range = centre_range + scale * sigma_r * n_range
-    meas_bearing = wrap_pi(centre_bearing
+    meas_bearing = wrap_angle(centre_bearing
                            + scale * math.radians(nav.sigma_bearing_deg) * n_bearing)
     landmark = np.broadcast_to(np.arange(m)[None, :], (s, m))
     in_range = (true_range >= nav.range_min) & (true_range <= nav.range_max)
@@ -249,7 +242,7 @@ def compensate(scans: Scans, rows: NDArray[np.intp], vx: float, vy: float, omega
     py = vy * dt + scans.range[rows] * np.sin(turned)
     return replace(scans, start=scans.start[rows], seen=scans.seen[rows],
                    time_in_scan=scans.time_in_scan[rows], range=np.hypot(px, py),
-                   bearing=wrap_pi(np.arctan2(py, px)), matched=scans.matched[rows],
+                   bearing=wrap_angle(np.arctan2(py, px)), matched=scans.matched[rows],
                    hidden=scans.hidden[rows])
 
 
@@ -289,7 +282,7 @@ def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
         q = np.where(use, dx * dx + dy * dy, 1.0)
         r = np.sqrt(q)
         res_r = np.where(use, scans.range - r, 0.0)
-        res_b = np.where(use, wrap_pi(scans.bearing - (np.arctan2(dy, dx) - th[:, None])), 0.0)
+        res_b = np.where(use, wrap_angle(scans.bearing - (np.arctan2(dy, dx) - th[:, None])), 0.0)
         jr = np.stack([-dx / r, -dy / r, np.zeros_like(r)], axis=-1)
         jb = np.stack([dy / q, -dx / q, -np.ones_like(r)], axis=-1)
         wr_j = (w * wr)[:, :, None]
@@ -303,13 +296,13 @@ def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
     dx, dy = mx - x[:, None], my - y[:, None]
     r = np.hypot(dx, dy)
     res_r = np.where(use, scans.range - r, 0.0)
-    res_b = np.where(use, wrap_pi(scans.bearing - (np.arctan2(dy, dx) - th[:, None])), 0.0)
+    res_b = np.where(use, wrap_angle(scans.bearing - (np.arctan2(dy, dx) - th[:, None])), 0.0)
     sq = res_r ** 2 + (r * res_b) ** 2
     rms = np.sqrt(sq.sum(axis=1) / np.maximum(n_used, 1))
     quality = np.clip(np.round(100.0 * (1.0 - rms / (nav.quality_rms_mm * 1e-3))), 0, 100)
     quality = np.where(valid, quality, NO_POSITION).astype(np.int64)
     false_used = (use & marks.is_false[None, :]).any(axis=1) & valid
     return Solutions(available=scans.start + scans.period + nav.latency_s,
-                     x=x, y=y, heading=wrap_pi(th), used=n_used.astype(np.int64),
+                     x=x, y=y, heading=wrap_angle(th), used=n_used.astype(np.int64),
                      valid=valid, quality=quality, rms=np.where(valid, rms, np.nan),
                      false_used=false_used)

@@ -34,7 +34,7 @@ class RunSettings:
     """Master switch: false turns off every random error (NAV, MCU, timing jitter)."""
     nav_device: str = "nav200"
     """The laser device of the log: 'nav200' (serial, polled PP) or 'nav350' (SOPAS over
-    Ethernet, pose and landmarks of every revolution; lgvtool.devices.nav350.simlink)."""
+    Ethernet, pose and landmarks of every revolution; lgvtool.devices.nav350.nav350_simlink)."""
 
 
 @dataclass(frozen=True)

@@ -19,17 +19,20 @@ from typing import Any
 import numpy as np
 
 from lgvtool.config import Config, Vehicle, config_from_dict, default_config
+from lgvtool.devices.mcu import mcu_simlink
+from lgvtool.devices.nav200 import nav200_simlink
+from lgvtool.devices.nav200.nav200_device import Nav200Device
+from lgvtool.devices.nav200.nav200_simlink import NavTraffic
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.sim import event_stream as ev
 from lgvtool.sim import faults as faultlib
-from lgvtool.sim import mcu_link, mcu_model, nav_link, nav_model
-from lgvtool.sim.faults import Landmarks, Occlusions
+from lgvtool.sim import mcu_model, nav_model
+from lgvtool.sim.faults import FaultEvent, Landmarks, Occlusions
 from lgvtool.sim.kinematics import Trajectory, integrate
 from lgvtool.sim.mcu_model import McuOutput
-from lgvtool.sim.nav_device import Nav200Device
-from lgvtool.sim.nav_link import FaultEvent, NavTraffic
 from lgvtool.sim.scenarios import Plan, Scenario, get_scenario
 from lgvtool.sim.settings import InstallSettings, SimSettings, apply_overrides, flatten
+from lgvtool.timestamps import seconds_to_ns
 
 STREAMS = ("landmarks", "mcu", "mcu_link", "nav", "nav_link", "faults")
 """Names of the random streams spawned from the seed, in spawn order."""
@@ -88,7 +91,7 @@ class Simulation:
     solutions: nav_model.Solutions
     device: Nav200Device
     mcu: McuOutput
-    mcu_traffic: mcu_link.McuTraffic
+    mcu_traffic: mcu_simlink.McuTraffic
     nav_traffic: NavTraffic
     faults: tuple[FaultEvent, ...]
     """Every injected fault, in time order."""
@@ -120,7 +123,7 @@ class Simulation:
 
     def host_ns(self, t: float) -> int:
         """Host time of simulation time ``t`` s, integer ns since the Unix epoch."""
-        return self.start_ns + round(t * 1e9)
+        return self.start_ns + seconds_to_ns(t)
 
     def fault_counts(self) -> dict[str, int]:
         """How many faults of each kind were injected."""
@@ -221,11 +224,11 @@ def run(setup: Setup, seed: int) -> Simulation:
     scans = nav_model.measure(truth, vehicle, s.nav, marks, occl, s.nav_noise,
                               s.faults.false_detection_probability, rngs["nav"])
     solutions = nav_model.solve(scans, truth, vehicle, s.nav, marks)
-    device = Nav200Device(solutions, cfg.reflectors)
+    device = nav200_simlink.simulated_device(solutions, cfg.reflectors)
     mcu = mcu_model.simulate(truth, vehicle, s.mcu, s.mcu_noise, rngs["mcu"])
-    mcu_traffic = mcu_link.simulate(mcu, s.mcu, s.faults, s.mcu_noise, rngs["mcu_link"],
+    mcu_traffic = mcu_simlink.simulate(mcu, s.mcu, s.faults, s.mcu_noise, rngs["mcu_link"],
                                     rngs["faults"])
-    nav_traffic = nav_link.simulate(device, s.nav, s.faults, truth.duration, s.nav_noise,
+    nav_traffic = nav200_simlink.simulate(device, s.nav, s.faults, truth.duration, s.nav_noise,
                                     rngs["nav_link"], rngs["faults"])
     all_faults = [*_landmark_faults(marks, occl, scans, solutions), *mcu_traffic.faults,
                   *nav_traffic.faults]

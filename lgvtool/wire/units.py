@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from lgvtool.wire.errors import EncodeError
+from lgvtool.wire.wire_errors import EncodeError
 
 #: NAV200 heading units per radian: 65536 per revolution, so 32768/pi.
 HEADING_UNITS_PER_RAD = 32768.0 / math.pi

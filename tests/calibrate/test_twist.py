@@ -5,6 +5,7 @@ and the calibrated odometry scales are the robot's over seconds, not those of 0.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -53,7 +54,7 @@ def _commanded_drive(seed: int = 5) -> LogData:
     return LogData(0, tuple(marks), twist={"t": t, "v": v_cmd, "omega": w_cmd}, scans=scans)
 
 
-def _scales(data: LogData, **prep: float) -> dict[str, float]:
+def _scales(data: LogData, **prep: Any) -> dict[str, float]:
     drive = prepare("cmd", data, data.reflectors, **prep)
     vehicle = Vehicle(nav_x=0.0)
     start = {n: float(getattr(vehicle, n)) for n in QUANTITIES}

@@ -13,8 +13,9 @@ import time
 from pathlib import Path
 
 from lgvtool.config import Vehicle, paper_hall_reflectors
-from lgvtool.sim.emulate import McuChunk, Playback, PoseFix
-from lgvtool.wire.mcu import McuFrame
+from lgvtool.devices.mcu.mcu_frame import McuFrame
+from lgvtool.devices.nav200.nav200_device import PoseFix
+from lgvtool.sim.emulate import McuChunk, Playback
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -8,7 +8,7 @@ import tty
 
 import pytest
 
-from lgvtool.devices.links import (
+from lgvtool.devices.device_links import (
     MCU_SERIAL_DEFAULTS,
     LinkDown,
     LinkURLError,

@@ -7,8 +7,9 @@ import math
 from devices_helpers import circle_playback
 
 from lgvtool.config import Vehicle
-from lgvtool.devices.mcu_link import McuLink, head_velocity, motion_between
-from lgvtool.wire.mcu import McuFrame, McuStatus, decode_mcu_frame
+from lgvtool.devices.head_speed import head_velocity
+from lgvtool.devices.mcu.mcu_frame import McuFrame, McuStatus, decode_mcu_frame
+from lgvtool.devices.mcu.mcu_session import McuLink, motion_between
 
 
 def test_frames_in_any_chunking_and_gaps_reported() -> None:

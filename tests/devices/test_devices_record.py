@@ -28,8 +28,8 @@ from devices_helpers import (
     wait_for,
 )
 
+from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
 from lgvtool.log import LogReader, topics
-from lgvtool.wire.mcu_stream import McuStreamDecoder
 
 POSE_TELEGRAM = 17
 POSE_REQUEST = 11

@@ -11,11 +11,11 @@ from pathlib import Path
 import pytest
 from devices_helpers import Procs, circle_playback, messages, raw_stream
 
+from lgvtool.devices.mcu.mcu_emulator import VirtualMcu
 from lgvtool.errors import InputError
 from lgvtool.log import LogWriter, topics
 from lgvtool.sim.emulate import (
     Fault,
-    VirtualMcu,
     parse_fault,
     playback_from_log,
     playback_from_scenario,

@@ -6,18 +6,23 @@ import math
 
 from devices_helpers import circle_playback
 
-from lgvtool.devices.nav200_session import (
+from lgvtool.devices.nav200.nav200_commands import Request
+from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
+from lgvtool.devices.nav200.nav200_payloads import SpeedOmega
+from lgvtool.devices.nav200.nav200_replies import (
+    build_ack_reply,
+    build_error_reply,
+    build_serial_reply,
+)
+from lgvtool.devices.nav200.nav200_session import (
     DeviceIdentity,
-    DeviceSilent,
     MapUploaded,
     Nav200Session,
     Nav200Settings,
     PoseReceived,
-    PositioningEntered,
 )
-from lgvtool.sim.emulate import VirtualNav200
-from lgvtool.wire import nav200 as proto
-from lgvtool.wire.events import DecodeEvent
+from lgvtool.devices.session_events import DeviceSilent, PositioningEntered
+from lgvtool.wire.decode_events import DecodeEvent
 
 PLAYBACK = circle_playback(10.0)
 
@@ -90,7 +95,7 @@ def test_speed_input_uses_pw_with_rev_units() -> None:
     assert "Pw" in w.sent and "PP" not in w.sent
     _, code, payload = w.device.speed_inputs[0]
     assert code == "Pw"
-    assert isinstance(payload, proto.SpeedOmega)
+    assert isinstance(payload, SpeedOmega)
     assert (payload.vx_mm_s, payload.vy_mm_s) == (500, 200)
     assert payload.omega_raw == round(0.1 * 32768 / math.pi)
     # stale odometry: plain PP
@@ -143,9 +148,9 @@ def test_refused_sliding_mean_falls_back_to_pa() -> None:
     # a device that refuses PN: answer PN with an error reply
     real = w.device.answer
 
-    def answer(request: proto.Request, t: float) -> bytes:
+    def answer(request: Request, t: float) -> bytes:
         if request.code == "PN":
-            return proto.build_error_reply(request, 1, 7, 2)
+            return build_error_reply(request, 1, 7, 2)
         return real(request, t)
 
     w.device.answer = answer  # type: ignore[method-assign]
@@ -162,7 +167,7 @@ def test_unexpected_and_garbled_replies_are_diagnosed() -> None:
     req = session.poll(0.0)
     assert req is not None and req.code == "SA"
     # garbage, a reply nobody asked for, then the right reply
-    session.feed(b"\x02\x03\xffnoise" + proto.build_serial_reply(7) + proto.build_ack_reply("SA"),
+    session.feed(b"\x02\x03\xffnoise" + build_serial_reply(7) + build_ack_reply("SA"),
                  0.01)
     kinds = [e.kind for e in session.pop_events() if isinstance(e, DecodeEvent)]
     assert "unexpected_reply" in kinds and "bytes_skipped" in kinds

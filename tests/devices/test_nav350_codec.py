@@ -7,10 +7,10 @@ from array import array
 
 import pytest
 
-from lgvtool.devices.nav350 import telegrams as tg
-from lgvtool.devices.nav350.cola import ASCII, BINARY, encode_frame, parse_frame, xor_checksum
-from lgvtool.devices.nav350.stream import Nav350StreamDecoder
-from lgvtool.wire.errors import BadLengthError, ChecksumError
+from lgvtool.devices.nav350 import nav350_telegrams as tg
+from lgvtool.devices.nav350.nav350_cola import ASCII, BINARY, encode_frame, parse_frame, xor_checksum
+from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
+from lgvtool.wire.wire_errors import BadLengthError, ChecksumError
 
 
 def h(text: str) -> bytes:

@@ -7,11 +7,11 @@ import random
 
 import pytest
 
-from lgvtool.devices.nav350 import telegrams as tg
-from lgvtool.devices.nav350.clock import ClockEstimator, unwrap_ms
-from lgvtool.devices.nav350.cola import ASCII, BINARY
-from lgvtool.devices.nav350.device import Nav350Device, Observation, Revolution, RevolutionSource
-from lgvtool.devices.nav350.session import (
+from lgvtool.devices.nav350 import nav350_telegrams as tg
+from lgvtool.devices.nav350.nav350_clock import ClockEstimator, unwrap_ms
+from lgvtool.devices.nav350.nav350_cola import ASCII, BINARY
+from lgvtool.devices.nav350.nav350_device import Nav350Device, Observation, Revolution, RevolutionSource
+from lgvtool.devices.nav350.nav350_session import (
     ClockRead,
     Nav350Session,
     Nav350Settings,
@@ -19,7 +19,7 @@ from lgvtool.devices.nav350.session import (
     PoseDataReceived,
     SessionFatal,
 )
-from lgvtool.devices.nav350.stream import Nav350StreamDecoder
+from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 
 
 def revolutions(n: int = 400, period: float = 0.125) -> RevolutionSource:
@@ -186,8 +186,8 @@ def test_session_reports_error_codes_and_restarts_on_wrong_mode() -> None:
     dev = device()
     dev.faults.error_code, dev.faults.error_until = 5, 3.0
     events = run_session(dev, Nav350Settings(restart_after=100), 4.0)
-    codes = [e.details["error_code"] for e in events if getattr(e, "kind", "") ==
-             "device_error_code"]
+    codes = [getattr(e, "details", {})["error_code"] for e in events
+             if getattr(e, "kind", "") == "device_error_code"]
     assert codes and set(codes) == {5}
     dev = device()
     session_events = run_session(dev, Nav350Settings(), 1.5)

@@ -10,10 +10,10 @@ from pathlib import Path
 import jsonschema
 import pytest
 
-from lgvtool.devices.nav350.loopback import loopback
+from lgvtool.devices.nav350.nav350_loopback import loopback
 from lgvtool.log import LogReader
 from lgvtool.log.schemas import schema_json
-from lgvtool.sim.emulate.playback import playback_from_scenario
+from lgvtool.sim.emulate.emulator_playback import playback_from_scenario
 
 FAULTS = ("garbage:nav350:2:400", "badsum:nav350:3:2", "sfa:nav350:4:13",
           "error:nav350:8.5:0.5:7", "drop:nav350:5.5:1.5")
@@ -99,8 +99,8 @@ def test_speed_input_is_stamped_in_the_nav350_clock(tmp_path: Path) -> None:
 
 
 def test_a_refused_login_stops_the_recording_with_one_line(tmp_path: Path, monkeypatch) -> None:
-    from lgvtool.devices.nav350 import device as device_module
-    from lgvtool.devices.nav350.worker import Nav350Stopped
+    from lgvtool.devices.nav350 import nav350_device as device_module
+    from lgvtool.devices.nav350.nav350_worker import Nav350Stopped
 
     monkeypatch.setattr(device_module, "PASSWORD_CLIENT", 0x1)
     pb = playback_from_scenario("paper-circle", seed=4, duration=10.0)
@@ -119,9 +119,9 @@ def test_served_nav350_answers_the_vendor_sequence_over_tcp(dialect: str) -> Non
     import socket
     import time
 
-    from lgvtool.devices.nav350 import telegrams as tg
-    from lgvtool.devices.nav350.stream import Nav350StreamDecoder
-    from lgvtool.sim.emulate.server import EmulatorServer
+    from lgvtool.devices.nav350 import nav350_telegrams as tg
+    from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
+    from lgvtool.sim.emulate.emulator_server import EmulatorServer
 
     pb = playback_from_scenario("paper-circle", seed=2, duration=10.0)
     server = EmulatorServer(pb, nav=None, mcu=None, nav350="tcp://127.0.0.1:0", wait=False)

@@ -8,7 +8,7 @@ import pytest
 
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.log import LogReader, topics
-from lgvtool.sim.emulate.server import parse_fault
+from lgvtool.sim.emulate.emulator_server import parse_fault
 
 
 def test_simulate_nav350_mode_logs_the_traffic_and_what_it_decodes_to(tmp_path: Path,
@@ -74,7 +74,7 @@ def test_bad_nav350_fault_specs(spec: str) -> None:
 
 
 def test_port_spec_clock_parameters() -> None:
-    from lgvtool.devices.nav350.emulator import split_port_spec
+    from lgvtool.devices.nav350.nav350_emulator import split_port_spec
 
     assert split_port_spec("tcp://h:1?drift_ppm=50&offset_ms=7") == (
         "tcp://h:1", {"drift_ppm": 50.0, "offset_ms": 7.0})
@@ -84,7 +84,7 @@ def test_port_spec_clock_parameters() -> None:
 
 
 def test_raw_topics_are_registered() -> None:
-    from lgvtool.devices.nav350 import registration
+    from lgvtool.devices.nav350 import nav350_registration as registration
 
     assert topics.schema_for_topic(registration.RX) == "lgvtool.RawBytes"
     assert topics.raw_topic("nav350", "tx") == registration.TX

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+from typing import Any
 
 import pytest
 from evaluate_synth import DELTA, H, circle_drive
@@ -94,6 +95,7 @@ def test_baseline(doc) -> None:
 
 
 def test_baseline_of_another_shape(doc) -> None:
+    bad: Any
     for bad in ([], {"estimators": {}}, {"format": "lgvtool.evaluation", "estimators": [1]},
                 {"format": "other"}):
         with pytest.raises(InputError, match="not an lgvtool evaluation"):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from typing import Any
 
 import pytest
 
@@ -11,7 +12,7 @@ from lgvtool.errors import InputError
 from lgvtool.fleet.engine import Outcome
 from lgvtool.fleet.keys import HashCache, file_sha256, task_key
 from lgvtool.fleet.results import TaskStore, is_final, summary_table, task_record, tidy_table
-from lgvtool.fleet.stats import describe, t_quantile
+from lgvtool.fleet.stats import describe
 from lgvtool.fleet.tasks import (
     SweepTask,
     build_tasks,
@@ -21,6 +22,7 @@ from lgvtool.fleet.tasks import (
     missing_files,
     parse_grid,
 )
+from lgvtool.quantiles import t_quantile
 
 
 def test_file_hash_is_streamed_sha256(tmp_path):
@@ -44,11 +46,12 @@ def test_hash_cache_remembers_until_the_file_changes(tmp_path):
 
 
 def test_task_key_covers_every_input():
-    base = dict(log_sha256="ab" * 32, kind="evaluate", estimators=["pf", "laser"],
+    base: dict[str, Any] = dict(log_sha256="ab" * 32, kind="evaluate", estimators=["pf", "laser"],
                 settings={"pf.particles": 100}, seed=1)
     key = task_key(**base)
     assert key == task_key(**{**base, "estimators": ["laser", "pf"]})
     assert len(key) == 64
+    change: dict[str, Any]
     for change in ({"seed": 2}, {"settings": {"pf.particles": 200}}, {"log_sha256": "cd" * 32},
                    {"estimators": ["pf"]}, {"kind": "other"}, {"version": "9.9.9"},
                    {"extra": {"config_sha256": "00"}}):
@@ -143,6 +146,7 @@ def test_tidy_and_summary_tables(tmp_path):
                         estimators=["laser", "pf"])
     store = TaskStore(tmp_path / "out")
     records = {}
+    out: Outcome[Any, Any]
     for i, t in enumerate(tasks):
         if t.label.endswith("bad.mcap"):
             out = Outcome(i, t, None, "LogFormatError: not an MCAP file", input_error=True)
@@ -197,7 +201,7 @@ def test_report_draws_each_varying_figure_against_each_swept_parameter(tmp_path)
         out = (Outcome(i, t, None, "MissingDataError: no <motion>", input_error=True) if bad else
                Outcome(i, t, document_metrics(_doc(t.settings["pf.particles"] + t.seed, 0.01))))
         records[t.key] = task_record(t, out, "evaluate")
-    grid = {"pf.particles": [10, 20, 40], "pf.init": ["uniform", "laser"]}
+    grid: dict[str, list[Any]] = {"pf.particles": [10, 20, 40], "pf.init": ["uniform", "laser"]}
     tidy = tidy_table(tasks, records, grid_keys=list(grid))
     page = render_report(tidy, grid=grid, metrics=metric_columns(tidy, list(grid)),
                          facts={"tasks": len(tasks)})

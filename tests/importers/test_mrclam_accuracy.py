@@ -178,7 +178,7 @@ def test_ekf_meets_the_target_on_every_robot(mrclam_data: Path, tmp_path: Path,
 @pytest.mark.mrclam
 @pytest.mark.slow
 def test_pf_on_one_full_robot_stays_under_its_bound(mrclam_data: Path, tmp_path: Path) -> None:
-    from lgvtool.commands.evaluate import evaluate_log
+    from lgvtool.app.evaluate_job import evaluate_log
     from lgvtool.evaluate.document import build_document
     from lgvtool.importers.mrclam_log import import_robot
     from lgvtool.localize import run_replay

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from lgvtool.importers.mrclam import MrclamDataset
-from lgvtool.importers.mrclam_quirks import ImportSettings, prepare_run, seconds_to_ns
+from lgvtool.importers.mrclam_quirks import ImportSettings, prepare_run
+from lgvtool.timestamps import seconds_to_ns_array
 
 NS = 1_000_000_000
 
@@ -25,7 +26,7 @@ def prepared(root: Path, robot: int = 1, settings: ImportSettings | None = None)
 
 def test_seconds_to_ns_is_exact_to_the_microsecond() -> None:
     t = np.array([1248444187.156, 1248444946.976, 1248445075.103, 1248444175.000001])
-    assert seconds_to_ns(t).tolist() == [1248444187156000000, 1248444946976000000,
+    assert seconds_to_ns_array(t, 1000).tolist() == [1248444187156000000, 1248444946976000000,
                                          1248445075103000000, 1248444175000001000]
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from lgvtool.commands.evaluate import evaluate_log
+from lgvtool.app.evaluate_job import evaluate_log
 from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
 from lgvtool.interop.trajectory_export import export_log

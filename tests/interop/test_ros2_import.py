@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from ros2_bags import Bag, bag_from_log
 
-from lgvtool.commands.evaluate import evaluate_log
+from lgvtool.app.evaluate_job import evaluate_log
 from lgvtool.config import to_toml
 from lgvtool.interop.ros2_import import import_bag
 from lgvtool.log import LogReader, topics

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from localize_synth import circle_log
 
-from lgvtool.localize.ekf import KERNELS_ENV
+from lgvtool.localize.kernel_choice import KERNELS_ENV
 from lgvtool.localize.replay_driver import replay_data
 
 pytest.importorskip("numba")

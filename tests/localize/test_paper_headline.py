@@ -5,11 +5,12 @@ skew (the reading that takes a revolution's reflectors at one instant)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-from lgvtool.commands.evaluate import evaluate_log
+from lgvtool.app.evaluate_job import evaluate_log
 from lgvtool.localize.replay_driver import load_log, replay_data
 from lgvtool.log import LogReader
 from lgvtool.sim.logfile import write_log
@@ -74,7 +75,7 @@ def test_the_papers_literal_start_is_reachable_by_settings(tmp_path: Path) -> No
 
     p = resolve_params("pf-paper", {}, {"start_updates": 0, "deskew": "false"})
     assert (p.start_updates, p.deskew, p.particles) == (0, False, 150)
-    est = ESTIMATORS["pf-paper"](params=p, rng=np.random.default_rng(0))
+    est: Any = ESTIMATORS["pf-paper"](params=p, rng=np.random.default_rng(0))
     assert len(est.z) == 150  # the paper's 150 particles from the start
-    default = ESTIMATORS["pf-paper"](rng=np.random.default_rng(0))
+    default: Any = ESTIMATORS["pf-paper"](rng=np.random.default_rng(0))
     assert len(default.z) == default.params.start_particles

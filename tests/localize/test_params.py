@@ -7,9 +7,9 @@ import pytest
 
 from lgvtool.errors import InputError
 from lgvtool.localize import ESTIMATORS, ParticleFilter
-from lgvtool.localize.chi2 import chi2_cdf, chi2_quantile
 from lgvtool.localize.geometry import nav_to_o, o_to_nav
 from lgvtool.localize.registry import resolve_params, split_settings
+from lgvtool.quantiles import chi2_cdf, chi2_quantile
 
 
 def test_split_settings() -> None:

@@ -125,7 +125,8 @@ def test_a_large_uniform_start_shrinks_after_its_updates() -> None:
 def test_a_large_uniform_start_lands_nearer_the_truth() -> None:
     """Over five seeds, 8000 start particles end nearer the pose than 500 from the start."""
     obs = scan_from(TRUE_POSE, nearest_ids(3))
-    large, plain = [], []
+    large: list[float] = []
+    plain: list[float] = []
     for seed in range(5):
         for errors, kw in ((large, {"start_particles": 8000, "start_updates": 3}),
                            (plain, {})):

@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 from simlogs import simulate_log
 
+from lgvtool.devices.nav200.nav200_commands import Reply
+from lgvtool.devices.nav200.nav200_payloads import Pose
+from lgvtool.devices.nav200.nav200_replies import build_pose_reply
+from lgvtool.devices.nav200.nav200_stream import Nav200ReplyDecoder
 from lgvtool.localize.gate import gate_poses
 from lgvtool.localize.logdata import load_log
 from lgvtool.localize.replay_driver import apply_pose_gate, replay_data
 from lgvtool.log import LogReader, topics
-from lgvtool.wire.nav200_commands import Reply
-from lgvtool.wire.nav200_payloads import Pose
-from lgvtool.wire.nav200_replies import build_pose_reply
-from lgvtool.wire.nav200_stream import Nav200ReplyDecoder
 
 
 @pytest.fixture(scope="module")

@@ -4,6 +4,7 @@ motions and preparations give exactly what the whole-log construction gives."""
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
@@ -84,7 +85,7 @@ def test_observation_stream_equals_the_sorted_list(data, deskew: bool,
 def test_blockwise_map_equals_one_call() -> None:
     obs = list(range(50))
 
-    def prepare(part: list[int]) -> dict[int, int]:
+    def prepare(part: Sequence[int]) -> dict[int, int]:
         return {i: 10 * v for i, v in enumerate(part) if v % 3}
 
     m = obsstream.BlockwiseMap(prepare, obs, block=8)

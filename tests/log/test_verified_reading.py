@@ -99,7 +99,7 @@ def test_corrupt_chunk_is_not_copied_by_replay_decode_recover(simulated: Path, t
         said = res.stderr + (res.stdout if args[0] == "recover" else "")
         assert ("is corrupt" in said or "1 corrupt chunks skipped" in said), said
         assert "Traceback" not in res.stderr
-        out = Path(args[3])
+        out = Path(str(args[3]))
         # what was written is sound for an independent reader that checks every CRC
         with open(out, "rb") as f:
             list(make_reader(f, validate_crcs=True).iter_messages())

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from itertools import pairwise
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -35,7 +36,7 @@ def _replay(sim: Path, out: Path, window_ns: int, monkeypatch: pytest.MonkeyPatc
     batches: list[int] = []
     real_iter = W.WindowedMerge.__iter__
 
-    def counting(self: W.WindowedMerge):  # type: ignore[no-untyped-def]
+    def counting(self: W.WindowedMerge):  # type: ignore[no-untyped-def,unused-ignore]
         for b in real_iter(self):
             batches.append(len(b[2]))
             yield b
@@ -85,9 +86,9 @@ def test_copy_from_merges_batches_as_one_sorted_extra(tmp_path: Path) -> None:
     t = [T0 + i * 3_000_000 for i in range(900)]  # runs past the input's last message
     cuts = [0, 1, 1, 50, 333, 334, 700, 900]  # empty batches too
     outs = []
-    for name, extra in {"one": _pose_batch(t),
-                        "many": iter([_pose_batch(t[a:b]) for a, b in pairwise(cuts)])
-                        }.items():
+    batches: dict[str, Any] = {"one": _pose_batch(t),
+                               "many": iter([_pose_batch(t[a:b]) for a, b in pairwise(cuts)])}
+    for name, extra in batches.items():
         out = tmp_path / f"{name}.mcap"
         with LogWriter(out, chunk_seconds=None) as w:
             assert w.copy_from(LogReader(src), extra=extra) == 200

@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from lgvtool.wire import McuStreamDecoder, counter_delta
+from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
+from lgvtool.wire.units import counter_delta
 
 EXACT = {"sim.noise": False, "mcu.wheel_radius_error_left": 0.0,
          "mcu.wheel_radius_error_right": 0.0, "mcu.gyro_scale_error": 0.0,

@@ -7,11 +7,13 @@ import math
 import numpy as np
 import pytest
 
+from lgvtool.devices.nav200.nav200_commands import decode_reply
+from lgvtool.devices.nav200.nav200_framing import parse_telegram
+from lgvtool.devices.nav200.nav200_requests import request_pose, request_positioning_mode
+from lgvtool.devices.nav200.nav200_simlink import simulated_device
 from lgvtool.log import LogReader, topics
 from lgvtool.sim import nav_model
-from lgvtool.sim.nav_device import Nav200Device
 from lgvtool.timestamps import from_stamp
-from lgvtool.wire import nav200 as proto
 
 QUIET = {"sim.noise": False, "nav.map_sigma_mm": 0.0, "nav.angle_step_deg": 0.0}
 """Every random error off, the map exact and bearings and ranges to the reflectors' centres."""
@@ -123,17 +125,17 @@ def test_polls_every_450_ms_and_replies_after_the_request(log_cache) -> None:
 
 def test_device_answers_requests_as_an_emulator_would(sim_cache) -> None:
     sim = sim_cache("paper-circle")
-    device = Nav200Device(sim.solutions, sim.config.reflectors)
+    device = simulated_device(sim.solutions, sim.config.reflectors)
     assert device.latest(0.0) == -1
-    reply = proto.decode_reply(proto.parse_telegram(device.answer(proto.request_pose(), 0.0)))
+    reply = decode_reply(parse_telegram(device.answer(request_pose(), 0.0)))
     assert reply.payload.quality == 0xFF
     t = 50.0
-    reply = proto.decode_reply(proto.parse_telegram(device.answer(proto.request_pose(), t)))
+    reply = decode_reply(parse_telegram(device.answer(request_pose(), t)))
     i = device.latest(t)
     assert sim.solutions.available[i] <= t < sim.solutions.available[i + 1]
     assert reply.payload.x == pytest.approx(sim.solutions.x[i], abs=5e-4)
-    ack = proto.decode_reply(proto.parse_telegram(
-        device.answer(proto.request_positioning_mode(), t)))
+    ack = decode_reply(parse_telegram(
+        device.answer(request_positioning_mode(), t)))
     assert ack.code == "PA"
 
 

@@ -10,24 +10,22 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from wire_strategies import mcu_frame_strategy
 
+from lgvtool.devices.mcu.mcu_frame import (
+    FRAME_SIZE,
+    McuFrame,
+    McuStatus,
+    decode_mcu_frame,
+    encode_mcu_frame,
+)
 from lgvtool.wire.checksum import crc16_ccitt_false
-from lgvtool.wire.errors import (
+from lgvtool.wire.units import clock_delta_ms, counter_delta, seq_delta
+from lgvtool.wire.wire_errors import (
     BadLengthError,
     BadSyncError,
     ChecksumError,
     EncodeError,
     TruncatedError,
     UnknownVersionError,
-)
-from lgvtool.wire.mcu import (
-    FRAME_SIZE,
-    McuFrame,
-    McuStatus,
-    clock_delta_ms,
-    counter_delta,
-    decode_mcu_frame,
-    encode_mcu_frame,
-    seq_delta,
 )
 
 #: The worked examples of docs/protocol.md.

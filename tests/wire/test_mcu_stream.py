@@ -14,9 +14,9 @@ from wire_strategies import (
     split,
 )
 
+from lgvtool.devices.mcu.mcu_frame import McuFrame, McuStatus
+from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
 from lgvtool.wire.checksum import crc16_ccitt_false
-from lgvtool.wire.mcu import McuFrame, McuStatus
-from lgvtool.wire.mcu_stream import McuStreamDecoder
 
 STREAM = settings(max_examples=60, deadline=None)
 

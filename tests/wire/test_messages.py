@@ -10,10 +10,13 @@ from typing import Any
 import jsonschema
 import pytest
 
-from lgvtool.wire import nav200
-from lgvtool.wire.events import DecodeEvent
-from lgvtool.wire.mcu import McuFrame, decode_mcu_frame
-from lgvtool.wire.messages import mcu_frame_message, nav_pose_message, timestamp_from_ns
+from lgvtool.devices.mcu.mcu_frame import McuFrame, decode_mcu_frame
+from lgvtool.devices.nav200.nav200_commands import Reply, decode_reply
+from lgvtool.devices.nav200.nav200_payloads import Pose
+from lgvtool.devices.nav200.nav200_replies import build_pose_reply
+from lgvtool.log.messages import mcu_frame_message, nav_pose_message
+from lgvtool.timestamps import stamp
+from lgvtool.wire.decode_events import DecodeEvent
 
 SCHEMAS = Path(__file__).resolve().parents[2] / "schemas"
 
@@ -26,8 +29,8 @@ def schema(name: str) -> dict[str, Any]:
 STAMP = {"sec": 1_700_000_000, "nsec": 123_456_789}
 
 
-def test_timestamp_from_ns() -> None:
-    assert timestamp_from_ns(1_700_000_000_123_456_789) == STAMP
+def test_stamp() -> None:
+    assert stamp(1_700_000_000_123_456_789) == STAMP
 
 
 def test_mcu_frame_message() -> None:
@@ -54,18 +57,18 @@ def test_mcu_frame_message() -> None:
 
 
 def test_nav_pose_message() -> None:
-    reply = nav200.decode_reply(nav200.build_pose_reply(1.0, -2.0, math.pi / 2, 100, 4))
-    assert isinstance(reply, nav200.Reply)
+    reply = decode_reply(build_pose_reply(1.0, -2.0, math.pi / 2, 100, 4))
+    assert isinstance(reply, Reply)
     msg = nav_pose_message(reply, STAMP)
     jsonschema.validate(msg, schema("lgvtool.NavPose"))
     assert (msg["x"], msg["y"], msg["quality"], msg["reflectors_used"]) == (1.0, -2.0, 100, 4)
     assert msg["heading"] == pytest.approx(math.pi / 2)
     assert msg["valid"] is True
-    half_turn = nav_pose_message(nav200.Pose(0, 0, -32768, 0xFF, 0), STAMP)
+    half_turn = nav_pose_message(Pose(0, 0, -32768, 0xFF, 0), STAMP)
     assert half_turn["heading"] == math.pi
     assert half_turn["valid"] is False
     with pytest.raises(TypeError):
-        nav_pose_message(nav200.Reply("PA"), STAMP)
+        nav_pose_message(Reply("PA"), STAMP)
 
 
 def test_event_as_diagnostic() -> None:

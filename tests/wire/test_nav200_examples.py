@@ -6,16 +6,36 @@ import math
 
 import pytest
 
-from lgvtool.wire import nav200
-from lgvtool.wire.nav200 import (
+from lgvtool.devices.nav200.nav200_commands import (
+    COMMANDS,
+    ErrorReply,
+    Reply,
+    Request,
+    decode_reply,
+    decode_request,
+)
+from lgvtool.devices.nav200.nav200_payloads import (
     ActionRadii,
     Count,
     Empty,
     Pose,
     ReflectorPosition,
-    Reply,
-    Request,
     SpeedOmega,
+)
+from lgvtool.devices.nav200.nav200_replies import (
+    build_ack_reply,
+    build_error_reply,
+    build_no_position_reply,
+    build_pose_reply,
+)
+from lgvtool.devices.nav200.nav200_requests import (
+    request_action_radii,
+    request_download_end,
+    request_pose,
+    request_pose_with_speed,
+    request_positioning_mean,
+    request_positioning_mode,
+    request_standby,
 )
 
 EXAMPLES: list[tuple[str, str, object]] = [
@@ -49,36 +69,36 @@ def test_worked_example_encodes_and_decodes(name: str, hex_bytes: str, message: 
     assert isinstance(message, Request | Reply)
     assert message.encode() == raw
     decoded = (
-        nav200.decode_request(raw) if isinstance(message, Request) else nav200.decode_reply(raw)
+        decode_request(raw) if isinstance(message, Request) else decode_reply(raw)
     )
     assert decoded == message
 
 
 def test_worked_examples_from_si_builders() -> None:
-    assert nav200.request_positioning_mode().encode() == bytes.fromhex("02 05 50 41 16")
-    assert nav200.build_ack_reply("PA") == bytes.fromhex("02 05 50 41 16")
-    assert nav200.build_ack_reply(nav200.request_positioning_mean(4)) == bytes.fromhex(
+    assert request_positioning_mode().encode() == bytes.fromhex("02 05 50 41 16")
+    assert build_ack_reply("PA") == bytes.fromhex("02 05 50 41 16")
+    assert build_ack_reply(request_positioning_mean(4)) == bytes.fromhex(
         "02 05 50 41 16"
     )
-    assert nav200.request_standby().encode() == bytes.fromhex("02 05 53 41 15")
-    assert nav200.request_pose().encode() == bytes.fromhex("02 05 50 50 07")
-    assert nav200.request_positioning_mean(4).encode() == bytes.fromhex("02 06 50 4E 04 1E")
-    assert nav200.request_action_radii(1.0, 30.0).encode() == bytes.fromhex(
+    assert request_standby().encode() == bytes.fromhex("02 05 53 41 15")
+    assert request_pose().encode() == bytes.fromhex("02 05 50 50 07")
+    assert request_positioning_mean(4).encode() == bytes.fromhex("02 06 50 4E 04 1E")
+    assert request_action_radii(1.0, 30.0).encode() == bytes.fromhex(
         "02 0D 50 4F E8 03 00 00 30 75 00 00 BE"
     )
-    assert nav200.request_pose_with_speed(0.5, 0.0, 0.0).encode() == bytes.fromhex(
+    assert request_pose_with_speed(0.5, 0.0, 0.0).encode() == bytes.fromhex(
         "02 0B 50 77 F4 01 00 00 00 00 DB"
     )
-    assert nav200.build_pose_reply(1.0, -2.0, math.pi / 2, 100, 4) == bytes.fromhex(
+    assert build_pose_reply(1.0, -2.0, math.pi / 2, 100, 4) == bytes.fromhex(
         "02 11 50 50 E8 03 00 00 30 F8 FF FF 00 40 64 04 10"
     )
-    assert nav200.request_download_end(0).encode() == bytes.fromhex(
+    assert request_download_end(0).encode() == bytes.fromhex(
         "02 0F 44 52 00 FF 00 00 00 00 00 00 00 00 E4"
     )
 
 
 def test_pose_reply_units() -> None:
-    reply = nav200.decode_reply(bytes.fromhex("02 11 50 50 E8 03 00 00 30 F8 FF FF 00 40 64 04 10"))
+    reply = decode_reply(bytes.fromhex("02 11 50 50 E8 03 00 00 30 F8 FF FF 00 40 64 04 10"))
     assert isinstance(reply, Reply)
     pose = reply.payload
     assert isinstance(pose, Pose)
@@ -91,7 +111,7 @@ def test_pose_reply_units() -> None:
 
 
 def test_every_empty_request_is_five_bytes() -> None:
-    for code, spec in nav200.COMMANDS.items():
+    for code, spec in COMMANDS.items():
         if spec.request is Empty:
             raw = Request(code).encode()
             assert len(raw) == 5
@@ -99,11 +119,11 @@ def test_every_empty_request_is_five_bytes() -> None:
 
 
 def test_protocol_doc_examples() -> None:
-    error = nav200.decode_reply(bytes.fromhex("02 09 50 45 50 01 07 09 41"))
-    assert error == nav200.ErrorReply("P", "P", 1, 7, 9)
-    assert nav200.build_error_reply("PP", 1, 7, 9) == bytes.fromhex("02 09 50 45 50 01 07 09 41")
+    error = decode_reply(bytes.fromhex("02 09 50 45 50 01 07 09 41"))
+    assert error == ErrorReply("P", "P", 1, 7, 9)
+    assert build_error_reply("PP", 1, 7, 9) == bytes.fromhex("02 09 50 45 50 01 07 09 41")
     no_position = bytes.fromhex("02 11 50 50 00 00 00 00 00 00 00 00 00 00 FF 00 EC")
-    assert nav200.build_no_position_reply() == no_position
-    reply = nav200.decode_reply(no_position)
+    assert build_no_position_reply() == no_position
+    reply = decode_reply(no_position)
     assert isinstance(reply, Reply) and isinstance(reply.payload, Pose)
     assert not reply.payload.valid

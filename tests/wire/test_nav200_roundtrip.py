@@ -9,49 +9,63 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from wire_strategies import error_reply_strategy, reply_strategy, request_strategy
 
-from lgvtool.wire import nav200
+from lgvtool.devices.nav200.nav200_commands import (
+    COMMANDS,
+    ERROR_REPLY_LEN,
+    REPLIES,
+    ErrorReply,
+    Reply,
+    Request,
+    decode_reply,
+    decode_request,
+    reply_length,
+    request_length,
+)
+from lgvtool.devices.nav200.nav200_framing import STX
+from lgvtool.devices.nav200.nav200_payloads import Pose
+from lgvtool.devices.nav200.nav200_replies import build_pose_reply
+from lgvtool.devices.nav200.nav200_stream import Nav200ReplyDecoder, Nav200RequestDecoder
 from lgvtool.wire.checksum import xor_bcc
-from lgvtool.wire.nav200 import ErrorReply, Reply, Request
 
 ROUND_TRIP = settings(max_examples=25, deadline=None)
 
 
-@pytest.mark.parametrize("code", sorted(nav200.COMMANDS))
+@pytest.mark.parametrize("code", sorted(COMMANDS))
 @ROUND_TRIP
 @given(data=st.data())
 def test_request_round_trip(code: str, data: st.DataObject) -> None:
     request = data.draw(request_strategy(code))
     raw = request.encode()
-    assert raw[0] == nav200.STX
-    assert raw[1] == len(raw) == nav200.request_length(code)
+    assert raw[0] == STX
+    assert raw[1] == len(raw) == request_length(code)
     assert raw[2:4] == code.encode()
     assert xor_bcc(raw) == 0
-    assert nav200.decode_request(raw) == request
-    decoder = nav200.Nav200RequestDecoder()
+    assert decode_request(raw) == request
+    decoder = Nav200RequestDecoder()
     assert decoder.feed(raw) == [request]
 
 
-@pytest.mark.parametrize("code", sorted(nav200.REPLIES))
+@pytest.mark.parametrize("code", sorted(REPLIES))
 @ROUND_TRIP
 @given(data=st.data())
 def test_reply_round_trip(code: str, data: st.DataObject) -> None:
     reply = data.draw(reply_strategy(code))
     raw = reply.encode()
     assert raw[1] == len(raw)
-    expected_len = nav200.reply_length(code)
+    expected_len = reply_length(code)
     if expected_len is not None:
         assert len(raw) == expected_len
     assert xor_bcc(raw) == 0
-    assert nav200.decode_reply(raw) == reply
-    assert nav200.Nav200ReplyDecoder().feed(raw) == [reply]
+    assert decode_reply(raw) == reply
+    assert Nav200ReplyDecoder().feed(raw) == [reply]
 
 
 @ROUND_TRIP
 @given(error_reply_strategy)
 def test_error_reply_round_trip(reply: ErrorReply) -> None:
     raw = reply.encode()
-    assert len(raw) == nav200.ERROR_REPLY_LEN
-    assert nav200.decode_reply(raw) == reply
+    assert len(raw) == ERROR_REPLY_LEN
+    assert decode_reply(raw) == reply
 
 
 @ROUND_TRIP
@@ -65,8 +79,8 @@ def test_error_reply_round_trip(reply: ErrorReply) -> None:
 def test_pose_reply_si_round_trip(
     x: float, y: float, heading: float, quality: int, used: int
 ) -> None:
-    reply = nav200.decode_reply(nav200.build_pose_reply(x, y, heading, quality, used))
-    assert isinstance(reply, Reply) and isinstance(reply.payload, nav200.Pose)
+    reply = decode_reply(build_pose_reply(x, y, heading, quality, used))
+    assert isinstance(reply, Reply) and isinstance(reply.payload, Pose)
     pose = reply.payload
     assert abs(pose.x - x) <= 0.0005 + 1e-9
     assert abs(pose.y - y) <= 0.0005 + 1e-9
@@ -79,21 +93,21 @@ def test_pose_reply_si_round_trip(
 @ROUND_TRIP
 @given(st.integers(-32768, 32767))
 def test_heading_units_round_trip(raw_heading: int) -> None:
-    pose = nav200.Pose(0, 0, raw_heading, 0, 0)
-    again = nav200.Pose.from_si(0, 0, pose.heading, 0, 0)
+    pose = Pose(0, 0, raw_heading, 0, 0)
+    again = Pose.from_si(0, 0, pose.heading, 0, 0)
     assert again.heading_raw == raw_heading
 
 
 @ROUND_TRIP
 @given(request_strategy())
 def test_host_request_is_parsed_by_device(request: Request) -> None:
-    assert nav200.Nav200RequestDecoder().feed(request.encode()) == [request]
+    assert Nav200RequestDecoder().feed(request.encode()) == [request]
 
 
 @ROUND_TRIP
 @given(st.lists(reply_strategy(), max_size=8))
 def test_many_replies_in_one_chunk(replies: list[Reply | ErrorReply]) -> None:
-    decoder = nav200.Nav200ReplyDecoder()
+    decoder = Nav200ReplyDecoder()
     assert decoder.feed(b"".join(r.encode() for r in replies)) == replies
     assert decoder.stats.total_errors == sum(isinstance(r, ErrorReply) for r in replies)
     assert decoder.stats.bytes_skipped == 0

@@ -18,10 +18,17 @@ from wire_strategies import (
     split,
 )
 
-from lgvtool.wire import nav200
-from lgvtool.wire.events import DecoderStats
-from lgvtool.wire.nav200 import Nav200ReplyDecoder, Nav200RequestDecoder, Reply, Request
-from lgvtool.wire.stream import StreamDecoder
+from lgvtool.devices.nav200.nav200_commands import ErrorReply, Reply, Request, decode_reply
+from lgvtool.devices.nav200.nav200_framing import encode_telegram
+from lgvtool.devices.nav200.nav200_payloads import Pose
+from lgvtool.devices.nav200.nav200_replies import (
+    build_ack_reply,
+    build_error_reply,
+    build_pose_reply,
+)
+from lgvtool.devices.nav200.nav200_stream import Nav200ReplyDecoder, Nav200RequestDecoder
+from lgvtool.wire.decode_events import DecoderStats
+from lgvtool.wire.resync_stream import StreamDecoder
 
 T = TypeVar("T")
 
@@ -81,7 +88,7 @@ def build_stream(
                 out += corrupt(rng.choice(messages), rng)
             else:
                 letters = rng.choice([b"XZ", b"Qq", b"ab"])
-                out += nav200.encode_telegram(chr(letters[0]), chr(letters[1]), rng.randbytes(4))
+                out += encode_telegram(chr(letters[0]), chr(letters[1]), rng.randbytes(4))
         spans.append((len(out), len(out) + len(raw)))
         out += raw
     out += rng.randbytes(rng.randrange(garbage_max + 1))
@@ -123,7 +130,7 @@ def test_requests_survive_garbage_and_damage(
 
 def test_stx_inside_data_is_not_a_start() -> None:
     # X = 0x0202 mm puts two STX bytes in the data; LEN 17 of an STX-started candidate fails.
-    reply = Reply("PP", nav200.Pose(0x0202, 0x02050202, 0x0202, 2, 2))
+    reply = Reply("PP", Pose(0x0202, 0x02050202, 0x0202, 2, 2))
     raw = reply.encode()
     assert raw.count(0x02) > 3
     for chunking in ("bytes", "all", [3, 5]):
@@ -131,7 +138,7 @@ def test_stx_inside_data_is_not_a_start() -> None:
 
 
 def test_bad_checksum_does_not_lose_next_telegram() -> None:
-    good = nav200.build_pose_reply(1, 2, 0.5, 90, 5)
+    good = build_pose_reply(1, 2, 0.5, 90, 5)
     bad = good[:-1] + bytes([good[-1] ^ 0x01])
     decoder = Nav200ReplyDecoder()
     frames = decoder.feed(bad + good)
@@ -143,12 +150,12 @@ def test_bad_checksum_does_not_lose_next_telegram() -> None:
 
 
 def test_truncated_telegram_then_good_one() -> None:
-    good = nav200.build_pose_reply(1, 2, 0.5, 90, 5)
-    short = nav200.build_ack_reply("PA")
+    good = build_pose_reply(1, 2, 0.5, 90, 5)
+    short = build_ack_reply("PA")
     decoder = Nav200ReplyDecoder()
     # A PP reply cut after 6 bytes, followed by a PA reply and another PP reply.
     frames = run(decoder, good[:6] + short + good, "bytes")
-    assert frames == [nav200.decode_reply(short), nav200.decode_reply(good)]
+    assert frames == [decode_reply(short), decode_reply(good)]
     assert decoder.stats.bad_checksum + decoder.stats.bad_length >= 1
 
 
@@ -164,9 +171,9 @@ def test_impossible_and_wrong_length() -> None:
 
 def test_unknown_command_and_truncated_counts() -> None:
     decoder = Nav200ReplyDecoder()
-    assert decoder.feed(nav200.encode_telegram("X", "Y", b"\x01\x02")) == []
+    assert decoder.feed(encode_telegram("X", "Y", b"\x01\x02")) == []
     assert decoder.stats.unknown_command == 1
-    assert decoder.feed(nav200.build_pose_reply(0, 0, 0, 0, 0)[:10]) == []
+    assert decoder.feed(build_pose_reply(0, 0, 0, 0, 0)[:10]) == []
     assert decoder.flush() == []
     assert decoder.stats.truncated == 1
     assert decoder.stats.errors()["truncated"] == 1
@@ -174,8 +181,8 @@ def test_unknown_command_and_truncated_counts() -> None:
 
 def test_error_reply_is_delivered_and_counted() -> None:
     decoder = Nav200ReplyDecoder()
-    frames = decoder.feed(nav200.build_error_reply("PP", 1, 7, 9))
-    assert len(frames) == 1 and isinstance(frames[0], nav200.ErrorReply)
+    frames = decoder.feed(build_error_reply("PP", 1, 7, 9))
+    assert len(frames) == 1 and isinstance(frames[0], ErrorReply)
     assert decoder.stats.error_replies == 1
     (event,) = decoder.pop_events()
     assert event.kind == "device_error"
@@ -187,16 +194,16 @@ def test_error_reply_is_delivered_and_counted() -> None:
 def test_cut_off_telegram_whose_xor_cancels() -> None:
     # The first k bytes of a PP reply, complete telegrams, then the same k bytes again: the
     # XOR over 17 bytes is 0 by construction. The complete telegrams must win.
-    good = nav200.build_pose_reply(1, 2, 0.5, 90, 5)
+    good = build_pose_reply(1, 2, 0.5, 90, 5)
     for middle, k in (
-        (nav200.build_ack_reply("PA"), 6),
-        (nav200.build_error_reply("PP", 1, 7, 9), 4),
+        (build_ack_reply("PA"), 6),
+        (build_error_reply("PP", 1, 7, 9), 4),
     ):
         data = good[:k] + middle + good
         assert len(good[:k] + middle + good[:k]) == 17
         decoder = Nav200ReplyDecoder()
         frames = run(decoder, data, "bytes")
-        assert frames == [nav200.decode_reply(middle), nav200.decode_reply(good)]
+        assert frames == [decode_reply(middle), decode_reply(good)]
         assert decoder.stats.bad_length == 1
 
 

@@ -7,11 +7,11 @@ from __future__ import annotations
 import random
 from collections.abc import Callable
 
-from lgvtool.wire.mcu import McuFrame
-from lgvtool.wire.mcu_stream import McuStreamDecoder
-from lgvtool.wire.nav200_replies import build_error_reply, build_pose_reply, build_version_reply
-from lgvtool.wire.nav200_stream import Nav200ReplyDecoder, Nav200RequestDecoder
-from lgvtool.wire.stream import StreamDecoder
+from lgvtool.devices.mcu.mcu_frame import McuFrame
+from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
+from lgvtool.devices.nav200.nav200_replies import build_error_reply, build_pose_reply, build_version_reply
+from lgvtool.devices.nav200.nav200_stream import Nav200ReplyDecoder, Nav200RequestDecoder
+from lgvtool.wire.resync_stream import StreamDecoder
 
 
 def _mcu_frames(rng: random.Random) -> bytes:
@@ -40,7 +40,7 @@ def _nav_replies(rng: random.Random) -> bytes:
 
 
 def _nav_requests(rng: random.Random) -> bytes:
-    from lgvtool.wire import nav200_requests as rq
+    from lgvtool.devices.nav200 import nav200_requests as rq
 
     makers = [rq.request_pose, rq.request_version, rq.request_standby,
               lambda: rq.request_read_reflector(rng.randrange(4), rng.randrange(32)),

@@ -7,9 +7,8 @@ from collections.abc import Callable
 
 from hypothesis import strategies as st
 
-from lgvtool.wire.errors import UnknownVersionError, WireError
-from lgvtool.wire.mcu import McuFrame, decode_mcu_frame
-from lgvtool.wire.nav200_commands import (
+from lgvtool.devices.mcu.mcu_frame import McuFrame, decode_mcu_frame
+from lgvtool.devices.nav200.nav200_commands import (
     COMMANDS,
     REPLIES,
     ErrorReply,
@@ -18,7 +17,8 @@ from lgvtool.wire.nav200_commands import (
     decode_reply,
     decode_request,
 )
-from lgvtool.wire.nav200_payloads import Payload, VersionText
+from lgvtool.devices.nav200.nav200_payloads import Payload, VersionText
+from lgvtool.wire.wire_errors import UnknownVersionError, WireError
 
 INT_RANGES = {
     "B": (0, 0xFF),

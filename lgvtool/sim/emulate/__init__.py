@@ -1,10 +1,11 @@
-"""Device emulators: a simulated or logged run served as a virtual NAV200 and a virtual MCU.
+"""Device emulators: a simulated or logged run served as a virtual NAV200, NAV350 and MCU.
 
-- :mod:`~lgvtool.sim.emulate.playback`: the run to play (from a scenario or a log);
-- :mod:`~lgvtool.sim.emulate.virtual_nav200`: the NAV200's side of the host protocol, with modes;
-- :mod:`~lgvtool.sim.emulate.virtual_mcu`: the MCU's frame stream;
+The virtual devices are their families' emulators (``lgvtool/devices/<family>/<family>_emulator.py``,
+made through :mod:`lgvtool.devices.device_registry`); this package serves them:
+
+- :mod:`~lgvtool.sim.emulate.emulator_playback`: the run to play (from a scenario or a log);
 - :mod:`~lgvtool.sim.emulate.endpoints`: pseudo-terminals and TCP ports;
-- :mod:`~lgvtool.sim.emulate.server`: the real-time loop, fault injection, the transcript;
+- :mod:`~lgvtool.sim.emulate.emulator_server`: the real-time loop, fault injection, the transcript;
 - :mod:`~lgvtool.sim.emulate.serve`: the ``lgvtool simulate serve`` command.
 
 Example (a test or a notebook)::
@@ -15,26 +16,20 @@ Example (a test or a notebook)::
         print(s.urls)          # {'nav200': 'serial:///tmp/...', 'mcu': 'serial:///tmp/...'}
 """
 
-from lgvtool.sim.emulate.playback import (
+from lgvtool.sim.emulate.emulator_playback import (
     McuChunk,
     Playback,
-    PoseFix,
     playback_from_log,
     playback_from_scenario,
 )
-from lgvtool.sim.emulate.server import EmulatorServer, Fault, TranscriptEntry, parse_fault
-from lgvtool.sim.emulate.virtual_mcu import VirtualMcu
-from lgvtool.sim.emulate.virtual_nav200 import VirtualNav200
+from lgvtool.sim.emulate.emulator_server import EmulatorServer, Fault, TranscriptEntry, parse_fault
 
 __all__ = [
     "EmulatorServer",
     "Fault",
     "McuChunk",
     "Playback",
-    "PoseFix",
     "TranscriptEntry",
-    "VirtualMcu",
-    "VirtualNav200",
     "parse_fault",
     "playback_from_log",
     "playback_from_scenario",

@@ -79,7 +79,7 @@ def serve(ctx: click.Context, log: str | None, scenario: str | None, seed: int |
         from lgvtool.outputs import guard_output
 
         guard_output(transcript, [log, config_path], force=force, what="transcript")
-    from lgvtool.sim.emulate.server import parse_fault
+    from lgvtool.sim.emulate.emulator_server import parse_fault
 
     fault_list = [parse_fault(f) for f in faults]
     playback = _playback(log, scenario or "paper-circle", seed, duration, config_path, sets)
@@ -100,7 +100,7 @@ def _serve(playback: Any, nav: str, nav350: str, mcu: str, pty_dir: str | None, 
     """Serve ``playback`` until it is played (``exit_after``) or stopped; print the counts."""
     import signal
 
-    from lgvtool.sim.emulate.server import EmulatorServer
+    from lgvtool.sim.emulate.emulator_server import EmulatorServer
 
     server = EmulatorServer(playback, nav=None if nav == "none" else nav,
                             mcu=None if mcu == "none" else mcu, link_dir=pty_dir, speed=speed,
@@ -132,7 +132,7 @@ def _serve(playback: Any, nav: str, nav350: str, mcu: str, pty_dir: str | None, 
 
 def _playback(log: str | None, scenario: str, seed: int, duration: float | None,
               config_path: str | None, sets: tuple[str, ...]) -> Any:
-    from lgvtool.sim.emulate.playback import playback_from_log, playback_from_scenario
+    from lgvtool.sim.emulate.emulator_playback import playback_from_log, playback_from_scenario
 
     if log is not None:
         return playback_from_log(log)

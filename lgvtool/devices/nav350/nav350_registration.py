@@ -1,0 +1,118 @@
+"""How the NAV350 plugs into lgvtool: its topics, decoders, emulator and recorder options.
+
+Everything the rest of lgvtool needs to know about the device family is here, imported lazily
+(this module imports only click and the topic names, so ``lgvtool --help`` stays light):
+
+- topics: raw traffic on ``/nav350/tx`` and ``/nav350/rx``; decoded data on the shared
+  ``/nav/pose`` and ``/nav/reflectors``;
+- :func:`stream_decoder`: the resynchronising decoder of either direction;
+- :func:`log_decoder`: its :class:`~lgvtool.devices.log_decoding.LogDecoder`;
+- :func:`emulator`: the virtual NAV350 of ``simulate serve --nav350 PORT``;
+- :func:`record_options` / :func:`recorder_settings` / :func:`recorder_worker`: ``record
+  --nav350 tcp://HOST:2112`` and its thread.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import click
+
+from lgvtool.log import topics
+
+__all__ = ["ABSENT_METADATA", "ABSENT_REPORT", "DEVICE", "RAW_TOPICS", "RX", "TOPICS", "TX",
+           "emulator", "log_decoder", "record_options", "recorder_settings", "recorder_worker",
+           "split_port_spec", "stream_decoder"]
+
+DEVICE = "nav350"
+RX, TX = topics.NAV350_RX, topics.NAV350_TX
+#: topic -> schema of the NAV350's own topics
+TOPICS = {RX: "lgvtool.RawBytes", TX: "lgvtool.RawBytes"}
+#: the raw topics the NAV350's traffic is logged on
+RAW_TOPICS = (TX, RX)
+#: a log without NAV350 traffic has no NAV350 section in the decode report
+ABSENT_REPORT: dict[str, Any] | None = None
+ABSENT_METADATA: dict[str, dict[str, int]] = {}
+DEFAULT_PORT = 2112
+
+
+def stream_decoder(*, deliver_unknown: bool = False) -> Any:
+    """A :class:`~lgvtool.devices.nav350.nav350_stream.Nav350StreamDecoder`."""
+    from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
+
+    return Nav350StreamDecoder(deliver_unknown=deliver_unknown)
+
+
+def log_decoder(metadata: Mapping[str, Any]) -> Any:
+    """A :class:`~lgvtool.devices.nav350.nav350_logdecode.Nav350LogDecoder`; the global ids of
+    the log's ``device.nav350`` metadata (if any) map the landmarks to map ids."""
+    from lgvtool.devices.nav350.nav350_logdecode import Nav350LogDecoder
+
+    ids = metadata.get("device.nav350", {}).get("global_ids")
+    return Nav350LogDecoder(map_id=None if not isinstance(ids, dict) else
+                            {int(k): int(v) for k, v in ids.items()})
+
+
+def emulator(playback: Any, **clock: float) -> Any:
+    """A :class:`~lgvtool.devices.nav350.nav350_emulator.VirtualNav350` playing ``playback``."""
+    from lgvtool.devices.nav350.nav350_emulator import VirtualNav350
+
+    return VirtualNav350(playback, **clock)  # type: ignore[arg-type]
+
+
+def split_port_spec(spec: str) -> tuple[str, dict[str, float]]:
+    """``simulate serve --nav350 PORT?drift_ppm=..&offset_ms=..``: the port and the clock
+    settings of the emulator (:func:`emulator`); InputError for a bad setting."""
+    from lgvtool.devices.nav350.nav350_emulator import split_port_spec as split
+
+    return split(spec)
+
+
+def record_options(f: Callable[..., Any]) -> Callable[..., Any]:
+    """The ``record`` options of the NAV350 (``--nav350 URL``, ``--nav350-cola``)."""
+    f = click.option("--nav350-cola", "nav350_cola", type=click.Choice(["binary", "ascii"]),
+                     default="binary", show_default=True,
+                     help="NAV350 SOPAS dialect: CoLa-B (binary) or CoLa-A (ascii).")(f)
+    return click.option("--nav350", "nav350_url", metavar="URL",
+                        help="NAV350 over Ethernet: tcp://HOST:2112. Logs in, uploads the "
+                             "configured reflector map as layout --layer (unless "
+                             "--no-map-upload), navigates and polls pose + landmarks at the "
+                             "device's rate; --speed-input sends mNPOSSetSpeed.")(f)
+
+
+def recorder_settings(url: str | None, cola: str, *, layer: int, upload: bool,
+                      speed_input: bool, reply_timeout: float, config: Any) -> Any:
+    """The :class:`~lgvtool.devices.nav350.nav350_session.Nav350Settings` of the record options
+    (None without ``--nav350``); InputError for a URL that is not TCP."""
+    if url is None:
+        return None
+    from lgvtool.devices.device_links import parse_link_url
+    from lgvtool.devices.nav350.nav350_session import Nav350Settings
+    from lgvtool.devices.nav350.nav350_telegrams import LayoutLandmark
+    from lgvtool.errors import InputError
+
+    if parse_link_url(url).scheme != "tcp":
+        raise InputError(f"record: --nav350 {url!r}: the NAV350 is reached over Ethernet, "
+                         f"tcp://HOST:{DEFAULT_PORT}")
+    if layer > 0xFFFF:
+        raise InputError("record: --layer must be 0..65535")
+    layout: tuple[LayoutLandmark, ...] = ()
+    if upload and config is not None:
+        layout = tuple(LayoutLandmark(round(r.x * 1000), round(r.y * 1000), 1, 1,
+                                      max(1, round(r.radius * 2000)), (layer,))
+                       for r in config.reflectors if r.layer == layer)
+    return Nav350Settings(dialect=cola, layer=layer, layout=layout, speed_input=speed_input,
+                          reply_timeout=reply_timeout)
+
+
+def recorder_worker(link: Any, sink: Any, stop: Any, timing: Any, settings: Any, config: Any,
+                    *, mcu: Any = None, warn: Any = None) -> Any:
+    """The recorder thread of one NAV350 link."""
+    from lgvtool.devices.nav350.nav350_session import Nav350Session, Nav350Settings
+    from lgvtool.devices.nav350.nav350_worker import Nav350Worker
+
+    s = settings if settings is not None else Nav350Settings()
+    known = tuple(r for r in config.reflectors if r.layer == s.layer) if s.layout else ()
+    return Nav350Worker(link, sink, stop, timing, Nav350Session(s), vehicle=config.vehicle,
+                        known_map=known, mcu=mcu, warn=warn)

@@ -1,0 +1,86 @@
+"""The device registry and the one decoding path from raw bytes to log messages."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from lgvtool.app.decode_job import decode_log
+from lgvtool.devices.device_registry import FAMILIES, family_of_topic, registration
+from lgvtool.devices.log_decoding import decode_chunk, finish_decoding
+from lgvtool.devices.nav200.nav200_replies import build_pose_reply
+from lgvtool.devices.nav200.nav200_requests import request_pose
+from lgvtool.log import LogReader, topics
+from lgvtool.sim import simulate, write_log
+from lgvtool.wire.decode_events import DecodeEvent
+
+
+class _Out:
+    def __init__(self) -> None:
+        self.messages: list[tuple[str, dict, int]] = []
+        self.events: list[tuple[str, int]] = []
+
+    def message(self, topic: str, message: Mapping[str, Any], t_ns: int) -> None:
+        self.messages.append((topic, dict(message), t_ns))
+
+    def event(self, event: DecodeEvent, t_ns: int) -> None:
+        self.events.append((event.kind, t_ns))
+
+
+def test_every_family_registers_its_parts() -> None:
+    assert FAMILIES == ("mcu", "nav200", "nav350")
+    for family in FAMILIES:
+        reg = registration(family)
+        assert family == reg.DEVICE
+        for topic in reg.RAW_TOPICS:
+            assert topic in reg.TOPICS and topic in topics.RAW_TOPICS
+            assert family_of_topic(topic) == family
+        decoder = reg.log_decoder({})
+        assert decoder.sources == frozenset({family})
+        assert callable(reg.emulator) and callable(reg.recorder_worker)
+    assert family_of_topic(topics.NAV_POSE) is None
+    with pytest.raises(KeyError):
+        registration("nav300")
+
+
+def test_decode_chunk_writes_messages_then_events_at_the_chunk_time() -> None:
+    decoder = registration("nav200").log_decoder({})
+    out = _Out()
+    assert decode_chunk(decoder, topics.NAV_TX, request_pose().encode(), 10, out) == 0
+    reply = build_pose_reply(1.0, 2.0, 0.5, 90, 6)
+    assert decode_chunk(decoder, topics.NAV_RX, b"\x55\x55" + reply[:5], 20, out) == 0
+    assert out.messages == []
+    assert decode_chunk(decoder, topics.NAV_RX, reply[5:] + reply[:4], 30, out) == 1
+    assert out.events == [("bytes_skipped", 30)]
+    (topic, pose, t), = out.messages
+    assert (topic, t) == (topics.NAV_POSE, 30)
+    assert pose["x"] == pytest.approx(1.0, abs=1e-3) and pose["quality"] == 90
+    # the reply cut off at the end of the log is counted, at the last chunk's time
+    before = len(out.events)
+    assert finish_decoding(decoder, out) >= 1
+    assert ("truncated", 30) in out.events[before:]
+    assert decoder.report()["poses"] == 1 and decoder.report()["requests"] == 1
+
+
+@pytest.mark.parametrize("nav_device", ["nav200", "nav350"])
+def test_simulator_and_decode_write_the_same_decoded_messages(tmp_path: Path,
+                                                              nav_device: str) -> None:
+    sim = simulate("paper-circle", seed=3, duration=12.0,
+                   overrides={"sim.nav_device": nav_device, "faults.mcu_corrupt_rate": 0.05})
+    src, out = tmp_path / "sim.mcap", tmp_path / "decoded.mcap"
+    write_log(sim, src)
+    decode_log(LogReader(src), out)
+    decoded = [topics.MCU_FRAME, topics.NAV_POSE, topics.DIAGNOSTICS]
+    if nav_device == "nav350":
+        decoded.append(topics.NAV_REFLECTORS)
+
+    def messages(path: Path) -> list[tuple[str, int, object]]:
+        return [(m.topic, m.log_time_ns, m.data) for m in LogReader(path).messages(decoded)]
+
+    written = messages(src)
+    assert any(t == topics.MCU_FRAME for t, _, _ in written)
+    assert any(t == topics.NAV_POSE for t, _, _ in written)
+    assert sorted(written, key=repr) == sorted(messages(out), key=repr)

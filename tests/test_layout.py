@@ -1,0 +1,160 @@
+"""The package's layout rules (docs/architecture.md), checked on the source tree.
+
+- every module basename is unique across lgvtool (``__init__.py`` and ``__main__.py`` aside);
+- the device side (codecs, sessions, device models, emulators) imports no estimator;
+- nothing outside the command line imports ``lgvtool.commands``;
+- importing the pure core opens no file.
+
+Each rule has an allowlist of the cases still waiting for their move; an entry that no longer
+breaks the rule fails the test too, so the lists only shrink.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "lgvtool"
+
+PENDING_DUPLICATES: frozenset[str] = frozenset()
+"""Basenames that still repeat until the device code is one folder per device family."""
+
+DEVICE_SIDE = ("devices", "wire", "sim/emulate")
+"""Folders of lgvtool holding device code: codecs, host sessions, device models, emulators."""
+ESTIMATOR_PACKAGES = ("lgvtool.localize",)
+
+PENDING_COMMAND_IMPORTS: frozenset[str] = frozenset()
+"""Modules outside the command line that still import ``lgvtool.commands``."""
+COMMAND_LINE = ("lgvtool/commands/", "lgvtool/cli.py")
+
+PURE_CORE = ("lgvtool.angles", "lgvtool.timestamps", "lgvtool.quantiles", "lgvtool.values",
+             "lgvtool.wire", "lgvtool.localize", "lgvtool.evaluate.metrics",
+             "lgvtool.evaluate.circle", "lgvtool.evaluate.laps")
+"""Modules and packages without I/O: importing them opens no file of their own."""
+
+
+def _modules() -> list[Path]:
+    return sorted(p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts)
+
+
+def _rel(path: Path, root: Path = ROOT) -> str:
+    return path.relative_to(root).as_posix()
+
+
+def _imported(path: Path, root: Path = ROOT) -> set[str]:
+    """Every module ``path`` imports, at the top or inside functions (absolute names)."""
+    own = _rel(path, root)[:-3].replace("/", ".")
+    package = own if path.name == "__init__.py" else own.rpartition(".")[0]
+    package = package.removesuffix(".__init__")
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                module = f"{base}.{node.module}" if node.module else base
+            else:
+                module = node.module or ""
+            out.add(module)
+            out.update(f"{module}.{a.name}" for a in node.names)  # from pkg import module
+    return out
+
+
+def _imports_any(path: Path, packages: tuple[str, ...], root: Path = ROOT) -> bool:
+    return any(m == p or m.startswith(p + ".") for m in _imported(path, root) for p in packages)
+
+
+def test_module_basenames_are_unique() -> None:
+    where: defaultdict[str, list[str]] = defaultdict(list)
+    for p in _modules():
+        if p.name not in ("__init__.py", "__main__.py"):
+            where[p.name].append(_rel(p))
+    repeated = {name: paths for name, paths in where.items() if len(paths) > 1}
+    new = {name: paths for name, paths in repeated.items() if name not in PENDING_DUPLICATES}
+    assert not new, f"module names used twice (rename one to say what it holds): {new}"
+    resolved = sorted(PENDING_DUPLICATES - set(repeated))
+    assert not resolved, f"no longer repeated, remove from PENDING_DUPLICATES: {resolved}"
+
+
+def test_device_code_imports_no_estimator() -> None:
+    device_modules = [p for p in _modules()
+                      if any(_rel(p).startswith(f"lgvtool/{d}/") for d in DEVICE_SIDE)]
+    assert device_modules
+    bad = [_rel(p) for p in device_modules if _imports_any(p, ESTIMATOR_PACKAGES)]
+    assert not bad, f"device modules importing an estimator package: {bad}"
+
+
+def test_only_the_command_line_imports_the_commands() -> None:
+    importers = {_rel(p) for p in _modules()
+                 if not _rel(p).startswith(COMMAND_LINE) and _imports_any(p, ("lgvtool.commands",))}
+    new = sorted(importers - PENDING_COMMAND_IMPORTS)
+    assert not new, f"import lgvtool.commands from outside the command line: {new}"
+    resolved = sorted(PENDING_COMMAND_IMPORTS - importers)
+    assert not resolved, f"no longer import lgvtool.commands, remove from the list: {resolved}"
+
+
+def test_the_rules_see_relative_imports_and_imports_inside_functions(tmp_path: Path) -> None:
+    src = tmp_path / "lgvtool" / "wire" / "probe.py"
+    src.parent.mkdir(parents=True)
+    src.write_text("def f():\n    from ..localize import ekf\n    import lgvtool.commands.info\n")
+    assert _imported(src, tmp_path) >= {"lgvtool.localize", "lgvtool.commands.info"}
+    assert _imports_any(src, ESTIMATOR_PACKAGES, tmp_path)
+    assert _imports_any(src, ("lgvtool.commands",), tmp_path)
+    assert not _imports_any(src, ("lgvtool.log",), tmp_path)
+
+
+_OPEN_PROBE = r"""
+import importlib, os, sys, sysconfig
+stdlib = os.path.realpath(sysconfig.get_paths()["stdlib"])
+package = os.path.realpath(sys.argv[1])
+code = (".py", ".pyc", ".so", ".pyd", ".pth", ".zip")
+opened = []
+
+def hook(event, args):
+    if event != "open" or not isinstance(args[0], (str, bytes, os.PathLike)):
+        return
+    path = os.fsdecode(args[0])
+    if path.endswith(code) or os.path.isdir(path):
+        return
+    f = sys._getframe(1)
+    while f is not None:  # the first frame that is neither the import system nor stdlib
+        name = f.f_code.co_filename
+        if not name.startswith("<") and not os.path.realpath(name).startswith(stdlib):
+            if os.path.realpath(name).startswith(package):
+                opened.append(f"{path} (by {os.path.relpath(name, package)})")
+            return
+        f = f.f_back
+
+sys.addaudithook(hook)
+for name in sys.argv[2:]:
+    importlib.import_module(name)
+print("\n".join(opened))
+"""
+
+
+@pytest.mark.parametrize("module", PURE_CORE)
+def test_importing_the_pure_core_opens_no_file(module: str) -> None:
+    res = subprocess.run([sys.executable, "-c", _OPEN_PROBE, str(PACKAGE), module],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120, check=False)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "", f"importing {module} opened: {res.stdout}"
+
+
+def test_the_open_probe_sees_a_module_that_reads_a_file(tmp_path: Path) -> None:
+    pkg = tmp_path / "probe_pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "data.txt").write_text("x")
+    (pkg / "reads.py").write_text(
+        "from pathlib import Path\nTEXT = (Path(__file__).parent / 'data.txt').read_text()\n")
+    res = subprocess.run([sys.executable, "-c", _OPEN_PROBE, str(pkg), "probe_pkg.reads"],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=120, check=False)
+    assert res.returncode == 0, res.stderr
+    assert "data.txt" in res.stdout
