@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 from localize_synth import circle_log
@@ -14,9 +16,9 @@ pytest.importorskip("numba")
 NAMES = ["ekf", "deadreckoning"]
 
 
-def _tables(monkeypatch: pytest.MonkeyPatch, mode: str, **log: object) -> dict[str, object]:
+def _tables(monkeypatch: pytest.MonkeyPatch, mode: str, **log: object) -> dict[str, Any]:
     monkeypatch.setenv(KERNELS_ENV, mode)
-    data, _, cfg = circle_log(6.0, **log)  # type: ignore[arg-type]
+    data, _, cfg = circle_log(6.0, **log)
     return replay_data(data, NAMES, config=cfg, seed=3).tables
 
 
@@ -26,11 +28,11 @@ def test_kernels_match_numpy(monkeypatch: pytest.MonkeyPatch, log: dict[str, obj
     fast = _tables(monkeypatch, "numba", **log)
     for name in NAMES:
         a, b = ref[name], fast[name]
-        assert len(a.x) == len(b.x) > 0  # type: ignore[attr-defined]
-        assert np.array_equal(a.t_ns, b.t_ns)  # type: ignore[attr-defined]
+        assert len(a.x) == len(b.x) > 0
+        assert np.array_equal(a.t_ns, b.t_ns)
         for col in ("x", "y", "heading"):
             assert np.allclose(getattr(a, col), getattr(b, col), rtol=0, atol=1e-9), col
-        assert np.allclose(a.covariance, b.covariance, rtol=1e-9, atol=1e-15)  # type: ignore[attr-defined]
+        assert np.allclose(a.covariance, b.covariance, rtol=1e-9, atol=1e-15)
 
 
 def test_poses_and_scans_match(monkeypatch: pytest.MonkeyPatch) -> None:
