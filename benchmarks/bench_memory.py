@@ -19,20 +19,24 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
-#: runs a command in a child and prints its peak RSS (KiB) and wall time (s) as JSON
+#: runs a command in a child and prints its peak RSS (KiB), wall and CPU time (s) and the end
+#: of its stdout as JSON
 _MEASURE = r"""
 import json, resource, subprocess, sys, time
 t0 = time.perf_counter()
-res = subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+res = subprocess.run(sys.argv[1:], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 wall = time.perf_counter() - t0
-peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-print(json.dumps({"rc": res.returncode, "wall_s": wall, "peak_kib": peak,
-                  "stderr": res.stderr[-400:]}))
+use = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(json.dumps({"rc": res.returncode, "wall_s": wall, "peak_kib": use.ru_maxrss,
+                  "cpu_s": use.ru_utime + use.ru_stime,
+                  "stdout": res.stdout[-20000:], "stderr": res.stderr[-400:]}))
 """
 
 
@@ -51,14 +55,19 @@ def simulate(path: Path, hours: float) -> None:
     tmp.rename(path)
 
 
-def measure(args: list[str]) -> dict[str, float]:
-    """Peak RSS (MB) and wall time (s) of ``lgvtool ARGS`` run as a subprocess."""
+def measure(args: list[str], tree: Path | None = None) -> dict[str, Any]:
+    """Peak RSS (MB), wall and CPU time (s) and the end of the stdout of ``lgvtool ARGS`` run
+    as a subprocess (the lgvtool of the checkout ``tree`` when given: it is put on PYTHONPATH
+    and the command runs in that folder, since ``python -m`` looks there first)."""
+    env = None if tree is None else dict(os.environ, PYTHONPATH=str(tree))
     res = subprocess.run([sys.executable, "-c", _MEASURE, sys.executable, "-m", "lgvtool",
-                          *args], capture_output=True, text=True, check=True)
+                          *args], capture_output=True, text=True, check=True, env=env,
+                         cwd=tree)
     out = json.loads(res.stdout)
     if out["rc"] != 0:
         raise SystemExit(f"lgvtool {' '.join(args)} failed: {out['stderr'].strip()}")
-    return {"peak_mb": out["peak_kib"] / 1024.0, "wall_s": out["wall_s"]}
+    return {"peak_mb": out["peak_kib"] / 1024.0, "wall_s": out["wall_s"],
+            "cpu_s": out["cpu_s"], "stdout": out["stdout"]}
 
 
 def main() -> None:

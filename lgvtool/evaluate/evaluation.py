@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike, NDArray
 
 from lgvtool.errors import InputError
 from lgvtool.evaluate.circle import Circle, fit_geometric
@@ -243,6 +244,19 @@ def _centre_offsets(
     return warnings
 
 
+def _by_group(keys: NDArray[np.int64], values: ArrayLike, n: int) -> list[NDArray[np.float64]]:
+    """``values[keys == k]`` for every ``k`` in ``0..n`` (each in its original order), in
+    time linear in the samples (plus a sort)."""
+    v = np.asarray(values, dtype=np.float64)
+    order = np.argsort(keys, kind="stable")
+    sk = keys[order]
+    sv = v[order]
+    ks = np.arange(n + 1)
+    lo = np.searchsorted(sk, ks, side="left").tolist()
+    hi = np.searchsorted(sk, ks, side="right").tolist()
+    return [sv[a:b] for a, b in zip(lo, hi, strict=True)]
+
+
 def _evaluate_one(
     name: str,
     df: pd.DataFrame,
@@ -269,17 +283,20 @@ def _evaluate_one(
         fitted = circle if free else fit_geometric(df["x"][scored], df["y"][scored], trim=TRIM,
                                                    start=circle)
     rows = []
-    truth_rot = laps.index(terr["t"]) if terr is not None else None
+    # each rotation's samples in their order, found by one sort (not one pass per rotation)
+    by_rot = _by_group(rot, err, laps.complete)
+    by_truth = (_by_group(laps.index(terr["t"]), terr["position_error"].to_numpy(),
+                          laps.complete) if terr is not None else None)
     for k in range(1, laps.complete + 1):
-        sel = rot == k
-        if not sel.any():
+        sel = by_rot[k]
+        if not sel.size:
             continue
         trmse = None
-        if terr is not None and truth_rot is not None:
-            pe = terr["position_error"].to_numpy()[truth_rot == k]
+        if by_truth is not None:
+            pe = by_truth[k]
             trmse = float(np.sqrt(np.mean(pe * pe))) if pe.size else None
         rows.append(Rotation(k, laps.boundaries[k - 1], laps.boundaries[k],
-                             radial_stats(err[sel]), trmse))
+                             radial_stats(sel), trmse))
     average = average_stats([r.stats for r in rows]) if rows else None
     pooled = radial_stats(err[scored]) if rows else None
     return EstimatorEvaluation(

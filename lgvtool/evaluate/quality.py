@@ -133,13 +133,8 @@ def read_quality(reader: LogReader, t0: float | None = None) -> DataQuality:
 
     from lgvtool.log import topics
 
-    infos = reader.topics()
-    starts = [i.start_ns for i in infos.values() if i.count]
-    ends = [i.end_ns for i in infos.values() if i.count]
-    first = min(starts) * 1e-9 if starts else 0.0
-    start = first if t0 is None else t0
-    duration = (max(ends) * 1e-9 - start) if ends else 0.0
-    wanted = [t for t in (topics.DIAGNOSTICS, topics.NAV_POSE, *GAP_TOPICS) if t in infos]
+    wanted = [t for t in (topics.DIAGNOSTICS, topics.NAV_POSE, *GAP_TOPICS)
+              if reader.has_topic(t)]
     diags: list[dict[str, Any]] = []
     valid: list[bool] = []
     stamps: dict[str, list[NDArray[np.int64]]] = {}
@@ -153,6 +148,13 @@ def read_quality(reader: LogReader, t0: float | None = None) -> DataQuality:
             if topic == topics.NAV_POSE:
                 valid.extend(bool(orjson.loads(b).get("valid")) for b in raw)
             stamps.setdefault(topic, []).append(np.asarray(log_ns, dtype=np.int64))
+    # after the pass above, which checked the chunks, the topics' spans come from the indexes
+    infos = reader.topics()
+    starts = [i.start_ns for i in infos.values() if i.count]
+    ends = [i.end_ns for i in infos.values() if i.count]
+    first = min(starts) * 1e-9 if starts else 0.0
+    start = first if t0 is None else t0
+    duration = (max(ends) * 1e-9 - start) if ends else 0.0
     times: dict[str, NDArray[np.float64]] = {}
     nav_valid = np.array(valid, dtype=bool)
     for topic, parts in stamps.items():

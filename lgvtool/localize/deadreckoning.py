@@ -28,6 +28,7 @@ class DeadReckoning(GaussianPoseEstimator):
     name = "deadreckoning"
     Params = DeadReckoningParams
     summary = "odometry + gyro from the first NAV pose (or a given initial pose)"
+    corrects = False
 
     def update(self, obs: Observation) -> bool:
         if self.mu is not None:

@@ -26,23 +26,35 @@ whose variance grows with the distance travelled and the angle turned (:func:`sc
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from lgvtool.angles import wrap_scalar
 from lgvtool.localize.camera_fix import start_fix
-from lgvtool.localize.estimator import Estimate, Estimator, Motion, Observation
+from lgvtool.localize.estimator import Estimate, EstimateRows, Estimator, Motion, Observation
+from lgvtool.localize.kernel_choice import compiled
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
 from lgvtool.quantiles import chi2_quantile
 
+if TYPE_CHECKING:
+    from lgvtool.localize.estimator import FloatArray
+    from lgvtool.localize.motion import Deltas
+
 POSE = 3
 """Size of the pose part ``(x, y, theta)`` of the state."""
 SCALED = 5
 """Size of the state with the odometry scales, ``(x, y, theta, s_v, s_w)``."""
+
+def gaussian_kernels() -> ModuleType | None:
+    """The compiled loops of the Gaussian estimators (:mod:`lgvtool.localize.ekf_kernels`), or
+    None for the numpy path (numba not installed, or ``LGVTOOL_KERNELS=numpy``)."""
+    return compiled("lgvtool.localize.ekf_kernels")
 
 
 @dataclass(frozen=True)
@@ -120,6 +132,9 @@ def scaled_motion(dx: float, dy: float, dth: float, s_v: float, s_w: float
 
 class GaussianPoseEstimator(Estimator):
     """Shared state and prediction of the Gaussian estimators (EKF, dead reckoning)."""
+
+    #: False when observations after the start never change the state (dead reckoning)
+    corrects: ClassVar[bool] = True
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
@@ -212,6 +227,83 @@ class GaussianPoseEstimator(Estimator):
         P[4, 4] += p.scale_walk_w ** 2 * motion.rot
         self.P = P
 
+    def _kernel_params(self) -> FloatArray:
+        """The parameter vector of the compiled loops (:mod:`lgvtool.localize.ekf_kernels`):
+        the motion noise here, the measurement model in :class:`Ekf`."""
+        from lgvtool.localize import ekf_kernels as k
+
+        p = self.params
+        prm = np.zeros(k.N_PARAMS)
+        prm[[k.P_NOISE_DIST, k.P_NOISE_LAT, k.P_NOISE_ROT, k.P_NOISE_ROT_PER_M]] = (
+            p.noise_dist, p.noise_lat, p.noise_rot, p.noise_rot_per_m)
+        return prm
+
+    def run(self, times: FloatArray, observations: Sequence[Observation | None],
+            steps: Deltas | None, *, progress: Callable[[int], None] | None = None,
+            cloud_period_s: float = 2.0, cloud_size: int = 50) -> EstimateRows:
+        """As :meth:`Estimator.run`, one compiled call per observation (and one for all the
+        predictions of dead reckoning after its start) when numba is installed; the numpy
+        path otherwise and for the state with the odometry scales. The same rows (within the
+        last bits: :mod:`lgvtool.localize.ekf_kernels`)."""
+        kern = None if self.scaled else gaussian_kernels()
+        if kern is None:
+            return super().run(times, observations, steps, progress=progress,
+                               cloud_period_s=cloud_period_s, cloud_size=cloud_size)
+        f64 = np.float64
+        n = len(observations)
+        ts = np.ascontiguousarray(times, dtype=f64)
+        moving = steps is not None and self.uses_motion and n > 1
+        moves = tuple(np.ascontiguousarray(a, dtype=f64) for a in (
+            (steps.dx, steps.dy, steps.dth, steps.dist, steps.rot) if steps is not None
+            and moving else ((),) * 5))
+        ct, cx, cy, ch = (np.empty(n, dtype=f64) for _ in range(4))
+        covs = np.empty((n, 9), dtype=f64)
+        prm = self._kernel_params()
+        counts = np.zeros(2, dtype=np.int64)
+        mx, my = np.ascontiguousarray(self.map.x), np.ascontiguousarray(self.map.y)
+        mids = np.ascontiguousarray(self.map.ids, dtype=np.int64)
+        no_c, no_f, no_i = np.zeros(0, np.complex128), np.zeros(0, f64), np.zeros(0, np.int64)
+        rows = (ct, cx, cy, ch, covs)
+        k = report = 0
+        tl = ts.tolist()
+        for i, o in enumerate(observations):
+            if progress is not None and i - report >= 500:
+                progress(i - report)
+                report = i
+            if self.mu is None:  # not started: predictions are no-ops until then
+                if o is not None:
+                    self.update(o)
+                if self.mu is not None:
+                    kern._record(self.mu, self.P, tl[i], k, *rows)
+                    k += 1
+                continue
+            if not self.corrects:
+                k = kern.coast(self.mu, self.P, i, *moves, prm, ts, k, *rows)
+                break
+            move = i - 1 if moving and i > 0 else -1
+            if isinstance(o, ScanObservation):
+                kern.step(self.mu, self.P, move, *moves, True, o.q, o.u, o.ranges, o.ids, mx,
+                          my, mids, prm, counts, tl[i], k, *rows)
+            elif o is None:
+                kern.step(self.mu, self.P, move, *moves, False, no_c, no_c, no_f, no_i, mx,
+                          my, mids, prm, counts, tl[i], k, *rows)
+            else:
+                if move >= 0:
+                    kern._predict(self.mu, self.P, *(float(a[move]) for a in moves), prm)
+                self.update(o)
+                kern._record(self.mu, self.P, tl[i], k, *rows)
+            k += 1
+        self._count_kernel_updates(int(counts[0]), int(counts[1]))
+        if progress is not None:
+            progress(n - report)
+        if k < n:
+            ct, cx, cy, ch, covs = (c[:k].copy() for c in rows)
+        zeros = np.zeros(k, dtype=f64)
+        return EstimateRows(ct, cx, cy, ch, covs, np.zeros(k, dtype=np.int64), zeros, [])
+
+    def _count_kernel_updates(self, accepted: int, rejected: int) -> None:
+        """Add the reflectors the compiled loop accepted and rejected (:class:`Ekf`)."""
+
     def estimate(self) -> Estimate | None:
         if self.mu is None:
             return None
@@ -233,6 +325,20 @@ class Ekf(GaussianPoseEstimator):
         self._gate3 = chi2_quantile(self.params.gate_probability, 3)
         self.rejected = 0
         self.accepted = 0
+
+    def _kernel_params(self) -> FloatArray:
+        from lgvtool.localize import ekf_kernels as k
+
+        p = self.params
+        prm = super()._kernel_params()
+        prm[[k.P_SIGMA_RANGE, k.P_SIGMA_RANGE_PER_M, k.P_SIGMA_BEARING, k.P_GATE2,
+             k.P_USE_IDS]] = (p.sigma_range_m, p.sigma_range_per_m, p.sigma_bearing_rad,
+                              self._gate2, 1.0 if p.use_ids else 0.0)
+        return prm
+
+    def _count_kernel_updates(self, accepted: int, rejected: int) -> None:
+        self.accepted += accepted
+        self.rejected += rejected
 
     def update(self, obs: Observation) -> bool:
         if self.mu is None:

@@ -60,7 +60,3 @@ def kld_count(keys_in_draw_order: NDArray[np.int64], epsilon: float, delta: floa
     chosen = int(ok[0]) + 1 if len(ok) else m
     return int(min(max(chosen, n_min), n_max))
 
-
-def kld_bound_scalar(k: int, epsilon: float, delta: float) -> int:
-    """:func:`kld_bound` for one ``k``, rounded up."""
-    return math.ceil(float(kld_bound(k, epsilon, delta)))

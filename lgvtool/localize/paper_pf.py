@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from types import ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -147,6 +148,7 @@ class PaperParticleFilter(ParticleSet):
         self._packing: tuple[ComplexArray, ComplexArray, ComplexArray] | None = None
         self._buffers: dict[tuple[int, int, int], tuple[FloatArray, ...]] = {}
         self._map_z3 = self.map.z[:, None, None]
+        self._map_z = np.ascontiguousarray(self.map.z)
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
         #: updates left before a large uniform start set shrinks to ``particles``
@@ -194,7 +196,13 @@ class PaperParticleFilter(ParticleSet):
             return
         step = _motion_matrices(np.array([motion.dx]), np.array([motion.dy]),
                                 np.array([motion.dth]))[0]
-        self._adopt(self._packed() @ step)
+        if self._kern is not None:
+            s = self._packed()
+            new = np.empty_like(s)
+            self._kern.paper_move(s, new, complex(step[1, 0]), complex(step[1, 1]))
+            self._adopt(new)
+        else:
+            self._adopt(self._packed() @ step)
         self._move_refs(motion.dx, motion.dy, motion.dth)
 
     # ------------------------------------------------------------------ correction
@@ -207,14 +215,19 @@ class PaperParticleFilter(ParticleSet):
         if self.params.use_ids:
             summed: FloatArray = np.abs(self.scan_residuals(obs, True)).sum(axis=1)
             return summed
+        return self._nearest_sums(self._packed(), self._scan(obs))
+
+    def _scan(self, obs: ScanObservation) -> _Scan:
+        """``obs`` laid out for :meth:`_nearest_sums`, each point's candidate the map reflector
+        of its id or the nearest one seen from the reference pose."""
         j1 = self._reference_nearest(obs)
-        b = np.stack((np.ones(len(obs)), obs.q, -self.map.z[j1]))
-        return self._nearest_sums(self._packed(), _Scan(b, self.map.half_sep[j1]))
+        cand = self.map.z[j1]
+        return _Scan(np.stack((np.ones(len(obs)), obs.q, -cand)), self.map.half_sep[j1], cand)
 
     def _nearest_sums(self, s: ComplexArray, scan: _Scan, exponent: FloatArray | None = None
                       ) -> FloatArray:
         """``D_m``: the summed distances from every particle's measured points to their nearest
-        map reflectors, m (see :meth:`nearest_distances`; ``s``: the packed particles). With
+        map reflectors, m (``s``: the packed particles). With
         ``exponent``, writes the exponent of eq. 10, ``-D_m^2 / (2 sigma^2)``, there instead
         and returns it.
 
@@ -224,6 +237,14 @@ class PaperParticleFilter(ParticleSet):
         redistribution (the last ones) are compared with the whole map.
         """
         m = len(s)
+        kern = self._kern
+        if kern is not None:
+            out = np.empty(m) if exponent is None else exponent
+            kern.paper_exponents(s, s, 0j, 1 + 0j, scan.q, scan.cand, scan.half, self._map_z,
+                                 1.0 if exponent is None else self._factor, out)
+            if exponent is None:
+                np.sqrt(out, out=out)
+            return out
         plan = self._plan
         n = m if plan is None or plan.m != m else plan.n_local
         k = scan.k
@@ -260,10 +281,13 @@ class PaperParticleFilter(ParticleSet):
             return True
         if not isinstance(obs, PoseObservation) and (len(obs) == 0 or len(self.map) == 0):
             return False
-        d = self.distances(obs)
         s = self._packed()
-        exponent = d * d
-        exponent *= self._factor
+        if isinstance(obs, ScanObservation) and not p.use_ids:
+            exponent = self._nearest_sums(s, self._scan(obs), np.empty(len(s)))
+        else:
+            d = self.distances(obs)
+            exponent = d * d
+            exponent *= self._factor
         if self._start_left > 0:
             self._start_left -= 1
             if self._start_left == 0:
@@ -284,10 +308,15 @@ class PaperParticleFilter(ParticleSet):
         # eq. 10 up to its constant factor, which the normalisation removes; taken relative to
         # the best particle, so that the weights of far particles (the uniform start's) cannot
         # all underflow and the covariance's sums stay finite
-        exponent -= exponent.max()
-        np.exp(exponent, out=w)
-        # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one product
-        sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
+        kern = self._kern
+        if kern is not None:
+            sx, sy, sc, ss, total = kern.paper_weights(s, exponent, w)
+        else:
+            exponent -= exponent.max()
+            np.exp(exponent, out=w)
+            # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one
+            # product
+            sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
         if not (total > 0.0 and math.isfinite(total)):
             # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
             np.equal(exponent, exponent.max(), out=w)
@@ -304,12 +333,12 @@ class PaperParticleFilter(ParticleSet):
         draws = self._draws
         if draws is None:
             count = max(1, _DRAW_NUMBERS // (4 * m)) if self._quiet_motion else 1
-            draws = self._draws = plan.draw(self.rng, count, packed=True)
+            draws = self._draws = plan.draw(self.rng, count, packed=True, raw=kern is not None)
             self._drawn = 0
         elif self._drawn >= draws.count:
             draws.refill(self.rng)
             self._drawn = 0
-        plan.apply_packed(s, w, draws, self._drawn, out)
+        plan.apply_packed(s, w, draws, self._drawn, out, kern)
         self._drawn += 1
         self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
         return (s, w, total, complex(sx, sy), complex(sc, ss))
@@ -322,6 +351,11 @@ class PaperParticleFilter(ParticleSet):
             return np.zeros((3, 3)), 0.0
         if len(cov) == 5:
             s, w, total, sum_z, sum_rot = cov
+            if self._kern is not None:
+                c1 = np.empty((3, 3))
+                e1 = self._kern.paper_spread(s, w, total, sum_z, sum_rot, c1)
+                self._cov = (c1, float(e1))
+                return self._cov
             c, e = _covariances_and_ess(s[None], w[None], np.array([total]),
                                         np.array([sum_z]), np.array([sum_rot]))
             self._cov = (c[0], float(e[0]))
@@ -362,24 +396,42 @@ class PaperParticleFilter(ParticleSet):
         clouds: list[Cloud] = []
         next_cloud = -math.inf
         report = 0
-        block = _Block(self._packed()) if len(self.z) else None
+        block = self._block()
         m = len(self.z)
         rows, which = rec.rows, rec.which
         # the particles are in ``block.current``, or in ``block.spare`` when ``pending``
         pending = False
         matmul, copyto = np.matmul, np.copyto
+        kern = self._kern
+        if kern is not None and motion is not None:
+            # the motions as (step, turn) pairs of the kernels
+            steps_z, steps_rot = motion[:, 1, 0].tolist(), motion[:, 1, 1].tolist()
+        map_z, factor = self._map_z, self._factor
         for i, o in enumerate(observations):
             scan = prepared.get(i) if o is not None else None
             # the motion still to apply to the estimate and the reference pose (a scan weighed
             # below sets both anew)
             refs_behind: tuple[float, ...] | None = None
+            # the motion the kernel applies while weighing the particles
+            step: tuple[complex, complex] = (0j, 1 + 0j)
             if i > 0 and moves is not None:
                 if motion is not None and block is not None:
-                    if pending:
-                        matmul(block.spare, motion[i - 1], out=block.current)
+                    if kern is None:
+                        if pending:
+                            matmul(block.spare, motion[i - 1], out=block.current)
+                        else:
+                            matmul(block.current, motion[i - 1], out=block.spare)
+                        pending = not pending
+                    elif scan is not None and self._start_left == 0:
+                        step = (steps_z[i - 1], steps_rot[i - 1])
                     else:
-                        matmul(block.current, motion[i - 1], out=block.spare)
-                    pending = not pending
+                        if pending:
+                            kern.paper_move(block.spare, block.current, steps_z[i - 1],
+                                            steps_rot[i - 1])
+                        else:
+                            kern.paper_move(block.current, block.spare, steps_z[i - 1],
+                                            steps_rot[i - 1])
+                        pending = not pending
                     if scan is None:
                         self._move_refs(*moves[i - 1][:3])
                     else:
@@ -388,16 +440,23 @@ class PaperParticleFilter(ParticleSet):
                     self._leave(block, rec, pending)
                     pending = False
                     self.predict(Motion(*moves[i - 1]))
-                    block = _Block(self._packed()) if len(self.z) else None
+                    block = self._block()
                     m = len(self.z)
             if o is not None:
                 if scan is not None and block is not None and self._start_left == 0:
-                    if pending:
-                        copyto(block.current, block.spare)
                     s = block.current
-                    _, _, total, sum_z, sum_rot = self._correct(
-                        s, self._nearest_sums(s, scan, block.exponent), block.weights,
-                        block.spare)
+                    if kern is not None:
+                        # motion, transform, association and eq. 10's exponent in one pass
+                        kern.paper_exponents(block.spare if pending else s, s, step[0],
+                                             step[1], scan.q, scan.cand, scan.half, map_z,
+                                             factor, block.exponent)
+                        exponent = block.exponent
+                    else:
+                        if pending:
+                            copyto(s, block.spare)
+                        exponent = self._nearest_sums(s, scan, block.exponent)
+                    _, _, total, sum_z, sum_rot = self._correct(s, exponent, block.weights,
+                                                                block.spare)
                     pending = True
                     # on to the next row of the block (recording the block when it is full)
                     block.totals.append(total)
@@ -420,7 +479,7 @@ class PaperParticleFilter(ParticleSet):
                     self.update(o)
                     if self._cov is not before:
                         rec.fixed(*self._spread())
-                    block = _Block(self._packed()) if len(self.z) else None
+                    block = self._block()
                     m = len(self.z)
             if self._mean is not None and block is not None:
                 t = ts[i]
@@ -444,6 +503,10 @@ class PaperParticleFilter(ParticleSet):
             self.last_ess = float(out.ess[-1])
         return out
 
+    def _block(self) -> _Block | None:
+        """A block starting with the current particles (None without particles)."""
+        return _Block(self._packed(), self._kern) if len(self.z) else None
+
     def _leave(self, block: _Block | None, rec: _Recorder, pending: bool) -> None:
         """Hand the particles of ``block`` (in its spare row when ``pending``) back to the
         filter and record the covariances of its weighed sets."""
@@ -466,7 +529,8 @@ class PaperParticleFilter(ParticleSet):
         j = self.map.index_of(np.concatenate([o.ids for o in scans]))
         known = j >= 0
         j = np.where(known, j, 0)
-        b = np.stack((np.ones(len(j)), np.concatenate([o.q for o in scans]), -self.map.z[j]))
+        cand = self.map.z[j]
+        b = np.stack((np.ones(len(j)), np.concatenate([o.q for o in scans]), -cand))
         half = self.map.half_sep[j]
         bounds = np.cumsum([0] + [len(o) for o in scans])
         starts = bounds[:-1]
@@ -477,7 +541,7 @@ class PaperParticleFilter(ParticleSet):
         for i, a, e, ok, h in zip(idx, bounds_list[:-1], bounds_list[1:], complete, least,
                                   strict=True):
             if ok:
-                out[i] = _Scan(b[:, a:e], half[a:e], h)
+                out[i] = _Scan(b[:, a:e], half[a:e], cand[a:e], h)
         return out
 
 
@@ -488,15 +552,18 @@ _min = np.minimum.reduce
 class _Scan:
     """A scan laid out for :meth:`PaperParticleFilter._nearest_sums`: ``b`` (3, K) rows ones,
     the measured points ``q`` (body frame, m) and minus a candidate map reflector per point
-    (m); ``b2`` its first two rows; ``half``: half each candidate's distance to its nearest
-    neighbour (m), and the least of those."""
+    (m); ``b2`` its first two rows; ``q`` the points and ``cand`` the candidates (m);
+    ``half``: half each candidate's distance to its nearest neighbour (m), and the least of
+    those."""
 
-    __slots__ = ("b", "b2", "half", "half_min", "k")
+    __slots__ = ("b", "b2", "cand", "half", "half_min", "k", "q")
 
-    def __init__(self, b: ComplexArray, half: FloatArray, half_min: float | None = None
-                 ) -> None:
+    def __init__(self, b: ComplexArray, half: FloatArray, cand: ComplexArray,
+                 half_min: float | None = None) -> None:
         self.b = b
         self.b2 = b[:2]
+        self.q = b[1]
+        self.cand = cand
         self.half = half
         if half_min is None:
             half_min = float(half.min()) if len(half) else math.inf
@@ -569,8 +636,9 @@ class _Block:
     copies; a redistribution writes ``spare``, from which the next motion moves the particles
     into the next row. A full block starts over at row 0."""
 
-    def __init__(self, first: ComplexArray) -> None:
+    def __init__(self, first: ComplexArray, kernels: ModuleType | None = None) -> None:
         m = len(first)
+        self.kernels = kernels
         self.size = max(1, _COVARIANCE_BLOCK // max(1, m))
         self.states = np.empty((self.size, m, 3), dtype=np.complex128)
         self.states[0] = first
@@ -592,6 +660,14 @@ class _Block:
         k = self.k
         if k == 0:
             return np.zeros((0, 9)), np.zeros(0)
+        if self.kernels is not None:
+            covs = np.empty((k, 3, 3))
+            ess_k = np.empty(k)
+            spread = self.kernels.paper_spread
+            for b, (total, sum_z, sum_rot) in enumerate(zip(self.totals, self.sum_z,
+                                                            self.sum_rot, strict=True)):
+                ess_k[b] = spread(self.states[b], self.w[b], total, sum_z, sum_rot, covs[b])
+            return covs.reshape(k, 9), ess_k
         cov, ess = _covariances_and_ess(self.states[:k], self.w[:k], np.array(self.totals),
                                         np.array(self.sum_z), np.array(self.sum_rot),
                                         self.work)

@@ -183,23 +183,41 @@ class ParticleFilter(ParticleSet):
         if not p.outlier:
             return loglik
         eps = p.outlier_prob
-        log_u = -math.log(math.pi * p.outlier_gate_m ** 2) if dims == 2 else \
-            -math.log(math.pi * p.outlier_gate_m ** 2 * 2.0 * math.pi)
-        return np.logaddexp(math.log1p(-eps) + loglik, math.log(eps) + log_u)
+        return np.logaddexp(math.log1p(-eps) + loglik, math.log(eps) + self._log_outlier(dims))
+
+    def _log_outlier(self, dims: int) -> float:
+        """Log density of an outlier: uniform over the gate's disc (2-D, per m^2), and over
+        every heading too (3-D)."""
+        g = self.params.outlier_gate_m
+        return -math.log(math.pi * g ** 2) if dims == 2 else -math.log(math.pi * g ** 2 * 2.0 * math.pi)
 
     def scan_loglik(self, obs: ScanObservation) -> tuple[FloatArray, int]:
         """Log-likelihood of each particle for a scan, and the number of reflectors used."""
         p = self.params
-        e = self.scan_residuals(obs, p.use_ids)
-        # the residual along (er) and across (et) each reflector's ray
-        ray = e * np.multiply.outer(self.rot.conj(), obs.u.conj())
-        er, et = ray.real, ray.imag
         if p.sigma_range_per_m > 0.0:
             sr = np.sqrt(p.sigma_range_m ** 2 + (p.sigma_range_per_m * obs.ranges) ** 2)
         else:
             sr = np.full(len(obs), p.sigma_range_m)
         st = np.sqrt((obs.ranges * p.sigma_bearing_rad) ** 2 + 1e-12)
-        ll = -0.5 * ((er / sr) ** 2 + (et / st) ** 2) - (_LOG_2PI + np.log(sr) + np.log(st))
+        const = _LOG_2PI + np.log(sr) + np.log(st)
+        if self._kern is not None:
+            j1 = self._reference_nearest(obs)
+            half = self.map.half_sep[j1]
+            if p.use_ids:
+                # a reflector of known id is associated with it: never searched for
+                half = np.where(self._map_index(obs, True) >= 0, np.inf, half)
+            eps = p.outlier_prob
+            ll_k = np.empty(len(self.z))
+            self._kern.pf_scan_loglik(
+                self.z, self.rot, np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u.conj()),
+                self.map.z[j1], half, self.map.z, sr, st, const, p.outlier, math.log1p(-eps),
+                math.log(eps) + self._log_outlier(2), ll_k)
+            return ll_k, len(obs)
+        e = self.scan_residuals(obs, p.use_ids)
+        # the residual along (er) and across (et) each reflector's ray
+        ray = e * np.multiply.outer(self.rot.conj(), obs.u.conj())
+        er, et = ray.real, ray.imag
+        ll = -0.5 * ((er / sr) ** 2 + (et / st) ** 2) - const
         return self._mix(ll, 2).sum(axis=1), len(obs)
 
     def pose_loglik(self, obs: PoseObservation) -> FloatArray:
@@ -228,7 +246,15 @@ class ParticleFilter(ParticleSet):
                 return False
             ll, count = self.scan_loglik(obs)
             kind = "scan"
-        if p.log_weights:
+        ess: float | None = None
+        if p.log_weights and self._kern is not None:
+            w = np.empty(len(ll))
+            logw = np.empty(len(ll))
+            log_avg, ess = self._kern.pf_log_weights(self.logw, ll, w, logw)
+            if not math.isfinite(log_avg):
+                return False
+            self.w, self.logw = w, logw
+        elif p.log_weights:
             lw = self.logw + ll
             top = float(lw.max())
             if not math.isfinite(top):
@@ -249,7 +275,7 @@ class ParticleFilter(ParticleSet):
         per_obs = log_avg / count
         self._track_likelihood(kind, per_obs)
         n = len(self.z)
-        self.last_ess = effective_sample_size(self.w)
+        self.last_ess = effective_sample_size(self.w) if ess is None else ess
         self._cached = self.weighted_pose(self.w)
         self._ref = self._cached[:3]
         lost = 0.0
@@ -328,8 +354,19 @@ class ParticleFilter(ParticleSet):
         return d[:, 0], d[:, 1], d[:, 2]
 
     def predict(self, motion: Motion) -> None:
-        if self.params.odometry_scales and len(self.z) > 0:
+        p = self.params
+        n = len(self.z)
+        sigmas = p.noise_sigmas(motion.dist, motion.rot)
+        if p.odometry_scales and n > 0:
             self._predict_scaled(motion)
+        elif self._kern is not None and n > 0 and any(v != 0.0 for v in sigmas):
+            # eq. 9 with the numpy path's draw, in one pass
+            g = self.rng.standard_normal((3, n))
+            z, th, rot = np.empty_like(self.z), np.empty(n), np.empty_like(self.rot)
+            self._kern.pf_predict(self.z, self.th, self.rot, g, motion.dx, motion.dy,
+                                  motion.dth, *sigmas, z, th, rot)
+            self.z, self.th, self.rot = z, th, rot
+            self._move_ref(motion)
         else:
             super().predict(motion)
         self._cached = None
@@ -362,11 +399,7 @@ class ParticleFilter(ParticleSet):
         self._set_headings(self.th + dth)
         self.s_v = self.s_v + p.scale_walk_v * math.sqrt(motion.dist) * g[3]
         self.s_w = self.s_w + p.scale_walk_w * math.sqrt(motion.rot) * g[4]
-        if self._ref is not None:
-            x, y, t = self._ref
-            c0, s0 = math.cos(t), math.sin(t)
-            self._ref = (x + c0 * motion.dx - s0 * motion.dy, y + s0 * motion.dx + c0 * motion.dy,
-                         t + motion.dth)
+        self._move_ref(motion)
 
     @property
     def odometry_calibration(self) -> dict[str, float]:
@@ -389,6 +422,7 @@ class ParticleFilter(ParticleSet):
     def _resample(self, kind: str, obs: Observation, lost: float) -> None:
         p = self.params
         draw = low_variance if p.resampler == "low-variance" else multinomial
+        idx: NDArray[np.intp] | None
         if self._start_left > 0:
             # the large start set keeps its size until it shrinks
             n_new = len(self.z)
@@ -403,11 +437,8 @@ class ParticleFilter(ParticleSet):
             idx = idx[:n_new]
         else:
             n_new = p.particles
-            idx = draw(self.w, n_new, self.rng)
-        z, th = self.z[idx], self.th[idx]
-        scaled = p.odometry_scales and len(self.s_v) == len(self.z)
-        if scaled:
-            self.s_v, self.s_w = self.s_v[idx], self.s_w[idx]
+            idx = None if self._kern is not None and draw is low_variance else \
+                draw(self.w, n_new, self.rng)
         n_inject = 0
         if p.recovery:
             frac = lost
@@ -415,6 +446,21 @@ class ParticleFilter(ParticleSet):
             if slow > 0.0:
                 frac = max(frac, 1.0 - fast / slow)
             n_inject = min(n_new, round(frac * n_new))
+        rot = None
+        if idx is None:
+            # low-variance resampling and the copy in one pass (the numpy path's one draw);
+            # the headings wrapped there unless recovery re-draws some below
+            idx = np.empty(n_new, dtype=np.intp)
+            z, th = np.empty(n_new, dtype=np.complex128), np.empty(n_new)
+            rot = np.empty(n_new, dtype=np.complex128)
+            assert self._kern is not None
+            self._kern.low_variance_gather(self.w, self.rng.random(), n_new, self.z, self.th,
+                                           self.rot, z, th, rot, idx, n_inject == 0)
+        else:
+            z, th = self.z[idx], self.th[idx]
+        scaled = p.odometry_scales and len(self.s_v) == len(self.z)
+        if scaled:
+            self.s_v, self.s_w = self.s_v[idx], self.s_w[idx]
         if n_inject > 0:
             gx, gy, gt = self._recovery_poses(obs, n_inject)
             z[:n_inject] = gx + 1j * gy
@@ -424,7 +470,10 @@ class ParticleFilter(ParticleSet):
             self.injected += n_inject
             self.w_slow[kind] = self.w_fast[kind] = 0.0
         self.z = z
-        self._set_headings(th)
+        if rot is not None and n_inject == 0:
+            self.th, self.rot = th, rot
+        else:
+            self._set_headings(th)
         self.w = np.full(n_new, 1.0 / n_new)
         self.logw = np.full(n_new, -math.log(n_new))
         self.resamplings += 1

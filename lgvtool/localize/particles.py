@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.localize.estimator import Estimate, Estimator, Motion
+from lgvtool.localize.kernel_choice import compiled
 from lgvtool.localize.noise import perturbed_motion
 from lgvtool.localize.observations import PoseObservation, ScanObservation
 from lgvtool.localize.params import param
@@ -25,6 +27,12 @@ from lgvtool.localize.resampling import uniform_poses
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 _TWO_PI = 2.0 * math.pi
+
+def fused_kernels() -> ModuleType | None:
+    """The compiled kernels (:mod:`lgvtool.localize.pf_kernels`) the filters use, or None for
+    the numpy path (numba not installed, or ``LGVTOOL_KERNELS=numpy``). Importing them imports
+    numba, so this is called when a filter is made, never at start-up."""
+    return compiled("lgvtool.localize.pf_kernels")
 
 
 @dataclass(frozen=True)
@@ -52,6 +60,8 @@ class ParticleSet(Estimator):
         self.last_ess = 0.0
         #: a pose near the bulk of the particles (the last estimate moved by the odometry)
         self._ref: tuple[float, float, float] | None = None
+        #: the compiled kernels, or None for the numpy path (the reference)
+        self._kern = fused_kernels()
 
     @property
     def th(self) -> FloatArray:
@@ -118,6 +128,10 @@ class ParticleSet(Estimator):
         else:
             self.z = self.z + self.rot * (dx + 1j * dy)
             self._set_headings(self.th + dth)
+        self._move_ref(motion)
+
+    def _move_ref(self, motion: Motion) -> None:
+        """Move the reference pose by the odometry motion (noise-free)."""
         if self._ref is not None:
             x, y, t = self._ref
             c0, s0 = math.cos(t), math.sin(t)
@@ -180,29 +194,6 @@ class ParticleSet(Estimator):
             e[far] = mz[jb] - p[far]
         return e
 
-    def nearest_distances(self, obs: ScanObservation, brute_tail: int = 0) -> FloatArray:
-        """Distance from every particle's measured point to the nearest map reflector, (M, K),
-        m (the paper's association; ids only speed the search up). Exact: a candidate
-        reflector (:meth:`_reference_nearest`) is the nearest for every point within half its
-        spacing to its own nearest neighbour; the other points, and the last ``brute_tail``
-        particles (those spread uniformly, which are never near), are compared with the whole
-        map."""
-        p = self.world_points(obs)
-        mz = self.map.z
-        m = len(p)
-        n = m - brute_tail
-        j1 = self._reference_nearest(obs)
-        d = np.empty(p.shape)
-        near = d[:n]
-        np.abs(mz[j1] - p[:n], out=near)
-        far = near >= self.map.half_sep[j1]
-        if far.any():
-            near[far] = self.map.nearest_distance(p[:n][far])
-        if brute_tail > 0:
-            tail = p[n:]
-            d[n:] = np.abs(mz[:, None, None] - tail[None, :, :]).min(axis=0)
-        return d
-
     def _reference_pose(self) -> tuple[float, float, float]:
         """A pose near the bulk of the particles: the last estimate, else the heaviest one."""
         if self._ref is not None:
@@ -224,8 +215,13 @@ class ParticleSet(Estimator):
 
         All weighted sums come from one product with the weights: with ``d = z - mean`` and
         ``h`` the heading deviations, ``sum w d^2 = Sxx - Syy + 2i Sxy``,
-        ``sum w |d|^2 = Sxx + Syy``, ``sum w d h = Sxh + i Syh``.
+        ``sum w |d|^2 = Sxx + Syy``, ``sum w d h = Sxh + i Syh`` (the kernels: one pass
+        summing each entry).
         """
+        if self._kern is not None:
+            c = np.empty((3, 3))
+            x, y, t = self._kern.weighted_pose(self.z, self.rot, np.ascontiguousarray(w), c)
+            return x, y, t, c
         mz = complex(w @ self.z)
         mr = complex(w @ self.rot)
         mt = math.atan2(mr.imag, mr.real)

@@ -7,6 +7,7 @@ Weights are normalised (they sum to 1). Every random draw comes from the caller'
 from __future__ import annotations
 
 import math
+from types import ModuleType
 
 import numpy as np
 from numpy.typing import NDArray
@@ -80,17 +81,22 @@ class RedistributionDraws:
     out for particles packed as rows ``(z, rot, 1)`` (``rot = exp(i th)``): the new set is
     ``parents * scale[b] + shift[b]``, with ``parents`` the rows ``slots_all[b]`` of the
     parents in the order of the top weights (the uniform particles take any parent and a
-    scale of 0).
+    scale of 0). With ``raw``, only the uniform numbers ``u`` (count, 4, M) that all of these
+    are made of, for :func:`lgvtool.localize.pf_kernels.paper_redistribute`.
     """
 
-    __slots__ = ("_plan", "count", "far_th", "far_z", "local_th", "local_z", "scale", "shift",
-                 "slots", "slots_all")
+    __slots__ = ("_plan", "count", "far_th", "far_z", "local_th", "local_z", "raw", "scale",
+                 "shift", "slots", "slots_all", "u")
 
     def __init__(self, plan: RedistributionPlan, rng: np.random.Generator, count: int, *,
-                 packed: bool = False) -> None:
+                 packed: bool = False, raw: bool = False) -> None:
         m, n_local = plan.m, plan.n_local
         self.count = count
         self._plan = plan
+        self.raw = raw
+        if raw:
+            self.u = rng.random((count, 4, m))
+            return
         if not packed:
             u = rng.random((count, 4, m))
             off = u[:, 1:] * plan.width
@@ -112,6 +118,9 @@ class RedistributionDraws:
 
     def refill(self, rng: np.random.Generator) -> None:
         """Draw the next ``count`` redistributions into the arrays of this (packed) draw."""
+        if self.raw:
+            rng.random(out=self.u)
+            return
         plan = self._plan
         n_local = plan.n_local
         u = rng.random((self.count, 4, plan.m))
@@ -145,15 +154,18 @@ class RedistributionPlan:
         half[1, n_local:] = 0.5 * area.height
         half[2, n_local:] = math.pi
         self.width, self.low = 2.0 * half, -half
-        centre = complex(0.5 * (area.x_min + area.x_max), 0.5 * (area.y_min + area.y_max))
+        #: the centre of the work area (complex, m)
+        self.centre = centre = complex(0.5 * (area.x_min + area.x_max),
+                                       0.5 * (area.y_min + area.y_max))
         self.far_z = np.full(m - n_local, centre)
         self.far_th = np.zeros(m - n_local)
 
-    def draw(self, rng: np.random.Generator, count: int = 1, *, packed: bool = False
-             ) -> RedistributionDraws:
+    def draw(self, rng: np.random.Generator, count: int = 1, *, packed: bool = False,
+             raw: bool = False) -> RedistributionDraws:
         """The random numbers of the next ``count`` redistributions (with ``packed``, also
-        laid out for :meth:`apply_packed`)."""
-        return RedistributionDraws(self, rng, count, packed=packed)
+        laid out for :meth:`apply_packed`; with ``raw``, only the uniform numbers, for
+        :meth:`apply_packed` with kernels)."""
+        return RedistributionDraws(self, rng, count, packed=packed, raw=raw)
 
     def apply(self, z: NDArray[np.complex128], th: FloatArray, weights: FloatArray,
               rng: np.random.Generator) -> tuple[NDArray[np.complex128], FloatArray]:
@@ -177,13 +189,19 @@ class RedistributionPlan:
         return new_z, new_th
 
     def apply_packed(self, state: NDArray[np.complex128], weights: FloatArray,
-                     draws: RedistributionDraws, b: int, out: NDArray[np.complex128]) -> None:
+                     draws: RedistributionDraws, b: int, out: NDArray[np.complex128],
+                     kernels: ModuleType | None = None) -> None:
         """:meth:`apply_drawn` on particles packed as the rows of ``state`` (M, 3): columns
         ``z`` (m), ``rot`` (heading rotor ``exp(i th)``) and ones; writes ``out`` (M, 3). The
         weights need not be normalised. A heading offset multiplies the parent's rotor by
-        ``exp(i offset)``."""
+        ``exp(i offset)``. ``kernels``: :mod:`lgvtool.localize.pf_kernels` to do it in one
+        pass (the same numbers; ``draws`` drawn ``raw``)."""
         m, n_top = self.m, self.n_top
         top = weights.argpartition(m - n_top)[m - n_top:] if n_top < m else np.arange(m)
+        if kernels is not None:
+            kernels.paper_redistribute(state, top, draws.u[b], n_top, self.n_local,
+                                       self.width, self.low, self.centre, out)
+            return
         state.take(top[draws.slots_all[b]], axis=0, out=out)
         np.multiply(out, draws.scale[b], out=out)
         np.add(out, draws.shift[b], out=out)

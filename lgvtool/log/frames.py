@@ -30,11 +30,33 @@ def _pose_row(t: float, d: dict[str, Any]) -> dict[str, Any]:
 ROWS_PER_BLOCK = 8192
 
 
+def pose_table(messages: Iterable[tuple[int, dict[str, Any]]]) -> pd.DataFrame:
+    """The table of foxglove.PoseInFrame messages ``(log time ns, decoded message)``, built
+    column by column (the same values as :func:`_pose_row` per message)."""
+    cols: dict[str, list[float]] = {k: [] for k in ("t", "stamp", "x", "y", "z", "heading")}
+    t, stamp, x, y, z, heading = cols.values()
+    atan2 = math.atan2
+    for ns, d in messages:
+        p = d["pose"]
+        pos, q = p["position"], p["orientation"]
+        t.append(ns * 1e-9)
+        stamp.append(stamp_seconds(d.get("timestamp")))
+        x.append(pos["x"])
+        y.append(pos["y"])
+        z.append(pos.get("z", 0.0))
+        qx, qy, qz, qw = (float(q.get(k, 0.0)) for k in ("x", "y", "z", "w"))
+        heading.append(atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
+    return pd.DataFrame(cols)
+
+
 def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:
     """Flatten messages of one schema into a DataFrame (see the module docstring).
 
     Rows are built as dicts and turned into a DataFrame :data:`ROWS_PER_BLOCK` at a time, so
-    that memory holds the table's columns, not a dict per row of a long log."""
+    that memory holds the table's columns, not a dict per row of a long log; poses (the
+    largest tables) are built column by column."""
+    if schema == "foxglove.PoseInFrame":
+        return pose_table((m.log_time_ns, m.data) for m in messages)
     rows: list[dict[str, Any]] = []
     parts: list[pd.DataFrame] = []
     for m in messages:

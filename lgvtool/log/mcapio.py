@@ -361,9 +361,14 @@ def read_metadata(f: IO[bytes], index: MetadataIndex) -> Metadata:
     return Metadata(name, c.string_map())
 
 
+ZSTD_LEVEL = 1
+"""zstd level of the chunks written: on lgvtool's logs (JSON messages) level 1 compresses
+about twice as fast as level 3 and as small or smaller (docs/performance.md)."""
+
+
 def _compress(kind: str, data: bytes) -> bytes:
     if kind == "zstd":
-        return zstandard.ZstdCompressor(level=3).compress(data)
+        return zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(data)
     if kind == "lz4":
         return bytes(lz4.frame.compress(data))
     return data
@@ -895,6 +900,40 @@ def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
     return times, out
 
 
+def indexed_times(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex]
+                  ) -> dict[int, NDArray[np.int64]] | None:
+    """The log times (ns) of every message per channel, read from the chunks' message
+    indexes alone (nothing is decompressed), sorted; None when a chunk has no message index
+    or one does not parse (the chunks must then be read)."""
+    import numpy as np
+
+    parts: dict[int, list[bytes]] = {}
+    u16, u32 = _U16.unpack_from, _U32.unpack_from
+    for ci in chunk_indexes:
+        if not ci.message_index_offsets and ci.uncompressed_size:
+            return None
+        if not ci.message_index_offsets:
+            continue
+        lo = min(ci.message_index_offsets.values())
+        f.seek(lo)
+        buf = f.read(ci.message_index_length)
+        for cid, off in ci.message_index_offsets.items():
+            at = off - lo
+            if at < 0 or at + 15 > len(buf) or buf[at] != OP_MESSAGE_INDEX:
+                return None
+            (got,) = u16(buf, at + 9)
+            (nbytes,) = u32(buf, at + 11)
+            if got != cid or nbytes % 16 or at + 15 + nbytes > len(buf):
+                return None
+            parts.setdefault(cid, []).append(buf[at + 15:at + 15 + nbytes])
+    out: dict[int, NDArray[np.int64]] = {}
+    for cid, chunks in parts.items():
+        t = np.frombuffer(b"".join(chunks), dtype="<u8")[0::2].astype(np.int64)
+        t.sort(kind="stable")
+        out[cid] = t
+    return out
+
+
 def iter_channel_chunks(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex],
                         wanted: Iterable[int], on_corrupt: OnCorrupt | None = None,
                         verified: set[int] | None = None
@@ -998,11 +1037,26 @@ def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Ite
     return out
 
 
+MERGED_BLOCK = 4096
+"""Messages per block that :func:`iter_indexed_blocks` yields from overlapping chunks."""
+
+
 def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
                  wanted: set[int] | None, on_corrupt: OnCorrupt | None = None,
                  verified: set[int] | None = None) -> Iterator[tuple[int, int, int, bytes]]:
     """Messages of the ``wanted`` channels in log-time order across (possibly overlapping)
-    chunks: (log_time, channel_id, publish_time, data). Chunks are read lazily and checked
+    chunks: (log_time, channel_id, publish_time, data); see :func:`iter_indexed_blocks`."""
+    for block in iter_indexed_blocks(stream, chunk_indexes, wanted, on_corrupt, verified):
+        yield from block
+
+
+def iter_indexed_blocks(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
+                 wanted: set[int] | None, on_corrupt: OnCorrupt | None = None,
+                 verified: set[int] | None = None
+                 ) -> Iterator[list[tuple[int, int, int, bytes]]]:
+    """Messages of the ``wanted`` channels in log-time order across (possibly overlapping)
+    chunks, in lists (a chunk's messages, or up to :data:`MERGED_BLOCK` merged from
+    overlapping chunks): (log_time, channel_id, publish_time, data). Chunks are read lazily and checked
     (:func:`verified_records`); a corrupt one is passed to ``on_corrupt`` and skipped (without
     ``on_corrupt`` it raises :class:`CorruptChunkError`); sound ones are added to
     ``verified`` (file offsets)."""
@@ -1027,16 +1081,21 @@ def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
         return msgs
 
     heap: list[tuple[int, int, int, int, int, bytes]] = []
+    merged: list[tuple[int, int, int, bytes]] = []
     seq = 0
     i = 0
     while i < len(order) or heap:
         if not heap and i < len(order):
+            if merged:
+                yield merged
+                merged = []
             ci = order[i]
             i += 1
             msgs = load(ci)
             # fast path: this chunk ends before the next one starts -> no merging needed
             if i >= len(order) or ci.message_end_time < order[i].message_start_time:
-                yield from msgs
+                if msgs:
+                    yield msgs
                 continue
             for m in msgs:
                 heapq.heappush(heap, (m[0], seq, m[1], m[2], 0, m[3]))
@@ -1049,4 +1108,9 @@ def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
                 seq += 1
             i += 1
         lt, _, cid, pub, _, data = heapq.heappop(heap)
-        yield lt, cid, pub, data
+        merged.append((lt, cid, pub, data))
+        if len(merged) >= MERGED_BLOCK or not heap:
+            yield merged
+            merged = []
+    if merged:
+        yield merged

@@ -31,6 +31,7 @@ from lgvtool.log.mcapio import (
     data_section_crc,
     iter_channel_chunks,
     iter_indexed,
+    iter_indexed_blocks,
     read_channels,
     read_metadata,
     read_summary,
@@ -280,6 +281,26 @@ class LogReader:
                 topic, schema = topic_of[cid]
                 yield RawMessage(topic, schema, log_time, pub, data)
 
+    def raw_blocks(self) -> Iterator[list[tuple[int, int, int, bytes]]]:
+        """Every stored message in log-time order, undecoded, in blocks (about a chunk's):
+        ``(log time ns, channel id, publish time ns, data)``; :meth:`channel_topic` names a
+        channel id. The same messages in the same order as :meth:`raw_messages`."""
+        self.check_topics(None)
+        if self._salvaged is not None:
+            block = [(m.log_time, m.channel_id, m.publish_time, m.data) for m in self._salvaged]
+            if block:
+                yield block
+            return
+        with open(self.path, "rb") as f:
+            yield from iter_indexed_blocks(f, self._chunk_indexes, None, self._note_corrupt,
+                                           self._verified)
+
+    def channel_topic(self, channel_id: int) -> tuple[str, str]:
+        """Topic and schema name of a channel id."""
+        c = self._channels[channel_id]
+        s = self._schemas.get(c.schema_id)
+        return c.topic, s.name if s is not None else ""
+
     def raw_columns(self, topics: Iterable[str]) -> dict[str, tuple[NDArray[np.int64],
                                                                    list[bytes]]]:
         """Every message of ``topics``, undecoded, per topic: the log times (ns since the
@@ -419,26 +440,62 @@ class LogReader:
         return sorted({c.topic for c in self._channels.values()})
 
     def topics(self) -> dict[str, TopicInfo]:
-        """Per topic: schema, count, first and last time, largest gap (reads every message)."""
+        """Per topic: schema, count, first and last time, largest gap. Every chunk is checked
+        (:meth:`verify_chunks`); the times come from the sound chunks' message indexes, or,
+        without indexes, from reading every message."""
         if self._topic_info is None:
             schema_of = {c.topic: self._schemas[c.schema_id].name if c.schema_id in self._schemas
                          else "" for c in self._channels.values()}
-            acc: dict[str, list[int]] = {}
-            for m in self._raw_messages(None):
-                a = acc.get(m.topic)
-                if a is None:
-                    acc[m.topic] = [1, m.log_time_ns, m.log_time_ns, 0]
-                else:
-                    gap = m.log_time_ns - a[2]
-                    a[0] += 1
-                    a[2] = m.log_time_ns
-                    if gap > a[3]:
-                        a[3] = gap
+            acc = self._indexed_topic_times()
+            if acc is None:
+                acc = self._read_topic_times()
             self._topic_info = {
                 t: TopicInfo(schema_of.get(t, ""), a[0], a[1], a[2], a[3])
                 for t, a in sorted(acc.items())
             }
         return self._topic_info
+
+    def _indexed_topic_times(self) -> dict[str, list[int]] | None:
+        """(count, first, last, largest gap) per topic from the message indexes of the sound
+        chunks; None for a salvaged file or one whose chunks lack indexes."""
+        import numpy as np
+
+        from lgvtool.log.mcapio import indexed_times
+
+        if self._salvaged is not None:
+            return None
+        self.verify_chunks()
+        sound = [ci for ci in self._chunk_indexes if ci.chunk_start_offset in self._verified]
+        with open(self.path, "rb") as f:
+            per_channel = indexed_times(f, sound)
+        if per_channel is None:
+            return None
+        by_topic: dict[str, list[NDArray[np.int64]]] = {}
+        for cid, t in per_channel.items():
+            c = self._channels.get(cid)
+            if c is not None and len(t):
+                by_topic.setdefault(c.topic, []).append(t)
+        acc: dict[str, list[int]] = {}
+        for topic, parts in by_topic.items():
+            t = np.sort(np.concatenate(parts), kind="stable") if len(parts) > 1 else parts[0]
+            gap = int(np.diff(t).max()) if len(t) > 1 else 0
+            acc[topic] = [len(t), int(t[0]), int(t[-1]), max(gap, 0)]
+        return acc
+
+    def _read_topic_times(self) -> dict[str, list[int]]:
+        """(count, first, last, largest gap) per topic, reading every message."""
+        acc: dict[str, list[int]] = {}
+        for m in self._raw_messages(None):
+            a = acc.get(m.topic)
+            if a is None:
+                acc[m.topic] = [1, m.log_time_ns, m.log_time_ns, 0]
+            else:
+                gap = m.log_time_ns - a[2]
+                a[0] += 1
+                a[2] = m.log_time_ns
+                if gap > a[3]:
+                    a[3] = gap
+        return acc
 
     def has_topic(self, topic: str) -> bool:
         """Whether the log has a channel for ``topic`` (it may hold no messages)."""
@@ -452,10 +509,43 @@ class LogReader:
                        if c.topic == topic and c.schema_id in self._schemas),
                       T.schema_for_topic(topic) or "")
         try:
+            if schema == "foxglove.PoseInFrame":
+                table = self._pose_table(topic)
+                if table is not None:
+                    return table
             return to_dataframe(schema, self.messages([topic]))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise LogFormatError(f"{self.path}: topic {topic}: messages do not match schema "
                                  f"{schema} ({type(exc).__name__}: {exc})") from None
+
+    def _pose_table(self, topic: str) -> pd.DataFrame | None:
+        """The table of a foxglove.PoseInFrame topic read a chunk at a time through the chunk
+        indexes (:func:`lgvtool.log.frames.pose_table`); None when the chunks hold its
+        messages out of log-time order (:meth:`messages` then merges them)."""
+        import numpy as np
+
+        from lgvtool.log.frames import pose_table
+
+        last = [-1 << 63]
+        ordered = [True]
+        loads = orjson.loads
+
+        def rows() -> Iterator[tuple[int, dict[str, Any]]]:
+            for block in self.raw_column_chunks([topic]):
+                found = block.get(topic)
+                if found is None:
+                    continue
+                t = found[0]
+                if not len(t):
+                    continue
+                if int(t[0]) < last[0] or bool((np.diff(t) < 0).any()):
+                    ordered[0] = False
+                    return
+                last[0] = int(t[-1])
+                yield from zip(t.tolist(), map(loads, found[1]), strict=True)
+
+        table = pose_table(rows())
+        return table if ordered[0] else None
 
     # ------------------------------------------------------------------ run facts
     def config(self) -> Config:

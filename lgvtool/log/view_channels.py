@@ -11,8 +11,7 @@ each stream keeps only its numeric rows until then. Times in integer ns since th
 from __future__ import annotations
 
 import math
-from array import array
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import orjson
@@ -33,14 +32,82 @@ MOVING_SPEED = 0.01
 """Drive speed above which an MCU frame counts for the steering median, m/s."""
 
 
-def _each(reader: LogReader, topic: str) -> Iterator[tuple[int, dict[str, Any]]]:
-    """(log time ns, decoded message) of every message of ``topic``, one at a time (a long
-    log's messages are never all decoded at once)."""
-    if not reader.has_topic(topic):
-        return
-    loads = orjson.loads
-    for m in reader.raw_messages([topic]):
-        yield m.log_time_ns, loads(m.data)
+def _nav_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+    """x, y, heading (m, m, rad; NaN when not a number) and the valid flag of NAV poses."""
+    return ([_num(d, "x") for d in docs], [_num(d, "y") for d in docs],
+            [_num(d, "heading") for d in docs], [bool(d.get("valid")) for d in docs])
+
+
+def _scan_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+    """Per scan its start (ns) and count; per observation range (m), bearing (rad), id and time
+    in scan (s)."""
+    obs = [d.get("observations", []) for d in docs]
+    flat = [o for os in obs for o in os]
+    return ([from_stamp(d["timestamp"]) for d in docs],
+            [len(os) for os in obs], [float(o["range"]) for o in flat],
+            [float(o["bearing"]) for o in flat], [int(o.get("id", -1)) for o in flat],
+            [float(o.get("time_in_scan", 0.0)) for o in flat])
+
+
+def _truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+    """x, y (m) and the quaternion's z and w of ground-truth poses."""
+    poses = [d["pose"] for d in docs]
+    return ([p["position"]["x"] for p in poses], [p["position"]["y"] for p in poses],
+            [p["orientation"].get("z", 0.0) for p in poses],
+            [p["orientation"].get("w", 1.0) for p in poses])
+
+
+def _mcu_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+    """Steering angle (rad, NaN when absent) and absolute drive speed (m/s) of MCU frames."""
+    return ([float(d.get("steering_angle", math.nan)) for d in docs],
+            [abs(float(d.get("drive_speed", 0.0))) for d in docs])
+
+
+_FIELDS = {T.NAV_POSE: (_nav_fields, ("d", "d", "d", "?")),
+           T.NAV_REFLECTORS: (_scan_fields, ("q", "q", "d", "d", "q", "d")),
+           T.TRUTH: (_truth_fields, ("d", "d", "d", "d")),
+           T.MCU_FRAME: (_mcu_fields, ("d", "d"))}
+
+
+class LogRows:
+    """The numeric rows of the log that the view channels draw, read in one pass over the
+    log's chunks and decoded a chunk at a time: per topic the log times (ns) and its columns
+    (see the ``_*_fields`` functions), in log-time order; topics the log lacks are empty."""
+
+    def __init__(self, reader: LogReader) -> None:
+        import numpy as np
+
+        wanted = [t for t in _FIELDS if reader.has_topic(t)]
+        acc: dict[str, tuple[list[Any], list[tuple[list[Any], ...]]]] = {
+            t: ([], []) for t in wanted}
+        loads = orjson.loads
+        for block in (reader.raw_column_chunks(wanted) if wanted else ()):
+            for topic, (t, datas) in block.items():
+                acc[topic][0].append(t)
+                acc[topic][1].append(_FIELDS[topic][0]([loads(d) for d in datas]))
+        self._cols: dict[str, tuple[Any, list[Any]]] = {}
+        for topic, (_fields, codes) in _FIELDS.items():
+            times, parts = acc.get(topic, ([], []))
+            t = np.concatenate(times).astype(np.int64) if times else np.zeros(0, np.int64)
+            cols = [np.array([v for p in parts for v in p[c]],
+                             dtype=np.int64 if code == "q" else bool if code == "?"
+                             else np.float64) for c, code in enumerate(codes)]
+            if len(t) > 1 and not bool(np.all(t[1:] >= t[:-1])):
+                order = np.argsort(t, kind="stable")
+                t = t[order]
+                if topic == T.NAV_REFLECTORS:  # per scan columns, then per observation
+                    counts = cols[1]
+                    offsets = np.concatenate([[0], np.cumsum(counts)])
+                    flat = np.concatenate([np.arange(offsets[i], offsets[i + 1])
+                                           for i in order.tolist()]).astype(np.intp)
+                    cols = [cols[0][order], counts[order]] + [c[flat] for c in cols[2:]]
+                else:
+                    cols = [c[order] for c in cols]
+            self._cols[topic] = (t, cols)
+
+    def columns(self, topic: str) -> tuple[Any, list[Any]]:
+        """Log times (ns) and columns of ``topic``."""
+        return self._cols[topic]
 
 
 def _num(d: dict[str, Any], key: str) -> float:
@@ -48,27 +115,14 @@ def _num(d: dict[str, Any], key: str) -> float:
     return float(v) if isinstance(v, int | float) else math.nan
 
 
-def _scan_rows(reader: LogReader) -> tuple[Any, ...]:
+def _scan_rows(rows: LogRows) -> tuple[Any, ...]:
     """The reflector scans of the log as flat arrays: log time (ns), start (ns), row offsets,
     then per observation range (m), bearing (rad), id and time in scan (s)."""
     import numpy as np
 
-    times, start, offsets = array("q"), array("q"), array("q", [0])
-    rng, brg, ids, dts = array("d"), array("d"), array("q"), array("d")
-    for t, d in _each(reader, T.NAV_REFLECTORS):
-        times.append(t)
-        start.append(from_stamp(d["timestamp"]))
-        obs = d.get("observations", [])
-        offsets.append(offsets[-1] + len(obs))
-        for o in obs:
-            rng.append(float(o["range"]))
-            brg.append(float(o["bearing"]))
-            ids.append(int(o.get("id", -1)))
-            dts.append(float(o.get("time_in_scan", 0.0)))
-    return (np.array(times, dtype=np.int64), np.array(start, dtype=np.int64),
-            np.array(offsets, dtype=np.int64), np.array(rng, dtype=np.float64),
-            np.array(brg, dtype=np.float64), np.array(ids, dtype=np.int64),
-            np.array(dts, dtype=np.float64))
+    times, (start, counts, rng, brg, ids, dts) = rows.columns(T.NAV_REFLECTORS)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    return times, start, offsets, rng, brg, ids, dts
 
 
 def _scan_encoder(t: NDArray[np.int64], rows: tuple[Any, ...], source_name: str) -> Any:
@@ -90,7 +144,7 @@ def _frames(name: str, t: NDArray[np.int64], x: Any, y: Any, h: Any, m: fx.Mount
     return lambda idx: fx.frame_transforms_many(name, t[idx], x[idx], y[idx], h[idx], m)
 
 
-def nav_streams(reader: LogReader, m: fx.Mounting, fallback: str = "truth") -> list[Source]:
+def nav_streams(rows: LogRows, m: fx.Mounting, fallback: str = "truth") -> list[Source]:
     """/nav/head and /nav/tf of every valid NAV pose, /nav/scan of every reflector scan,
     drawn in the frame nav/head when the log has a valid NAV pose, else in the head frame of
     ``fallback`` (an imported dataset's sensor reports no pose: its scans ride on the head of
@@ -98,66 +152,49 @@ def nav_streams(reader: LogReader, m: fx.Mounting, fallback: str = "truth") -> l
     import numpy as np
 
     out: list[Source] = []
-    rows = [(t, _num(d, "x"), _num(d, "y"), _num(d, "heading"), bool(d.get("valid")))
-            for t, d in _each(reader, T.NAV_POSE)]
-    if rows:
-        x, y, h = (np.array([r[k] for r in rows], dtype=np.float64) for k in (1, 2, 3))
-        ok = np.array([r[4] for r in rows]) & np.isfinite(x + y + h)
-        t = np.array([r[0] for r in rows], dtype=np.int64)[ok]
-        del rows
-        x, y, h = x[ok], y[ok], h[ok]
+    t, (x, y, h, valid) = rows.columns(T.NAV_POSE)
+    if len(t):
+        ok = valid & np.isfinite(x + y + h)
+        t, x, y, h = t[ok], x[ok], y[ok], h[ok]
         if len(t):
             out.append(source(T.NAV_HEAD, t, _poses(t, x, y, h)))
             ox, oy, oh = fx.o_from_head(x, y, h, m)
             out.append(source(T.NAV_TF, t, _frames("nav", t, ox, oy, oh, m)))
-    t_scan, *scans = _scan_rows(reader)
+    t_scan, *scans = _scan_rows(rows)
     if len(t_scan):
         out.append(source(T.NAV_SCAN, t_scan,
                           _scan_encoder(t_scan, tuple(scans), "nav" if out else fallback)))
     return out
 
 
-def _truth_rows(reader: LogReader) -> tuple[Any, Any, Any, Any]:
+def _truth_rows(rows: LogRows) -> tuple[Any, Any, Any, Any]:
     """Log times (ns), x, y (m) and yaw (rad) of every ground-truth pose of O."""
     import numpy as np
 
-    t, x, y, qz, qw = array("q"), array("d"), array("d"), array("d"), array("d")
-    for ns, d in _each(reader, T.TRUTH):
-        pose = d["pose"]
-        t.append(ns)
-        x.append(pose["position"]["x"])
-        y.append(pose["position"]["y"])
-        qz.append(pose["orientation"].get("z", 0.0))
-        qw.append(pose["orientation"].get("w", 1.0))
-    yaw = 2.0 * np.arctan2(np.array(qz, dtype=np.float64), np.array(qw, dtype=np.float64))
-    return (np.array(t, dtype=np.int64), np.array(x, dtype=np.float64),
-            np.array(y, dtype=np.float64), yaw)
+    t, (x, y, qz, qw) = rows.columns(T.TRUTH)
+    return t, x, y, 2.0 * np.arctan2(qz, qw)
 
 
-def truth_stream(reader: LogReader, m: fx.Mounting) -> list[Source]:
+def truth_stream(rows: LogRows, m: fx.Mounting) -> list[Source]:
     """/truth/tf of every ground-truth pose of O."""
-    t, x, y, yaw = _truth_rows(reader)
+    t, x, y, yaw = _truth_rows(rows)
     if not len(t):
         return []
     return [source(T.TRUTH_TF, t, _frames("truth", t, x, y, yaw, m))]
 
 
-def steering_angle(reader: LogReader) -> float | None:
+def steering_angle(rows: LogRows) -> float | None:
     """Median logged steering angle while driving, rad (None without MCU frames)."""
     import numpy as np
 
-    angles, speeds = array("d"), array("d")
-    for _t, d in _each(reader, T.MCU_FRAME):
-        angles.append(float(d.get("steering_angle", math.nan)))
-        speeds.append(abs(float(d.get("drive_speed", 0.0))))
-    angle, speed = np.array(angles, dtype=np.float64), np.array(speeds, dtype=np.float64)
+    _t, (angle, speed) = rows.columns(T.MCU_FRAME)
     ok = np.isfinite(angle)
     if (ok & (speed > MOVING_SPEED)).any():
         ok &= speed > MOVING_SPEED
     return float(np.median(angle[ok])) if ok.any() else None
 
 
-def reference_stream(reader: LogReader, config: Any,
+def reference_stream(rows: LogRows, config: Any,
                      tables: Mapping[str, Any]) -> list[Source]:
     """/reference/circle: the circle the drive follows, once at the start of the trajectory it
     is fitted to (the ground truth, else the laser estimate, else the first estimator's),
@@ -169,7 +206,7 @@ def reference_stream(reader: LogReader, config: Any,
     from lgvtool.evaluate.circle import fit_circle
     from lgvtool.evaluate.reference import NOT_A_CIRCLE, TRIM, kinematic_radius
 
-    t_truth, x, y, _yaw = _truth_rows(reader)
+    t_truth, x, y, _yaw = _truth_rows(rows)
     if len(t_truth):
         t0 = int(t_truth[0])
         label = "reference (truth)"
@@ -183,7 +220,7 @@ def reference_stream(reader: LogReader, config: Any,
     ok = np.isfinite(x) & np.isfinite(y)
     if ok.sum() < 3:
         return []
-    delta = steering_angle(reader)
+    delta = steering_angle(rows)
     if delta is None and config.reference.steering_angle_deg is not None:
         delta = math.radians(config.reference.steering_angle_deg)
     radius = kinematic_radius(config.vehicle.h, delta) if delta is not None else None
@@ -220,8 +257,9 @@ def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any]) -> l
     circle) and from the estimators' ``tables`` (frames and covariance ellipses)."""
     m = fx.mounting_of(config.vehicle)
     fallback = "truth" if reader.has_topic(T.TRUTH) else next(iter(tables), "nav")
-    out = (nav_streams(reader, m, fallback) + truth_stream(reader, m)
-           + reference_stream(reader, config, tables))
+    rows = LogRows(reader)
+    out = (nav_streams(rows, m, fallback) + truth_stream(rows, m)
+           + reference_stream(rows, config, tables))
     for name, tab in tables.items():
         out += estimate_streams(name, tab, m)
     return out

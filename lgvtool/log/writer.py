@@ -14,7 +14,7 @@ import json
 import os
 import sys
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import IO, TYPE_CHECKING, Any
@@ -53,6 +53,10 @@ chunk go into the next one."""
 
 def _dumps(data: Any) -> bytes:
     return orjson.dumps(data)
+
+
+COPY_BATCH = 65536
+"""Messages :meth:`LogWriter.copy_from` writes at a time."""
 
 
 class LogWriter:
@@ -238,48 +242,22 @@ class LogWriter:
             self.message_count += n
             return n
         batches = iter([extra] if isinstance(extra, tuple) else extra if extra else [])
-        e_topics, e_datas, e_times = next(batches, ((), (), ()))
-        n_extra = len(e_times)
-        more = True
-        batch: tuple[list[str], list[bytes], list[int]] = ([], [], [])
-        j = n = 0
-        registered: set[str] = set()
-        own = {s.name: (s.encoding, s.data) for s in getattr(reader, "_schemas", {}).values()}
-        for m in reader.raw_messages():
-            if m.topic in skip_topics:
-                continue
-            t = m.log_time_ns
-            while True:
-                while j < n_extra and e_times[j] < t:
-                    batch[0].append(e_topics[j])
-                    batch[1].append(e_datas[j])
-                    batch[2].append(e_times[j])
-                    j += 1
-                if j < n_extra or not more:
-                    break
-                nxt = next(batches, None)
-                if nxt is None:
-                    more = False
-                    break
-                e_topics, e_datas, e_times = nxt
-                j, n_extra = 0, len(e_times)
-            if m.topic not in registered:
-                registered.add(m.topic)
-                if m.schema:
-                    self.channel_id(m.topic, m.schema, own.get(m.schema))
-            batch[0].append(m.topic)
-            batch[1].append(m.data)
-            batch[2].append(t)
-            n += 1
-            if len(batch[2]) >= 65536:
-                self.write_encoded_many(*batch)
-                batch = ([], [], [])
-        batch[0].extend(e_topics[j:])
-        batch[1].extend(e_datas[j:])
-        batch[2].extend(e_times[j:])
-        self.write_encoded_many(*batch)
-        for rest in batches:
-            self.write_encoded_many(*rest)
+        merge = _Merge(self, batches, {s.name: (s.encoding, s.data)
+                                       for s in getattr(reader, "_schemas", {}).values()})
+        seen: set[int] = set()
+        dropped: set[int] = set()
+        n = 0
+        for block in reader.raw_blocks():
+            cids = {m[1] for m in block}
+            for cid in cids - seen:
+                seen.add(cid)
+                if reader.channel_topic(cid)[0] in skip_topics:
+                    dropped.add(cid)
+            kept = [m for m in block if m[1] not in dropped] if cids & dropped else block
+            if kept:
+                merge.add(kept, reader)
+                n += len(kept)
+        merge.finish()
         return n
 
     def write_config(self, config: Config) -> None:
@@ -336,3 +314,120 @@ class LogWriter:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
+
+
+class _Merge:
+    """Merges a log's messages, a block at a time, with batches of further messages (sorted
+    by time, the batches in increasing time) into a writer: a further message goes after
+    every log message at or before its time. Writes in batches of :data:`COPY_BATCH`
+    messages, with each log topic registered when first met and the further topics when
+    their batch is written (the file of a message-by-message merge)."""
+
+    def __init__(self, writer: LogWriter, batches: Iterator[_Batch],
+                 own: dict[str, tuple[str, bytes]]) -> None:
+        self._w = writer
+        self._batches = batches
+        self._own = own
+        self._more = True
+        # further messages not yet placed
+        self._e: tuple[list[str], list[bytes], list[int]] = ([], [], [])
+        # the batch being gathered, and the log topics registered
+        self._batch: tuple[list[str], list[bytes], list[int]] = ([], [], [])
+        self._inputs: list[tuple[str, str]] = []
+        self._registered: set[str] = set()
+        self._names: dict[int, tuple[str, str]] = {}
+
+    def _extras_before(self, t: int) -> int:
+        """Pull batches until one ends at or after ``t`` (or none is left); the number of
+        pending further messages before ``t``."""
+        import bisect
+
+        e_t = self._e[2]
+        while self._more and (not e_t or e_t[-1] < t):
+            nxt = next(self._batches, None)
+            if nxt is None:
+                self._more = False
+                break
+            for dst, src in zip(self._e, nxt, strict=True):
+                dst.extend(src)  # type: ignore[attr-defined]
+        return bisect.bisect_left(e_t, t)
+
+    def add(self, block: list[tuple[int, int, int, bytes]], reader: Any) -> None:
+        """Merge one block of log messages ``(log time, channel id, publish time, data)`` (in
+        log-time order) with the further messages before its last time."""
+        import numpy as np
+
+        k = self._extras_before(block[-1][0])
+        e_topics, e_datas, e_times = (c[:k] for c in self._e)
+        for c in self._e:
+            del c[:k]
+        cache = self._names
+        for cid in {m[1] for m in block} - cache.keys():
+            cache[cid] = reader.channel_topic(cid)
+        names = [cache[m[1]] for m in block]
+        times = [m[0] for m in block]
+        if k:
+            kinds = np.concatenate([np.zeros(len(block), np.int8), np.ones(k, np.int8)])
+            order = np.lexsort((kinds, np.array(times + e_times, dtype=np.int64))).tolist()
+            all_topics = [n[0] for n in names] + e_topics
+            all_datas = [m[3] for m in block] + e_datas
+            all_times = times + e_times
+            topics = [all_topics[i] for i in order]
+            datas = [all_datas[i] for i in order]
+            tt = [all_times[i] for i in order]
+            is_input = (kinds[order] == 0)
+            inputs = [names[i] for i in order if i < len(block)]
+        else:
+            topics = [n[0] for n in names]
+            datas = [m[3] for m in block]
+            tt = times
+            is_input = np.ones(len(block), dtype=bool)
+            inputs = names
+        self._extend(topics, datas, tt, is_input, inputs)
+
+    def _extend(self, topics: list[str], datas: list[bytes], times: list[int],
+                is_input: Any, inputs: list[tuple[str, str]]) -> None:
+        """Append merged messages to the batch, writing it at the first log message at which
+        it holds :data:`COPY_BATCH` messages."""
+        import numpy as np
+
+        at = 0
+        n = len(topics)
+        while at < n:
+            room = COPY_BATCH - len(self._batch[2])
+            # the batch reaches its size at position at + room - 1; it is written after the
+            # first log message from there on
+            cut = n
+            if room <= n - at:
+                later = np.flatnonzero(is_input[at + max(room, 1) - 1:])
+                if len(later):
+                    cut = at + max(room, 1) - 1 + int(later[0]) + 1
+            n_in = int(np.count_nonzero(is_input[at:cut]))
+            self._batch[0].extend(topics[at:cut])
+            self._batch[1].extend(datas[at:cut])
+            self._batch[2].extend(times[at:cut])
+            self._inputs.extend(inputs[:n_in])
+            del inputs[:n_in]
+            at = cut
+            if cut < n or (len(self._batch[2]) >= COPY_BATCH and n_in and is_input[cut - 1]):
+                self._flush()
+
+    def _flush(self) -> None:
+        """Register the batch's new log topics, then write it."""
+        for topic, schema in self._inputs:
+            if topic not in self._registered:
+                self._registered.add(topic)
+                if schema:
+                    self._w.channel_id(topic, schema, self._own.get(schema))
+        self._inputs = []
+        self._w.write_encoded_many(*self._batch)
+        self._batch = ([], [], [])
+
+    def finish(self) -> None:
+        """Write the batch with every further message left, then the remaining batches."""
+        for dst, src in zip(self._batch, self._e, strict=True):
+            dst.extend(src)  # type: ignore[attr-defined]
+        self._e = ([], [], [])
+        self._flush()
+        for rest in self._batches:
+            self._w.write_encoded_many(*rest)

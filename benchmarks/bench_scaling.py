@@ -1,0 +1,118 @@
+"""Speed and memory of the commands a user runs, on simulated paper-circle logs of 0.5, 1, 2
+and 4 hours: wall time and peak resident set of each command, run as a subprocess.
+
+Run by hand (never a timed test)::
+
+    python benchmarks/bench_scaling.py [--hours 0.5,1,2,4] [--cache DIR] [--tree CHECKOUT]
+                                       [--repeat 1] [--commands pf-paper,replay,evaluate]
+
+Wall time and CPU time (user + system, which depends less on the machine's other load) are
+printed. Per log: ``lgvtool replay LOG -o OUT --seed 0`` (the five default estimators and the view
+channels: "replay five estimators"), ``lgvtool evaluate LOG -o DIR --seed 0`` on the raw log
+(it runs the five estimators and writes Table 1 and report.html: "evaluate raw"), and on the
+one-hour log ``lgvtool replay LOG -o OUT --estimator pf-paper --particles 150 --seed 0 --json``
+("replay pf-paper end to end", with the command's own split into reading, filtering and
+writing). The logs are simulated once (``lgvtool simulate --scenario paper-circle --seed 1``)
+and kept in ``--cache``. ``--tree`` runs the lgvtool of another checkout (its folder is put on
+``PYTHONPATH``), so that the code before and after a change can be measured alternately in the
+same minutes; the load average is printed before and after the runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_memory import measure, simulate
+
+REPO = Path(__file__).resolve().parents[1]
+
+TARGETS = {"replay pf-paper end to end": 0.72, "replay five estimators": 3.0,
+           "evaluate raw": 5.0}
+"""Wall-time targets on the one-hour log, s (evaluate of the 4-hour log: 25 s, 500 MB)."""
+
+
+def median_run(tree: Path, args: list[str], repeat: int) -> dict[str, object]:
+    """The run of median wall time of ``repeat`` runs (with every run's wall time)."""
+    runs = sorted((measure(args, tree) for _ in range(repeat)),
+                  key=lambda r: float(r["wall_s"]))  # type: ignore[arg-type]
+    best = dict(runs[len(runs) // 2])
+    best["walls"] = [float(r["wall_s"]) for r in runs]  # type: ignore[arg-type]
+    return best
+
+
+def load() -> str:
+    return "load average " + ", ".join(f"{v:.2f}" for v in os.getloadavg())
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--hours", default="0.5,1,2,4", help="log durations, h (comma-separated)")
+    ap.add_argument("--cache", type=Path,
+                    default=Path(tempfile.gettempdir()) / "lgvtool-bench-scaling",
+                    help="folder of the simulated logs (kept between runs)")
+    ap.add_argument("--tree", type=Path, default=REPO,
+                    help="checkout whose lgvtool is run (default: this one)")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per cell (the median is shown)")
+    ap.add_argument("--commands", default="pf-paper,replay,evaluate",
+                    help="which runs: pf-paper (one hour), replay, evaluate")
+    opts = ap.parse_args()
+    hours = [float(h) for h in opts.hours.split(",")]
+    wanted = set(opts.commands.split(","))
+    opts.cache.mkdir(parents=True, exist_ok=True)
+    tree = opts.tree.resolve()
+    print(f"lgvtool of {tree}; {load()}", flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out.mcap"
+        if "pf-paper" in wanted:
+            log = opts.cache / "paper-circle-1h.mcap"
+            simulate(log, 1.0)
+            r = median_run(tree, ["replay", str(log), "-o", str(out), "--estimator", "pf-paper",
+                                  "--particles", "150", "--seed", "0", "--json", "--force"],
+                           opts.repeat)
+            sec = json.loads(str(r["stdout"]))["seconds"]
+            print(f"replay pf-paper end to end, 1 h: {r['wall_s']:.2f} s wall, "
+                  f"{r['cpu_s']:.2f} s CPU (walls "
+                  f"{', '.join(f'{w:.2f}' for w in r['walls'])}; target "  # type: ignore[attr-defined]
+                  f"{TARGETS['replay pf-paper end to end']} s), peak {r['peak_mb']:.0f} MB; "
+                  f"inside: read {sec['read']:.2f} s, filter {sec['filter']:.2f} s, write "
+                  f"{sec['write']:.2f} s", flush=True)
+        rows: list[tuple[str, float, dict[str, object]]] = []
+        for h in hours:
+            log = opts.cache / f"paper-circle-{h:g}h.mcap"
+            simulate(log, h)
+            if "replay" in wanted:
+                r = median_run(tree, ["replay", str(log), "-o", str(out), "--seed", "0",
+                                      "--force", "--no-progress"], opts.repeat)
+                rows.append(("replay five estimators", h, r))
+                print(f"replay five estimators {h:4g} h: {r['wall_s']:7.2f} s wall, "
+                      f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
+            if "evaluate" in wanted:
+                folder = Path(tmp) / f"report-{h:g}"
+                r = median_run(tree, ["evaluate", str(log), "-o", str(folder), "--seed", "0",
+                                      "--force", "--no-progress"], opts.repeat)
+                rows.append(("evaluate raw", h, r))
+                print(f"evaluate raw           {h:4g} h: {r['wall_s']:7.2f} s wall, "
+                      f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
+    if rows:
+        print("\n| run | " + " | ".join(f"{h:g} h" for h in hours) + " |")
+        print("|---|" + "---:|" * len(hours))
+        for name in dict.fromkeys(n for n, _, _ in rows):
+            cells = {h: r for n, h, r in rows if n == name}
+            print(f"| {name}: wall, s | " + " | ".join(
+                f"{float(cells[h]['wall_s']):.2f}" if h in cells else "" for h in hours) + " |")
+            print(f"| {name}: CPU, s | " + " | ".join(
+                f"{float(cells[h]['cpu_s']):.2f}" if h in cells else "" for h in hours) + " |")
+            print(f"| {name}: peak RSS, MB | " + " | ".join(
+                f"{float(cells[h]['peak_mb']):.0f}" if h in cells else "" for h in hours) + " |")
+    print(load())
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,28 @@
+"""Which inner loops the estimators run: the compiled kernels (numba, the ``fast`` extra) or
+the numpy array operations (the reference)."""
+
+from __future__ import annotations
+
+import importlib
+import os
+from types import ModuleType
+
+#: environment variable choosing the estimators' inner loops: ``numba`` (the compiled
+#: kernels, an ImportError without numba), ``numpy`` (the array operations, the reference);
+#: anything else, or unset: the kernels when numba is installed
+KERNELS_ENV = "LGVTOOL_KERNELS"
+
+
+def compiled(module: str) -> ModuleType | None:
+    """The kernel module ``module`` (e.g. ``lgvtool.localize.pf_kernels``), or None for the
+    numpy path (numba not installed, or ``LGVTOOL_KERNELS=numpy``). Importing it imports
+    numba, so this is called when an estimator runs, never at start-up."""
+    mode = os.environ.get(KERNELS_ENV, "auto").strip().lower()
+    if mode == "numpy":
+        return None
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        if mode == "numba":
+            raise
+        return None

@@ -1,0 +1,549 @@
+"""Fused loops of the particle filters, compiled with numba (the ``fast`` extra).
+
+Each kernel makes one pass over the particles doing what the numpy path of the filters does in
+several array operations (one temporary array each): the motion, the transform of every
+measured reflector into the world, its association with the nearest map reflector, the
+weight, the weighted sums of the estimate and the redistribution or resampling. The random
+numbers are never drawn here: the filters draw them in bulk from their
+``numpy.random.Generator`` exactly as the numpy path does and hand them in, so a seed gives
+the same random stream on both paths. Where the numpy path's arithmetic is elementwise, the
+kernels repeat it operation for operation (the same bits); where numpy sums through BLAS or
+pairwise summation, the kernels sum in order, which differs in the last bits (docs/filter.md:
+within 1e-9 m).
+
+Importing this module imports numba; the filters import it only when they run
+(:func:`lgvtool.localize.particles.fused_kernels`). The compiled code is cached on disk
+(``cache=True``, in ``__pycache__`` beside this file), so only the first run on a machine pays
+the compilation.
+
+Units: positions m (complex ``x + iy``), headings as rotors ``exp(i th)`` or rad.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+IntArray = NDArray[np.intp]
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+_TWO_PI = 2.0 * math.pi
+
+
+def _jit(f: _F) -> _F:
+    """Compile ``f`` in nopython mode, cached on disk, without fast-math (the numpy path's
+    rounding is kept: no reassociation, no fused multiply-add)."""
+    return cast(_F, numba.njit(cache=True, nogil=True, error_model="numpy")(f))
+
+
+# ---------------------------------------------------------------------------- shared pieces
+@_jit
+def _nearest_distance(px: float, py: float, map_z: ComplexArray) -> float:
+    """Distance from the point ``(px, py)`` to the nearest map reflector, m (the square root
+    of the least squared distance: the same number as the least distance)."""
+    best = math.inf
+    for r in range(map_z.shape[0]):
+        ex = map_z[r].real - px
+        ey = map_z[r].imag - py
+        e = ex * ex + ey * ey
+        if e < best:
+            best = e
+    return math.sqrt(best)
+
+
+@_jit
+def _nearest_index(p: complex, map_z: ComplexArray) -> int:
+    """Index of the map reflector nearest to ``p`` (the first of equals, as ``np.argmin``),
+    compared by squared distance."""
+    best = math.inf
+    j = 0
+    for r in range(map_z.shape[0]):
+        ex = map_z[r].real - p.real
+        ey = map_z[r].imag - p.imag
+        d2 = ex * ex + ey * ey
+        if d2 < best:
+            best = d2
+            j = r
+    return j
+
+
+#: below this angle (rad) :func:`_rotor` sums Taylor series instead of calling cos and sin
+_SMALL_ANGLE = 0.05
+
+
+@_jit
+def _rotor(x: float) -> complex:
+    """``exp(i x)`` (x rad). For ``|x| < 0.05`` (a redistribution's heading offsets) from the
+    Taylor series of cos and sin to the 10th order (truncation below 1e-20, so within an ulp
+    of the library's functions, and 5x faster), else from ``math.cos`` and ``math.sin``."""
+    if abs(x) < _SMALL_ANGLE:
+        x2 = x * x
+        c = 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (
+            1.0 / 40320.0 - x2 * (1.0 / 3628800.0)))))
+        sn = x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (
+            1.0 / 362880.0)))))
+        return complex(c, sn)
+    return complex(math.cos(x), math.sin(x))
+
+
+@_jit
+def _heading(y: float, x: float) -> float:
+    """``atan2(y, x)`` (rad). For ``|y| < 0.05 x`` (a particle's heading near the circular
+    mean) from the Taylor series of ``atan(y / x)`` to the 13th order (truncation below
+    1e-19, within an ulp or two of the library's function, and several times faster)."""
+    if x > 0.0 and abs(y) < _SMALL_ANGLE * x:
+        u = y / x
+        u2 = u * u
+        return u * (1.0 - u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0 - u2 * (
+            1.0 / 9.0 - u2 * (1.0 / 11.0 - u2 * (1.0 / 13.0)))))))
+    return math.atan2(y, x)
+
+
+@_jit
+def _wrap_pi(th: float) -> float:
+    """``np.remainder(th + pi, 2 pi) - pi`` (rad): both take the floored remainder from the
+    exact ``fmod``, so the bits are the same (and the remainder of a number in [0, 2 pi) is
+    itself)."""
+    a = th + math.pi
+    if 0.0 <= a < _TWO_PI:
+        return a - math.pi
+    return a % _TWO_PI - math.pi
+
+
+# ---------------------------------------------------------------------------- pf-paper
+#: particles moved and weighed together by :func:`paper_exponents` (their coordinates are
+#: laid out as separate arrays, so that the loop over them runs in SIMD registers)
+_CHUNK = 256
+
+
+@_jit
+def _chunk_arrays() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                             FloatArray, FloatArray]:
+    """Scratch of a chunk of particles: x, y (m), the rotor's two parts, a sum, a product and
+    a flag per particle."""
+    return (np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK),
+            np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK))
+
+
+@_jit
+def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
+                    q: ComplexArray, cand: ComplexArray, half: FloatArray,
+                    map_z: ComplexArray, factor: float, exponent: FloatArray) -> None:
+    """Move the packed particles ``prev`` (M, 3: z, rot, 1) by the body-frame step ``step_z``
+    (m) and the turn ``step_rot`` (a rotor) into ``cur`` (may be ``prev``; ``step_z = 0``,
+    ``step_rot = 1``: no motion), put the measured points ``q`` (K, body frame, m) into the
+    world at every particle, take each point's distance to its nearest map reflector (the
+    candidate ``cand[k]`` when nearer than ``half[k]``, half its distance to its own nearest
+    neighbour, else a search of ``map_z``) and write the exponent of eq. 10,
+    ``factor * D_m^2`` with ``D_m`` the summed distances (summed in the order of the points).
+    """
+    m = prev.shape[0]
+    k = q.shape[0]
+    zr, zi, rr, ri, tot, _, far = _chunk_arrays()
+    for a in range(0, m, _CHUNK):
+        n = min(_CHUNK, m - a)
+        for i in range(n):
+            z = prev[a + i, 0] + prev[a + i, 1] * step_z
+            rot = prev[a + i, 1] * step_rot
+            cur[a + i, 0] = z
+            cur[a + i, 1] = rot
+            cur[a + i, 2] = 1.0
+            zr[i] = z.real
+            zi[i] = z.imag
+            rr[i] = rot.real
+            ri[i] = rot.imag
+            tot[i] = 0.0
+            far[i] = -math.inf
+        for j in range(k):
+            qr = q[j].real
+            qi = q[j].imag
+            cr = cand[j].real
+            ci = cand[j].imag
+            h = half[j]
+            for i in range(n):
+                dx = zr[i] + (rr[i] * qr - ri[i] * qi) - cr
+                dy = zi[i] + (rr[i] * qi + ri[i] * qr) - ci
+                d = math.sqrt(dx * dx + dy * dy)
+                tot[i] += d
+                far[i] = max(far[i], d - h)
+        for i in range(n):
+            if far[i] >= 0.0:
+                # a point not nearer its candidate than half the candidate's spacing: the
+                # sum again, such points searched in the whole map
+                t = 0.0
+                for j in range(k):
+                    px = zr[i] + (rr[i] * q[j].real - ri[i] * q[j].imag)
+                    py = zi[i] + (rr[i] * q[j].imag + ri[i] * q[j].real)
+                    dx = px - cand[j].real
+                    dy = py - cand[j].imag
+                    d = math.sqrt(dx * dx + dy * dy)
+                    if d >= half[j]:
+                        d = _nearest_distance(px, py, map_z)
+                    t += d
+                tot[i] = t
+            exponent[a + i] = tot[i] * tot[i] * factor
+
+
+@_jit
+def paper_move(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex
+               ) -> None:
+    """Eq. 9 on packed particles: ``cur`` (may be ``prev``) is ``prev`` moved by the
+    body-frame step ``step_z`` (m) and turned by the rotor ``step_rot``."""
+    for i in range(prev.shape[0]):
+        z = prev[i, 0] + prev[i, 1] * step_z
+        rot = prev[i, 1] * step_rot
+        cur[i, 0] = z
+        cur[i, 1] = rot
+        cur[i, 2] = 1.0
+
+
+@_jit
+def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray
+                  ) -> tuple[float, float, float, float, float]:
+    """Eq. 10 relative to the best particle: ``exponent -= max(exponent)``,
+    ``w = exp(exponent)`` (unnormalised); returns the weighted sums of x, y (m), cos th,
+    sin th and the sum of the weights (eq. 11 before the division)."""
+    top = -math.inf
+    for i in range(s.shape[0]):
+        if exponent[i] > top:
+            top = exponent[i]
+    sx = sy = sc = ss = total = 0.0
+    for i in range(s.shape[0]):
+        e = exponent[i] - top
+        exponent[i] = e
+        wi = math.exp(e)
+        w[i] = wi
+        z = s[i, 0]
+        r = s[i, 1]
+        sx += wi * z.real
+        sy += wi * z.imag
+        sc += wi * r.real
+        ss += wi * r.imag
+        total += wi
+    return sx, sy, sc, ss, total
+
+
+@_jit
+def paper_redistribute(s: ComplexArray, top: IntArray, u: FloatArray, n_top: int,
+                       n_local: int, width: FloatArray, low: FloatArray, far_z: complex,
+                       out: ComplexArray) -> None:
+    """The paper's redistribution of packed particles ``s`` into ``out`` from its uniform
+    numbers ``u`` (4, M): particle ``i < n_local`` descends from the parent
+    ``s[top[int(u[0, i] n_top)]]`` (``top``: the heaviest particles), moved by
+    ``u[1:3, i] width + low`` (m) and turned by ``u[3, i] width + low`` (rad); the others are
+    uniform, ``far_z`` plus the same offsets over the work area and every heading. The same
+    arithmetic, in the same order, as the numpy path's
+    :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
+    turn's rotor for small angles (:func:`_rotor`: within an ulp)."""
+    m = out.shape[0]
+    # the widths are the same for every local particle, and for every uniform one
+    wx, wy, wh, lx, ly, lh = width[0, 0], width[1, 0], width[2, 0], low[0, 0], low[1, 0], \
+        low[2, 0]
+    fx, fy, fh, gx, gy, gh = width[0, m - 1], width[1, m - 1], width[2, m - 1], \
+        low[0, m - 1], low[1, m - 1], low[2, m - 1]
+    for i in range(m):
+        if i == n_local:
+            wx, wy, wh, lx, ly, lh = fx, fy, fh, gx, gy, gh
+        ox = u[1, i] * wx + lx
+        oy = u[2, i] * wy + ly
+        oh = u[3, i] * wh + lh
+        turn = _rotor(oh)
+        if i < n_local:
+            src = top[int(u[0, i] * n_top)]
+            z = s[src, 0]
+            # z (1 + 0i) + shift: the numpy path's product by the scale, then the shift
+            out[i, 0] = complex(z.real * 1.0 - z.imag * 0.0, z.real * 0.0 + z.imag * 1.0) \
+                + complex(ox, oy)
+            out[i, 1] = s[src, 1] * turn + 0j
+        else:
+            out[i, 0] = complex(ox + far_z.real, oy + far_z.imag)
+            out[i, 1] = turn
+        out[i, 2] = 1.0
+
+
+@_jit
+def _symmetric(cov: FloatArray, xx: float, xy: float, xh: float, yy: float, yh: float,
+               hh: float) -> None:
+    """Write the symmetric 3 x 3 covariance of (x, y, heading) from its six entries."""
+    cov[0, 0] = xx
+    cov[0, 1] = cov[1, 0] = xy
+    cov[0, 2] = cov[2, 0] = xh
+    cov[1, 1] = yy
+    cov[1, 2] = cov[2, 1] = yh
+    cov[2, 2] = hh
+
+
+@_jit
+def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
+                 sum_rot: complex, cov: FloatArray) -> float:
+    """Covariance of ``(x, y, heading)`` (into ``cov``, 3 x 3; m^2, m rad, rad^2) and effective
+    sample size of a weighted packed set: ``w`` unnormalised with sum ``total``, ``sum_z`` and
+    ``sum_rot`` the weighted sums of z and rot (the heading deviations are taken from their
+    circular mean)."""
+    mean = sum_z / total
+    rc = sum_rot.conjugate()
+    a00 = a01 = a02 = a11 = a12 = a22 = 0.0
+    sw2 = 0.0
+    for i in range(s.shape[0]):
+        wn = w[i] / total
+        d = s[i, 0] - mean
+        r = s[i, 1] * rc
+        h = _heading(r.imag, r.real)
+        dx = d.real
+        dy = d.imag
+        a00 += dx * wn * dx
+        a01 += dx * wn * dy
+        a02 += dx * wn * h
+        a11 += dy * wn * dy
+        a12 += dy * wn * h
+        a22 += h * wn * h
+        sw2 += wn * wn
+    _symmetric(cov, a00, a01, a02, a11, a12, a22)
+    return 1.0 / sw2
+
+
+# ---------------------------------------------------------------------------- pf
+@_jit
+def pf_predict(z: ComplexArray, th: FloatArray, rot: ComplexArray, g: FloatArray, dx: float,
+               dy: float, dth: float, sa: float, sl: float, st: float, z_out: ComplexArray,
+               th_out: FloatArray, rot_out: ComplexArray) -> None:
+    """Eq. 9 with motion noise: particle ``i`` moved by ``(dx + sa g[0, i], dy + sl g[1, i])``
+    (m, its body frame) and turned by ``dth + st g[2, i]`` (rad), ``g`` the standard normal
+    numbers the numpy path draws; the heading wrapped to [-pi, pi) as the numpy path does.
+    The rotor is turned by the turn's own rotor (:func:`_rotor`) instead of being made anew
+    from the heading (the same to an ulp per step)."""
+    for i in range(z.shape[0]):
+        ddx = dx + sa * g[0, i]
+        ddy = dy + sl * g[1, i]
+        ddth = dth + st * g[2, i]
+        r = rot[i]
+        z_out[i] = z[i] + r * complex(ddx, ddy)
+        th_out[i] = _wrap_pi(th[i] + ddth)
+        rot_out[i] = r * _rotor(ddth)
+
+
+#: ``1 + exp(-t)`` is 1 in double precision beyond this ``t``
+_EXP_NEGLIGIBLE = 38.0
+#: points weighed per block of :func:`pf_scan_loglik` (the product of the mixture factors, at
+#: most 2 each, is taken as a logarithm once per block)
+_POINTS = 512
+
+
+@_jit
+def _ray_loglik(ex: float, ey: float, rr: float, ri: float, ucr: float, uci: float,
+                inv_sr: float, inv_st: float, const: float) -> float:
+    """The Gaussian log-likelihood of a residual ``(ex, ey)`` (world frame, m) split along
+    and across its ray: the residual times ``conj(rot) conj(u)`` (``rot = rr + i ri``,
+    ``conj(u) = ucr + i uci``), the numpy path's products in its order, scaled by the
+    reciprocal standard deviations (1/m; the numpy path divides: within an ulp)."""
+    wr = rr * ucr + ri * uci
+    wi = rr * uci - ri * ucr
+    a = (ex * wr - ey * wi) * inv_sr
+    b = (ex * wi + ey * wr) * inv_st
+    return -0.5 * (a * a + b * b) - const
+
+
+@_jit
+def _mixture(v: float, log_in: float, log_out: float) -> tuple[float, float]:
+    """``logaddexp(log_in + v, log_out)`` as ``(max, factor)``: the sum is
+    ``max + log(factor)``, ``factor = 1 + exp(-|difference|)`` in [1, 2]."""
+    x = log_in + v
+    if x >= log_out:
+        top = x
+        t = x - log_out
+    else:
+        top = log_out
+        t = log_out - x
+    return top, 1.0 + math.exp(-min(t, _EXP_NEGLIGIBLE))
+
+
+@_jit
+def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: ComplexArray,
+                   cand: ComplexArray, half: FloatArray, map_z: ComplexArray,
+                   sr: FloatArray, st: FloatArray, const: FloatArray, outlier: bool,
+                   log_in: float, log_out: float, ll: FloatArray) -> None:
+    """Log-likelihood of a scan for every particle (into ``ll``): each measured point ``q[k]``
+    (body frame, m) put into the world, associated with its nearest map reflector (the
+    candidate ``cand[k]`` when nearer than ``half[k]``, else a search of ``map_z`` by squared
+    distance), its residual split along and across the ray (``u_conj``: the conjugate unit
+    ray, body frame), a Gaussian with ``sr[k]``, ``st[k]`` (m) and the constant ``const[k]``
+    (``log 2 pi + log sr + log st``); with ``outlier``, the mixture
+    ``logaddexp(log_in + ll, log_out)``; summed over the points.
+
+    The mixture's sum is taken as ``sum max(a, b) + log prod (1 + exp(-|a - b|))``: one
+    exponential per point and one logarithm per particle instead of an
+    exponential and a ``log1p`` per point (the same value to about 1e-15 per point). The
+    particles go in chunks laid out as separate arrays (SIMD); a particle with a point not
+    provably nearest its candidate is weighed again alone, searching the map for it."""
+    m = z.shape[0]
+    k = q.shape[0]
+    zr, zi, rr, ri, tot, prod, far = _chunk_arrays()
+    half2 = half * half
+    inv_sr = 1.0 / sr
+    inv_st = 1.0 / st
+    for a in range(0, m, _CHUNK):
+        n = min(_CHUNK, m - a)
+        for i in range(n):
+            zr[i] = z[a + i].real
+            zi[i] = z[a + i].imag
+            rr[i] = rot[a + i].real
+            ri[i] = rot[a + i].imag
+            tot[i] = 0.0
+            prod[i] = 1.0
+            far[i] = -math.inf
+        for j0 in range(0, k, _POINTS):
+            for j in range(j0, min(k, j0 + _POINTS)):
+                qr = q[j].real
+                qi = q[j].imag
+                cr = cand[j].real
+                ci = cand[j].imag
+                h2 = half2[j]
+                ucr = u_conj[j].real
+                uci = u_conj[j].imag
+                sj = inv_sr[j]
+                tj = inv_st[j]
+                cj = const[j]
+                for i in range(n):
+                    ex = cr - (zr[i] + (rr[i] * qr - ri[i] * qi))
+                    ey = ci - (zi[i] + (rr[i] * qi + ri[i] * qr))
+                    far[i] = max(far[i], ex * ex + ey * ey - h2)
+                    v = _ray_loglik(ex, ey, rr[i], ri[i], ucr, uci, sj, tj, cj)
+                    if outlier:
+                        top, f = _mixture(v, log_in, log_out)
+                        tot[i] += top
+                        prod[i] *= f
+                    else:
+                        tot[i] += v
+            if outlier:
+                for i in range(n):
+                    tot[i] += math.log(prod[i])
+                    prod[i] = 1.0
+        for i in range(n):
+            if far[i] >= 0.0:
+                tot[i] = _particle_loglik(zr[i], zi[i], rr[i], ri[i], q, u_conj, cand, half2,
+                                          map_z, inv_sr, inv_st, const, outlier, log_in,
+                                          log_out)
+            ll[a + i] = tot[i]
+
+
+@_jit
+def _particle_loglik(zr: float, zi: float, rr: float, ri: float, q: ComplexArray,
+                     u_conj: ComplexArray, cand: ComplexArray, half2: FloatArray,
+                     map_z: ComplexArray, inv_sr: FloatArray, inv_st: FloatArray,
+                     const: FloatArray, outlier: bool, log_in: float, log_out: float) -> float:
+    """:func:`pf_scan_loglik` for one particle, searching the map for the points not
+    provably nearest their candidate (the same arithmetic in the same order)."""
+    total = 0.0
+    prod = 1.0
+    for j0 in range(0, q.shape[0], _POINTS):
+        for j in range(j0, min(q.shape[0], j0 + _POINTS)):
+            px = zr + (rr * q[j].real - ri * q[j].imag)
+            py = zi + (rr * q[j].imag + ri * q[j].real)
+            ex = cand[j].real - px
+            ey = cand[j].imag - py
+            if ex * ex + ey * ey - half2[j] >= 0.0:
+                r = _nearest_index(complex(px, py), map_z)
+                ex = map_z[r].real - px
+                ey = map_z[r].imag - py
+            v = _ray_loglik(ex, ey, rr, ri, u_conj[j].real, u_conj[j].imag, inv_sr[j],
+                            inv_st[j], const[j])
+            if outlier:
+                top, f = _mixture(v, log_in, log_out)
+                total += top
+                prod *= f
+            else:
+                total += v
+        if outlier:
+            total += math.log(prod)
+            prod = 1.0
+    return total
+
+
+@_jit
+def pf_log_weights(logw: FloatArray, ll: FloatArray, w: FloatArray, logw_out: FloatArray
+                   ) -> tuple[float, float]:
+    """Log weights times the likelihoods, normalised by log-sum-exp: ``w`` (normalised) and
+    ``logw_out``. Returns the log of the weighted mean likelihood, ``log sum w p``, and the
+    effective sample size ``1 / sum w^2``; ``-inf, 0`` when every log weight is -inf (the
+    arrays then unchanged)."""
+    n = logw.shape[0]
+    top = -math.inf
+    for i in range(n):
+        v = logw[i] + ll[i]
+        logw_out[i] = v
+        if v > top:
+            top = v
+    if not math.isfinite(top):
+        return -math.inf, 0.0
+    total = 0.0
+    for i in range(n):
+        e = math.exp(logw_out[i] - top)
+        w[i] = e
+        total += e
+    log_avg = top + math.log(total)
+    sw2 = 0.0
+    for i in range(n):
+        wi = w[i] / total
+        w[i] = wi
+        sw2 += wi * wi
+        logw_out[i] = logw_out[i] - log_avg
+    return log_avg, 1.0 / sw2
+
+
+@_jit
+def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatArray
+                  ) -> tuple[float, float, float]:
+    """Weighted mean pose (x, y m; heading rad, the circular mean) of particles with
+    normalised weights ``w``, and their covariance of ``(x, y, heading)`` (into ``cov``; the
+    heading deviations from the circular mean)."""
+    mz = 0j
+    mr = 0j
+    for i in range(z.shape[0]):
+        mz += w[i] * z[i]
+        mr += w[i] * rot[i]
+    mrc = mr.conjugate()
+    sxx = sxy = syy = sxh = syh = shh = 0.0
+    for i in range(z.shape[0]):
+        d = z[i] - mz
+        r = rot[i] * mrc
+        h = _heading(r.imag, r.real)
+        wi = w[i]
+        sxx += wi * d.real * d.real
+        sxy += wi * d.real * d.imag
+        syy += wi * d.imag * d.imag
+        sxh += wi * d.real * h
+        syh += wi * d.imag * h
+        shh += wi * h * h
+    _symmetric(cov, sxx, sxy, sxh, syy, syh, shh)
+    return mz.real, mz.imag, math.atan2(mr.imag, mr.real)
+
+
+@_jit
+def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: FloatArray,
+                        rot: ComplexArray, z_out: ComplexArray, th_out: FloatArray,
+                        rot_out: ComplexArray, idx: IntArray, wrap: bool) -> None:
+    """Low-variance resampling of ``n`` particles from the normalised weights ``w`` with the
+    offset ``u0`` (the numpy path's ``rng.random()``), in one merge over the cumulative
+    weights (the indices of ``searchsorted(c, (u0 + i) / n, 'right')``, into ``idx``), and the
+    copy of the chosen particles (with ``wrap``, the heading wrapped again as the numpy path
+    does, the rotor the parent's)."""
+    m = w.shape[0]
+    j = 0
+    c = w[0] if m > 1 else 1.0
+    for i in range(n):
+        u = (u0 + i) / n
+        while j < m - 1 and not (c > u):
+            j += 1
+            c = c + w[j] if j < m - 1 else 1.0
+        idx[i] = j
+        z_out[i] = z[j]
+        th_out[i] = _wrap_pi(th[j]) if wrap else th[j]
+        rot_out[i] = rot[j]
