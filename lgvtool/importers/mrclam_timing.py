@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_angle
+
 FloatArray = NDArray[np.float64]
 
 MAX_DELAY_S = 0.6
@@ -83,7 +85,7 @@ def odometry_delay(odo_t: FloatArray, v: FloatArray, omega: FloatArray, obs_t: F
     dt = np.diff(obs_t[order])
     pair = same & (dt > 0.0) & (dt <= max_pair_s)
     first, second = order[:-1][pair], order[1:][pair]
-    db = np.angle(np.exp(1j * (bearing[second] - bearing[first])))
+    db = wrap_angle(bearing[second] - bearing[first])
     keep = np.abs(db) <= MAX_BEARING_CHANGE_RAD
     first, second, db = first[keep], second[keep], db[keep]
     n = len(db)

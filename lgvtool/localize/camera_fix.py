@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.angles import wrap_scalar
+from lgvtool.angles import wrap_angle, wrap_scalar
 from lgvtool.localize.fix import pose_fix
 from lgvtool.localize.observations import PoseObservation, ReflectorMap, ScanObservation
 
@@ -34,7 +34,7 @@ def _residuals(pose: FloatArray, obs: ScanObservation, mx: FloatArray, my: Float
     vx = c * ex + s * ey - origin.real
     vy = -s * ex + c * ey - origin.imag
     nr = obs.ranges - np.hypot(vx, vy)
-    nb = np.angle(np.exp(1j * (ray - np.arctan2(vy, vx))))
+    nb = wrap_angle(ray - np.arctan2(vy, vx))
     return np.concatenate([nr, nb])
 
 

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from lgvtool.angles import wrap_scalar
+from lgvtool.angles import wrap_angle, wrap_scalar
 from lgvtool.localize.camera_fix import start_fix
 from lgvtool.localize.estimator import Estimate, EstimateRows, Estimator, Motion, Observation
 from lgvtool.localize.kernel_choice import compiled
@@ -389,7 +389,7 @@ class Ekf(GaussianPoseEstimator):
         r2 = np.maximum(vx * vx + vy * vy, 1e-12)
         rng = np.sqrt(r2)
         nr = obs.ranges[:, None] - rng
-        nb = np.angle(np.exp(1j * (ray[:, None] - np.arctan2(vy, vx))))
+        nb = wrap_angle(ray[:, None] - np.arctan2(vy, vx))
         # Jacobians of (range, ray angle) wrt (x, y, theta); dv/dx = (-c, s), dv/dy = (-s, -c),
         # dv/dtheta = (hy, -hx)
         dvx: tuple[Any, ...] = (-c, -s, hy[None, :])

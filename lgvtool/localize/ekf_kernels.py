@@ -185,7 +185,7 @@ def _update_scan(mu: FloatArray, P: FloatArray, q: ComplexArray, u: ComplexArray
             rng = math.sqrt(r2)
             nr = ranges[k] - rng
             a = ray - math.atan2(vy, vx)
-            nb = math.atan2(math.sin(a), math.cos(a))
+            nb = _wrap(a)
             dvx0, dvx1, dvx2 = -c, -s, hy[j]
             dvy0, dvy1, dvy2 = s, -c, -hx[j]
             hr[0] = (vx * dvx0 + vy * dvy0) / rng

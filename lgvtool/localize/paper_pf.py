@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_scalar
 from lgvtool.localize.estimator import (
     Cloud,
     Estimate,
@@ -725,4 +726,4 @@ def _moved(pose: tuple[float, float, float], dx: float, dy: float, dth: float, *
     c, s = math.cos(th), math.sin(th)
     h = th + dth
     return (x + c * dx - s * dy, y + s * dx + c * dy,
-            math.remainder(h, 2.0 * math.pi) if wrap else h)
+            wrap_scalar(h) if wrap else h)

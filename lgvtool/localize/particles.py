@@ -17,6 +17,7 @@ from types import ModuleType
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.angles import wrap_angle
 from lgvtool.localize.estimator import Estimate, Estimator, Motion
 from lgvtool.localize.kernel_choice import compiled
 from lgvtool.localize.noise import perturbed_motion
@@ -26,7 +27,6 @@ from lgvtool.localize.resampling import uniform_poses
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
-_TWO_PI = 2.0 * math.pi
 
 def fused_kernels() -> ModuleType | None:
     """The compiled kernels (:mod:`lgvtool.localize.pf_kernels`) the filters use, or None for
@@ -94,7 +94,7 @@ class ParticleSet(Estimator):
         self.w = np.full(n, 1.0 / n) if w is None else np.asarray(w) / np.sum(w)
 
     def _set_headings(self, th: FloatArray) -> None:
-        self.th = np.remainder(th + math.pi, _TWO_PI) - math.pi
+        self.th = wrap_angle(th)
         self.rot = np.exp(1j * self.th)
 
     # ------------------------------------------------------------------ start

@@ -109,13 +109,12 @@ def _heading(y: float, x: float) -> float:
 
 @_jit
 def _wrap_pi(th: float) -> float:
-    """``np.remainder(th + pi, 2 pi) - pi`` (rad): both take the floored remainder from the
-    exact ``fmod``, so the bits are the same (and the remainder of a number in [0, 2 pi) is
-    itself)."""
+    """:func:`lgvtool.angles.wrap_angle` of one angle, to (-pi, pi] (rad): both take the
+    floored remainder of ``th + pi`` from the exact ``fmod``, so the bits are the same (and the
+    remainder of a number in [0, 2 pi) is itself); -pi maps to +pi."""
     a = th + math.pi
-    if 0.0 <= a < _TWO_PI:
-        return a - math.pi
-    return a % _TWO_PI - math.pi
+    w = a - math.pi if 0.0 <= a < _TWO_PI else a % _TWO_PI - math.pi
+    return w + _TWO_PI if w <= -math.pi else w
 
 
 # ---------------------------------------------------------------------------- pf-paper

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import orjson
 
+from lgvtool.angles import wrap_angle
 from lgvtool.log import topics
 from lgvtool.log.messages import FRAME_ID, pose, quaternion_from_yaw
 from lgvtool.timestamps import seconds_to_ns, seconds_to_ns_array, stamp, stamp_columns
@@ -101,7 +102,7 @@ def o_from_head(x: ArrayLike, y: ArrayLike, heading: ArrayLike, m: Mounting
     th = np.asarray(heading, dtype=np.float64) - m.yaw
     c, s = np.cos(th), np.sin(th)
     return (np.asarray(x) - c * m.x + s * m.y, np.asarray(y) - s * m.x - c * m.y,
-            np.arctan2(np.sin(th), np.cos(th)))
+            wrap_angle(th))
 
 
 def encoded(topic: str, message: dict[str, Any]) -> Encoded:

@@ -17,6 +17,7 @@ import math
 from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
+from lgvtool.angles import wrap_scalar
 from lgvtool.config import Reflector
 from lgvtool.timestamps import stamp
 
@@ -211,7 +212,7 @@ NAV350_SCAN_PERIOD = 0.125
 
 def _mdeg_angle(mdeg: int) -> float:
     a = math.radians(mdeg / 1000.0)
-    return math.atan2(math.sin(a), math.cos(a))
+    return wrap_scalar(a)
 
 
 def nav350_pose_message(data: PoseData, received_ns: int,

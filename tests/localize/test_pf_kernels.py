@@ -155,13 +155,15 @@ def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_kernel_pieces_against_numpy() -> None:
     """The wrap bit for bit, the resampling's indices exactly, the series within ulps."""
+    from lgvtool.angles import wrap_angle
     from lgvtool.localize import pf_kernels as k
     from lgvtool.localize.resampling import low_variance
 
     rng = np.random.default_rng(11)
     th = np.concatenate((rng.uniform(-20.0, 20.0, 2000), [0.0, -math.pi, math.pi, 2 * math.pi]))
     wrapped = np.array([k._wrap_pi(float(v)) for v in th])
-    assert np.array_equal(wrapped, np.remainder(th + math.pi, 2 * math.pi) - math.pi)
+    assert np.array_equal(wrapped, wrap_angle(th))  # the one convention, (-pi, pi]
+    assert k._wrap_pi(-math.pi) == math.pi and k._wrap_pi(math.pi) == math.pi
     y = rng.uniform(-0.05, 0.05, 2000)
     h = np.array([k._heading(float(v), 1.0) for v in y])
     np.testing.assert_allclose(h, np.arctan2(y, 1.0), rtol=5e-16, atol=0)
