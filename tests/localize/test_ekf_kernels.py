@@ -47,3 +47,18 @@ def test_poses_and_scans_match(monkeypatch: pytest.MonkeyPatch) -> None:
     assert np.allclose(a.x, b.x, rtol=0, atol=1e-9)
     assert np.allclose(a.heading, b.heading, rtol=0, atol=1e-9)
     assert np.allclose(a.covariance, b.covariance, rtol=1e-9, atol=1e-15)
+
+
+def test_kernel_wrap_is_the_one_convention() -> None:
+    """The EKF kernel's copy of the wrap gives lgvtool.angles' bits, -pi mapped to +pi."""
+    import math
+
+    from lgvtool.angles import wrap_angle, wrap_scalar
+    from lgvtool.localize import ekf_kernels as k
+
+    th = np.concatenate((np.random.default_rng(5).uniform(-20.0, 20.0, 2000),
+                         [0.0, -math.pi, math.pi, 2 * math.pi, -3 * math.pi]))
+    wrapped = np.array([k._wrap(float(v)) for v in th])
+    assert np.array_equal(wrapped, np.array([wrap_scalar(float(v)) for v in th]))
+    np.testing.assert_allclose(wrapped, wrap_angle(th), rtol=0, atol=1e-15)
+    assert k._wrap(-math.pi) == math.pi
