@@ -4,9 +4,6 @@
 - the device side (codecs, sessions, device models, emulators) imports no estimator;
 - nothing outside the command line imports ``lgvtool.commands``;
 - importing the pure core opens no file.
-
-Each rule has an allowlist of the cases still waiting for their move; an entry that no longer
-breaks the rule fails the test too, so the lists only shrink.
 """
 
 from __future__ import annotations
@@ -22,15 +19,10 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "lgvtool"
 
-PENDING_DUPLICATES: frozenset[str] = frozenset()
-"""Basenames that still repeat until the device code is one folder per device family."""
-
 DEVICE_SIDE = ("devices", "wire", "sim/emulate")
 """Folders of lgvtool holding device code: codecs, host sessions, device models, emulators."""
 ESTIMATOR_PACKAGES = ("lgvtool.localize",)
 
-PENDING_COMMAND_IMPORTS: frozenset[str] = frozenset()
-"""Modules outside the command line that still import ``lgvtool.commands``."""
 COMMAND_LINE = ("lgvtool/commands/", "lgvtool/cli.py")
 
 PURE_CORE = ("lgvtool.angles", "lgvtool.timestamps", "lgvtool.quantiles", "lgvtool.values",
@@ -77,10 +69,7 @@ def test_module_basenames_are_unique() -> None:
         if p.name not in ("__init__.py", "__main__.py"):
             where[p.name].append(_rel(p))
     repeated = {name: paths for name, paths in where.items() if len(paths) > 1}
-    new = {name: paths for name, paths in repeated.items() if name not in PENDING_DUPLICATES}
-    assert not new, f"module names used twice (rename one to say what it holds): {new}"
-    resolved = sorted(PENDING_DUPLICATES - set(repeated))
-    assert not resolved, f"no longer repeated, remove from PENDING_DUPLICATES: {resolved}"
+    assert not repeated, f"module names used twice (rename one to say what it holds): {repeated}"
 
 
 def test_device_code_imports_no_estimator() -> None:
@@ -94,10 +83,7 @@ def test_device_code_imports_no_estimator() -> None:
 def test_only_the_command_line_imports_the_commands() -> None:
     importers = {_rel(p) for p in _modules()
                  if not _rel(p).startswith(COMMAND_LINE) and _imports_any(p, ("lgvtool.commands",))}
-    new = sorted(importers - PENDING_COMMAND_IMPORTS)
-    assert not new, f"import lgvtool.commands from outside the command line: {new}"
-    resolved = sorted(PENDING_COMMAND_IMPORTS - importers)
-    assert not resolved, f"no longer import lgvtool.commands, remove from the list: {resolved}"
+    assert not importers, f"import lgvtool.commands from outside the command line: {sorted(importers)}"
 
 
 def test_the_rules_see_relative_imports_and_imports_inside_functions(tmp_path: Path) -> None:
