@@ -12,7 +12,10 @@ Each family is a folder ``lgvtool/devices/<family>/`` with a registration module
   :class:`~lgvtool.devices.recorder.RecordedDevice` or None), ``recorder_link(url)``,
   ``recorder_worker(...)`` and ``recorder_metadata(device)``;
 - ``lgvtool simulate serve``: ``serve_options`` (click decorators), ``SERVE_PARAM`` /
-  ``SERVE_DEFAULT`` (its port parameter) and ``serve_emulator(playback, spec, *, loop)``.
+  ``SERVE_DEFAULT`` (its port parameter), ``serve_emulator(playback, spec, *, loop)`` (the
+  port and the emulator: an object with ``serve(ep, now, t, log, silent)``,
+  ``apply_fault(kind, t, arg, code)`` and optionally ``finished`` / ``next_time()`` when it
+  paces the run) and ``emulator_class()`` (whose ``FAULT_KINDS`` are the faults it takes).
 
 ``lgvtool decode``, ``record``, ``simulate serve``, the recorder and the simulator's log writer
 go through :func:`registration` and :func:`registrations`; adding a family means its folder and

@@ -94,6 +94,36 @@ def serve_options(f: Callable[..., Any]) -> Callable[..., Any]:
                         metavar="PORT", help="Where the fake device listens.")(f)
 
 
+class FakeEmulator:
+    """Sends :data:`GREETING` once the run's clock has started; echoes what it receives."""
+
+    FAULT_KINDS: tuple[str, ...] = ()
+    GREETING = b"fake says hello"
+
+    def __init__(self) -> None:
+        self.greeted = False
+
+    def serve(self, ep: Any, now: float, t: float | None, log: Callable[[str, bytes], None],
+              silent: Callable[[], bool]) -> None:
+        if ep is None or t is None:
+            return
+        if not self.greeted and ep.write(self.GREETING, now):
+            self.greeted = True
+            log("sent", self.GREETING)
+        data = ep.read()
+        if data:
+            log("received", data)
+            if ep.write(data, now):
+                log("sent", data)
+
+    def apply_fault(self, kind: str, t: float, arg: float, code: int) -> None:
+        raise AssertionError("the fake device takes no faults of its own")
+
+
+def emulator_class() -> Any:
+    return FakeEmulator
+
+
 def serve_emulator(playback: Any, spec: str | None, *, loop: bool = False
                    ) -> tuple[str | None, Any]:
-    return spec, None
+    return spec, FakeEmulator()

@@ -36,7 +36,7 @@ INTERFACE_NAMES = ("DEVICE", "TITLE", "ODOMETRY", "RAW_TOPICS", "TOPICS", "ABSEN
                    "SERVE_DEFAULT")
 INTERFACE_FUNCTIONS = ("log_decoder", "record_options", "recorder_settings", "recorder_link",
                        "recorder_worker", "recorder_metadata", "serve_options",
-                       "serve_emulator")
+                       "serve_emulator", "emulator_class")
 
 
 def test_every_family_has_the_same_interface() -> None:

@@ -124,7 +124,7 @@ def test_nav200_reset_error_reply_path(tmp_path: Path, procs: Procs) -> None:
     # after the restart the reflector map is read from the device again and compared
     assert kinds.count("map_uploaded") == 2 and "map_verified" in kinds
     assert kinds.index("map_verified") > kinds.index("positioning_lost")
-    assert server.nav200.mode == "positioning"
+    assert server.emulators["nav200"].mode == "positioning"
     lost_ns = next(m.log_time_ns for m in messages(out, topics.DIAGNOSTICS)
                    if m.data["kind"] == "positioning_lost")
     assert sum(m.log_time_ns > lost_ns and m.data["valid"]

@@ -85,7 +85,8 @@ def test_record_a_run_byte_for_byte_and_evaluate(tmp_path: Path, procs: Procs) -
     assert not [d for d in diagnostics(out) if d["level"] >= 3 and d["source"] == "nav200"]
     # speed input: Pw with the head's vehicle-frame velocity from the MCU odometry, mm/s, and
     # the yaw rate in 65536 units per revolution per s
-    inputs = [payload for _, code, payload in server.nav200.speed_inputs if code == "Pw"]
+    nav200 = server.emulators["nav200"]
+    inputs = [payload for _, code, payload in nav200.speed_inputs if code == "Pw"]
     assert len(inputs) > 20 and r.metadata["device.nav200"]["settings"]["speed_input"] == "Pw"
     v, w = 0.36 * math.cos(math.radians(60)), 0.36 * math.sin(math.radians(60)) / 1.2
     last = inputs[-1]

@@ -5,6 +5,7 @@ its log decoder with no other lgvtool file changed."""
 from __future__ import annotations
 
 import importlib
+import socket
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -90,3 +91,35 @@ def test_decode_finds_its_log_decoder(fourth: None, tmp_path: Path) -> None:
     assert [m.log_time_ns for m in reader.messages(["/fake/rx"])] == [t0, t0 + 1_000_000,
                                                                        t0 + 2_000_000]
     assert reader.metadata["decode"]["fake"] == {"chunks": 3}
+
+
+def _recv_until(sock: socket.socket, want: bytes) -> bytes:
+    got = b""
+    while not got.endswith(want):
+        chunk = sock.recv(4096)
+        assert chunk, f"the server closed the link after {got!r}"
+        got += chunk
+    return got
+
+
+def test_simulate_serve_serves_its_emulator(fourth: None) -> None:
+    from devices_helpers import circle_playback
+
+    from lgvtool.sim.emulate import EmulatorServer
+
+    server = EmulatorServer(circle_playback(2.0), nav=None, mcu=None,
+                            fake="tcp://127.0.0.1:0").start()
+    try:
+        assert set(server.urls) == {"fake"}
+        host, _, port = server.urls["fake"][len("tcp://"):].rpartition(":")
+        with socket.create_connection((host, int(port)), timeout=10.0) as sock:
+            assert _recv_until(sock, fourth_family.FakeEmulator.GREETING) \
+                == fourth_family.FakeEmulator.GREETING
+            sock.sendall(b"ping")
+            assert _recv_until(sock, b"ping") == b"ping"
+    finally:
+        server.stop()
+    assert server.sent("fake") == fourth_family.FakeEmulator.GREETING + b"ping"
+    assert server.received("fake") == b"ping"
+    assert [e.direction for e in server.transcript if e.device == "fake"] == \
+        ["sent", "received", "sent"]

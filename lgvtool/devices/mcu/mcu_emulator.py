@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 from lgvtool.sim.emulate.emulator_playback import Playback
+
+if TYPE_CHECKING:
+    from lgvtool.sim.emulate.endpoints import Endpoint
 
 __all__ = ["VirtualMcu"]
 
@@ -14,6 +20,9 @@ class VirtualMcu:
     :param loop: start over after the end (the run's time line repeats, shifted by its
         duration; the frames repeat byte for byte, so the sequence number jumps back).
     """
+
+    #: the device faults of ``simulate serve`` it takes: none of its own
+    FAULT_KINDS: tuple[str, ...] = ()
 
     def __init__(self, playback: Playback, *, loop: bool = False) -> None:
         self.playback = playback
@@ -54,3 +63,21 @@ class VirtualMcu:
             out.append(chunk.data)
             self._i += 1
         return out
+
+    def serve(self, ep: Endpoint | None, now: float, t: float | None,
+              log: Callable[[str, bytes], None], silent: Callable[[], bool]) -> None:
+        """One turn of ``simulate serve``: once the clock runs (``t`` s not None), write the
+        chunks due by ``t`` to ``ep`` at host time ``now`` s; they are handed out (the
+        schedule advances) even when ``ep`` is None (not served) or ``silent()``;
+        ``log(direction, data)`` records the traffic."""
+        if t is None:
+            return
+        chunks = self.due(t)
+        if ep is None or silent():
+            return
+        for chunk in chunks:
+            if ep.write(chunk, now):
+                log("sent", chunk)
+
+    def apply_fault(self, kind: str, t: float, arg: float, code: int) -> None:
+        """No fault of its own (:data:`FAULT_KINDS` is empty): nothing to do."""

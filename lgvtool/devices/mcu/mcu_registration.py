@@ -60,6 +60,13 @@ def emulator(playback: Any, *, loop: bool = False) -> Any:
     return VirtualMcu(playback, loop=loop)
 
 
+def emulator_class() -> Any:
+    """The class of :func:`emulator` (its ``FAULT_KINDS``: the faults it takes)."""
+    from lgvtool.devices.mcu.mcu_emulator import VirtualMcu
+
+    return VirtualMcu
+
+
 def serve_options(f: Callable[..., Any]) -> Callable[..., Any]:
     """The ``simulate serve`` option of the MCU (``--mcu PORT``)."""
     return click.option("--mcu", SERVE_PARAM, default=SERVE_DEFAULT, show_default=True,

@@ -65,6 +65,13 @@ def emulator(playback: Any) -> Any:
     return VirtualNav200(playback)
 
 
+def emulator_class() -> Any:
+    """The class of :func:`emulator` (its ``FAULT_KINDS``: the faults it takes)."""
+    from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
+
+    return VirtualNav200
+
+
 def serve_options(f: Callable[..., Any]) -> Callable[..., Any]:
     """The ``simulate serve`` option of the NAV200 (``--nav PORT``)."""
     return click.option("--nav", SERVE_PARAM, default=SERVE_DEFAULT, show_default=True,

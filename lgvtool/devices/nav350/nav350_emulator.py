@@ -9,13 +9,17 @@ may carry the device clock: ``tcp://127.0.0.1:2112?drift_ppm=50&offset_ms=987654
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 from urllib.parse import parse_qs
 
 from lgvtool.devices.nav350 import nav350_telegrams as tg
 from lgvtool.devices.nav350.nav350_device import Nav350Device, Observation, Revolution, RevolutionSource
 from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 from lgvtool.errors import InputError
+
+if TYPE_CHECKING:
+    from lgvtool.sim.emulate.endpoints import Endpoint
 
 __all__ = ["CLOCK_KEYS", "VirtualNav350", "revolutions_of", "split_port_spec"]
 
@@ -77,6 +81,9 @@ class VirtualNav350:
     :param offset_ms: the device clock at run time 0, ms.
     """
 
+    #: the device faults of ``simulate serve`` it takes (:meth:`apply_fault`)
+    FAULT_KINDS: tuple[str, ...] = ("reset", "sfa", "error", "badsum")
+
     def __init__(self, playback: Any, *, drift_ppm: float = 50.0,
                  offset_ms: int = 987_654) -> None:
         layout = {r.id: tg.LayoutLandmark(round(r.x * 1000), round(r.y * 1000), 1, 1,
@@ -101,6 +108,36 @@ class VirtualNav350:
     def due(self, t: float) -> list[bytes]:
         """Replies that have become due by run time ``t`` s."""
         return self.device.due(t)
+
+    def serve(self, ep: Endpoint | None, now: float, t: float | None,
+              log: Callable[[str, bytes], None], silent: Callable[[], bool]) -> None:
+        """One turn of ``simulate serve``: answer what the host sent on ``ep`` (None: not
+        served) and send what has become due, at host time ``now`` s and run time ``t`` s
+        (None: the clock has not started, run as at 0); ``log(direction, data)`` records the
+        traffic, ``silent()`` keeps the replies in (they are dropped)."""
+        if ep is None:
+            return
+        rt = 0.0 if t is None else t
+        for _ in range(8):
+            data = ep.read()
+            if not data:
+                break
+            log("received", data)
+            if not silent():
+                for reply in self.feed(data, rt):
+                    if ep.write(reply, now):
+                        log("sent", reply)
+        for reply in self.due(rt):
+            if not silent() and ep.write(reply, now):
+                log("sent", reply)
+
+    def apply_fault(self, kind: str, t: float, arg: float, code: int) -> None:
+        """A fault of :data:`FAULT_KINDS` at run time ``t`` s: ``reset`` power cycles it, the
+        others go to :meth:`fault`."""
+        if kind == "reset":
+            self.reset()
+        elif kind in self.FAULT_KINDS:
+            self.fault(kind, t, arg, code)
 
     def reset(self) -> None:
         """Power cycle the device."""

@@ -90,8 +90,9 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
         server.stop()
     if failed:
         raise failed[0]
-    assert server.nav350 is not None
-    device = server.nav350.device
+    emulator = server.emulators["nav350"]
+    assert emulator is not None
+    device = emulator.device
     reader = LogReader(out)
     with server._lock:
         sent = [e for e in server.transcript if e.device == "nav350" and e.direction == "sent"]

@@ -81,6 +81,13 @@ def split_port_spec(spec: str) -> tuple[str, dict[str, float]]:
     return split(spec)
 
 
+def emulator_class() -> Any:
+    """The class of :func:`emulator` (its ``FAULT_KINDS``: the faults it takes)."""
+    from lgvtool.devices.nav350.nav350_emulator import VirtualNav350
+
+    return VirtualNav350
+
+
 def serve_options(f: Callable[..., Any]) -> Callable[..., Any]:
     """The ``simulate serve`` option of the NAV350 (``--nav350 PORT[?CLOCK]``)."""
     return click.option("--nav350", SERVE_PARAM, default="none", show_default=True,

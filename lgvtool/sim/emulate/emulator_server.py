@@ -26,6 +26,7 @@ import select
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -38,11 +39,18 @@ from lgvtool.values import MAX_GARBAGE_BYTES, MAX_SIM_DURATION_S, coerce, parse_
 
 __all__ = ["DEVICES", "EmulatorServer", "Fault", "TranscriptEntry", "parse_fault"]
 
+#: The order in which a fault on ``all`` hits the families (it fixes which garbage bytes each
+#: gets); a family not named here follows, in :func:`listed` order.
 DEVICES = ("nav200", "mcu", "nav350")
+#: The syntax of each fault kind: its ARG required (True), absent (False) or optional (None).
 _KINDS = {"drop": True, "silent": True, "garbage": True, "reset": False, "sfa": None,
           "error": True, "badsum": True}
-#: Faults only the NAV350 knows.
-_NAV350_ONLY = ("sfa", "error", "badsum")
+#: The faults the server applies itself, to any device; the others are the devices' own
+#: (their emulators' ``FAULT_KINDS``).
+_GENERIC = ("drop", "silent", "garbage")
+#: What follows ``KIND:DEVICE:`` in the usage line, for the devices' own faults.
+_SYNTAX = {"reset": "AT", "sfa": "AT[:CODE]", "error": "AT:SECONDS[:CODE]",
+           "badsum": "AT:COUNT"}
 #: Longest sleep of the loop, s.
 _TICK = 0.005
 #: With a client on only one port for this long, the run's clock starts anyway, s.
@@ -63,27 +71,47 @@ class Fault:
 
     def devices(self) -> tuple[str, ...]:
         """The devices it hits."""
-        return DEVICES if self.device == "all" else (self.device,)
+        return _all_devices() if self.device == "all" else (self.device,)
+
+
+def _all_devices() -> tuple[str, ...]:
+    """Every family's device, in the order a fault on ``all`` hits them (:data:`DEVICES`)."""
+    names = [str(r.DEVICE) for r in listed()]
+    return (*[d for d in DEVICES if d in names], *[d for d in names if d not in DEVICES])
+
+
+def _takers(kind: str) -> list[Any]:
+    """The registrations whose emulators take the device fault ``kind``, in :func:`listed`
+    order."""
+    return [r for r in listed() if kind in r.emulator_class().FAULT_KINDS]
+
+
+def _joined(words: list[str], last: str) -> str:
+    """``a, b and c`` (``last``: the final conjunction)."""
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} {last} {words[-1]}"
 
 
 def parse_fault(text: str) -> Fault:
     """Parse ``KIND:DEVICE:AT[:ARG]`` (see the module docstring); InputError if malformed."""
     parts = text.strip().split(":")
+    own = [f"{k}:{'|'.join(str(r.DEVICE) for r in _takers(k))}:{_SYNTAX[k]}"
+           for k in _KINDS if k not in _GENERIC]
+    names = [str(r.DEVICE) for r in listed()]
     usage = (f"fault {text!r}: expected drop|silent:DEVICE:AT:SECONDS, garbage:DEVICE:AT:BYTES, "
-             f"reset:nav200|nav350:AT, sfa:nav350:AT[:CODE], error:nav350:AT:SECONDS[:CODE] "
-             f"or badsum:nav350:AT:COUNT (DEVICE: nav200, nav350, mcu, all)")
+             f"{_joined(own, 'or')} (DEVICE: {', '.join(names)}, all)")
     if len(parts) < 3 or parts[0] not in _KINDS:
         raise InputError(usage)
     kind, device = parts[0], parts[1]
-    if device not in (*DEVICES, "all"):
+    if device not in (*names, "all"):
         raise InputError(usage)
+    takers = [] if kind in _GENERIC else _takers(kind)
     needs_arg = _KINDS[kind]
     allowed = {3, 4} if needs_arg is None else ({4, 5} if kind == "error" else
                                                 {4} if needs_arg else {3})
     if len(parts) not in allowed:
         raise InputError(usage)
-    if kind in _NAV350_ONLY and device != "nav350":
-        raise InputError(usage)
+    if len(takers) == 1 and device != takers[0].DEVICE:
+        raise InputError(usage)  # a fault of one family names it
     try:
         at = coerce(f"fault {text!r}: AT", parse_scalar(parts[2], float), float, minimum=0.0,
                     maximum=MAX_SIM_DURATION_S)
@@ -96,8 +124,10 @@ def parse_fault(text: str) -> Fault:
         raise InputError(usage) from None
     if not 0 <= code <= 7:
         raise InputError(f"fault {text!r}: CODE must be 0..7")
-    if kind == "reset" and device == "mcu":
-        raise InputError(f"fault {text!r}: only the NAV200 and the NAV350 can be reset")
+    if len(takers) > 1 and device not in (*(r.DEVICE for r in takers), "all"):
+        who = _joined([str(r.TITLE) for r in takers], "and")
+        raise InputError(f"fault {text!r}: only {who} can "
+                         f"{'be reset' if kind == 'reset' else f'take {kind} faults'}")
     return Fault(kind, device, at, arg, code)
 
 
@@ -153,9 +183,8 @@ class EmulatorServer:
         for reg in regs:
             specs[reg.DEVICE], self.emulators[reg.DEVICE] = reg.serve_emulator(
                 playback, specs[reg.DEVICE], loop=loop)
-        self.nav200 = self.emulators["nav200"]
-        self.nav350 = self.emulators["nav350"]
-        self.mcu = self.emulators["mcu"]
+        #: the emulators that pace the run (their ``finished`` and ``next_time()``)
+        self._pacers = [e for e in self.emulators.values() if hasattr(e, "next_time")]
         self._rng = random.Random(seed)
         self._own_dir: Path | None = None
         self._file: IO[str] | None = None
@@ -299,12 +328,13 @@ class EmulatorServer:
         t = self.run_time(now)
         if t is not None:
             self._apply_faults(t, now)
-        self._serve_nav(now, t)
-        self._serve_nav350(now, t)
-        if t is not None:
-            self._serve_mcu(now, t)
-            if self.mcu.finished and t >= self.playback.duration:
-                self.finished.set()
+        for name, emulator in self.emulators.items():
+            if emulator is not None:
+                emulator.serve(self.endpoints.get(name), now, t, self._logger(name, t),
+                               lambda name=name: self._silent(name, t))
+        if t is not None and all(e.finished for e in self._pacers) \
+                and t >= self.playback.duration:
+            self.finished.set()
 
     def _may_start(self, now: float) -> bool:
         """Start the clock at once, or when every port has a client, or when one has had a
@@ -319,7 +349,8 @@ class EmulatorServer:
 
     def _wait(self, now: float) -> None:
         timeout = _TICK
-        nxt = self.mcu.next_time()
+        times = [x for e in self._pacers if (x := e.next_time()) is not None]
+        nxt = min(times) if times else None
         if nxt is not None and self._start is not None:
             timeout = max(0.0, min(timeout, self._start + nxt / self.speed - now))
         fds = [fd for ep in self.endpoints.values() if (fd := ep.fileno()) is not None]
@@ -342,47 +373,11 @@ class EmulatorServer:
     def _silent(self, device: str, t: float | None) -> bool:
         return t is not None and t < self._silent_until.get(device, -1.0)
 
-    def _serve_nav(self, now: float, t: float | None) -> None:
-        ep = self.endpoints.get("nav200")
-        if ep is None:
-            return
-        for _ in range(8):
-            data = ep.read()
-            if not data:
-                break
-            self._log("nav200", "received", data, t)
-            if self._silent("nav200", t):
-                continue  # deaf and mute
-            for reply in self.nav200.feed(data, 0.0 if t is None else t):
-                if ep.write(reply, now):
-                    self._log("nav200", "sent", reply, t)
-
-    def _serve_nav350(self, now: float, t: float | None) -> None:
-        ep, dev = self.endpoints.get("nav350"), self.nav350
-        if ep is None or dev is None:
-            return
-        rt = 0.0 if t is None else t
-        for _ in range(8):
-            data = ep.read()
-            if not data:
-                break
-            self._log("nav350", "received", data, t)
-            if not self._silent("nav350", t):
-                for reply in dev.feed(data, rt):
-                    if ep.write(reply, now):
-                        self._log("nav350", "sent", reply, t)
-        for reply in dev.due(rt):
-            if not self._silent("nav350", t) and ep.write(reply, now):
-                self._log("nav350", "sent", reply, t)
-
-    def _serve_mcu(self, now: float, t: float) -> None:
-        ep = self.endpoints.get("mcu")
-        chunks = self.mcu.due(t)
-        if ep is None or self._silent("mcu", t):
-            return
-        for chunk in chunks:
-            if ep.write(chunk, now):
-                self._log("mcu", "sent", chunk, t)
+    def _logger(self, device: str, t: float | None) -> Callable[[str, bytes], None]:
+        """``log(direction, data)`` of ``device``'s traffic at run time ``t`` s."""
+        def log(direction: str, data: bytes) -> None:
+            self._log(device, direction, data, t)
+        return log
 
     def _apply_faults(self, t: float, now: float) -> None:
         for device, at in list(self._restore_at.items()):
@@ -409,13 +404,10 @@ class EmulatorServer:
             junk = bytes(self._rng.randrange(256) for _ in range(int(fault.arg)))
             if ep.write(junk, now):
                 self._log(device, "sent", junk, t)
-        elif fault.kind == "reset" and device == "nav200":
-            self.nav200.reset()
-        elif device == "nav350" and self.nav350 is not None and fault.kind != "drop":
-            if fault.kind == "reset":
-                self.nav350.reset()
-            elif fault.kind in _NAV350_ONLY:
-                self.nav350.fault(fault.kind, t, fault.arg, fault.code)
+        else:
+            emulator = self.emulators.get(device)
+            if emulator is not None and fault.kind in emulator.FAULT_KINDS:
+                emulator.apply_fault(fault.kind, t, fault.arg, fault.code)
 
     def status(self) -> dict[str, Any]:
         """Counts for people: run time, bytes each way, connections, faults applied."""
