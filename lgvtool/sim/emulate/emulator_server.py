@@ -20,6 +20,7 @@ with it byte for byte.
 
 from __future__ import annotations
 
+import functools
 import json
 import random
 import select
@@ -331,7 +332,7 @@ class EmulatorServer:
         for name, emulator in self.emulators.items():
             if emulator is not None:
                 emulator.serve(self.endpoints.get(name), now, t, self._logger(name, t),
-                               lambda name=name: self._silent(name, t))
+                               functools.partial(self._silent, name, t))
         if t is not None and all(e.finished for e in self._pacers) \
                 and t >= self.playback.duration:
             self.finished.set()
