@@ -54,7 +54,9 @@ def kld_count(keys_in_draw_order: NDArray[np.int64], epsilon: float, delta: floa
     new_bin = np.zeros(m, dtype=np.int64)
     new_bin[first] = 1
     k = np.cumsum(new_bin)
-    need = kld_bound(k, epsilon, delta)
+    # the bound depends on the count of bins only: computed once per count (k[-1] of them,
+    # far fewer than the draws), then looked up per draw
+    need = kld_bound(np.arange(1, int(k[-1]) + 1), epsilon, delta)[k - 1]
     n = np.arange(1, m + 1)
     ok = np.nonzero(n >= np.maximum(need, n_min))[0]
     chosen = int(ok[0]) + 1 if len(ok) else m

@@ -86,3 +86,19 @@ def test_kld_bound_is_monotonic() -> None:
     k = np.arange(2, 500)
     b = kld_bound(k, 0.05, 0.01)
     assert np.all(np.diff(b) > 0)
+
+
+def test_kld_count_is_the_first_draw_that_meets_the_bound() -> None:
+    """The sequential rule, checked draw by draw against the bound of the bins seen so far."""
+    rng = np.random.default_rng(11)
+    for n_bins, m, n_min in ((30, 2000, 10), (400, 3000, 50), (5, 500, 1), (2000, 1500, 100)):
+        keys = rng.integers(0, n_bins, m).astype(np.int64)
+        seen: set[int] = set()
+        expected = m
+        for i, key in enumerate(keys.tolist()):
+            seen.add(key)
+            need = 1.0 if len(seen) <= 1 else float(kld_bound(len(seen), 0.05, 0.01))
+            if i + 1 >= max(need, n_min):
+                expected = i + 1
+                break
+        assert kld_count(keys, 0.05, 0.01, n_min, m) == min(max(expected, n_min), m)
