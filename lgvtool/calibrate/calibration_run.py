@@ -73,10 +73,22 @@ class Calibration:
     residuals: dict[str, Any] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
 
+    def settings_set(self) -> dict[str, dict[str, Any]]:
+        """Estimator settings the calibrated configuration sets to other values than the
+        starting one (:func:`scale_priors`): ``{estimator: {parameter: value}}``."""
+        out: dict[str, dict[str, Any]] = {}
+        for name, table in self.config.estimators.items():
+            before = self.start_config.estimators.get(name, {})
+            changed = {k: v for k, v in table.items() if before.get(k) != v}
+            if changed:
+                out[name] = changed
+        return out
+
     def to_dict(self) -> dict[str, Any]:
         """The JSON document (``calibrate --json``)."""
         return {"estimates": {n: e.to_dict() for n, e in self.estimates.items()},
                 "vehicle": {n: getattr(self.config.vehicle, n) for n in QUANTITIES},
+                "estimator_settings": self.settings_set(),
                 "logs": self.logs, "warnings": self.warnings,
                 "comparison": [r.to_dict() for r in self.comparison],
                 "residuals": self.residuals, "timings_s": self.timings}

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from lgvtool.calibrate.calibration_run import Estimate, calibrate, scale_priors
+from lgvtool.calibrate.calibration_tables import toml
 from lgvtool.calibrate.drive import prepare
 from lgvtool.calibrate.quantities import QUANTITIES
 from lgvtool.calibrate.solve import Problem, Solution, SolveSettings, solve
@@ -156,3 +157,10 @@ def test_calibrate_writes_the_scale_priors_into_the_file(tmp_path: Path) -> None
         assert ekf[p] < 0.5 * PROFILE["ekf"][p]
     assert cal.start_config.estimators["ekf"]["scale_sigma_v"] == 0.075
     assert cal.config.estimators["pf"] == PROFILE["pf"]
+    # the JSON and the file's header say what the calibration set
+    assert cal.to_dict()["estimator_settings"] == {
+        "ekf": {"scale_sigma_v": ekf["scale_sigma_v"], "scale_sigma_w": ekf["scale_sigma_w"]}}
+    text = toml(cal)
+    assert f"# [estimators.ekf] scale_sigma_w = {ekf['scale_sigma_w']:.5g}" in " ".join(
+        text.split())
+    assert config_from_dict(tomllib.loads(text)).estimators["ekf"] == ekf
