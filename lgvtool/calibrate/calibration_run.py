@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -26,6 +26,12 @@ from lgvtool.progress import Progress
 TIME_FLOOR_S = 1e-3
 """Added in quadrature to the time offset's 1-sigma: the host's read latency of the MCU frames,
 which no log shows (:mod:`lgvtool.calibrate.drive`), s."""
+
+SCALE_PRIORS: dict[str, dict[str, str]] = {
+    "ekf": {"odom_scale_v": "scale_sigma_v", "odom_scale_w": "scale_sigma_w"}}
+"""Estimator -> {calibrated odometry scale: the parameter of its prior's 1-sigma}: the estimators
+whose odometry scales in the state (``odometry_scales``) start from the calibration's
+uncertainty once the odometry is calibrated (:func:`scale_priors`)."""
 
 
 @dataclass
@@ -67,10 +73,22 @@ class Calibration:
     residuals: dict[str, Any] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
 
+    def settings_set(self) -> dict[str, dict[str, Any]]:
+        """Estimator settings the calibrated configuration sets to other values than the
+        starting one (:func:`scale_priors`): ``{estimator: {parameter: value}}``."""
+        out: dict[str, dict[str, Any]] = {}
+        for name, table in self.config.estimators.items():
+            before = self.start_config.estimators.get(name, {})
+            changed = {k: v for k, v in table.items() if before.get(k) != v}
+            if changed:
+                out[name] = changed
+        return out
+
     def to_dict(self) -> dict[str, Any]:
         """The JSON document (``calibrate --json``)."""
         return {"estimates": {n: e.to_dict() for n, e in self.estimates.items()},
                 "vehicle": {n: getattr(self.config.vehicle, n) for n in QUANTITIES},
+                "estimator_settings": self.settings_set(),
                 "logs": self.logs, "warnings": self.warnings,
                 "comparison": [r.to_dict() for r in self.comparison],
                 "residuals": self.residuals, "timings_s": self.timings}
@@ -204,7 +222,8 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
             estimates[n] = Estimate(n, start[n], start[n], None, "fixed")
     calibrated: dict[str, Any] = {n: e.value for n, e in estimates.items()}
     vehicle = replace(v, **calibrated)
-    out_cfg = replace(cfg, vehicle=vehicle, simulator={})
+    out_cfg = replace(cfg, vehicle=vehicle, simulator={},
+                      estimators=scale_priors(cfg.estimators, estimates))
     solve_s = time.perf_counter() - started - read_s
     logs = []
     for d, drive in enumerate(drives):
@@ -232,6 +251,30 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         result.timings["compare"] = time.perf_counter() - t0
     result.timings.update(read=read_s, solve=solve_s)
     return result
+
+
+def scale_priors(settings: Mapping[str, Mapping[str, Any]], estimates: Mapping[str, Estimate]
+                 ) -> dict[str, dict[str, Any]]:
+    """The estimator settings of the calibrated configuration: ``settings`` (``[estimators.*]``
+    of the starting configuration) with, for each estimator of :data:`SCALE_PRIORS` that
+    carries the odometry scales in its state (``odometry_scales = true``), the prior 1-sigma of
+    each estimated odometry scale set to the calibration's 1-sigma (dimensionless).
+
+    The calibrated odometry is the starting one times the calibrated scales, so what is left of
+    its scale error is what the calibration leaves uncertain: the state's scales start at 1
+    with that uncertainty, not with the prior the settings give for odometry as logged (which
+    would let the filter undo the calibration over its first metres). Returns new dicts;
+    ``settings`` is not changed."""
+    out = {name: dict(table) for name, table in settings.items()}
+    for name, params in SCALE_PRIORS.items():
+        table = out.get(name)
+        if not table or not table.get("odometry_scales"):
+            continue
+        for quantity, param_name in params.items():
+            e = estimates.get(quantity)
+            if e is not None and e.status == "estimated" and e.sigma is not None:
+                table[param_name] = float(e.sigma)
+    return out
 
 
 def _unobservable_line(sigma: dict[str, float]) -> str:

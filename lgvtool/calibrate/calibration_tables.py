@@ -64,4 +64,8 @@ def toml(cal: Calibration) -> str:
             q = QUANTITIES[name]
             head.append(f"#   {name} = {_num(e.value * q.display, q.unit)} +- "
                         f"{_num(e.sigma * q.display, q.unit)} {q.unit} (1-sigma)")
+    for est, params in cal.settings_set().items():
+        for name, value in params.items():
+            head.append(f"#   [estimators.{est}] {name} = {value:.5g} (set from the "
+                        f"calibration)")
     return "\n".join(head) + "\n\n" + to_toml(cal.config.to_dict())

@@ -58,6 +58,7 @@ def test_cli_writes_a_usable_config(installed_logs: list[Path], tmp_path: Path, 
     doc = json.loads(p.stdout)
     cfg = load_config(out)
     assert cfg.vehicle.nav_x == pytest.approx(doc["estimates"]["nav_x"]["value_si"], rel=1e-12)
+    assert doc["estimator_settings"] == {}  # MCU odometry: no estimator setting changes
     assert run_cli("config", out).returncode == 0
     rows = {(r["log"], r["estimator"]): r for r in doc["comparison"]}
     # the EKF, which uses every reflector, gains most from the calibration

@@ -5,15 +5,20 @@ and the calibrated odometry scales are the robot's over seconds, not those of 0.
 from __future__ import annotations
 
 import math
+import tomllib
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
+from lgvtool.calibrate.calibration_run import Estimate, calibrate, scale_priors
+from lgvtool.calibrate.calibration_tables import toml
 from lgvtool.calibrate.drive import prepare
 from lgvtool.calibrate.quantities import QUANTITIES
-from lgvtool.calibrate.solve import Problem, SolveSettings, solve
-from lgvtool.config import Reflector, Vehicle
+from lgvtool.calibrate.solve import Problem, Solution, SolveSettings, solve
+from lgvtool.config import Config, Reflector, Vehicle, config_from_dict, to_toml
+from lgvtool.localize.ekf import Ekf
 from lgvtool.localize.logdata import LogData
 from lgvtool.localize.observations import RawScan
 
@@ -54,14 +59,18 @@ def _commanded_drive(seed: int = 5) -> LogData:
     return LogData(0, tuple(marks), twist={"t": t, "v": v_cmd, "omega": w_cmd}, scans=scans)
 
 
-def _scales(data: LogData, **prep: Any) -> dict[str, float]:
+def _solve(data: LogData, **prep: Any) -> Solution:
     drive = prepare("cmd", data, data.reflectors, **prep)
     vehicle = Vehicle(nav_x=0.0)
     start = {n: float(getattr(vehicle, n)) for n in QUANTITIES}
     names = ["odom_scale_v", "odom_scale_w"]
     problem = Problem([drive], names, start, data.reflectors, vehicle.encoder_ppr,
                       SolveSettings(), [False])
-    return dict(solve(problem, allow_unobservable=False).values)
+    return solve(problem, allow_unobservable=False)
+
+
+def _scales(data: LogData, **prep: Any) -> dict[str, float]:
+    return dict(_solve(data, **prep).values)
 
 
 def test_commanded_odometry_scales_are_the_robots() -> None:
@@ -72,3 +81,86 @@ def test_commanded_odometry_scales_are_the_robots() -> None:
     # interval by interval at 10 Hz the lag pulls the turn scale down
     fine = _scales(data, node_rate_hz=10.0)
     assert fine["odom_scale_w"] < got["odom_scale_w"] - 0.01
+
+
+PROFILE = {"ekf": {"odometry_scales": True, "scale_sigma_v": 0.075, "scale_sigma_w": 0.15,
+                   "noise_rot": 8.0},
+           "pf": {"odometry_scales": True, "scale_sigma_v": 0.05, "scale_sigma_w": 0.05}}
+"""Settings of estimators that carry the odometry scales in their state (dimensionless priors)."""
+
+
+def test_calibrated_odometry_starts_the_ekf_scales_at_the_calibrations_sigma() -> None:
+    sol = _solve(_commanded_drive())
+    est = {n: Estimate(n, 1.0, sol.values[n], sol.sigma[n], "estimated")
+           for n in ("odom_scale_v", "odom_scale_w")}
+    sv, sw = sol.sigma["odom_scale_v"], sol.sigma["odom_scale_w"]
+    assert 1e-4 < sv < 0.03 and 1e-4 < sw < 0.03
+    settings = {k: dict(v) for k, v in PROFILE.items()}
+    out = scale_priors(settings, est)
+    assert settings == PROFILE  # the starting settings are not changed
+    assert out["ekf"]["scale_sigma_v"] == pytest.approx(sv, rel=1e-12)
+    assert out["ekf"]["scale_sigma_w"] == pytest.approx(sw, rel=1e-12)
+    assert out["ekf"]["noise_rot"] == 8.0
+    assert out["pf"] == PROFILE["pf"]
+    # the file carries them, and the EKF starts its scale states at 1 with that variance
+    cfg = config_from_dict(tomllib.loads(to_toml(Config(estimators=out).to_dict())))
+    ekf = Ekf(dict(cfg.estimators["ekf"]), initial_pose=(0.0, 0.0, 0.0))
+    assert ekf.mu is not None and list(ekf.mu[3:]) == [1.0, 1.0]
+    assert ekf.P[3, 3] == pytest.approx(sv * sv, rel=1e-9)
+    assert ekf.P[4, 4] == pytest.approx(sw * sw, rel=1e-9)
+
+
+def test_scale_priors_only_for_estimated_scales_of_a_filter_that_has_them() -> None:
+    est = {"odom_scale_v": Estimate("odom_scale_v", 1.0, 0.95, 0.012, "estimated"),
+           "odom_scale_w": Estimate("odom_scale_w", 1.0, 1.0, None, "fixed")}
+    out = scale_priors(PROFILE, est)
+    assert out["ekf"]["scale_sigma_v"] == pytest.approx(0.012)
+    assert out["ekf"]["scale_sigma_w"] == 0.15  # held at its start: the prior stays
+    plain = {"ekf": {"noise_rot": 1.0}}
+    assert scale_priors(plain, est) == plain  # no scales in its state: nothing to start
+    off = {"ekf": {"odometry_scales": False, "scale_sigma_v": 0.075}}
+    assert scale_priors(off, est) == off
+
+
+def test_calibrate_writes_the_scale_priors_into_the_file(tmp_path: Path) -> None:
+    from lgvtool.log import LogWriter, topics
+
+    data = _commanded_drive()
+    assert data.twist is not None
+    log = tmp_path / "cmd.mcap"
+    t0 = 1_700_000_000 * 10**9
+
+    def stamp(t: float) -> dict[str, int]:
+        ns = t0 + round(t * 1e9)
+        return {"sec": ns // 10**9, "nsec": ns % 10**9}
+
+    with LogWriter(log) as w:
+        w.write_config(Config(vehicle=Vehicle(nav_x=0.0), reflectors=data.reflectors,
+                              estimators=PROFILE))
+        msgs = [(t0 + round(float(t) * 1e9), topics.ODOM,
+                 {"timestamp": stamp(float(t)), "v": float(v), "omega": float(om)})
+                for t, v, om in zip(data.twist["t"], data.twist["v"], data.twist["omega"],
+                                    strict=True)]
+        msgs += [(t0 + round(s.t * 1e9), topics.NAV_REFLECTORS,
+                  {"timestamp": stamp(s.t), "scan_period": 0.0, "observations": [
+                      {"range": float(r), "bearing": float(b), "time_in_scan": 0.0,
+                       "id": int(i)} for r, b, i in zip(s.ranges, s.bearings, s.ids,
+                                                         strict=True)]})
+                 for s in data.scans]
+        for ns, topic, msg in sorted(msgs, key=lambda m: (m[0], m[1])):
+            w.write(topic, msg, ns)
+    cal = calibrate([str(log)], estimate=["odom_scale_v", "odom_scale_w"], compare_with=())
+    ekf = cal.config.estimators["ekf"]
+    for q, p in (("odom_scale_v", "scale_sigma_v"), ("odom_scale_w", "scale_sigma_w")):
+        assert cal.estimates[q].sigma is not None
+        assert ekf[p] == pytest.approx(cal.estimates[q].sigma, rel=1e-12)
+        assert ekf[p] < 0.5 * PROFILE["ekf"][p]
+    assert cal.start_config.estimators["ekf"]["scale_sigma_v"] == 0.075
+    assert cal.config.estimators["pf"] == PROFILE["pf"]
+    # the JSON and the file's header say what the calibration set
+    assert cal.to_dict()["estimator_settings"] == {
+        "ekf": {"scale_sigma_v": ekf["scale_sigma_v"], "scale_sigma_w": ekf["scale_sigma_w"]}}
+    text = toml(cal)
+    assert f"# [estimators.ekf] scale_sigma_w = {ekf['scale_sigma_w']:.5g}" in " ".join(
+        text.split())
+    assert config_from_dict(tomllib.loads(text)).estimators["ekf"] == ekf
