@@ -87,3 +87,66 @@ def test_messages_written_out_of_order_come_back_sorted(tmp_path: Path) -> None:
         for ns in shuffled:
             w.write(topics.ODOM, {"timestamp": stamp(ns), "v": 0.0, "omega": 0.0}, ns)
     assert [m.log_time_ns for m in LogReader(path).raw_messages()] == times
+
+
+def test_many_messages_at_once_write_the_file_of_one_at_a_time() -> None:
+    """``add_messages`` (headers packed as an array, chunk boundaries from cumulative sizes)
+    writes the same bytes as ``add_message`` per message: chunks closing mid-batch and on a
+    batch's last message, three channels interleaved (new ones appearing mid-chunk), times out
+    of order (the chunk is then sorted), empty payloads, several batches into one chunk."""
+    import io
+
+    from lgvtool.log.mcapio import McapWriter
+
+    rng = random.Random(5)
+    msgs = []
+    for i in range(3000):
+        cid_pick = rng.choice((0, 0, 0, 1, 2)) if i > 40 else 0
+        t = T0 + i * 1_000_000 + (rng.randrange(-3_000_000, 0) if i % 97 == 0 else 0)
+        data = b"" if i % 211 == 0 else bytes(rng.randrange(256) for _ in range(rng.randrange(1, 300)))
+        msgs.append((cid_pick, t, data))
+
+    def build(batched: bool) -> bytes:
+        buf = io.BytesIO()
+        w = McapWriter(buf, compression="none", chunk_bytes=20_000, library="test")
+        sid = w.add_schema("x", "jsonschema", b"{}")
+        ids = [w.add_channel(f"/c{k}", "json", sid) for k in range(3)]
+        if batched:
+            for a, b in ((0, 1), (1, 7), (7, 1500), (1500, 1500), (1500, 3000)):
+                part = msgs[a:b]
+                w.add_messages([ids[c] for c, _, _ in part], [t for _, t, _ in part],
+                               [d for _, _, d in part])
+        else:
+            for c, t, d in msgs:
+                w.add_message(ids[c], t, d)
+        w.finish()
+        return buf.getvalue()
+
+    one, many = build(False), build(True)
+    assert many == one
+    reader = make_reader(io.BytesIO(many))
+    assert len(list(reader.iter_messages())) == len(msgs)
+
+
+def test_many_messages_close_chunks_where_one_at_a_time_does() -> None:
+    """Records of one size end exactly at the chunk size for some sizes: the chunk closes
+    after the record that reaches it, as with ``add_message``."""
+    import io
+
+    from lgvtool.log.mcapio import McapWriter
+
+    def build(size: int, batched: bool) -> bytes:
+        buf = io.BytesIO()
+        w = McapWriter(buf, compression="none", chunk_bytes=2000, library="test")
+        cid = w.add_channel("/c", "json", w.add_schema("x", "jsonschema", b"{}"))
+        times = [T0 + i for i in range(120)]
+        if batched:
+            w.add_messages([cid] * len(times), times, [b"x" * size] * len(times))
+        else:
+            for t in times:
+                w.add_message(cid, t, b"x" * size)
+        w.finish()
+        return buf.getvalue()
+
+    for size in range(1, 90):
+        assert build(size, True) == build(size, False), size
