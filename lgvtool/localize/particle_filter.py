@@ -354,11 +354,26 @@ class ParticleFilter(ParticleSet):
         """``proposal = ekf``: move every particle to a draw of its :meth:`ekf_proposal`, and
         return the log of its importance weight's factor (prior x likelihood / proposal) and
         the number of reflectors used."""
-        prop, _ = self.ekf_proposal(obs)
-        dx = draw(prop, self.rng.standard_normal((len(self.z), 3)))
+        n = len(self.z)
+        if self._kern is not None:
+            # the Kalman step, the draw and the correction in one pass
+            cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
+                np.zeros((n, 3, 3))
+            landmarks = self.scan_residuals(obs, self.params.use_ids) + self.world_points(obs)
+            sr, st = self.ray_sigmas(obs)
+            g = self.rng.standard_normal((n, 3))
+            dx, corr = np.empty((n, 3)), np.empty(n)
+            self._kern.pf_ekf_proposal(
+                self.z, self.rot, np.ascontiguousarray(cov), np.ascontiguousarray(landmarks),
+                np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u.conj()), sr, st,
+                chi2_quantile(self.params.proposal_gate_probability, 2), g, dx, corr)
+        else:
+            prop, _ = self.ekf_proposal(obs)
+            dx = draw(prop, self.rng.standard_normal((n, 3)))
+            corr = log_weight_correction(prop, dx)
         self._shift(dx)
         ll, count = self.scan_loglik(obs)
-        return ll + log_weight_correction(prop, dx), count
+        return ll + corr, count
 
     def _shift(self, dx: FloatArray) -> None:
         """Move every particle by its offset (N, 3: x m, y m, heading rad); the particles are
@@ -503,7 +518,13 @@ class ParticleFilter(ParticleSet):
         step = self.rot * body
         cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
             np.zeros((n, 3, 3))
-        self._pcov = predict_covariance(cov, self.rot, step, sigmas)
+        if self._kern is not None:
+            out = np.empty_like(cov)
+            self._kern.pf_predict_covariance(cov, self.rot, np.ascontiguousarray(step),
+                                             *sigmas, out)
+            self._pcov = out
+        else:
+            self._pcov = predict_covariance(cov, self.rot, step, sigmas)
         self.z = self.z + step
         self._set_headings(self.th + dth)
         self._move_ref(motion)
