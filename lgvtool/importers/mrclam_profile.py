@@ -64,7 +64,7 @@ its position standard deviation exceeds 1.5 m (two landmarks of one cluster fix 
 _PF: dict[str, Any] = {
     "sigma_range_m": 0.1,
     "sigma_range_per_m": 0.2,
-    "sigma_bearing_rad": 0.03,
+    "sigma_bearing_rad": 0.0125,
     "noise_dist": 0.1,
     "noise_lat": 0.1,
     "noise_rot": 0.2,
@@ -86,9 +86,11 @@ _PF: dict[str, Any] = {
     "start_particles": 20000,
     "start_updates": 10,
     "fix_reset_probability": 0.99,
+    "proposal": "ekf",
 }
-"""``pf``: camera noise (a wider bearing noise than the EKF's: a particle set needs a
-likelihood no sharper than its spread), motion noise, a fixed 2000 particles, a start around the
+"""``pf``: camera noise (the EKF's bearing noise: the EKF proposal draws each particle from its
+motion Gaussian updated by the frame's landmarks, so the likelihood may be sharper than the
+particles' spread), motion noise, a fixed 2000 particles, a start around the
 first landmark fix (two landmarks in one frame) with a spread (m, rad) that covers the error of a
 camera fix, sensor resetting only when the mean likelihood per landmark falls below 0.01 per m^2
 (the camera's peak density is a few per m^2, a lost filter's the outlier floor, 0.016 per m^2),
