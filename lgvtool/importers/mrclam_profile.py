@@ -100,7 +100,7 @@ fix of the EKF for its start and its sensor resets (particles drawn from the fix
 plus the spread), and per-particle odometry scales (prior 1 +- 0.05, a random walk of 0.003 per
 sqrt(m) and per sqrt(rad)). A uniform start (``init = uniform``, global localisation) weighs
 20 000 particles for its first 10 camera frames before it shrinks to 2000 (2000 over the arena
-leave about one particle per 0.25 m x 0.25 m x 1.5 rad, too few for a 0.03 rad bearing), and a
+leave about one particle per 0.25 m x 0.25 m x 1.5 rad, too few for a 0.0125 rad bearing), and a
 frame that the cloud's mean does not explain, whose landmark fix fits its own measurements but
 lies outside the 99 % region around the cloud (a confident cloud in the wrong place), re-draws
 half of the particles around the fix."""

@@ -581,7 +581,8 @@ def pf_predict_covariance(cov: FloatArray, rot: ComplexArray, step: ComplexArray
 def _ray_row(z: complex, rot: complex, lm: complex, q: complex, u_conj: complex
              ) -> tuple[float, float, float, float, float, float, float, float]:
     """The ray residual ``(r0, r1)`` of one landmark at one particle and its Jacobian's rows
-    ``(j00, j01, j02)``, ``(j10, j11, j12)`` (:func:`lgvtool.localize.pf_proposal.ray_residuals`)."""
+    ``(j00, j01, j02)``, ``(j10, j11, j12)``
+    (:func:`lgvtool.localize.pf_proposal.ray_residuals`)."""
     a = -u_conj * rot.conjugate()
     h = a * (z - lm)
     r = h - u_conj * q
