@@ -64,7 +64,7 @@ its position standard deviation exceeds 1.5 m (two landmarks of one cluster fix 
 _PF: dict[str, Any] = {
     "sigma_range_m": 0.1,
     "sigma_range_per_m": 0.2,
-    "sigma_bearing_rad": 0.03,
+    "sigma_bearing_rad": 0.0125,
     "noise_dist": 0.1,
     "noise_lat": 0.1,
     "noise_rot": 0.2,
@@ -86,9 +86,11 @@ _PF: dict[str, Any] = {
     "start_particles": 20000,
     "start_updates": 10,
     "fix_reset_probability": 0.99,
+    "proposal": "ekf",
 }
-"""``pf``: camera noise (a wider bearing noise than the EKF's: a particle set needs a
-likelihood no sharper than its spread), motion noise, a fixed 2000 particles, a start around the
+"""``pf``: camera noise (the EKF's bearing noise: the EKF proposal draws each particle from its
+motion Gaussian updated by the frame's landmarks, so the likelihood may be sharper than the
+particles' spread), motion noise, a fixed 2000 particles, a start around the
 first landmark fix (two landmarks in one frame) with a spread (m, rad) that covers the error of a
 camera fix, sensor resetting only when the mean likelihood per landmark falls below 0.01 per m^2
 (the camera's peak density is a few per m^2, a lost filter's the outlier floor, 0.016 per m^2),
@@ -98,7 +100,7 @@ fix of the EKF for its start and its sensor resets (particles drawn from the fix
 plus the spread), and per-particle odometry scales (prior 1 +- 0.05, a random walk of 0.003 per
 sqrt(m) and per sqrt(rad)). A uniform start (``init = uniform``, global localisation) weighs
 20 000 particles for its first 10 camera frames before it shrinks to 2000 (2000 over the arena
-leave about one particle per 0.25 m x 0.25 m x 1.5 rad, too few for a 0.03 rad bearing), and a
+leave about one particle per 0.25 m x 0.25 m x 1.5 rad, too few for a 0.0125 rad bearing), and a
 frame that the cloud's mean does not explain, whose landmark fix fits its own measurements but
 lies outside the 99 % region around the cloud (a confident cloud in the wrong place), re-draws
 half of the particles around the fix."""

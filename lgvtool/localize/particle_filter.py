@@ -25,6 +25,12 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
 - ``fix_reset_probability`` (off by default): a frame that the cloud's mean does not explain,
   whose landmark fix fits its own measurements and lies outside the cloud's region, re-draws
   ``fix_reset_fraction`` of the particles around that fix (a confident cloud in the wrong place).
+- ``proposal = ekf`` (off by default): the particles are moved by the noise-free odometry
+  between frames and carry the accumulated motion noise as a Gaussian each; a frame's
+  landmarks update every particle's Gaussian by one Kalman step, the particle is drawn from
+  that posterior and weighted by prior x likelihood / proposal
+  (:mod:`lgvtool.localize.pf_proposal`), so that a broad prediction (a large heading noise)
+  needs no particle in every heading it spans.
 - pose-only observations: with no reflector scans in the log (or ``observations = poses``) the
   particles are weighed against the NAV head pose with ``sigma_pose_xy_m`` and
   ``sigma_pose_heading_rad`` (and the same outlier mixture).
@@ -48,6 +54,15 @@ from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
 from lgvtool.localize.particles import ParticleInitParams, ParticleSet
+from lgvtool.localize.pf_proposal import (
+    Proposal,
+    draw,
+    gaussian_offsets,
+    kalman_proposal,
+    log_weight_correction,
+    predict_covariance,
+    ray_residuals,
+)
 from lgvtool.localize.resampling import (
     effective_sample_size,
     low_variance,
@@ -57,6 +72,7 @@ from lgvtool.localize.resampling import (
 from lgvtool.quantiles import chi2_quantile
 
 FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
@@ -142,6 +158,17 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams):
     fix_reset_fraction: float = param(0.5, "fraction of the particles the fix disagreement "
                                       "reset re-draws around the fix", minimum=0.0,
                                       maximum=1.0)
+    proposal: str = param("prior", "where a reflector scan's particles are drawn from: prior "
+                          "(the motion model, the particles moved with motion noise) or ekf "
+                          "(each particle's motion Gaussian updated by the scan's landmarks "
+                          "with one Kalman step, weighted by prior x likelihood / proposal)",
+                          choices=("prior", "ekf"))
+    proposal_gate_probability: float = param(0.999, "ekf proposal: a landmark whose squared "
+                                             "Mahalanobis distance from a particle's "
+                                             "prediction exceeds the chi-square quantile (2 "
+                                             "degrees of freedom) of this probability is left "
+                                             "out of that particle's proposal (not of its "
+                                             "weight)", minimum=0.5, maximum=0.999999999)
 
 
 class ParticleFilter(ParticleSet):
@@ -166,6 +193,9 @@ class ParticleFilter(ParticleSet):
         self.s_w = np.zeros(0)
         #: updates left before a large uniform start set shrinks to ``particles``
         self._start_left = 0
+        #: ``proposal = ekf``: each particle's motion noise since its last draw, (N, 3, 3) in
+        #: x m, y m, heading rad (None: zero, the particles are draws)
+        self._pcov: FloatArray | None = None
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":
@@ -191,14 +221,20 @@ class ParticleFilter(ParticleSet):
         g = self.params.outlier_gate_m
         return -math.log(math.pi * g ** 2) if dims == 2 else -math.log(math.pi * g ** 2 * 2.0 * math.pi)
 
-    def scan_loglik(self, obs: ScanObservation) -> tuple[FloatArray, int]:
-        """Log-likelihood of each particle for a scan, and the number of reflectors used."""
+    def ray_sigmas(self, obs: ScanObservation) -> tuple[FloatArray, FloatArray]:
+        """Noise standard deviations (m) of each reflector of ``obs`` along its ray (range)
+        and across it (range x bearing noise)."""
         p = self.params
         if p.sigma_range_per_m > 0.0:
             sr = np.sqrt(p.sigma_range_m ** 2 + (p.sigma_range_per_m * obs.ranges) ** 2)
         else:
             sr = np.full(len(obs), p.sigma_range_m)
-        st = np.sqrt((obs.ranges * p.sigma_bearing_rad) ** 2 + 1e-12)
+        return sr, np.sqrt((obs.ranges * p.sigma_bearing_rad) ** 2 + 1e-12)
+
+    def scan_loglik(self, obs: ScanObservation) -> tuple[FloatArray, int]:
+        """Log-likelihood of each particle for a scan, and the number of reflectors used."""
+        p = self.params
+        sr, st = self.ray_sigmas(obs)
         const = _LOG_2PI + np.log(sr) + np.log(st)
         if self._kern is not None:
             j1 = self._reference_nearest(obs)
@@ -239,12 +275,15 @@ class ParticleFilter(ParticleSet):
             self.set_particles(*self._around(fix[0], fix[1], p.particles))
             self.logw = np.full(len(self.z), -math.log(len(self.z)))
             return True
+        ekf = p.proposal == "ekf"
         if isinstance(obs, PoseObservation):
+            if ekf:
+                self._draw_prior()
             ll, kind, count = self.pose_loglik(obs), "pose", 1
         else:
             if len(obs) == 0 or len(self.map) == 0:
                 return False
-            ll, count = self.scan_loglik(obs)
+            ll, count = self.proposal_loglik(obs) if ekf else self.scan_loglik(obs)
             kind = "scan"
         ess: float | None = None
         if p.log_weights and self._kern is not None:
@@ -297,6 +336,57 @@ class ParticleFilter(ParticleSet):
                 self._cached = self.weighted_pose(self.w)
                 self._ref = self._cached[:3]
         return True
+
+    def ekf_proposal(self, obs: ScanObservation) -> tuple[Proposal, FloatArray]:
+        """Every particle's motion Gaussian updated by the landmarks of ``obs`` (linearised at
+        the particle, each landmark associated as :meth:`scan_residuals` does), and the
+        Gaussians' prior covariances (N, 3, 3)."""
+        n = len(self.z)
+        cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
+            np.zeros((n, 3, 3))
+        landmarks = self.scan_residuals(obs, self.params.use_ids) + self.world_points(obs)
+        r, jac = ray_residuals(self.z, self.rot, landmarks, obs.q, obs.u)
+        sr, st = self.ray_sigmas(obs)
+        gate = chi2_quantile(self.params.proposal_gate_probability, 2)
+        return kalman_proposal(cov, r, jac, sr, st, gate), cov
+
+    def proposal_loglik(self, obs: ScanObservation) -> tuple[FloatArray, int]:
+        """``proposal = ekf``: move every particle to a draw of its :meth:`ekf_proposal`, and
+        return the log of its importance weight's factor (prior x likelihood / proposal) and
+        the number of reflectors used."""
+        n = len(self.z)
+        if self._kern is not None:
+            # the Kalman step, the draw and the correction in one pass
+            cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
+                np.zeros((n, 3, 3))
+            landmarks = self.scan_residuals(obs, self.params.use_ids) + self.world_points(obs)
+            sr, st = self.ray_sigmas(obs)
+            g = self.rng.standard_normal((n, 3))
+            dx, corr = np.empty((n, 3)), np.empty(n)
+            self._kern.pf_ekf_proposal(
+                self.z, self.rot, np.ascontiguousarray(cov), np.ascontiguousarray(landmarks),
+                np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u.conj()), sr, st,
+                chi2_quantile(self.params.proposal_gate_probability, 2), g, dx, corr)
+        else:
+            prop, _ = self.ekf_proposal(obs)
+            dx = draw(prop, self.rng.standard_normal((n, 3)))
+            corr = log_weight_correction(prop, dx)
+        self._shift(dx)
+        ll, count = self.scan_loglik(obs)
+        return ll + corr, count
+
+    def _shift(self, dx: FloatArray) -> None:
+        """Move every particle by its offset (N, 3: x m, y m, heading rad); the particles are
+        draws from then on."""
+        self.z = self.z + (dx[:, 0] + 1j * dx[:, 1])
+        self._set_headings(self.th + dx[:, 2])
+        self._pcov = None
+
+    def _draw_prior(self) -> None:
+        """``proposal = ekf``: draw every particle from its motion Gaussian (for an
+        observation the proposal does not use)."""
+        if self._pcov is not None and len(self._pcov) == len(self.z):
+            self._shift(gaussian_offsets(self._pcov, self.rng.standard_normal((len(self.z), 3))))
 
     def _fix_disagrees(self, obs: Observation,
                        cloud: tuple[float, float, float, FloatArray]) -> bool:
@@ -357,7 +447,9 @@ class ParticleFilter(ParticleSet):
         p = self.params
         n = len(self.z)
         sigmas = p.noise_sigmas(motion.dist, motion.rot)
-        if p.odometry_scales and n > 0:
+        if p.proposal == "ekf" and n > 0:
+            self._predict_mean(motion, sigmas)
+        elif p.odometry_scales and n > 0:
             self._predict_scaled(motion)
         elif self._kern is not None and n > 0 and any(v != 0.0 for v in sigmas):
             # eq. 9 with the numpy path's draw, in one pass
@@ -399,6 +491,42 @@ class ParticleFilter(ParticleSet):
         self._set_headings(self.th + dth)
         self.s_v = self.s_v + p.scale_walk_v * math.sqrt(motion.dist) * g[3]
         self.s_w = self.s_w + p.scale_walk_w * math.sqrt(motion.rot) * g[4]
+        self._move_ref(motion)
+
+    def _predict_mean(self, motion: Motion, sigmas: tuple[float, float, float]) -> None:
+        """``proposal = ekf``: each particle moved by the noise-free odometry motion (scaled by
+        its own ``s_v``, ``s_w`` with ``odometry_scales``, then the scales' random walk), its
+        motion Gaussian's covariance carried along and the motion noise ``sigmas`` (along m,
+        across m, heading rad) added."""
+        p = self.params
+        n = len(self.z)
+        body: complex | ComplexArray
+        dth: float | FloatArray
+        if p.odometry_scales:
+            from lgvtool.localize.ekf import scaled_motion
+
+            if len(self.s_v) != n:
+                self.s_v, self.s_w = self._prior_scales(n)
+            _, _, _, a, d = scaled_motion(motion.dx, motion.dy, motion.dth, 1.0, 1.0)
+            body = (self.s_v * d) * np.exp(1j * (self.s_w * a))
+            dth = self.s_w * motion.dth
+            g = self.rng.standard_normal((2, n))
+            self.s_v = self.s_v + p.scale_walk_v * math.sqrt(motion.dist) * g[0]
+            self.s_w = self.s_w + p.scale_walk_w * math.sqrt(motion.rot) * g[1]
+        else:
+            body, dth = complex(motion.dx, motion.dy), motion.dth
+        step = self.rot * body
+        cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
+            np.zeros((n, 3, 3))
+        if self._kern is not None:
+            out = np.empty_like(cov)
+            self._kern.pf_predict_covariance(cov, self.rot, np.ascontiguousarray(step),
+                                             *sigmas, out)
+            self._pcov = out
+        else:
+            self._pcov = predict_covariance(cov, self.rot, step, sigmas)
+        self.z = self.z + step
+        self._set_headings(self.th + dth)
         self._move_ref(motion)
 
     @property
@@ -494,4 +622,8 @@ class ParticleFilter(ParticleSet):
             return None
         if self._cached is None:
             self._cached = self.weighted_pose(self.w)
+            if self._pcov is not None and len(self._pcov) == len(self.z):
+                # the particles are the means of Gaussians: their spread adds
+                x, y, t, c = self._cached
+                self._cached = (x, y, t, c + np.einsum("n,nij->ij", self.w, self._pcov))
         return self._as_estimate(self._cached)

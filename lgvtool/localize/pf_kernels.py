@@ -546,3 +546,163 @@ def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: F
         z_out[i] = z[j]
         th_out[i] = _wrap_pi(th[j]) if wrap else th[j]
         rot_out[i] = rot[j]
+
+
+# ---------------------------------------------------------------------------- pf, ekf proposal
+@_jit
+def pf_predict_covariance(cov: FloatArray, rot: ComplexArray, step: ComplexArray, sa: float,
+                          sl: float, st: float, out: FloatArray) -> None:
+    """:func:`lgvtool.localize.pf_proposal.predict_covariance` in one pass: ``F P F^T`` plus
+    the body-frame motion noise (``sa``, ``sl`` m, ``st`` rad) rotated into the world."""
+    va = sa * sa
+    vl = sl * sl
+    vt = st * st
+    for n in range(cov.shape[0]):
+        ux = -step[n].imag
+        uy = step[n].real
+        for j in range(3):
+            out[n, 0, j] = cov[n, 0, j] + ux * cov[n, 2, j]
+            out[n, 1, j] = cov[n, 1, j] + uy * cov[n, 2, j]
+            out[n, 2, j] = cov[n, 2, j]
+        for i in range(3):
+            out[n, i, 0] += out[n, i, 2] * ux
+            out[n, i, 1] += out[n, i, 2] * uy
+        c = rot[n].real
+        s = rot[n].imag
+        cross = c * s * (va - vl)
+        out[n, 0, 0] += c * c * va + s * s * vl
+        out[n, 1, 1] += s * s * va + c * c * vl
+        out[n, 0, 1] += cross
+        out[n, 1, 0] += cross
+        out[n, 2, 2] += vt
+
+
+@_jit
+def _ray_row(z: complex, rot: complex, lm: complex, q: complex, u_conj: complex
+             ) -> tuple[float, float, float, float, float, float, float, float]:
+    """The ray residual ``(r0, r1)`` of one landmark at one particle and its Jacobian's rows
+    ``(j00, j01, j02)``, ``(j10, j11, j12)``
+    (:func:`lgvtool.localize.pf_proposal.ray_residuals`)."""
+    a = -u_conj * rot.conjugate()
+    h = a * (z - lm)
+    r = h - u_conj * q
+    return r.real, r.imag, a.real, -a.imag, h.imag, a.imag, a.real, -h.real
+
+
+@_jit
+def pf_ekf_proposal(z: ComplexArray, rot: ComplexArray, cov: FloatArray, lm: ComplexArray,
+                    q: ComplexArray, u_conj: ComplexArray, sr: FloatArray, st: FloatArray,
+                    gate: float, g: FloatArray, dx: FloatArray, corr: FloatArray) -> None:
+    """The EKF proposal of every particle and its draw in one pass
+    (:func:`lgvtool.localize.pf_proposal.kalman_proposal`, :func:`~.draw` and
+    :func:`~.log_weight_correction`): the Kalman step from ``N(0, cov[n])`` with the ray
+    residuals of the landmarks ``lm[n, k]`` inside the chi-square ``gate``, the draw's offset
+    ``dx[n]`` (x m, y m, heading rad) with the standard normals ``g[n]``, and the weight's
+    correction ``corr[n]``."""
+    k_n = q.shape[0]
+    used = np.empty(k_n, dtype=np.bool_)
+    for n in range(z.shape[0]):
+        p00 = cov[n, 0, 0]
+        p01 = cov[n, 0, 1]
+        p02 = cov[n, 0, 2]
+        p11 = cov[n, 1, 1]
+        p12 = cov[n, 1, 2]
+        p22 = cov[n, 2, 2]
+        a00 = a01 = a02 = a11 = a12 = a22 = 0.0
+        b0 = b1 = b2 = 0.0
+        rr = 0.0
+        for k in range(k_n):
+            r0, r1, j00, j01, j02, j10, j11, j12 = _ray_row(z[n], rot[n], lm[n, k], q[k],
+                                                            u_conj[k])
+            # J P for both rows
+            x0 = j00 * p00 + j01 * p01 + j02 * p02
+            x1 = j00 * p01 + j01 * p11 + j02 * p12
+            x2 = j00 * p02 + j01 * p12 + j02 * p22
+            y0 = j10 * p00 + j11 * p01 + j12 * p02
+            y1 = j10 * p01 + j11 * p11 + j12 * p12
+            y2 = j10 * p02 + j11 * p12 + j12 * p22
+            vr = sr[k] * sr[k]
+            vt = st[k] * st[k]
+            s00 = x0 * j00 + x1 * j01 + x2 * j02 + vr
+            s11 = y0 * j10 + y1 * j11 + y2 * j12 + vt
+            s01 = x0 * j10 + x1 * j11 + x2 * j12
+            m2 = (s11 * r0 * r0 - 2.0 * s01 * r0 * r1 + s00 * r1 * r1) / (s00 * s11 - s01 * s01)
+            used[k] = m2 <= gate
+            if not used[k]:
+                continue
+            wr = 1.0 / vr
+            wt = 1.0 / vt
+            a00 += j00 * wr * j00 + j10 * wt * j10
+            a01 += j00 * wr * j01 + j10 * wt * j11
+            a02 += j00 * wr * j02 + j10 * wt * j12
+            a11 += j01 * wr * j01 + j11 * wt * j11
+            a12 += j01 * wr * j02 + j11 * wt * j12
+            a22 += j02 * wr * j02 + j12 * wt * j12
+            b0 += j00 * wr * r0 + j10 * wt * r1
+            b1 += j01 * wr * r0 + j11 * wt * r1
+            b2 += j02 * wr * r0 + j12 * wt * r1
+            rr += r0 * wr * r0 + r1 * wt * r1
+        # M = I + A P
+        m00 = 1.0 + a00 * p00 + a01 * p01 + a02 * p02
+        m01 = a00 * p01 + a01 * p11 + a02 * p12
+        m02 = a00 * p02 + a01 * p12 + a02 * p22
+        m10 = a01 * p00 + a11 * p01 + a12 * p02
+        m11 = 1.0 + a01 * p01 + a11 * p11 + a12 * p12
+        m12 = a01 * p02 + a11 * p12 + a12 * p22
+        m20 = a02 * p00 + a12 * p01 + a22 * p02
+        m21 = a02 * p01 + a12 * p11 + a22 * p12
+        m22 = 1.0 + a02 * p02 + a12 * p12 + a22 * p22
+        c00 = m11 * m22 - m12 * m21
+        c01 = m02 * m21 - m01 * m22
+        c02 = m01 * m12 - m02 * m11
+        c10 = m12 * m20 - m10 * m22
+        c11 = m00 * m22 - m02 * m20
+        c12 = m02 * m10 - m00 * m12
+        c20 = m10 * m21 - m11 * m20
+        c21 = m01 * m20 - m00 * m21
+        c22 = m00 * m11 - m01 * m10
+        det = m00 * c00 + m01 * c10 + m02 * c20
+        # P' = P M^-1 (the cofactors c are M^-1 times det), symmetrised
+        q00 = (p00 * c00 + p01 * c10 + p02 * c20) / det
+        q01 = (p00 * c01 + p01 * c11 + p02 * c21) / det
+        q02 = (p00 * c02 + p01 * c12 + p02 * c22) / det
+        q10 = (p01 * c00 + p11 * c10 + p12 * c20) / det
+        q11 = (p01 * c01 + p11 * c11 + p12 * c21) / det
+        q12 = (p01 * c02 + p11 * c12 + p12 * c22) / det
+        q20 = (p02 * c00 + p12 * c10 + p22 * c20) / det
+        q21 = (p02 * c01 + p12 * c11 + p22 * c21) / det
+        q22 = (p02 * c02 + p12 * c12 + p22 * c22) / det
+        q01 = 0.5 * (q01 + q10)
+        q02 = 0.5 * (q02 + q20)
+        q12 = 0.5 * (q12 + q21)
+        d0 = -(q00 * b0 + q01 * b1 + q02 * b2)
+        d1 = -(q01 * b0 + q11 * b1 + q12 * b2)
+        d2 = -(q02 * b0 + q12 * b1 + q22 * b2)
+        log_ev = -0.5 * (rr + b0 * d0 + b1 * d1 + b2 * d2 + math.log(det))
+        # the draw: L sqrt(D) g with the LDL^T factors of P'
+        tiny = 1e-15 * (abs(q00) + abs(q11) + abs(q22)) + 1e-300
+        l10 = q01 / q00 if q00 > tiny else 0.0
+        l20 = q02 / q00 if q00 > tiny else 0.0
+        e1 = q11 - l10 * l10 * q00
+        l21 = (q12 - l20 * l10 * q00) / e1 if e1 > tiny else 0.0
+        e2 = q22 - l20 * l20 * q00 - l21 * l21 * e1
+        g0 = math.sqrt(max(q00, 0.0)) * g[n, 0]
+        g1 = math.sqrt(max(e1, 0.0)) * g[n, 1]
+        g2 = math.sqrt(max(e2, 0.0)) * g[n, 2]
+        x = d0 + g0
+        y = d1 + (l10 * g0 + g1)
+        t = d2 + (l20 * g0 + l21 * g1 + g2)
+        dx[n, 0] = x
+        dx[n, 1] = y
+        dx[n, 2] = t
+        # the correction: log N(r; 0, S) - log p_lin(z | x)
+        lin = 0.0
+        for k in range(k_n):
+            if not used[k]:
+                continue
+            r0, r1, j00, j01, j02, j10, j11, j12 = _ray_row(z[n], rot[n], lm[n, k], q[k],
+                                                            u_conj[k])
+            e0 = r0 + (j00 * x + j01 * y + j02 * t)
+            f0 = r1 + (j10 * x + j11 * y + j12 * t)
+            lin += e0 * e0 / (sr[k] * sr[k]) + f0 * f0 / (st[k] * st[k])
+        corr[n] = log_ev + 0.5 * lin
