@@ -119,7 +119,8 @@ def open_client(
 
     With a remote scheduler, waits up to ``worker_timeout_s`` for a worker, and with
     ``check_version`` checks that every worker runs this lgvtool version.
-    The local cluster listens on 127.0.0.1 only and has no dashboard. Closed on exit.
+    The local cluster listens on 127.0.0.1 only (its HTTP server on a free port) and has no
+    dashboard. Closed on exit.
 
     :raises InputError: both ``scheduler`` and ``workers`` given, ``workers`` < 1, the
         scheduler unreachable, no worker, or a worker without the same lgvtool.
@@ -136,7 +137,11 @@ def open_client(
         if scheduler is None:
             cluster = stack.enter_context(LocalCluster(
                 n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-                host="127.0.0.1", dashboard_address=None, silence_logs=logging.CRITICAL))
+                host="127.0.0.1", dashboard_address=None, silence_logs=logging.CRITICAL,
+                # the scheduler's HTTP server (health routes; the dashboard is off) on a free
+                # port of the loopback interface, not on 8787 (which a dashboard of the user's
+                # own may hold)
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}))
             client = stack.enter_context(Client(cluster))
         else:
             spec = scheduler if isinstance(scheduler, SchedulerSpec) else SchedulerSpec(scheduler)

@@ -80,3 +80,25 @@ def test_progress_bar_on_stderr(client, capsys):
 
 def test_no_tasks_starts_no_cluster():
     assert list(run_tasks(abs, [], scheduler="tcp://127.0.0.1:9", progress=False)) == []
+
+
+def test_local_cluster_leaves_port_8787_alone():
+    """A local cluster's HTTP server takes a free loopback port: with 8787 held by another
+    program (a dashboard of the user's own), no warning, and nothing listens on 8787 for it."""
+    import socket
+    import warnings
+
+    holder = socket.socket()
+    try:
+        holder.bind(("127.0.0.1", 8787))
+    except OSError:
+        pytest.skip("port 8787 is in use here")
+    holder.listen()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with open_client(workers=1) as c:
+                http = c.cluster.scheduler.http_server
+                assert http.address == "127.0.0.1" and http.port != 8787
+    finally:
+        holder.close()
