@@ -18,6 +18,7 @@ import os
 import struct
 import zlib
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import IO, TYPE_CHECKING, Any
 
 import lz4.frame
@@ -366,6 +367,11 @@ ZSTD_LEVEL = 1
 about twice as fast as level 3 and as small or smaller (docs/performance.md)."""
 
 
+def _compress_with_crc(kind: str, data: bytes) -> tuple[bytes, int]:
+    """``data`` compressed, and its CRC-32 (both release the GIL for large buffers)."""
+    return _compress(kind, data), zlib.crc32(data)
+
+
 def _compress(kind: str, data: bytes) -> bytes:
     if kind == "zstd":
         return zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(data)
@@ -458,8 +464,14 @@ class McapWriter:
     """
 
     def __init__(self, stream: IO[bytes], *, compression: str = "zstd",
-                 chunk_bytes: int = 4 * 1024 * 1024, profile: str = "", library: str = "") -> None:
+                 chunk_bytes: int = 4 * 1024 * 1024, profile: str = "", library: str = "",
+                 background: bool = False) -> None:
         self._out = stream
+        #: compress each chunk on a worker thread while the next one fills (the same bytes;
+        #: a closed chunk reaches the stream at the next close, metadata record or the end)
+        self._background = background
+        self._pool: ThreadPoolExecutor | None = None
+        self._pending: tuple[Future[tuple[bytes, int]], _OpenChunk, int] | None = None
         self._compression = "" if compression == "none" else compression
         self._chunk_bytes = chunk_bytes
         self._schemas: dict[int, Schema] = {}
@@ -598,9 +610,31 @@ class McapWriter:
             c.sort()
         held = c.split_after(c.end - hold_ns) if hold_ns > 0 else None
         data = bytes(c.buf)
-        compressed = _compress(self._compression, data)
+        self._chunk = held if held is not None else _OpenChunk()
+        if self._background:
+            self.drain()
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(1, thread_name_prefix="mcap-chunk")
+            self._pending = (self._pool.submit(_compress_with_crc, self._compression, data), c,
+                             len(data))
+            return
+        self._write_chunk(c, len(data), *_compress_with_crc(self._compression, data))
+
+    def drain(self) -> None:
+        """Write the chunk a worker thread is compressing, if any (a no-op unless the
+        writer compresses in the background)."""
+        pending = self._pending
+        if pending is None:
+            return
+        self._pending = None
+        future, c, size = pending
+        self._write_chunk(c, size, *future.result())
+
+    def _write_chunk(self, c: _OpenChunk, size: int, compressed: bytes, crc: int) -> None:
+        """Write the chunk record of ``c`` (``size`` bytes uncompressed, their CRC-32
+        ``crc``), its message indexes and its chunk index entry."""
         start_offset = self._pos
-        head = (_CHUNK_HEAD.pack(c.start, c.end, len(data), zlib.crc32(data))
+        head = (_CHUNK_HEAD.pack(c.start, c.end, size, crc)
                 + _str(self._compression) + _U64.pack(len(compressed)))
         self._emit(_REC_HEAD.pack(OP_CHUNK, len(head) + len(compressed)) + head)
         self._emit(compressed)
@@ -618,9 +652,8 @@ class McapWriter:
             message_start_time=c.start, message_end_time=c.end, chunk_start_offset=start_offset,
             chunk_length=9 + len(head) + len(compressed), message_index_offsets=offsets,
             message_index_length=self._pos - mi_start, compression=self._compression,
-            compressed_size=len(compressed), uncompressed_size=len(data)))
+            compressed_size=len(compressed), uncompressed_size=size))
         self._note_times(c.start, c.end, c.count)
-        self._chunk = held if held is not None else _OpenChunk()
 
     @property
     def open_chunk_start(self) -> int | None:
@@ -650,6 +683,7 @@ class McapWriter:
         after it, as this writer lays them out) are copied as one run of bytes.
         """
         self.close_chunk()
+        self.drain()
         runs: list[list[int]] = []  # [source start, source end, output start]
         for ci in chunk_indexes:
             chunk_end = ci.chunk_start_offset + ci.chunk_length
@@ -719,6 +753,7 @@ class McapWriter:
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         """Write a metadata record (closes the open chunk first, to keep time order)."""
         self.close_chunk()
+        self.drain()
         rec = record(OP_METADATA, _str(name) + _string_map(data))
         self._metadata_indexes.append(MetadataIndex(self._pos, len(rec), name))
         self._emit(rec)
@@ -726,6 +761,10 @@ class McapWriter:
     def finish(self) -> None:
         """Close the open chunk and write the summary, footer and closing magic."""
         self.close_chunk()
+        self.drain()
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
         self._emit(record(OP_DATA_END, _U32.pack(0)))
         summary_start = self._pos
         parts: list[bytes] = []

@@ -95,8 +95,11 @@ class LogWriter:
             self.path = None
             self._stream = path
             self._owns_stream = False
+        # a log written by size alone (a batch job, not a recorder) compresses each chunk on a
+        # second thread while the next fills
         self._writer = McapWriter(self._stream, compression=compression, chunk_bytes=chunk_bytes,
-                                  profile=PROFILE, library=f"lgvtool/{__version__}")
+                                  profile=PROFILE, library=f"lgvtool/{__version__}",
+                                  background=chunk_seconds is None and not fsync)
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._chunk_ns = None if chunk_seconds is None else int(chunk_seconds * 1e9)
@@ -279,6 +282,7 @@ class LogWriter:
         :data:`REORDER_NS` of messages for the next chunk, so that messages handed over a
         little out of order still land in log-time order)."""
         self._writer.close_chunk(REORDER_NS if self._chunk_ns is not None else 0)
+        self._writer.drain()
         self._stream.flush()
         if self._fsync and self._owns_stream:
             os.fsync(self._stream.fileno())
