@@ -548,6 +548,129 @@ def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: F
         rot_out[i] = rot[j]
 
 
+#: ``log(2 pi)``, the 2-D Gaussian's normalising constant
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+@_jit
+def pf_scan(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u: ComplexArray,
+            ranges: FloatArray, j: IntArray, ref_z: complex, ref_rot: complex,
+            map_z: ComplexArray, half_sep: FloatArray, sigma_range: float, sigma_range2: float,
+            sigma_range_per_m: float, sigma_bearing: float, use_ids: bool, outlier: bool,
+            log_in: float, log_out: float, ll: FloatArray) -> None:
+    """:func:`pf_scan_loglik` with its per-point inputs made here, as the numpy path makes
+    them: each point's candidate (the map reflector of its id ``j[k]`` when known, else the
+    one nearest to the point seen from the reference pose ``ref_z``, ``ref_rot``), its
+    ``half`` (infinite for a known id with ``use_ids``: never searched for), the range and
+    across-ray standard deviations from ``ranges`` (m; ``sigma_range`` m, its square
+    ``sigma_range2``, ``sigma_range_per_m`` m/m, ``sigma_bearing`` rad) and the Gaussians'
+    constants ``log 2 pi + log sr + log st``."""
+    k = q.shape[0]
+    cand = np.empty(k, dtype=np.complex128)
+    half = np.empty(k)
+    sr = np.empty(k)
+    st = np.empty(k)
+    const = np.empty(k)
+    u_conj = np.empty(k, dtype=np.complex128)
+    for p in range(k):
+        jp = j[p]
+        c = jp if jp >= 0 else _nearest_index(ref_z + ref_rot * q[p], map_z)
+        cand[p] = map_z[c]
+        half[p] = math.inf if use_ids and jp >= 0 else half_sep[c]
+        r = ranges[p]
+        if sigma_range_per_m > 0.0:
+            e = sigma_range_per_m * r
+            sr[p] = math.sqrt(sigma_range2 + e * e)
+        else:
+            sr[p] = sigma_range
+        b = r * sigma_bearing
+        st[p] = math.sqrt(b * b + 1e-12)
+        const[p] = _LOG_2PI + math.log(sr[p]) + math.log(st[p])
+        u_conj[p] = u[p].conjugate()
+    pf_scan_loglik(z, rot, q, u_conj, cand, half, map_z, sr, st, const, outlier, log_in,
+                   log_out, ll)
+
+
+@_jit
+def pf_weigh(logw: FloatArray, ll: FloatArray, z: ComplexArray, rot: ComplexArray,
+             w: FloatArray, logw_out: FloatArray, cov: FloatArray
+             ) -> tuple[float, float, float, float, float]:
+    """:func:`pf_log_weights` and then, when some weight is left, :func:`weighted_pose` of
+    the new weights: returns ``log sum w p``, the effective sample size and the weighted mean
+    pose (x, y m, heading rad; its covariance into ``cov``); ``-inf, 0, 0, 0, 0`` (nothing
+    written) when every log weight is -inf."""
+    log_avg, ess = pf_log_weights(logw, ll, w, logw_out)
+    if not math.isfinite(log_avg):
+        return log_avg, ess, 0.0, 0.0, 0.0
+    x, y, t = weighted_pose(z, rot, w, cov)
+    return log_avg, ess, x, y, t
+
+
+@_jit
+def _bin_key(x: float, y: float, th: float, bin_xy: float, bin_th: float) -> int:
+    """:func:`lgvtool.localize.kld.bin_keys` of one pose (m, m, rad)."""
+    ix = np.int64(math.floor(x / bin_xy))
+    iy = np.int64(math.floor(y / bin_xy))
+    it = np.int64(math.floor((th + math.pi) / bin_th))
+    return (ix * 1_000_003 + iy) * 4099 + it
+
+
+@_jit
+def pf_kld_resample(w: FloatArray, u0: float, perm: IntArray, need: FloatArray, n_min: int,
+                    bin_xy: float, bin_th: float, z: ComplexArray, th: FloatArray,
+                    rot: ComplexArray, z_out: ComplexArray, th_out: FloatArray,
+                    rot_out: ComplexArray, idx: IntArray) -> int:
+    """Low-variance resampling of ``len(perm)`` particles from the normalised weights ``w``
+    with the offset ``u0`` (as :func:`low_variance_gather`), taken in the order of the
+    permutation ``perm`` (the numpy path's ``rng.permutation``), and KLD-sampling's count
+    (:func:`lgvtool.localize.kld.kld_count`): the first ``n`` draws whose histogram bins
+    (``bin_xy`` m, ``bin_th`` rad) number ``k`` with ``n >= max(need[k - 1], n_min)``
+    (``need``: :func:`~lgvtool.localize.kld.kld_bound` of 1, 2, ... bins), at least
+    ``n_min``. The chosen particles are copied into the first ``n`` entries of the outputs
+    (their indices into ``idx``; the heading wrapped again as the numpy path does, the rotor
+    the parent's); returns ``n``."""
+    cap = perm.shape[0]
+    m = w.shape[0]
+    lv = np.empty(cap, dtype=np.intp)
+    j = 0
+    c = w[0] if m > 1 else 1.0
+    for i in range(cap):
+        u = (u0 + i) / cap
+        while j < m - 1 and not (c > u):
+            j += 1
+            c = c + w[j] if j < m - 1 else 1.0
+        lv[i] = j
+    size = 1
+    while size < 2 * cap:
+        size *= 2
+    mask = size - 1
+    keys = np.empty(size, dtype=np.int64)
+    used = np.zeros(size, dtype=np.bool_)
+    bins = 0
+    chosen = cap
+    for i in range(cap):
+        s = lv[perm[i]]
+        key = _bin_key(z[s].real, z[s].imag, th[s], bin_xy, bin_th)
+        h = ((key ^ (key >> 29)) * 0x5851F42D4C957F2D) & mask
+        while used[h] and keys[h] != key:
+            h = (h + 1) & mask
+        if not used[h]:
+            used[h] = True
+            keys[h] = key
+            bins += 1
+        if i + 1 >= max(need[bins - 1], n_min):
+            chosen = i + 1
+            break
+    n = min(max(chosen, n_min), cap)
+    for i in range(n):
+        s = lv[perm[i]]
+        idx[i] = s
+        z_out[i] = z[s]
+        th_out[i] = _wrap_pi(th[s])
+        rot_out[i] = rot[s]
+    return n
+
+
 # ---------------------------------------------------------------------------- pf, ekf proposal
 @_jit
 def pf_predict_covariance(cov: FloatArray, rot: ComplexArray, step: ComplexArray, sa: float,
