@@ -609,9 +609,9 @@ def pf_weigh(logw: FloatArray, ll: FloatArray, z: ComplexArray, rot: ComplexArra
 @_jit
 def _bin_key(x: float, y: float, th: float, bin_xy: float, bin_th: float) -> int:
     """:func:`lgvtool.localize.kld.bin_keys` of one pose (m, m, rad)."""
-    ix = np.int64(math.floor(x / bin_xy))
-    iy = np.int64(math.floor(y / bin_xy))
-    it = np.int64(math.floor((th + math.pi) / bin_th))
+    ix = math.floor(x / bin_xy)
+    iy = math.floor(y / bin_xy)
+    it = math.floor((th + math.pi) / bin_th)
     return (ix * 1_000_003 + iy) * 4099 + it
 
 
@@ -668,7 +668,7 @@ def pf_kld_resample(w: FloatArray, u0: float, perm: IntArray, need: FloatArray, 
         z_out[i] = z[s]
         th_out[i] = _wrap_pi(th[s])
         rot_out[i] = rot[s]
-    return n
+    return int(n)
 
 
 # ---------------------------------------------------------------------------- pf, ekf proposal

@@ -183,3 +183,37 @@ def test_kernel_pieces_against_numpy() -> None:
         assert np.array_equal(out[3], ref)
         assert np.array_equal(out[0], z[ref])
         assert np.array_equal(out[1], np.remainder(ths[ref] + math.pi, 2 * math.pi) - math.pi)
+
+
+def test_kld_resampling_kernel_against_numpy() -> None:
+    """KLD resampling in one pass: the same count and indices as low-variance draws, the
+    permutation, the bin keys and the sequential count of the numpy path, from the same
+    generator (its state equal afterwards)."""
+    from lgvtool.localize import pf_kernels as k
+    from lgvtool.localize.kld import bin_keys, kld_bound, kld_count
+    from lgvtool.localize.resampling import low_variance
+
+    rng = np.random.default_rng(21)
+    for m, cap, spread, n_min in ((1, 50, 1.0, 10), (105, 2000, 0.3, 100), (300, 2000, 40.0, 100),
+                                  (2000, 2000, 5.0, 1), (50, 400, 1e4, 20)):
+        w = rng.random(m) ** 3
+        w /= w.sum()
+        z = rng.normal(0.0, spread, m) + 1j * rng.normal(-3.0, spread, m)
+        th = rng.uniform(-math.pi, math.pi, m)
+        a, b = np.random.default_rng(m), np.random.default_rng(m)
+        idx = low_variance(w, cap, a)
+        idx = idx[a.permutation(cap)]
+        keys = bin_keys(z.real[idx], z.imag[idx], th[idx], 0.25, 0.1)
+        n_ref = kld_count(keys, 0.02, 0.01, n_min, cap)
+        out = (np.empty(cap, dtype=np.complex128), np.empty(cap),
+               np.empty(cap, dtype=np.complex128), np.empty(cap, dtype=np.intp))
+        u0 = b.random()
+        n = k.pf_kld_resample(w, u0, b.permutation(cap),
+                              kld_bound(np.arange(1, cap + 1), 0.02, 0.01), n_min, 0.25, 0.1,
+                              z, th, np.exp(1j * th), *out)
+        assert a.bit_generator.state == b.bit_generator.state
+        assert n == n_ref
+        assert np.array_equal(out[3][:n], idx[:n])
+        assert np.array_equal(out[0][:n], z[idx[:n]])
+        assert np.array_equal(out[1][:n], np.remainder(th[idx[:n]] + math.pi, 2 * math.pi)
+                              - math.pi)
