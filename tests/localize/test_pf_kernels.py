@@ -154,7 +154,8 @@ def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_kernel_pieces_against_numpy() -> None:
-    """The wrap bit for bit, the resampling's indices exactly, the series within ulps."""
+    """The wrap bit for bit, the resampling's indices exactly, the series (and the
+    exponential of the mixture) within ulps."""
     from lgvtool.angles import wrap_angle
     from lgvtool.localize import pf_kernels as k
     from lgvtool.localize.resampling import low_variance
@@ -167,6 +168,9 @@ def test_kernel_pieces_against_numpy() -> None:
     y = rng.uniform(-0.05, 0.05, 2000)
     h = np.array([k._heading(float(v), 1.0) for v in y])
     np.testing.assert_allclose(h, np.arctan2(y, 1.0), rtol=5e-16, atol=0)
+    t = np.concatenate((rng.uniform(0.0, 38.0, 5000), [0.0, 38.0, 5e-324, math.log(2) / 2]))
+    e = np.array([k._exp_neg(float(v)) for v in t])
+    np.testing.assert_allclose(e, [math.exp(-v) for v in t], rtol=2.5e-16, atol=0)
     x = rng.uniform(-0.2, 0.2, 2000)
     r = np.array([k._rotor(float(v)) for v in x])
     assert np.abs(r - np.exp(1j * x)).max() <= 2.5e-16
