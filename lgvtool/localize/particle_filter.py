@@ -42,7 +42,9 @@ independent measurements (the likelihood is the product of the per-reflector ter
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -178,6 +180,9 @@ class ParticleFilter(ParticleSet):
     Params = PfParams
     summary = "the paper's filter with log weights, ESS/low-variance resampling, KLD, " \
               "augmented MCL, de-skew, outlier-tolerant and pose-only likelihoods"
+    #: from this many particles on, the prediction's normal numbers are drawn inside the
+    #: kernel (the same numbers; cheaper per number, but a fixed cost per call)
+    DRAW_IN_KERNEL = 2048
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)
@@ -196,6 +201,8 @@ class ParticleFilter(ParticleSet):
         #: ``proposal = ekf``: each particle's motion noise since its last draw, (N, 3, 3) in
         #: x m, y m, heading rad (None: zero, the particles are draws)
         self._pcov: FloatArray | None = None
+        #: arrays the kernels may fill again (:meth:`_buffer`)
+        self._pool: dict[str, NDArray[Any]] = {}
         #: KLD-sampling's bound for 1, 2, ... occupied bins (the kernels' resampling)
         self._need: FloatArray | None = None
         if self.initial_pose is not None:
@@ -240,7 +247,7 @@ class ParticleFilter(ParticleSet):
             # the per-point inputs (association candidates, noise, constants) made in the kernel
             ref = self._reference_pose()
             eps = p.outlier_prob
-            ll_k = np.empty(len(self.z))
+            ll_k = self._buffer("ll", len(self.z))
             self._kern.pf_scan(
                 self.z, self.rot, np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u),
                 np.ascontiguousarray(obs.ranges), obs.map_index(self.map),
@@ -291,13 +298,13 @@ class ParticleFilter(ParticleSet):
         pose: tuple[float, float, float, FloatArray] | None = None
         if p.log_weights and self._kern is not None:
             # the weights and the weighted pose in one call
-            w = np.empty(len(ll))
-            logw = np.empty(len(ll))
+            w, logw = self._buffer("w", len(ll)), self._buffer("logw", len(ll))
             cov = np.empty((3, 3))
             log_avg, ess, x, y, t = self._kern.pf_weigh(self.logw, ll, self.z, self.rot, w,
                                                         logw, cov)
             if not math.isfinite(log_avg):
                 return False
+            self._pool.update(w=self.w, logw=self.logw, ll=ll)
             self.w, self.logw = w, logw
             pose = (x, y, t, cov)
         elif p.log_weights:
@@ -460,15 +467,36 @@ class ParticleFilter(ParticleSet):
             self._predict_scaled(motion)
         elif self._kern is not None and n > 0 and any(v != 0.0 for v in sigmas):
             # eq. 9 with the numpy path's draw, in one pass
-            g = self.rng.standard_normal((3, n))
-            z, th, rot = np.empty_like(self.z), np.empty(n), np.empty_like(self.rot)
-            self._kern.pf_predict(self.z, self.th, self.rot, g, motion.dx, motion.dy,
-                                  motion.dth, *sigmas, z, th, rot)
-            self.z, self.th, self.rot = z, th, rot
+            z, th, rot = self._buffer("z", n, True), self._buffer("th", n), \
+                self._buffer("rot", n, True)
+            if n >= self.DRAW_IN_KERNEL:
+                self._kern.pf_predict_drawn(self.rng, self.z, self.th, self.rot, motion.dx,
+                                            motion.dy, motion.dth, *sigmas, z, th, rot)
+            else:
+                g = self.rng.standard_normal((3, n))
+                self._kern.pf_predict(self.z, self.th, self.rot, g, motion.dx, motion.dy,
+                                      motion.dth, *sigmas, z, th, rot)
+            self._replace(z, th, rot)
             self._move_ref(motion)
         else:
             super().predict(motion)
         self._cached = None
+
+    def _buffer(self, key: str, n: int, complex_: bool = False) -> NDArray[Any]:
+        """An array of ``n`` floats (complex with ``complex_``) for a kernel to fill: the one
+        last released under ``key`` when nothing else holds it any more (its pages are
+        mapped: a fresh large array costs more to fault in than the kernel's work), else a
+        new one."""
+        a = self._pool.pop(key, None)
+        if a is not None and len(a) == n and sys.getrefcount(a) == 2:
+            return a
+        return np.empty(n, dtype=np.complex128 if complex_ else np.float64)
+
+    def _replace(self, z: ComplexArray, th: FloatArray, rot: ComplexArray) -> None:
+        """Make ``z``, ``th``, ``rot`` the particles; the old arrays are released for
+        :meth:`_buffer`."""
+        self._pool.update(z=self.z, th=self.th, rot=self.rot)
+        self.z, self.th, self.rot = z, th, rot
 
     def _prior_scales(self, n: int) -> tuple[FloatArray, FloatArray]:
         """``n`` draws of the scales' prior (mean 1)."""

@@ -331,6 +331,19 @@ def pf_predict(z: ComplexArray, th: FloatArray, rot: ComplexArray, g: FloatArray
         rot_out[i] = r * _rotor(ddth)
 
 
+@_jit
+def pf_predict_drawn(rng: np.random.Generator, z: ComplexArray, th: FloatArray,
+                     rot: ComplexArray, dx: float, dy: float, dth: float, sa: float,
+                     sl: float, st: float, z_out: ComplexArray, th_out: FloatArray,
+                     rot_out: ComplexArray) -> None:
+    """:func:`pf_predict` with its normal numbers drawn here from ``rng``: the numpy path's
+    ``rng.standard_normal((3, n))`` (numba's generator methods give the same numbers and
+    leave the generator in the same state, in a third of the time; handing the generator in
+    costs a few microseconds, so the filter does this for large sets only)."""
+    g = rng.standard_normal((3, z.shape[0]))
+    pf_predict(z, th, rot, g, dx, dy, dth, sa, sl, st, z_out, th_out, rot_out)
+
+
 #: ``1 + exp(-t)`` is 1 in double precision beyond this ``t``
 _EXP_NEGLIGIBLE = 38.0
 #: points weighed per block of :func:`pf_scan_loglik` (the product of the mixture factors, at
