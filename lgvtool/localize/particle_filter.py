@@ -628,8 +628,8 @@ class ParticleFilter(ParticleSet):
             # low-variance resampling and the copy in one pass (the numpy path's one draw);
             # the headings wrapped there unless recovery re-draws some below
             idx = np.empty(n_new, dtype=np.intp)
-            z, th = np.empty(n_new, dtype=np.complex128), np.empty(n_new)
-            rot = np.empty(n_new, dtype=np.complex128)
+            z, th = self._buffer("z", n_new, True), self._buffer("th", n_new)
+            rot = self._buffer("rot", n_new, True)
             assert self._kern is not None
             self._kern.low_variance_gather(self.w, self.rng.random(), n_new, self.z, self.th,
                                            self.rot, z, th, rot, idx, n_inject == 0)
@@ -648,10 +648,10 @@ class ParticleFilter(ParticleSet):
                 self.s_v[:n_inject], self.s_w[:n_inject] = self._prior_scales(n_inject)
             self.injected += n_inject
             self.w_slow[kind] = self.w_fast[kind] = 0.0
-        self.z = z
         if rot is not None and n_inject == 0:
-            self.th, self.rot = th, rot
+            self._replace(z, th, rot)
         else:
+            self.z = z
             self._set_headings(th)
         self.w = np.full(n_new, 1.0 / n_new)
         self.logw = np.full(n_new, -math.log(n_new))

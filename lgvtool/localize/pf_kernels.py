@@ -320,15 +320,35 @@ def pf_predict(z: ComplexArray, th: FloatArray, rot: ComplexArray, g: FloatArray
     (m, its body frame) and turned by ``dth + st g[2, i]`` (rad), ``g`` the standard normal
     numbers the numpy path draws; the heading wrapped to [-pi, pi) as the numpy path does.
     The rotor is turned by the turn's own rotor (:func:`_rotor`) instead of being made anew
-    from the heading (the same to an ulp per step)."""
-    for i in range(z.shape[0]):
+    from the heading (the same to an ulp per step).
+
+    The first loop takes every particle down the common branches of :func:`_wrap_pi` and
+    :func:`_rotor` (no call: it is vectorised) and marks those that need the others (a heading
+    leaving [-pi, pi) or a turn of 0.05 rad or more), which the second loop does again with
+    the two functions: the same numbers as calling them for every particle."""
+    n = z.shape[0]
+    other = np.empty(n, dtype=np.bool_)
+    for i in range(n):
         ddx = dx + sa * g[0, i]
         ddy = dy + sl * g[1, i]
         ddth = dth + st * g[2, i]
         r = rot[i]
         z_out[i] = z[i] + r * complex(ddx, ddy)
-        th_out[i] = _wrap_pi(th[i] + ddth)
-        rot_out[i] = r * _rotor(ddth)
+        a = (th[i] + ddth) + math.pi
+        w = a - math.pi
+        th_out[i] = w + _TWO_PI if w <= -math.pi else w
+        x2 = ddth * ddth
+        c = 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (
+            1.0 / 40320.0 - x2 * (1.0 / 3628800.0)))))
+        sn = ddth * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (
+            1.0 / 362880.0)))))
+        rot_out[i] = r * complex(c, sn)
+        other[i] = not (0.0 <= a < _TWO_PI) or not (abs(ddth) < _SMALL_ANGLE)
+    for i in range(n):
+        if other[i]:
+            ddth = dth + st * g[2, i]
+            th_out[i] = _wrap_pi(th[i] + ddth)
+            rot_out[i] = rot[i] * _rotor(ddth)
 
 
 @_jit
