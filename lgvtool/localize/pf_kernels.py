@@ -401,6 +401,10 @@ def _pow2_typing(typingctx: Any, k: Any) -> Any:
 
 _pow2 = cast(Callable[[int], float], numba.extending.intrinsic(_pow2_typing))
 
+#: :func:`_exp_neg` holds up to this argument (``exp(-708)`` is near the smallest normal
+#: double)
+_EXP_SMALLEST = 708.0
+
 #: ``log 2`` split in two for the range reduction of :func:`_exp_neg` (the high part has
 #: trailing zero bits, so ``k * _LN2_HI`` is exact for the ``k`` used)
 _LN2_HI = 6.93147180369123816490e-01
@@ -410,8 +414,8 @@ _INV_LN2 = 1.44269504088896338700e+00
 
 @_jit
 def _exp_neg(t: float) -> float:
-    """``exp(-t)`` for ``0 <= t <= 38`` (:data:`_EXP_NEGLIGIBLE`) without a library call, so
-    that the loop over the particles is vectorised: ``t = k log 2 - r`` with ``|r| <= log(2) /
+    """``exp(-t)`` for ``0 <= t <= 708`` (:data:`_EXP_SMALLEST`) without a library call, so
+    that the loops over the particles are vectorised: ``t = k log 2 - r`` with ``|r| <= log(2) /
     2``, ``exp(r)`` from its Taylor series to the 13th order (truncation below 1e-17), times
     ``2 ** -k``. Within 1.2e-16 relative of ``math.exp`` (an ulp)."""
     k = math.floor(t * _INV_LN2 + 0.5)
@@ -565,11 +569,15 @@ def pf_log_weights(logw: FloatArray, ll: FloatArray, w: FloatArray, logw_out: Fl
             top = v
     if not math.isfinite(top):
         return -math.inf, 0.0
+    for i in range(n):
+        # (vectorised: no call; the weights below exp(-708) relative to the best, which
+        # no sum or estimate can see, are 0)
+        t = top - logw_out[i]
+        e = _exp_neg(min(t, _EXP_SMALLEST))
+        w[i] = 0.0 if t > _EXP_SMALLEST else e
     total = 0.0
     for i in range(n):
-        e = math.exp(logw_out[i] - top)
-        w[i] = e
-        total += e
+        total += w[i]
     log_avg = top + math.log(total)
     sw2 = 0.0
     for i in range(n):
@@ -592,11 +600,26 @@ def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatA
         mz += w[i] * z[i]
         mr += w[i] * rot[i]
     mrc = mr.conjugate()
-    sxx = sxy = syy = sxh = syh = shh = 0.0
-    for i in range(z.shape[0]):
-        d = z[i] - mz
+    # the heading deviations: the common branch of :func:`_heading` in a vectorised loop,
+    # the others again with the function (the same numbers)
+    n = z.shape[0]
+    hs = np.empty(n)
+    other = np.empty(n, dtype=np.bool_)
+    for i in range(n):
         r = rot[i] * mrc
-        h = _heading(r.imag, r.real)
+        u = r.imag / r.real
+        u2 = u * u
+        hs[i] = u * (1.0 - u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0 - u2 * (
+            1.0 / 9.0 - u2 * (1.0 / 11.0 - u2 * (1.0 / 13.0)))))))
+        other[i] = not (r.real > 0.0 and abs(r.imag) < _SMALL_ANGLE * r.real)
+    for i in range(n):
+        if other[i]:
+            r = rot[i] * mrc
+            hs[i] = _heading(r.imag, r.real)
+    sxx = sxy = syy = sxh = syh = shh = 0.0
+    for i in range(n):
+        d = z[i] - mz
+        h = hs[i]
         wi = w[i]
         sxx += wi * d.real * d.real
         sxy += wi * d.real * d.imag

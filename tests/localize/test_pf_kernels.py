@@ -203,7 +203,8 @@ def test_kernel_pieces_against_numpy() -> None:
     y = rng.uniform(-0.05, 0.05, 2000)
     h = np.array([k._heading(float(v), 1.0) for v in y])
     np.testing.assert_allclose(h, np.arctan2(y, 1.0), rtol=5e-16, atol=0)
-    t = np.concatenate((rng.uniform(0.0, 38.0, 5000), [0.0, 38.0, 5e-324, math.log(2) / 2]))
+    t = np.concatenate((rng.uniform(0.0, 38.0, 5000), rng.uniform(38.0, 708.0, 5000),
+                        [0.0, 38.0, 708.0, 5e-324, math.log(2) / 2]))
     e = np.array([k._exp_neg(float(v)) for v in t])
     np.testing.assert_allclose(e, [math.exp(-v) for v in t], rtol=2.5e-16, atol=0)
     x = rng.uniform(-0.2, 0.2, 2000)
