@@ -78,6 +78,16 @@ ComplexArray = NDArray[np.complex128]
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
+def _sole_references() -> int:
+    """What ``sys.getrefcount`` says of an array only a local variable holds (the count
+    includes the call's own reference, or not, by interpreter version)."""
+    a = np.empty(0)
+    return sys.getrefcount(a)
+
+
+_SOLE_REFERENCES = _sole_references()
+
+
 @dataclass(frozen=True)
 class PfParams(MotionParams, SourceParams, ParticleInitParams):
     """Parameters of the improved particle filter."""
@@ -488,7 +498,7 @@ class ParticleFilter(ParticleSet):
         mapped: a fresh large array costs more to fault in than the kernel's work), else a
         new one."""
         a = self._pool.pop(key, None)
-        if a is not None and len(a) == n and sys.getrefcount(a) == 2:
+        if a is not None and len(a) == n and sys.getrefcount(a) == _SOLE_REFERENCES:
             return a
         return np.empty(n, dtype=np.complex128 if complex_ else np.float64)
 
