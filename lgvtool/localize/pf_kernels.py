@@ -554,41 +554,6 @@ def _particle_loglik(zr: float, zi: float, rr: float, ri: float, q: ComplexArray
 
 
 @_jit
-def pf_log_weights(logw: FloatArray, ll: FloatArray, w: FloatArray, logw_out: FloatArray
-                   ) -> tuple[float, float]:
-    """Log weights times the likelihoods, normalised by log-sum-exp: ``w`` (normalised) and
-    ``logw_out``. Returns the log of the weighted mean likelihood, ``log sum w p``, and the
-    effective sample size ``1 / sum w^2``; ``-inf, 0`` when every log weight is -inf (the
-    arrays then unchanged)."""
-    n = logw.shape[0]
-    top = -math.inf
-    for i in range(n):
-        v = logw[i] + ll[i]
-        logw_out[i] = v
-        if v > top:
-            top = v
-    if not math.isfinite(top):
-        return -math.inf, 0.0
-    for i in range(n):
-        # (vectorised: no call; the weights below exp(-708) relative to the best, which
-        # no sum or estimate can see, are 0)
-        t = top - logw_out[i]
-        e = _exp_neg(min(t, _EXP_SMALLEST))
-        w[i] = 0.0 if t > _EXP_SMALLEST else e
-    total = 0.0
-    for i in range(n):
-        total += w[i]
-    log_avg = top + math.log(total)
-    sw2 = 0.0
-    for i in range(n):
-        wi = w[i] / total
-        w[i] = wi
-        sw2 += wi * wi
-        logw_out[i] = logw_out[i] - log_avg
-    return log_avg, 1.0 / sw2
-
-
-@_jit
 def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatArray
                   ) -> tuple[float, float, float]:
     """Weighted mean pose (x, y m; heading rad, the circular mean) of particles with
@@ -599,6 +564,14 @@ def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatA
     for i in range(z.shape[0]):
         mz += w[i] * z[i]
         mr += w[i] * rot[i]
+    return _spread(z, rot, w, mz, mr, cov)
+
+
+@_jit
+def _spread(z: ComplexArray, rot: ComplexArray, w: FloatArray, mz: complex, mr: complex,
+            cov: FloatArray) -> tuple[float, float, float]:
+    """:func:`weighted_pose` from the weighted sums ``mz`` of the positions (m) and ``mr`` of
+    the rotors."""
     mrc = mr.conjugate()
     # the heading deviations: the common branch of :func:`_heading` in a vectorised loop,
     # the others again with the function (the same numbers)
@@ -629,6 +602,49 @@ def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatA
         shh += wi * h * h
     _symmetric(cov, sxx, sxy, sxh, syy, syh, shh)
     return mz.real, mz.imag, math.atan2(mr.imag, mr.real)
+
+
+@_jit
+def pf_weigh(logw: FloatArray, ll: FloatArray, z: ComplexArray, rot: ComplexArray,
+             w: FloatArray, logw_out: FloatArray, cov: FloatArray
+             ) -> tuple[float, float, float, float, float]:
+    """Log weights times the likelihoods ``ll``, normalised by log-sum-exp (``w`` normalised,
+    ``logw_out``), and then, when some weight is left, :func:`weighted_pose` of the new
+    weights (its first sums taken in the normalising pass). Returns the log of the weighted
+    mean likelihood ``log sum w p``, the effective sample size ``1 / sum w^2`` and the mean
+    pose (x, y m, heading rad; its covariance into ``cov``); ``-inf, 0, 0, 0, 0`` (nothing
+    written but ``logw_out``) when every log weight is -inf."""
+    n = logw.shape[0]
+    top = -math.inf
+    for i in range(n):
+        v = logw[i] + ll[i]
+        logw_out[i] = v
+        if v > top:
+            top = v
+    if not math.isfinite(top):
+        return -math.inf, 0.0, 0.0, 0.0, 0.0
+    for i in range(n):
+        # (vectorised: no call; the weights below exp(-708) relative to the best, which
+        # no sum or estimate can see, are 0)
+        t = top - logw_out[i]
+        e = _exp_neg(min(t, _EXP_SMALLEST))
+        w[i] = 0.0 if t > _EXP_SMALLEST else e
+    total = 0.0
+    for i in range(n):
+        total += w[i]
+    log_avg = top + math.log(total)
+    sw2 = 0.0
+    mz = 0j
+    mr = 0j
+    for i in range(n):
+        wi = w[i] / total
+        w[i] = wi
+        sw2 += wi * wi
+        logw_out[i] = logw_out[i] - log_avg
+        mz += wi * z[i]
+        mr += wi * rot[i]
+    x, y, t = _spread(z, rot, w, mz, mr, cov)
+    return log_avg, 1.0 / sw2, x, y, t
 
 
 @_jit
@@ -695,21 +711,6 @@ def pf_scan(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u: ComplexArray
         u_conj[p] = u[p].conjugate()
     pf_scan_loglik(z, rot, q, u_conj, cand, half, map_z, sr, st, const, outlier, log_in,
                    log_out, ll)
-
-
-@_jit
-def pf_weigh(logw: FloatArray, ll: FloatArray, z: ComplexArray, rot: ComplexArray,
-             w: FloatArray, logw_out: FloatArray, cov: FloatArray
-             ) -> tuple[float, float, float, float, float]:
-    """:func:`pf_log_weights` and then, when some weight is left, :func:`weighted_pose` of
-    the new weights: returns ``log sum w p``, the effective sample size and the weighted mean
-    pose (x, y m, heading rad; its covariance into ``cov``); ``-inf, 0, 0, 0, 0`` (nothing
-    written) when every log weight is -inf."""
-    log_avg, ess = pf_log_weights(logw, ll, w, logw_out)
-    if not math.isfinite(log_avg):
-        return log_avg, ess, 0.0, 0.0, 0.0
-    x, y, t = weighted_pose(z, rot, w, cov)
-    return log_avg, ess, x, y, t
 
 
 @_jit
