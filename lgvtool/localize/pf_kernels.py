@@ -656,6 +656,20 @@ def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: F
     weights (the indices of ``searchsorted(c, (u0 + i) / n, 'right')``, into ``idx``), and the
     copy of the chosen particles (with ``wrap``, the heading wrapped again as the numpy path
     does, the rotor the parent's)."""
+    _low_variance_indices(w, u0, idx[:n])
+    for i in range(n):
+        j = idx[i]
+        z_out[i] = z[j]
+        th_out[i] = _wrap_pi(th[j]) if wrap else th[j]
+        rot_out[i] = rot[j]
+
+
+@_jit
+def _low_variance_indices(w: FloatArray, u0: float, idx: IntArray) -> None:
+    """Low-variance resampling's ``len(idx)`` indices from the normalised weights ``w`` and
+    the offset ``u0``, in one merge over the cumulative weights (the indices of
+    ``searchsorted(c, (u0 + i) / n, 'right')``, the last cumulative weight taken as 1)."""
+    n = idx.shape[0]
     m = w.shape[0]
     j = 0
     c = w[0] if m > 1 else 1.0
@@ -665,9 +679,6 @@ def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: F
             j += 1
             c = c + w[j] if j < m - 1 else 1.0
         idx[i] = j
-        z_out[i] = z[j]
-        th_out[i] = _wrap_pi(th[j]) if wrap else th[j]
-        rot_out[i] = rot[j]
 
 
 #: ``log(2 pi)``, the 2-D Gaussian's normalising constant
@@ -737,16 +748,8 @@ def pf_kld_resample(w: FloatArray, u0: float, perm: IntArray, need: FloatArray, 
     (their indices into ``idx``; the heading wrapped again as the numpy path does, the rotor
     the parent's); returns ``n``."""
     cap = perm.shape[0]
-    m = w.shape[0]
     lv = np.empty(cap, dtype=np.intp)
-    j = 0
-    c = w[0] if m > 1 else 1.0
-    for i in range(cap):
-        u = (u0 + i) / cap
-        while j < m - 1 and not (c > u):
-            j += 1
-            c = c + w[j] if j < m - 1 else 1.0
-        lv[i] = j
+    _low_variance_indices(w, u0, lv)
     size = 1
     while size < 2 * cap:
         size *= 2
