@@ -193,6 +193,9 @@ class ParticleFilter(ParticleSet):
     #: from this many particles on, the prediction's normal numbers are drawn inside the
     #: kernel (the same numbers; cheaper per number, but a fixed cost per call)
     DRAW_IN_KERNEL = 2048
+    #: from this many particles on, the kernels fill released arrays again (:meth:`_buffer`;
+    #: a small array is cheaper made anew)
+    POOL_FROM = 4096
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)
@@ -314,7 +317,8 @@ class ParticleFilter(ParticleSet):
                                                         logw, cov)
             if not math.isfinite(log_avg):
                 return False
-            self._pool.update(w=self.w, logw=self.logw, ll=ll)
+            if len(ll) >= self.POOL_FROM:
+                self._pool.update(w=self.w, logw=self.logw, ll=ll)
             self.w, self.logw = w, logw
             pose = (x, y, t, cov)
         elif p.log_weights:
@@ -497,15 +501,17 @@ class ParticleFilter(ParticleSet):
         last released under ``key`` when nothing else holds it any more (its pages are
         mapped: a fresh large array costs more to fault in than the kernel's work), else a
         new one."""
-        a = self._pool.pop(key, None)
-        if a is not None and len(a) == n and sys.getrefcount(a) == _SOLE_REFERENCES:
-            return a
+        if n >= self.POOL_FROM:
+            a = self._pool.pop(key, None)
+            if a is not None and len(a) == n and sys.getrefcount(a) == _SOLE_REFERENCES:
+                return a
         return np.empty(n, dtype=np.complex128 if complex_ else np.float64)
 
     def _replace(self, z: ComplexArray, th: FloatArray, rot: ComplexArray) -> None:
         """Make ``z``, ``th``, ``rot`` the particles; the old arrays are released for
         :meth:`_buffer`."""
-        self._pool.update(z=self.z, th=self.th, rot=self.rot)
+        if len(self.z) >= self.POOL_FROM:
+            self._pool.update(z=self.z, th=self.th, rot=self.rot)
         self.z, self.th, self.rot = z, th, rot
 
     def _prior_scales(self, n: int) -> tuple[FloatArray, FloatArray]:

@@ -133,7 +133,10 @@ def test_pf_draws_in_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
 
 def test_pf_reuses_only_arrays_nobody_holds(monkeypatch: pytest.MonkeyPatch) -> None:
     """The kernels fill released arrays again, but never one a caller still holds."""
+    from lgvtool.localize.particle_filter import ParticleFilter
+
     monkeypatch.setenv(KERNELS_ENV, "numba")
+    monkeypatch.setattr(ParticleFilter, "POOL_FROM", 1)
     data, cfg, cls, params, (_times, obs), steps = _inputs("pf", {"kld": False,
                                                                 "particles": 200})
     est = cls(params, vehicle=cfg.vehicle, reflectors=data.reflectors, area=cfg.area,
