@@ -150,6 +150,8 @@ class PaperParticleFilter(ParticleSet):
         self._buffers: dict[tuple[int, int, int], tuple[FloatArray, ...]] = {}
         self._map_z3 = self.map.z[:, None, None]
         self._map_z = np.ascontiguousarray(self.map.z)
+        #: eq. 11's sums of the last weighing with the kernels (x, y m, cos, sin, weights)
+        self._sums = np.zeros(5)
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
         #: updates left before a large uniform start set shrinks to ``particles``
@@ -165,14 +167,16 @@ class PaperParticleFilter(ParticleSet):
 
     # ------------------------------------------------------------------ packed particles
     def _packed(self) -> ComplexArray:
-        """The particles as one (M, 3) complex array with columns ``z``, ``rot`` and ones."""
+        """The particles as one (M, 3) complex array with columns ``z``, ``rot`` and ones
+        (with the kernels (M, 2), without the ones)."""
         pk = self._packing
         if pk is not None and pk[1] is self.z and pk[2] is self.rot:
             return pk[0]
-        s = np.empty((len(self.z), 3), dtype=np.complex128)
+        s = np.empty((len(self.z), 2 if self._kern is not None else 3), dtype=np.complex128)
         s[:, 0] = self.z
         s[:, 1] = self.rot
-        s[:, 2] = 1.0
+        if self._kern is None:
+            s[:, 2] = 1.0
         self._adopt(s, self._th)
         return s
 
@@ -241,7 +245,7 @@ class PaperParticleFilter(ParticleSet):
         kern = self._kern
         if kern is not None:
             out = np.empty(m) if exponent is None else exponent
-            kern.paper_exponents(s, s, 0j, 1 + 0j, scan.q, scan.cand, scan.half, self._map_z,
+            kern.paper_exponents(s, s, 0j, 1 + 0j, scan.pack, self._map_z,
                                  1.0 if exponent is None else self._factor, out)
             if exponent is None:
                 np.sqrt(out, out=out)
@@ -301,27 +305,38 @@ class PaperParticleFilter(ParticleSet):
         return True
 
     def _correct(self, s: ComplexArray, exponent: FloatArray, w: FloatArray,
-                 out: ComplexArray) -> _Weighted:
+                 out: ComplexArray, weighed: bool = False, cov: FloatArray | None = None
+                 ) -> _Weighted | tuple[FloatArray, float]:
         """Weigh the packed particles ``s`` with eq. 10, given its exponent
         ``-D_m^2 / (2 sigma^2)``, into ``w`` (unnormalised), estimate with eq. 11
         (``self._mean``) and redistribute into ``out``. Returns what the estimate's covariance
-        is computed from."""
+        is computed from; with the kernels the covariance (3, 3, into ``cov`` if given) and
+        the ESS themselves. ``weighed``: :func:`lgvtool.localize.pf_kernels.paper_weigh` has
+        weighed the particles already (eq. 11's sums in ``self._sums``)."""
         # eq. 10 up to its constant factor, which the normalisation removes; taken relative to
         # the best particle, so that the weights of far particles (the uniform start's) cannot
         # all underflow and the covariance's sums stay finite
         kern = self._kern
         if kern is not None:
-            sx, sy, sc, ss, total = kern.paper_weights(s, exponent, w)
+            sums = self._sums
+            if not weighed:
+                kern.paper_weights(s, exponent, w, sums)
+            sx, sy, sc, ss, total = sums.tolist()
+            if not (total > 0.0 and math.isfinite(total)):
+                # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
+                np.equal(exponent, exponent.max(), out=w)
+                kern.paper_sums(s, w, sums)
+                sx, sy, sc, ss, total = sums.tolist()
         else:
             exponent -= exponent.max()
             np.exp(exponent, out=w)
             # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one
             # product
             sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
-        if not (total > 0.0 and math.isfinite(total)):
-            # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
-            np.equal(exponent, exponent.max(), out=w)
-            sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
+            if not (total > 0.0 and math.isfinite(total)):
+                # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
+                np.equal(exponent, exponent.max(), out=w)
+                sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
         self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
         m = len(s)
         plan = self._plan
@@ -339,9 +354,16 @@ class PaperParticleFilter(ParticleSet):
         elif self._drawn >= draws.count:
             draws.refill(self.rng)
             self._drawn = 0
-        plan.apply_packed(s, w, draws, self._drawn, out, kern)
-        self._drawn += 1
+        b = self._drawn
+        self._drawn = b + 1
         self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
+        if kern is not None:
+            # the covariance and ESS of the weighed set and the redistribution, in one pass
+            c = np.empty((3, 3)) if cov is None else cov
+            ess = kern.paper_resample(s, w, plan.top(w), draws.u[b], plan.kernel_plan,
+                                      self._sums, out, c)
+            return (c, ess)
+        plan.apply_packed(s, w, draws, b, out)
         return (s, w, total, complex(sx, sy), complex(sc, ss))
 
     # ------------------------------------------------------------------ estimate
@@ -352,11 +374,6 @@ class PaperParticleFilter(ParticleSet):
             return np.zeros((3, 3)), 0.0
         if len(cov) == 5:
             s, w, total, sum_z, sum_rot = cov
-            if self._kern is not None:
-                c1 = np.empty((3, 3))
-                e1 = self._kern.paper_spread(s, w, total, sum_z, sum_rot, c1)
-                self._cov = (c1, float(e1))
-                return self._cov
             c, e = _covariances_and_ess(s[None], w[None], np.array([total]),
                                         np.array([sum_z]), np.array([sum_rot]))
             self._cov = (c[0], float(e[0]))
@@ -407,7 +424,7 @@ class PaperParticleFilter(ParticleSet):
         if kern is not None and motion is not None:
             # the motions as (step, turn) pairs of the kernels
             steps_z, steps_rot = motion[:, 1, 0].tolist(), motion[:, 1, 1].tolist()
-        map_z, factor = self._map_z, self._factor
+        map_z, factor, sums = self._map_z, self._factor, self._sums
         for i, o in enumerate(observations):
             scan = prepared.get(i) if o is not None else None
             # the motion still to apply to the estimate and the reference pose (a scan weighed
@@ -446,28 +463,32 @@ class PaperParticleFilter(ParticleSet):
             if o is not None:
                 if scan is not None and block is not None and self._start_left == 0:
                     s = block.current
+                    k = block.k
                     if kern is not None:
-                        # motion, transform, association and eq. 10's exponent in one pass
-                        kern.paper_exponents(block.spare if pending else s, s, step[0],
-                                             step[1], scan.q, scan.cand, scan.half, map_z,
-                                             factor, block.exponent)
-                        exponent = block.exponent
+                        # motion, transform, association, eq. 10 and eq. 11's sums in one
+                        # pass; then the covariance and the redistribution in another
+                        kern.paper_weigh(block.spare if pending else s, s, step[0], step[1],
+                                         scan.pack, map_z, factor, block.exponent,
+                                         block.weights, sums)
+                        block.ess[k] = self._correct(s, block.exponent, block.weights,
+                                                     block.spare, True, block.cov_rows[k])[1]
                     else:
                         if pending:
                             copyto(s, block.spare)
                         exponent = self._nearest_sums(s, scan, block.exponent)
-                    _, _, total, sum_z, sum_rot = self._correct(s, exponent, block.weights,
-                                                                block.spare)
+                        _, _, total, sum_z, sum_rot = self._correct(  # type: ignore[misc]
+                            s, exponent, block.weights, block.spare)
+                        block.totals.append(total)
+                        block.sum_z.append(sum_z)
+                        block.sum_rot.append(sum_rot)
                     pending = True
                     # on to the next row of the block (recording the block when it is full)
-                    block.totals.append(total)
-                    block.sum_z.append(sum_z)
-                    block.sum_rot.append(sum_rot)
                     rec.count += 1
-                    k = block.k = block.k + 1
+                    k = block.k = k + 1
                     if k < block.size:
-                        block.current = block.states[k]
-                        block.weights = block.w[k]
+                        if kern is None:
+                            block.current = block.states[k]
+                            block.weights = block.w[k]
                     else:
                         rec.close(block)
                         block.restart()
@@ -533,6 +554,7 @@ class PaperParticleFilter(ParticleSet):
         cand = self.map.z[j]
         b = np.stack((np.ones(len(j)), np.concatenate([o.q for o in scans]), -cand))
         half = self.map.half_sep[j]
+        pack = np.stack((b[1], cand, half), axis=1)
         bounds = np.cumsum([0] + [len(o) for o in scans])
         starts = bounds[:-1]
         complete = np.logical_and.reduceat(known, starts).tolist()
@@ -542,7 +564,7 @@ class PaperParticleFilter(ParticleSet):
         for i, a, e, ok, h in zip(idx, bounds_list[:-1], bounds_list[1:], complete, least,
                                   strict=True):
             if ok:
-                out[i] = _Scan(b[:, a:e], half[a:e], cand[a:e], h)
+                out[i] = _Scan(b[:, a:e], half[a:e], cand[a:e], h, pack[a:e])
         return out
 
 
@@ -555,13 +577,15 @@ class _Scan:
     the measured points ``q`` (body frame, m) and minus a candidate map reflector per point
     (m); ``b2`` its first two rows; ``q`` the points and ``cand`` the candidates (m);
     ``half``: half each candidate's distance to its nearest neighbour (m), and the least of
-    those."""
+    those; ``pack`` (K, 3) the same for the kernels: per point ``q``, the candidate and the
+    half spacing (as the real part)."""
 
-    __slots__ = ("b", "b2", "cand", "half", "half_min", "k", "q")
+    __slots__ = ("b", "b2", "cand", "half", "half_min", "k", "pack", "q")
 
     def __init__(self, b: ComplexArray, half: FloatArray, cand: ComplexArray,
-                 half_min: float | None = None) -> None:
+                 half_min: float | None = None, pack: ComplexArray | None = None) -> None:
         self.b = b
+        self.pack = np.stack((b[1], cand, half), axis=1) if pack is None else pack
         self.b2 = b[:2]
         self.q = b[1]
         self.cand = cand
@@ -635,20 +659,28 @@ class _Block:
     """Consecutive particle sets of :meth:`PaperParticleFilter.run`: row ``k`` holds the
     particles of the ``k``-th weighing, so the weighed sets stay for the covariances without
     copies; a redistribution writes ``spare``, from which the next motion moves the particles
-    into the next row. A full block starts over at row 0."""
+    into the next row. A full block starts over at row 0. With the kernels, which compute
+    each set's covariance and ESS as they redistribute it (into ``cov_rows[k]`` and
+    ``ess[k]``), the particles stay in row 0 and ``spare``."""
 
     def __init__(self, first: ComplexArray, kernels: ModuleType | None = None) -> None:
-        m = len(first)
+        m, cols = first.shape
         self.kernels = kernels
         self.size = max(1, _COVARIANCE_BLOCK // max(1, m))
-        self.states = np.empty((self.size, m, 3), dtype=np.complex128)
+        rows = 1 if kernels is not None else self.size
+        self.states = np.empty((rows, m, cols), dtype=np.complex128)
         self.states[0] = first
         #: where a redistribution or a motion writes the particles before they are weighed
-        self.spare = np.empty((m, 3), dtype=np.complex128)
-        self.w = np.empty((self.size, m))
+        self.spare = np.empty((m, cols), dtype=np.complex128)
+        self.w = np.empty((rows, m))
         #: the exponent of eq. 10 of the set being weighed
         self.exponent = np.empty(m)
-        self.work = _Work(self.size, m)
+        if kernels is not None:
+            self.cov = np.empty((self.size, 3, 3))
+            self.cov_rows = list(self.cov)
+            self.ess = np.empty(self.size)
+        else:
+            self.work = _Work(self.size, m)
         self.k = 0
         self.current = self.states[0]
         self.weights = self.w[0]
@@ -662,13 +694,7 @@ class _Block:
         if k == 0:
             return np.zeros((0, 9)), np.zeros(0)
         if self.kernels is not None:
-            covs = np.empty((k, 3, 3))
-            ess_k = np.empty(k)
-            spread = self.kernels.paper_spread
-            for b, (total, sum_z, sum_rot) in enumerate(zip(self.totals, self.sum_z,
-                                                            self.sum_rot, strict=True)):
-                ess_k[b] = spread(self.states[b], self.w[b], total, sum_z, sum_rot, covs[b])
-            return covs.reshape(k, 9), ess_k
+            return self.cov[:k].reshape(k, 9).copy(), self.ess[:k].copy()
         cov, ess = _covariances_and_ess(self.states[:k], self.w[:k], np.array(self.totals),
                                         np.array(self.sum_z), np.array(self.sum_rot),
                                         self.work)

@@ -134,18 +134,20 @@ def _chunk_arrays() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, Flo
 
 @_jit
 def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
-                    q: ComplexArray, cand: ComplexArray, half: FloatArray,
-                    map_z: ComplexArray, factor: float, exponent: FloatArray) -> None:
-    """Move the packed particles ``prev`` (M, 3: z, rot, 1) by the body-frame step ``step_z``
+                    scan: ComplexArray, map_z: ComplexArray, factor: float,
+                    exponent: FloatArray) -> None:
+    """Move the packed particles ``prev`` (M, 2: z, rot) by the body-frame step ``step_z``
     (m) and the turn ``step_rot`` (a rotor) into ``cur`` (may be ``prev``; ``step_z = 0``,
-    ``step_rot = 1``: no motion), put the measured points ``q`` (K, body frame, m) into the
-    world at every particle, take each point's distance to its nearest map reflector (the
-    candidate ``cand[k]`` when nearer than ``half[k]``, half its distance to its own nearest
-    neighbour, else a search of ``map_z``) and write the exponent of eq. 10,
+    ``step_rot = 1``: no motion), put the measured points into the world at every particle,
+    take each point's distance to its nearest map reflector and write the exponent of eq. 10,
     ``factor * D_m^2`` with ``D_m`` the summed distances (summed in the order of the points).
+    ``scan`` (K, 3): per point its position in the body frame ``q`` (m), its candidate map
+    reflector (m) and, as the real part, half the candidate's distance to its own nearest
+    neighbour (m): the candidate is the nearest reflector when nearer than that, else
+    ``map_z`` is searched.
     """
     m = prev.shape[0]
-    k = q.shape[0]
+    k = scan.shape[0]
     zr, zi, rr, ri, tot, _, far = _chunk_arrays()
     for a in range(0, m, _CHUNK):
         n = min(_CHUNK, m - a)
@@ -154,7 +156,6 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
             rot = prev[a + i, 1] * step_rot
             cur[a + i, 0] = z
             cur[a + i, 1] = rot
-            cur[a + i, 2] = 1.0
             zr[i] = z.real
             zi[i] = z.imag
             rr[i] = rot.real
@@ -162,11 +163,11 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
             tot[i] = 0.0
             far[i] = -math.inf
         for j in range(k):
-            qr = q[j].real
-            qi = q[j].imag
-            cr = cand[j].real
-            ci = cand[j].imag
-            h = half[j]
+            qr = scan[j, 0].real
+            qi = scan[j, 0].imag
+            cr = scan[j, 1].real
+            ci = scan[j, 1].imag
+            h = scan[j, 2].real
             for i in range(n):
                 dx = zr[i] + (rr[i] * qr - ri[i] * qi) - cr
                 dy = zi[i] + (rr[i] * qi + ri[i] * qr) - ci
@@ -179,12 +180,14 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
                 # sum again, such points searched in the whole map
                 t = 0.0
                 for j in range(k):
-                    px = zr[i] + (rr[i] * q[j].real - ri[i] * q[j].imag)
-                    py = zi[i] + (rr[i] * q[j].imag + ri[i] * q[j].real)
-                    dx = px - cand[j].real
-                    dy = py - cand[j].imag
+                    qr = scan[j, 0].real
+                    qi = scan[j, 0].imag
+                    px = zr[i] + (rr[i] * qr - ri[i] * qi)
+                    py = zi[i] + (rr[i] * qi + ri[i] * qr)
+                    dx = px - scan[j, 1].real
+                    dy = py - scan[j, 1].imag
                     d = math.sqrt(dx * dx + dy * dy)
-                    if d >= half[j]:
+                    if d >= scan[j, 2].real:
                         d = _nearest_distance(px, py, map_z)
                     t += d
                 tot[i] = t
@@ -194,22 +197,22 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
 @_jit
 def paper_move(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex
                ) -> None:
-    """Eq. 9 on packed particles: ``cur`` (may be ``prev``) is ``prev`` moved by the
-    body-frame step ``step_z`` (m) and turned by the rotor ``step_rot``."""
+    """Eq. 9 on packed particles (M, 2: z, rot): ``cur`` (may be ``prev``) is ``prev`` moved
+    by the body-frame step ``step_z`` (m) and turned by the rotor ``step_rot``."""
     for i in range(prev.shape[0]):
         z = prev[i, 0] + prev[i, 1] * step_z
         rot = prev[i, 1] * step_rot
         cur[i, 0] = z
         cur[i, 1] = rot
-        cur[i, 2] = 1.0
 
 
 @_jit
-def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray
-                  ) -> tuple[float, float, float, float, float]:
+def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray, sums: FloatArray
+                  ) -> float:
     """Eq. 10 relative to the best particle: ``exponent -= max(exponent)``,
-    ``w = exp(exponent)`` (unnormalised); returns the weighted sums of x, y (m), cos th,
-    sin th and the sum of the weights (eq. 11 before the division)."""
+    ``w = exp(exponent)`` (unnormalised); writes the weighted sums of x, y (m), cos th,
+    sin th and the sum of the weights (eq. 11 before the division) into ``sums`` (5,) and
+    returns the last. ``s``: packed particles (M, 2: z, rot)."""
     top = -math.inf
     for i in range(s.shape[0]):
         if exponent[i] > top:
@@ -227,45 +230,44 @@ def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray
         sc += wi * r.real
         ss += wi * r.imag
         total += wi
-    return sx, sy, sc, ss, total
+    sums[0] = sx
+    sums[1] = sy
+    sums[2] = sc
+    sums[3] = ss
+    sums[4] = total
+    return total
 
 
 @_jit
-def paper_redistribute(s: ComplexArray, top: IntArray, u: FloatArray, n_top: int,
-                       n_local: int, width: FloatArray, low: FloatArray, far_z: complex,
-                       out: ComplexArray) -> None:
-    """The paper's redistribution of packed particles ``s`` into ``out`` from its uniform
-    numbers ``u`` (4, M): particle ``i < n_local`` descends from the parent
-    ``s[top[int(u[0, i] n_top)]]`` (``top``: the heaviest particles), moved by
-    ``u[1:3, i] width + low`` (m) and turned by ``u[3, i] width + low`` (rad); the others are
-    uniform, ``far_z`` plus the same offsets over the work area and every heading. The same
-    arithmetic, in the same order, as the numpy path's
-    :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
-    turn's rotor for small angles (:func:`_rotor`: within an ulp)."""
-    m = out.shape[0]
-    # the widths are the same for every local particle, and for every uniform one
-    wx, wy, wh, lx, ly, lh = width[0, 0], width[1, 0], width[2, 0], low[0, 0], low[1, 0], \
-        low[2, 0]
-    fx, fy, fh, gx, gy, gh = width[0, m - 1], width[1, m - 1], width[2, m - 1], \
-        low[0, m - 1], low[1, m - 1], low[2, m - 1]
-    for i in range(m):
-        if i == n_local:
-            wx, wy, wh, lx, ly, lh = fx, fy, fh, gx, gy, gh
-        ox = u[1, i] * wx + lx
-        oy = u[2, i] * wy + ly
-        oh = u[3, i] * wh + lh
-        turn = _rotor(oh)
-        if i < n_local:
-            src = top[int(u[0, i] * n_top)]
-            z = s[src, 0]
-            # z (1 + 0i) + shift: the numpy path's product by the scale, then the shift
-            out[i, 0] = complex(z.real * 1.0 - z.imag * 0.0, z.real * 0.0 + z.imag * 1.0) \
-                + complex(ox, oy)
-            out[i, 1] = s[src, 1] * turn + 0j
-        else:
-            out[i, 0] = complex(ox + far_z.real, oy + far_z.imag)
-            out[i, 1] = turn
-        out[i, 2] = 1.0
+def paper_weigh(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
+                scan: ComplexArray, map_z: ComplexArray, factor: float, exponent: FloatArray,
+                w: FloatArray, sums: FloatArray) -> float:
+    """:func:`paper_exponents` then :func:`paper_weights` on the moved particles ``cur``, in
+    one call: motion, association, eq. 10 and eq. 11's sums (into ``sums``; returns the sum
+    of the weights)."""
+    paper_exponents(prev, cur, step_z, step_rot, scan, map_z, factor, exponent)
+    return paper_weights(cur, exponent, w, sums)
+
+
+@_jit
+def paper_sums(s: ComplexArray, w: FloatArray, sums: FloatArray) -> None:
+    """The weighted sums of x, y (m), cos th, sin th and the sum of the weights ``w`` of the
+    packed particles ``s`` (M, 2: z, rot), in order, into ``sums`` (5,)."""
+    sx = sy = sc = ss = total = 0.0
+    for i in range(s.shape[0]):
+        wi = w[i]
+        z = s[i, 0]
+        r = s[i, 1]
+        sx += wi * z.real
+        sy += wi * z.imag
+        sc += wi * r.real
+        ss += wi * r.imag
+        total += wi
+    sums[0] = sx
+    sums[1] = sy
+    sums[2] = sc
+    sums[3] = ss
+    sums[4] = total
 
 
 @_jit
@@ -281,17 +283,37 @@ def _symmetric(cov: FloatArray, xx: float, xy: float, xh: float, yy: float, yh: 
 
 
 @_jit
-def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
-                 sum_rot: complex, cov: FloatArray) -> float:
-    """Covariance of ``(x, y, heading)`` (into ``cov``, 3 x 3; m^2, m rad, rad^2) and effective
-    sample size of a weighted packed set: ``w`` unnormalised with sum ``total``, ``sum_z`` and
-    ``sum_rot`` the weighted sums of z and rot (the heading deviations are taken from their
-    circular mean)."""
-    mean = sum_z / total
-    rc = sum_rot.conjugate()
+def paper_resample(s: ComplexArray, w: FloatArray, top: IntArray, u: FloatArray,
+                   plan: FloatArray, sums: FloatArray, out: ComplexArray, cov: FloatArray
+                   ) -> float:
+    """The covariance and effective sample size of the weighted packed set ``s`` (M, 2: z,
+    rot; ``w`` unnormalised, ``sums`` its eq. 11 sums from :func:`paper_weights`), and the
+    paper's redistribution of ``s`` into ``out``, in one pass.
+
+    Covariance of ``(x, y, heading)`` into ``cov`` (3 x 3; m^2, m rad, rad^2),
+    the heading deviations taken from the circular mean; returns the ESS.
+
+    Redistribution from its uniform numbers ``u`` (4, M): particle ``i < n_local`` descends
+    from the parent ``s[top[int(u[0, i] n_top)]]`` (``top``: the heaviest particles), moved by
+    ``u[1:3, i] width + low`` (m) and turned by ``u[3, i] width + low`` (rad); the others are
+    uniform, the work area's centre plus the same offsets over the work area and every
+    heading. ``plan``: :attr:`lgvtool.localize.resampling.RedistributionPlan.kernel_plan`. The
+    same arithmetic, in the same order, as the numpy path's
+    :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
+    turn's rotor for small angles (:func:`_rotor`: within an ulp)."""
+    m = out.shape[0]
+    # the widths are the same for every local particle, and for every uniform one
+    wx, wy, wh, lx, ly, lh = plan[0], plan[1], plan[2], plan[3], plan[4], plan[5]
+    fx, fy, fh, gx, gy, gh = plan[6], plan[7], plan[8], plan[9], plan[10], plan[11]
+    cx, cy = plan[12], plan[13]
+    n_top = int(plan[14])
+    n_local = int(plan[15])
+    total = sums[4]
+    mean = complex(sums[0], sums[1]) / total
+    rc = complex(sums[2], sums[3]).conjugate()
     a00 = a01 = a02 = a11 = a12 = a22 = 0.0
     sw2 = 0.0
-    for i in range(s.shape[0]):
+    for i in range(m):
         wn = w[i] / total
         d = s[i, 0] - mean
         r = s[i, 1] * rc
@@ -305,6 +327,22 @@ def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
         a12 += dy * wn * h
         a22 += h * wn * h
         sw2 += wn * wn
+        if i == n_local:
+            wx, wy, wh, lx, ly, lh = fx, fy, fh, gx, gy, gh
+        ox = u[1, i] * wx + lx
+        oy = u[2, i] * wy + ly
+        oh = u[3, i] * wh + lh
+        turn = _rotor(oh)
+        if i < n_local:
+            src = top[int(u[0, i] * n_top)]
+            z = s[src, 0]
+            # z (1 + 0i) + shift: the numpy path's product by the scale, then the shift
+            out[i, 0] = complex(z.real * 1.0 - z.imag * 0.0, z.real * 0.0 + z.imag * 1.0) \
+                + complex(ox, oy)
+            out[i, 1] = s[src, 1] * turn + 0j
+        else:
+            out[i, 0] = complex(ox + cx, oy + cy)
+            out[i, 1] = turn
     _symmetric(cov, a00, a01, a02, a11, a12, a22)
     return 1.0 / sw2
 
