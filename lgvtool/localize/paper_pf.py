@@ -152,6 +152,7 @@ class PaperParticleFilter(ParticleSet):
         self._map_z = np.ascontiguousarray(self.map.z)
         #: eq. 11's sums of the last weighing with the kernels (x, y m, cos, sin, weights)
         self._sums = np.zeros(5)
+        self._work = self._kern.paper_scratch() if self._kern is not None else None
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
         #: updates left before a large uniform start set shrinks to ``particles``
@@ -246,7 +247,7 @@ class PaperParticleFilter(ParticleSet):
         if kern is not None:
             out = np.empty(m) if exponent is None else exponent
             kern.paper_exponents(s, s, 0j, 1 + 0j, scan.pack, self._map_z,
-                                 1.0 if exponent is None else self._factor, out)
+                                 1.0 if exponent is None else self._factor, out, self._work)
             if exponent is None:
                 np.sqrt(out, out=out)
             return out
@@ -361,7 +362,7 @@ class PaperParticleFilter(ParticleSet):
             # the covariance and ESS of the weighed set and the redistribution, in one pass
             c = np.empty((3, 3)) if cov is None else cov
             ess = kern.paper_resample(s, w, plan.top(w), draws.u[b], plan.kernel_plan,
-                                      self._sums, out, c)
+                                      self._sums, out, c, self._work)
             return (c, ess)
         plan.apply_packed(s, w, draws, b, out)
         return (s, w, total, complex(sx, sy), complex(sc, ss))
@@ -424,7 +425,7 @@ class PaperParticleFilter(ParticleSet):
         if kern is not None and motion is not None:
             # the motions as (step, turn) pairs of the kernels
             steps_z, steps_rot = motion[:, 1, 0].tolist(), motion[:, 1, 1].tolist()
-        map_z, factor, sums = self._map_z, self._factor, self._sums
+        map_z, factor, sums, work = self._map_z, self._factor, self._sums, self._work
         for i, o in enumerate(observations):
             scan = prepared.get(i) if o is not None else None
             # the motion still to apply to the estimate and the reference pose (a scan weighed
@@ -469,7 +470,7 @@ class PaperParticleFilter(ParticleSet):
                         # pass; then the covariance and the redistribution in another
                         kern.paper_weigh(block.spare if pending else s, s, step[0], step[1],
                                          scan.pack, map_z, factor, block.exponent,
-                                         block.weights, sums)
+                                         block.weights, sums, work)
                         block.ess[k] = self._correct(s, block.exponent, block.weights,
                                                      block.spare, True, block.cov_rows[k])[1]
                     else:

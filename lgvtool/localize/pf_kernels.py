@@ -155,10 +155,22 @@ def _chunk_arrays() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, Flo
             np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK))
 
 
+#: rows of the scratch of the pf-paper kernels (:func:`paper_scratch`)
+_SCRATCH_ROWS = 13
+
+
+def paper_scratch() -> FloatArray:
+    """Scratch of :func:`paper_exponents`, :func:`paper_weigh` and :func:`paper_resample`: a
+    chunk of particles laid out as separate arrays (allocated once per filter rather than
+    on every call). The rows are padded so that no two start a multiple of 4 KiB apart
+    (loads from one row would wait for stores to another, falsely aliased)."""
+    return np.empty((_SCRATCH_ROWS, _CHUNK + 8))
+
+
 @_jit
 def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
                     scan: ComplexArray, map_z: ComplexArray, factor: float,
-                    exponent: FloatArray) -> float:
+                    exponent: FloatArray, work: FloatArray) -> float:
     """Move the packed particles ``prev`` (M, 2: z, rot) by the body-frame step ``step_z``
     (m) and the turn ``step_rot`` (a rotor) into ``cur`` (may be ``prev``; ``step_z = 0``,
     ``step_rot = 1``: no motion), put the measured points into the world at every particle,
@@ -167,12 +179,12 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
     ``scan`` (K, 3): per point its position in the body frame ``q`` (m), its candidate map
     reflector (m) and, as the real part, half the candidate's distance to its own nearest
     neighbour (m): the candidate is the nearest reflector when nearer than that, else
-    ``map_z`` is searched. Returns the largest exponent.
+    ``map_z`` is searched. Returns the largest exponent. ``work``: :func:`paper_scratch`.
     """
     m = prev.shape[0]
     top = -math.inf
     k = scan.shape[0]
-    zr, zi, rr, ri, tot, _, far = _chunk_arrays()
+    zr, zi, rr, ri, tot, far = work[0], work[1], work[2], work[3], work[4], work[5]
     for a in range(0, m, _CHUNK):
         n = min(_CHUNK, m - a)
         for i in range(n):
@@ -276,11 +288,11 @@ def _weights_below(s: ComplexArray, exponent: FloatArray, top: float, w: FloatAr
 @_jit
 def paper_weigh(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
                 scan: ComplexArray, map_z: ComplexArray, factor: float, exponent: FloatArray,
-                w: FloatArray, sums: FloatArray) -> float:
+                w: FloatArray, sums: FloatArray, work: FloatArray) -> float:
     """:func:`paper_exponents` then :func:`paper_weights` on the moved particles ``cur``, in
     one call: motion, association, eq. 10 and eq. 11's sums (into ``sums``; returns the sum
     of the weights)."""
-    top = paper_exponents(prev, cur, step_z, step_rot, scan, map_z, factor, exponent)
+    top = paper_exponents(prev, cur, step_z, step_rot, scan, map_z, factor, exponent, work)
     return _weights_below(cur, exponent, top, w, sums)
 
 
@@ -319,8 +331,8 @@ def _symmetric(cov: FloatArray, xx: float, xy: float, xh: float, yy: float, yh: 
 
 @_jit
 def paper_resample(s: ComplexArray, w: FloatArray, top: IntArray, u: FloatArray,
-                   plan: FloatArray, sums: FloatArray, out: ComplexArray, cov: FloatArray
-                   ) -> float:
+                   plan: FloatArray, sums: FloatArray, out: ComplexArray, cov: FloatArray,
+                   work: FloatArray) -> float:
     """The covariance and effective sample size of the weighted packed set ``s`` (M, 2: z,
     rot; ``w`` unnormalised, ``sums`` its eq. 11 sums from :func:`paper_weights`), and the
     paper's redistribution of ``s`` into ``out``, in one call.
@@ -335,14 +347,16 @@ def paper_resample(s: ComplexArray, w: FloatArray, top: IntArray, u: FloatArray,
     heading. ``plan``: :attr:`lgvtool.localize.resampling.RedistributionPlan.kernel_plan`. The
     same arithmetic, in the same order, as the numpy path's
     :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
-    turn's rotor for small angles (:func:`_rotor`: within an ulp)."""
-    ess = _spread(s, w, sums, cov)
-    _redistribute(s, top, u, plan, out)
+    turn's rotor for small angles (:func:`_rotor`: within an ulp). ``work``:
+    :func:`paper_scratch`."""
+    ess = _spread(s, w, sums, cov, work)
+    _redistribute(s, top, u, plan, out, work)
     return ess
 
 
 @_jit
-def _spread(s: ComplexArray, w: FloatArray, sums: FloatArray, cov: FloatArray) -> float:
+def _spread(s: ComplexArray, w: FloatArray, sums: FloatArray, cov: FloatArray,
+            work: FloatArray) -> float:
     """The covariance (into ``cov``) and ESS of :func:`paper_resample`. Particles in chunks
     laid out as separate arrays (the arithmetic in SIMD registers); the sums in order."""
     m = s.shape[0]
@@ -353,11 +367,12 @@ def _spread(s: ComplexArray, w: FloatArray, sums: FloatArray, cov: FloatArray) -
     cr, ci = rc.real, rc.imag
     a00 = a01 = a02 = a11 = a12 = a22 = 0.0
     sw2 = 0.0
-    zr, zi, rr, ri, hh, _, _ = _chunk_arrays()
-    p00, p01, p02, p11, p12, p22, pww = _chunk_arrays()
-    # the particles whose heading deviation the series does not give (a flag array: with the
-    # test in the loop below, the series loop no longer runs in SIMD registers)
-    other = np.empty(_CHUNK, dtype=np.bool_)
+    zr, zi, rr, ri, hh = work[0], work[1], work[2], work[3], work[4]
+    p00, p01, p02, p11, p12, p22, pww = work[5], work[6], work[7], work[8], work[9], \
+        work[10], work[11]
+    # 1 for the particles whose heading deviation the series does not give (a flag row: with
+    # the test in the loop below, the series loop no longer runs in SIMD registers)
+    other = work[12]
     for a in range(0, m, _CHUNK):
         n = min(_CHUNK, m - a)
         for i in range(n):
@@ -373,9 +388,9 @@ def _spread(s: ComplexArray, w: FloatArray, sums: FloatArray, cov: FloatArray) -
             yr = rr[i] * cr - ri[i] * ci
             yi = rr[i] * ci + ri[i] * cr
             hh[i] = _atan_series(yi / yr)
-            other[i] = not (yr > 0.0 and abs(yi) < _SMALL_ANGLE * yr)
+            other[i] = 0.0 if yr > 0.0 and abs(yi) < _SMALL_ANGLE * yr else 1.0
         for i in range(n):
-            if other[i]:
+            if other[i] != 0.0:
                 yr = rr[i] * cr - ri[i] * ci
                 yi = rr[i] * ci + ri[i] * cr
                 hh[i] = math.atan2(yi, yr)
@@ -405,7 +420,7 @@ def _spread(s: ComplexArray, w: FloatArray, sums: FloatArray, cov: FloatArray) -
 
 @_jit
 def _redistribute(s: ComplexArray, top: IntArray, u: FloatArray, plan: FloatArray,
-                  out: ComplexArray) -> None:
+                  out: ComplexArray, work: FloatArray) -> None:
     """The redistribution of :func:`paper_resample`: the local particles' offsets and turns
     in chunks (SIMD), then their parents."""
     m = out.shape[0]
@@ -414,7 +429,7 @@ def _redistribute(s: ComplexArray, top: IntArray, u: FloatArray, plan: FloatArra
     cx, cy = plan[12], plan[13]
     n_top = int(plan[14])
     n_local = int(plan[15])
-    ox, oy, oh, tc, ts, _, _ = _chunk_arrays()
+    ox, oy, oh, tc, ts = work[0], work[1], work[2], work[3], work[4]
     for a in range(0, n_local, _CHUNK):
         n = min(_CHUNK, n_local - a)
         for i in range(n):

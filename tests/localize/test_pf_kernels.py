@@ -155,7 +155,7 @@ def test_paper_redistribution_kernel_matches_numpy() -> None:
             plan.apply_packed(s, w, ref_draws, b, ref)
             cov = np.empty((3, 3))
             ess = kern.paper_resample(s2, w, plan.top(w), raw_draws.u[b], plan.kernel_plan,
-                                      sums, fast, cov)
+                                      sums, fast, cov, kern.paper_scratch())
             assert np.array_equal(fast[:, 0], ref[:, 0])
             assert np.abs(fast[:, 1] - ref[:, 1]).max() <= 2.5e-16
             c_ref, e_ref2 = _covariances_and_ess(s[None], w[None], sums[4:5],
