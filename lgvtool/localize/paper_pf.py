@@ -223,15 +223,18 @@ class PaperParticleFilter(ParticleSet):
             return summed
         return self._nearest_sums(self._packed(), self._scan(obs))
 
-    def _scan(self, obs: ScanObservation) -> _Scan:
+    def _scan(self, obs: ScanObservation) -> _Scan | ComplexArray:
         """``obs`` laid out for :meth:`_nearest_sums`, each point's candidate the map reflector
-        of its id or the nearest one seen from the reference pose."""
+        of its id or the nearest one seen from the reference pose (with the kernels as
+        :func:`_kernel_scan`)."""
         j1 = self._reference_nearest(obs)
         cand = self.map.z[j1]
+        if self._kern is not None:
+            return _kernel_scan(obs.q, cand, self.map.half_sep[j1])
         return _Scan(np.stack((np.ones(len(obs)), obs.q, -cand)), self.map.half_sep[j1], cand)
 
-    def _nearest_sums(self, s: ComplexArray, scan: _Scan, exponent: FloatArray | None = None
-                      ) -> FloatArray:
+    def _nearest_sums(self, s: ComplexArray, scan: _Scan | ComplexArray,
+                      exponent: FloatArray | None = None) -> FloatArray:
         """``D_m``: the summed distances from every particle's measured points to their nearest
         map reflectors, m (``s``: the packed particles). With
         ``exponent``, writes the exponent of eq. 10, ``-D_m^2 / (2 sigma^2)``, there instead
@@ -246,11 +249,13 @@ class PaperParticleFilter(ParticleSet):
         kern = self._kern
         if kern is not None:
             out = np.empty(m) if exponent is None else exponent
-            kern.paper_exponents(s, s, 0j, 1 + 0j, scan.pack, self._map_z,
+            assert not isinstance(scan, _Scan)
+            kern.paper_exponents(s, s, 0j, 1 + 0j, scan, self._map_z,
                                  1.0 if exponent is None else self._factor, out, self._work)
             if exponent is None:
                 np.sqrt(out, out=out)
             return out
+        assert isinstance(scan, _Scan)
         plan = self._plan
         n = m if plan is None or plan.m != m else plan.n_local
         k = scan.k
@@ -306,40 +311,63 @@ class PaperParticleFilter(ParticleSet):
         return True
 
     def _correct(self, s: ComplexArray, exponent: FloatArray, w: FloatArray,
-                 out: ComplexArray, weighed: bool = False, cov: FloatArray | None = None
-                 ) -> _Weighted | tuple[FloatArray, float]:
+                 out: ComplexArray) -> _Weighted | tuple[FloatArray, float]:
         """Weigh the packed particles ``s`` with eq. 10, given its exponent
         ``-D_m^2 / (2 sigma^2)``, into ``w`` (unnormalised), estimate with eq. 11
         (``self._mean``) and redistribute into ``out``. Returns what the estimate's covariance
-        is computed from; with the kernels the covariance (3, 3, into ``cov`` if given) and
-        the ESS themselves. ``weighed``: :func:`lgvtool.localize.pf_kernels.paper_weigh` has
-        weighed the particles already (eq. 11's sums in ``self._sums``)."""
+        is computed from; with the kernels the covariance (3, 3) and the ESS themselves."""
         # eq. 10 up to its constant factor, which the normalisation removes; taken relative to
         # the best particle, so that the weights of far particles (the uniform start's) cannot
         # all underflow and the covariance's sums stay finite
         kern = self._kern
         if kern is not None:
-            sums = self._sums
-            if not weighed:
-                kern.paper_weights(s, exponent, w, sums)
-            sx, sy, sc, ss, total = sums.tolist()
-            if not (total > 0.0 and math.isfinite(total)):
-                # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
-                np.equal(exponent, exponent.max(), out=w)
-                kern.paper_sums(s, w, sums)
-                sx, sy, sc, ss, total = sums.tolist()
-        else:
-            exponent -= exponent.max()
-            np.exp(exponent, out=w)
-            # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one
-            # product
+            kern.paper_weights(s, exponent, w, self._sums)
+            cov = np.empty((3, 3))
+            return (cov, self._correct_weighed(s, exponent, w, out, cov))
+        exponent -= exponent.max()
+        np.exp(exponent, out=w)
+        # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one product
+        sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
+        if not (total > 0.0 and math.isfinite(total)):
+            # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
+            np.equal(exponent, exponent.max(), out=w)
             sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
-            if not (total > 0.0 and math.isfinite(total)):
-                # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
-                np.equal(exponent, exponent.max(), out=w)
-                sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
+        self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
+        plan, draws, b = self._redistribution(len(s))
+        plan.apply_packed(s, w, draws, b, out)
+        return (s, w, total, complex(sx, sy), complex(sc, ss))
+
+    def _correct_weighed(self, s: ComplexArray, exponent: FloatArray, w: FloatArray,
+                         out: ComplexArray, cov: FloatArray) -> float:
+        """:meth:`_correct` with the kernels, once the particles are weighed (``w`` and
+        eq. 11's sums in ``self._sums``, by :func:`lgvtool.localize.pf_kernels.paper_weigh`
+        or ``paper_weights``): the estimate, and the covariance (into ``cov``, 3 x 3) and
+        redistribution in one kernel call. Returns the ESS."""
+        kern = self._kern
+        assert kern is not None
+        sums = self._sums
+        sx, sy, sc, ss, total = sums.tolist()
+        if not (total > 0.0 and math.isfinite(total)):
+            # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
+            np.equal(exponent, exponent.max(), out=w)
+            kern.paper_sums(s, w, sums)
+            sx, sy, sc, ss, total = sums.tolist()
         self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
         m = len(s)
+        plan, draws, b = self._plan, self._draws, self._drawn
+        if plan is None or draws is None or plan.m != m or b >= draws.count:
+            plan, draws, b = self._redistribution(m)
+        else:
+            self._drawn = b + 1
+            self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
+        ess: float = kern.paper_resample(s, w, plan.top(w), draws.u[b], plan.kernel_plan,
+                                         sums, out, cov, self._work)
+        return ess
+
+    def _redistribution(self, m: int) -> tuple[RedistributionPlan, RedistributionDraws, int]:
+        """The plan of the redistribution of ``m`` particles, its random numbers and which of
+        them (drawn ahead) the next redistribution takes; sets the filter's weights uniform
+        (the redistributed set's)."""
         plan = self._plan
         if plan is None or plan.m != m:
             p = self.params
@@ -350,7 +378,8 @@ class PaperParticleFilter(ParticleSet):
         draws = self._draws
         if draws is None:
             count = max(1, _DRAW_NUMBERS // (4 * m)) if self._quiet_motion else 1
-            draws = self._draws = plan.draw(self.rng, count, packed=True, raw=kern is not None)
+            draws = self._draws = plan.draw(self.rng, count, packed=True,
+                                            raw=self._kern is not None)
             self._drawn = 0
         elif self._drawn >= draws.count:
             draws.refill(self.rng)
@@ -358,14 +387,7 @@ class PaperParticleFilter(ParticleSet):
         b = self._drawn
         self._drawn = b + 1
         self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
-        if kern is not None:
-            # the covariance and ESS of the weighed set and the redistribution, in one pass
-            c = np.empty((3, 3)) if cov is None else cov
-            ess = kern.paper_resample(s, w, plan.top(w), draws.u[b], plan.kernel_plan,
-                                      self._sums, out, c, self._work)
-            return (c, ess)
-        plan.apply_packed(s, w, draws, b, out)
-        return (s, w, total, complex(sx, sy), complex(sc, ss))
+        return plan, draws, b
 
     # ------------------------------------------------------------------ estimate
     def _spread(self) -> tuple[FloatArray, float]:
@@ -426,6 +448,7 @@ class PaperParticleFilter(ParticleSet):
             # the motions as (step, turn) pairs of the kernels
             steps_z, steps_rot = motion[:, 1, 0].tolist(), motion[:, 1, 1].tolist()
         map_z, factor, sums, work = self._map_z, self._factor, self._sums, self._work
+        correct = self._correct_weighed
         for i, o in enumerate(observations):
             scan = prepared.get(i) if o is not None else None
             # the motion still to apply to the estimate and the reference pose (a scan weighed
@@ -469,10 +492,10 @@ class PaperParticleFilter(ParticleSet):
                         # motion, transform, association, eq. 10 and eq. 11's sums in one
                         # pass; then the covariance and the redistribution in another
                         kern.paper_weigh(block.spare if pending else s, s, step[0], step[1],
-                                         scan.pack, map_z, factor, block.exponent,
+                                         scan, map_z, factor, block.exponent,
                                          block.weights, sums, work)
-                        block.ess[k] = self._correct(s, block.exponent, block.weights,
-                                                     block.spare, True, block.cov_rows[k])[1]
+                        block.ess[k] = correct(s, block.exponent, block.weights, block.spare,
+                                               block.cov_rows[k])
                     else:
                         if pending:
                             copyto(s, block.spare)
@@ -538,10 +561,12 @@ class PaperParticleFilter(ParticleSet):
             rec.close(block)
             block.restart()
 
-    def _prepare_scans(self, observations: Sequence[Observation | None]) -> dict[int, _Scan]:
+    def _prepare_scans(self, observations: Sequence[Observation | None]
+                       ) -> dict[int, _Scan] | dict[int, ComplexArray]:
         """For the scans whose reflectors all have an id in the map (and when association is
         by nearest neighbour): per observation index, the scan for :meth:`_nearest_sums` with
-        the reflector of each point's id as its candidate."""
+        the reflector of each point's id as its candidate (with the kernels as
+        :func:`_kernel_scan`)."""
         if self.params.use_ids or len(self.map) == 0:
             return {}
         idx = [i for i, o in enumerate(observations)
@@ -553,20 +578,31 @@ class PaperParticleFilter(ParticleSet):
         known = j >= 0
         j = np.where(known, j, 0)
         cand = self.map.z[j]
-        b = np.stack((np.ones(len(j)), np.concatenate([o.q for o in scans]), -cand))
+        q = np.concatenate([o.q for o in scans])
         half = self.map.half_sep[j]
-        pack = np.stack((b[1], cand, half), axis=1)
-        bounds = np.cumsum([0] + [len(o) for o in scans])
+        bounds = np.cumsum([0] + [len(o.q) for o in scans])
         starts = bounds[:-1]
         complete = np.logical_and.reduceat(known, starts).tolist()
-        least = np.minimum.reduceat(half, starts).tolist()
         bounds_list = bounds.tolist()
+        if self._kern is not None:
+            pack = _kernel_scan(q, cand, half)
+            return {i: pack[a:e] for i, a, e, ok in zip(idx, bounds_list[:-1], bounds_list[1:],
+                                                        complete, strict=True) if ok}
+        b = np.stack((np.ones(len(j)), q, -cand))
+        least = np.minimum.reduceat(half, starts).tolist()
         out: dict[int, _Scan] = {}
         for i, a, e, ok, h in zip(idx, bounds_list[:-1], bounds_list[1:], complete, least,
                                   strict=True):
             if ok:
-                out[i] = _Scan(b[:, a:e], half[a:e], cand[a:e], h, pack[a:e])
+                out[i] = _Scan(b[:, a:e], half[a:e], cand[a:e], h)
         return out
+
+
+def _kernel_scan(q: ComplexArray, cand: ComplexArray, half: FloatArray) -> ComplexArray:
+    """A scan laid out for :func:`lgvtool.localize.pf_kernels.paper_exponents`, (K, 3): per
+    point its position in the body frame (m), its candidate map reflector (m) and, as the
+    real part, half the candidate's distance to its nearest neighbour (m)."""
+    return np.stack((q, cand, half), axis=1)
 
 
 _max = np.maximum.reduce
@@ -578,15 +614,13 @@ class _Scan:
     the measured points ``q`` (body frame, m) and minus a candidate map reflector per point
     (m); ``b2`` its first two rows; ``q`` the points and ``cand`` the candidates (m);
     ``half``: half each candidate's distance to its nearest neighbour (m), and the least of
-    those; ``pack`` (K, 3) the same for the kernels: per point ``q``, the candidate and the
-    half spacing (as the real part)."""
+    those."""
 
-    __slots__ = ("b", "b2", "cand", "half", "half_min", "k", "pack", "q")
+    __slots__ = ("b", "b2", "cand", "half", "half_min", "k", "q")
 
     def __init__(self, b: ComplexArray, half: FloatArray, cand: ComplexArray,
-                 half_min: float | None = None, pack: ComplexArray | None = None) -> None:
+                 half_min: float | None = None) -> None:
         self.b = b
-        self.pack = np.stack((b[1], cand, half), axis=1) if pack is None else pack
         self.b2 = b[:2]
         self.q = b[1]
         self.cand = cand
