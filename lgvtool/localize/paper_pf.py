@@ -360,8 +360,10 @@ class PaperParticleFilter(ParticleSet):
         else:
             self._drawn = b + 1
             self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
-        ess: float = kern.paper_resample(s, w, plan.top(w), draws.u[b], plan.kernel_plan,
-                                         sums, out, cov, self._work)
+        kth = plan.kth
+        top = w.argpartition(kth)[kth:] if kth > 0 else plan.top(w)
+        ess: float = kern.paper_resample(s, w, top, draws.u[b], plan.kernel_plan, sums, out,
+                                         cov, self._work)
         return ess
 
     def _redistribution(self, m: int) -> tuple[RedistributionPlan, RedistributionDraws, int]:
@@ -451,11 +453,11 @@ class PaperParticleFilter(ParticleSet):
         correct = self._correct_weighed
         for i, o in enumerate(observations):
             scan = prepared.get(i) if o is not None else None
-            # the motion still to apply to the estimate and the reference pose (a scan weighed
-            # below sets both anew)
-            refs_behind: tuple[float, ...] | None = None
+            # the index of the motion still to apply to the estimate and the reference pose
+            # (-1: none; a scan weighed below sets both anew)
+            refs_behind = -1
             # the motion the kernel applies while weighing the particles
-            step: tuple[complex, complex] = (0j, 1 + 0j)
+            step_z, step_rot = 0j, 1 + 0j
             if i > 0 and moves is not None:
                 if motion is not None and block is not None:
                     if kern is None:
@@ -465,7 +467,7 @@ class PaperParticleFilter(ParticleSet):
                             matmul(block.current, motion[i - 1], out=block.spare)
                         pending = not pending
                     elif scan is not None and self._start_left == 0:
-                        step = (steps_z[i - 1], steps_rot[i - 1])
+                        step_z, step_rot = steps_z[i - 1], steps_rot[i - 1]
                     else:
                         if pending:
                             kern.paper_move(block.spare, block.current, steps_z[i - 1],
@@ -477,7 +479,7 @@ class PaperParticleFilter(ParticleSet):
                     if scan is None:
                         self._move_refs(*moves[i - 1][:3])
                     else:
-                        refs_behind = moves[i - 1][:3]
+                        refs_behind = i - 1
                 else:
                     self._leave(block, rec, pending)
                     pending = False
@@ -491,7 +493,7 @@ class PaperParticleFilter(ParticleSet):
                     if kern is not None:
                         # motion, transform, association, eq. 10 and eq. 11's sums in one
                         # pass; then the covariance and the redistribution in another
-                        kern.paper_weigh(block.spare if pending else s, s, step[0], step[1],
+                        kern.paper_weigh(block.spare if pending else s, s, step_z, step_rot,
                                          scan, map_z, factor, block.exponent,
                                          block.weights, sums, work)
                         block.ess[k] = correct(s, block.exponent, block.weights, block.spare,
@@ -517,8 +519,8 @@ class PaperParticleFilter(ParticleSet):
                         rec.close(block)
                         block.restart()
                 else:
-                    if refs_behind is not None:
-                        self._move_refs(*refs_behind)
+                    if refs_behind >= 0:
+                        self._move_refs(*moves[refs_behind][:3])  # type: ignore[index]
                     self._leave(block, rec, pending)
                     pending = False
                     before = self._cov
@@ -529,10 +531,10 @@ class PaperParticleFilter(ParticleSet):
                     m = len(self.z)
             if self._mean is not None and block is not None:
                 t = ts[i]
-                now = block.spare if pending else block.current
                 rows.append((t, *self._mean, m))
                 which.append(rec.count - 1)
                 if cloud_size > 0 and t >= next_cloud:
+                    now = block.spare if pending else block.current
                     c = now[cloud_sample(len(now), cloud_size)]
                     clouds.append((t, c[:, 0].real.copy(), c[:, 0].imag.copy(),
                                    np.angle(c[:, 1])))

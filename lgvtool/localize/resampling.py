@@ -159,6 +159,8 @@ class RedistributionPlan:
         self.far_z = np.full(m - n_local, centre)
         self.far_th = np.zeros(m - n_local)
         self._all = np.arange(m)
+        #: where :meth:`top` partitions the weights (0: every particle is a parent)
+        self.kth = m - self.n_top
         #: the same for :func:`lgvtool.localize.pf_kernels.paper_resample`: the widths and
         #: lows of a local particle (x, y m, heading rad) and of a uniform one, the centre
         #: (x, y m), the number of parents and of local particles
@@ -207,7 +209,5 @@ class RedistributionPlan:
     def top(self, weights: FloatArray) -> NDArray[np.intp]:
         """Indices of the ``n_top`` heaviest particles, in the order of numpy's
         ``argpartition`` (the parents' order, on which the redistribution depends)."""
-        m, n_top = self.m, self.n_top
-        if n_top < m:
-            return weights.argpartition(m - n_top)[m - n_top:]
-        return self._all
+        kth = self.kth
+        return weights.argpartition(kth)[kth:] if kth > 0 else self._all
