@@ -264,25 +264,12 @@ def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray, sums: Fl
 def _weights_below(s: ComplexArray, exponent: FloatArray, top: float, w: FloatArray,
                    sums: FloatArray) -> float:
     """:func:`paper_weights` given ``top``, the largest exponent."""
-    sx = sy = sc = ss = total = 0.0
     for i in range(s.shape[0]):
         e = exponent[i] - top
         exponent[i] = e
-        wi = math.exp(e)
-        w[i] = wi
-        z = s[i, 0]
-        r = s[i, 1]
-        sx += wi * z.real
-        sy += wi * z.imag
-        sc += wi * r.real
-        ss += wi * r.imag
-        total += wi
-    sums[0] = sx
-    sums[1] = sy
-    sums[2] = sc
-    sums[3] = ss
-    sums[4] = total
-    return total
+        w[i] = math.exp(e)
+    paper_sums(s, w, sums)
+    return sums[4]
 
 
 @_jit
