@@ -269,7 +269,8 @@ def _weights_below(s: ComplexArray, exponent: FloatArray, top: float, w: FloatAr
         exponent[i] = e
         w[i] = math.exp(e)
     paper_sums(s, w, sums)
-    return sums[4]
+    total: float = sums[4]
+    return total
 
 
 @_jit
