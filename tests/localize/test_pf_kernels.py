@@ -165,6 +165,41 @@ def test_paper_redistribution_kernel_matches_numpy() -> None:
             assert abs(ess - e_ref2[0]) <= 1e-12 * e_ref2[0]
 
 
+def test_paper_weigh_is_its_parts() -> None:
+    """The fused weighing (motion, association, exponents, weights and sums in one call)
+    equals the motion, the exponents and the weights called one after the other, bit for
+    bit, with points both near and far from their candidates (the whole-map search)."""
+    from lgvtool.localize import pf_kernels as kern
+    from lgvtool.localize.paper_pf import _kernel_scan
+
+    rng = np.random.default_rng(8)
+    map_z = rng.uniform(0, 20, 12) + 1j * rng.uniform(0, 10, 12)
+    sep = np.abs(map_z[:, None] - map_z[None, :])
+    np.fill_diagonal(sep, np.inf)
+    half = 0.5 * sep.min(axis=1)
+    for m in (1, 300, 700):
+        prev = np.empty((m, 2), dtype=np.complex128)
+        prev[:, 0] = 10 + 5j + rng.normal(0, 0.3, m) + 1j * rng.normal(0, 0.3, m)
+        prev[:, 1] = np.exp(1j * rng.normal(0.4, 0.05, m))
+        j = rng.integers(0, 12, 9)
+        pose, turn = 10 + 5j, np.exp(0.4j)
+        q = (map_z[j] - pose) / turn + rng.normal(0, 0.05, 9)
+        scan = _kernel_scan(q, map_z[j], half[j])
+        step_z, step_rot = 0.02 + 0.001j, np.exp(0.003j)
+        cur, e, w, sums = (np.empty_like(prev), np.empty(m), np.empty(m), np.empty(5))
+        total = kern.paper_weigh(prev, cur, step_z, step_rot, scan, map_z, -0.5, e, w, sums,
+                                 kern.paper_scratch())
+        moved = np.empty_like(prev)
+        kern.paper_move(prev, moved, step_z, step_rot)
+        e2, w2, sums2 = np.empty(m), np.empty(m), np.empty(5)
+        kern.paper_exponents(moved, moved, 0j, 1 + 0j, scan, map_z, -0.5, e2,
+                             kern.paper_scratch())
+        assert kern.paper_weights(moved, e2, w2, sums2) == total == sums[4]
+        assert np.array_equal(cur, moved)
+        assert np.array_equal(e, e2) and np.array_equal(w, w2) and np.array_equal(sums, sums2)
+        assert e.max() == 0.0
+
+
 def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(KERNELS_ENV, "numpy")
     assert fused_kernels() is None
