@@ -65,7 +65,12 @@ def max_workers() -> int:
 
 
 def _number_text(value: float) -> str:
-    return f"{value:g}" if isinstance(value, float) else str(value)
+    """``value`` as a message shows it: short (``%g``) unless that rounds it to another
+    number (a bound of 0.999999999 is not "1")."""
+    if not isinstance(value, float):
+        return str(value)
+    short = f"{value:g}"
+    return short if float(short) == value else repr(value)
 
 
 def parse_scalar(text: str, kind: type) -> Any:

@@ -39,6 +39,9 @@ def test_bounds_open_and_closed() -> None:
         coerce("d", 5.5, float, maximum=5.0)
     with pytest.raises(ConfigError, match="one of a, b"):
         coerce("c", "z", str, choices=("a", "b"))
+    # a bound that %g would round is shown in full: "at most 1, got 1" would contradict itself
+    with pytest.raises(ConfigError, match=r"at most 0\.999999999, got 1$"):
+        coerce("p", 1.0, float, maximum=0.999999999)
 
 
 def test_infinity_and_nan_only_where_they_mean_something() -> None:

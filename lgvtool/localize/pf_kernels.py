@@ -46,6 +46,13 @@ def _jit(f: _F) -> _F:
     return cast(_F, numba.njit(cache=True, nogil=True, error_model="numpy")(f))
 
 
+def _jit_inline(f: _F) -> _F:
+    """:func:`_jit`, inlined into its callers (so that their loops can run in SIMD
+    registers)."""
+    return cast(_F, numba.njit(cache=True, nogil=True, error_model="numpy",
+                               inline="always")(f))
+
+
 # ---------------------------------------------------------------------------- shared pieces
 @_jit
 def _nearest_distance(px: float, py: float, map_z: ComplexArray) -> float:
@@ -81,18 +88,37 @@ def _nearest_index(p: complex, map_z: ComplexArray) -> int:
 _SMALL_ANGLE = 0.05
 
 
+@_jit_inline
+def _cos_series(x: float) -> float:
+    """The Taylor series of ``cos x`` to the 10th order (x rad, meant for ``|x| < 0.05``)."""
+    x2 = x * x
+    return 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (
+        1.0 / 40320.0 - x2 * (1.0 / 3628800.0)))))
+
+
+@_jit_inline
+def _sin_series(x: float) -> float:
+    """The Taylor series of ``sin x`` to the 9th order (x rad, meant for ``|x| < 0.05``)."""
+    x2 = x * x
+    return x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (
+        1.0 / 362880.0)))))
+
+
+@_jit_inline
+def _atan_series(u: float) -> float:
+    """The Taylor series of ``atan u`` to the 13th order (meant for ``|u| < 0.05``), rad."""
+    u2 = u * u
+    return u * (1.0 - u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0 - u2 * (
+        1.0 / 9.0 - u2 * (1.0 / 11.0 - u2 * (1.0 / 13.0)))))))
+
+
 @_jit
 def _rotor(x: float) -> complex:
     """``exp(i x)`` (x rad). For ``|x| < 0.05`` (a redistribution's heading offsets) from the
     Taylor series of cos and sin to the 10th order (truncation below 1e-20, so within an ulp
     of the library's functions, and 5x faster), else from ``math.cos`` and ``math.sin``."""
     if abs(x) < _SMALL_ANGLE:
-        x2 = x * x
-        c = 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (
-            1.0 / 40320.0 - x2 * (1.0 / 3628800.0)))))
-        sn = x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (
-            1.0 / 362880.0)))))
-        return complex(c, sn)
+        return complex(_cos_series(x), _sin_series(x))
     return complex(math.cos(x), math.sin(x))
 
 
@@ -102,10 +128,7 @@ def _heading(y: float, x: float) -> float:
     mean) from the Taylor series of ``atan(y / x)`` to the 13th order (truncation below
     1e-19, within an ulp or two of the library's function, and several times faster)."""
     if x > 0.0 and abs(y) < _SMALL_ANGLE * x:
-        u = y / x
-        u2 = u * u
-        return u * (1.0 - u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0 - u2 * (
-            1.0 / 9.0 - u2 * (1.0 / 11.0 - u2 * (1.0 / 13.0)))))))
+        return _atan_series(y / x)
     return math.atan2(y, x)
 
 
@@ -134,21 +157,36 @@ def _chunk_arrays() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, Flo
             np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK))
 
 
+#: rows of the scratch of the pf-paper kernels (:func:`paper_scratch`)
+_SCRATCH_ROWS = 13
+
+
+def paper_scratch() -> FloatArray:
+    """Scratch of :func:`paper_exponents`, :func:`paper_weigh` and :func:`paper_resample`: a
+    chunk of particles laid out as separate arrays (allocated once per filter rather than
+    on every call). The rows are padded so that no two start a multiple of 4 KiB apart
+    (loads from one row would wait for stores to another, falsely aliased)."""
+    return np.empty((_SCRATCH_ROWS, _CHUNK + 8))
+
+
 @_jit
 def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
-                    q: ComplexArray, cand: ComplexArray, half: FloatArray,
-                    map_z: ComplexArray, factor: float, exponent: FloatArray) -> None:
-    """Move the packed particles ``prev`` (M, 3: z, rot, 1) by the body-frame step ``step_z``
+                    scan: ComplexArray, map_z: ComplexArray, factor: float,
+                    exponent: FloatArray, work: FloatArray) -> float:
+    """Move the packed particles ``prev`` (M, 2: z, rot) by the body-frame step ``step_z``
     (m) and the turn ``step_rot`` (a rotor) into ``cur`` (may be ``prev``; ``step_z = 0``,
-    ``step_rot = 1``: no motion), put the measured points ``q`` (K, body frame, m) into the
-    world at every particle, take each point's distance to its nearest map reflector (the
-    candidate ``cand[k]`` when nearer than ``half[k]``, half its distance to its own nearest
-    neighbour, else a search of ``map_z``) and write the exponent of eq. 10,
+    ``step_rot = 1``: no motion), put the measured points into the world at every particle,
+    take each point's distance to its nearest map reflector and write the exponent of eq. 10,
     ``factor * D_m^2`` with ``D_m`` the summed distances (summed in the order of the points).
+    ``scan`` (K, 3): per point its position in the body frame ``q`` (m), its candidate map
+    reflector (m) and, as the real part, half the candidate's distance to its own nearest
+    neighbour (m): the candidate is the nearest reflector when nearer than that, else
+    ``map_z`` is searched. Returns the largest exponent. ``work``: :func:`paper_scratch`.
     """
     m = prev.shape[0]
-    k = q.shape[0]
-    zr, zi, rr, ri, tot, _, far = _chunk_arrays()
+    top = -math.inf
+    k = scan.shape[0]
+    zr, zi, rr, ri, tot, far = work[0], work[1], work[2], work[3], work[4], work[5]
     for a in range(0, m, _CHUNK):
         n = min(_CHUNK, m - a)
         for i in range(n):
@@ -156,7 +194,6 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
             rot = prev[a + i, 1] * step_rot
             cur[a + i, 0] = z
             cur[a + i, 1] = rot
-            cur[a + i, 2] = 1.0
             zr[i] = z.real
             zi[i] = z.imag
             rr[i] = rot.real
@@ -164,11 +201,11 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
             tot[i] = 0.0
             far[i] = -math.inf
         for j in range(k):
-            qr = q[j].real
-            qi = q[j].imag
-            cr = cand[j].real
-            ci = cand[j].imag
-            h = half[j]
+            qr = scan[j, 0].real
+            qi = scan[j, 0].imag
+            cr = scan[j, 1].real
+            ci = scan[j, 1].imag
+            h = scan[j, 2].real
             for i in range(n):
                 dx = zr[i] + (rr[i] * qr - ri[i] * qi) - cr
                 dy = zi[i] + (rr[i] * qi + ri[i] * qr) - ci
@@ -181,47 +218,81 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
                 # sum again, such points searched in the whole map
                 t = 0.0
                 for j in range(k):
-                    px = zr[i] + (rr[i] * q[j].real - ri[i] * q[j].imag)
-                    py = zi[i] + (rr[i] * q[j].imag + ri[i] * q[j].real)
-                    dx = px - cand[j].real
-                    dy = py - cand[j].imag
+                    qr = scan[j, 0].real
+                    qi = scan[j, 0].imag
+                    px = zr[i] + (rr[i] * qr - ri[i] * qi)
+                    py = zi[i] + (rr[i] * qi + ri[i] * qr)
+                    dx = px - scan[j, 1].real
+                    dy = py - scan[j, 1].imag
                     d = math.sqrt(dx * dx + dy * dy)
-                    if d >= half[j]:
+                    if d >= scan[j, 2].real:
                         d = _nearest_distance(px, py, map_z)
                     t += d
                 tot[i] = t
-            exponent[a + i] = tot[i] * tot[i] * factor
+            e = tot[i] * tot[i] * factor
+            exponent[a + i] = e
+            if e > top:
+                top = e
+    return top
 
 
 @_jit
 def paper_move(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex
                ) -> None:
-    """Eq. 9 on packed particles: ``cur`` (may be ``prev``) is ``prev`` moved by the
-    body-frame step ``step_z`` (m) and turned by the rotor ``step_rot``."""
+    """Eq. 9 on packed particles (M, 2: z, rot): ``cur`` (may be ``prev``) is ``prev`` moved
+    by the body-frame step ``step_z`` (m) and turned by the rotor ``step_rot``."""
     for i in range(prev.shape[0]):
         z = prev[i, 0] + prev[i, 1] * step_z
         rot = prev[i, 1] * step_rot
         cur[i, 0] = z
         cur[i, 1] = rot
-        cur[i, 2] = 1.0
 
 
 @_jit
-def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray
-                  ) -> tuple[float, float, float, float, float]:
+def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray, sums: FloatArray
+                  ) -> float:
     """Eq. 10 relative to the best particle: ``exponent -= max(exponent)``,
-    ``w = exp(exponent)`` (unnormalised); returns the weighted sums of x, y (m), cos th,
-    sin th and the sum of the weights (eq. 11 before the division)."""
+    ``w = exp(exponent)`` (unnormalised); writes the weighted sums of x, y (m), cos th,
+    sin th and the sum of the weights (eq. 11 before the division) into ``sums`` (5,) and
+    returns the last. ``s``: packed particles (M, 2: z, rot)."""
     top = -math.inf
     for i in range(s.shape[0]):
         if exponent[i] > top:
             top = exponent[i]
-    sx = sy = sc = ss = total = 0.0
+    return _weights_below(s, exponent, top, w, sums)
+
+
+@_jit
+def _weights_below(s: ComplexArray, exponent: FloatArray, top: float, w: FloatArray,
+                   sums: FloatArray) -> float:
+    """:func:`paper_weights` given ``top``, the largest exponent."""
     for i in range(s.shape[0]):
         e = exponent[i] - top
         exponent[i] = e
-        wi = math.exp(e)
-        w[i] = wi
+        w[i] = math.exp(e)
+    paper_sums(s, w, sums)
+    total: float = sums[4]
+    return total
+
+
+@_jit
+def paper_weigh(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
+                scan: ComplexArray, map_z: ComplexArray, factor: float, exponent: FloatArray,
+                w: FloatArray, sums: FloatArray, work: FloatArray) -> float:
+    """:func:`paper_exponents` then :func:`paper_weights` on the moved particles ``cur``, in
+    one call: motion, association, eq. 10 and eq. 11's sums (into ``sums``; returns the sum
+    of the weights)."""
+    top = paper_exponents(prev, cur, step_z, step_rot, scan, map_z, factor, exponent, work)
+    return _weights_below(cur, exponent, top, w, sums)
+
+
+@_jit
+def paper_sums(s: ComplexArray, w: FloatArray, sums: FloatArray) -> None:
+    """The weighted sums of x, y (m), cos th, sin th and the sum of the weights ``w`` of the
+    packed particles ``s`` (M, 2: z, rot), in order, into ``sums`` (5,)."""
+    sx = sy = sc = ss = total = 0.0
+    for i in range(s.shape[0]):
+        wi = w[i]
         z = s[i, 0]
         r = s[i, 1]
         sx += wi * z.real
@@ -229,45 +300,11 @@ def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray
         sc += wi * r.real
         ss += wi * r.imag
         total += wi
-    return sx, sy, sc, ss, total
-
-
-@_jit
-def paper_redistribute(s: ComplexArray, top: IntArray, u: FloatArray, n_top: int,
-                       n_local: int, width: FloatArray, low: FloatArray, far_z: complex,
-                       out: ComplexArray) -> None:
-    """The paper's redistribution of packed particles ``s`` into ``out`` from its uniform
-    numbers ``u`` (4, M): particle ``i < n_local`` descends from the parent
-    ``s[top[int(u[0, i] n_top)]]`` (``top``: the heaviest particles), moved by
-    ``u[1:3, i] width + low`` (m) and turned by ``u[3, i] width + low`` (rad); the others are
-    uniform, ``far_z`` plus the same offsets over the work area and every heading. The same
-    arithmetic, in the same order, as the numpy path's
-    :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
-    turn's rotor for small angles (:func:`_rotor`: within an ulp)."""
-    m = out.shape[0]
-    # the widths are the same for every local particle, and for every uniform one
-    wx, wy, wh, lx, ly, lh = width[0, 0], width[1, 0], width[2, 0], low[0, 0], low[1, 0], \
-        low[2, 0]
-    fx, fy, fh, gx, gy, gh = width[0, m - 1], width[1, m - 1], width[2, m - 1], \
-        low[0, m - 1], low[1, m - 1], low[2, m - 1]
-    for i in range(m):
-        if i == n_local:
-            wx, wy, wh, lx, ly, lh = fx, fy, fh, gx, gy, gh
-        ox = u[1, i] * wx + lx
-        oy = u[2, i] * wy + ly
-        oh = u[3, i] * wh + lh
-        turn = _rotor(oh)
-        if i < n_local:
-            src = top[int(u[0, i] * n_top)]
-            z = s[src, 0]
-            # z (1 + 0i) + shift: the numpy path's product by the scale, then the shift
-            out[i, 0] = complex(z.real * 1.0 - z.imag * 0.0, z.real * 0.0 + z.imag * 1.0) \
-                + complex(ox, oy)
-            out[i, 1] = s[src, 1] * turn + 0j
-        else:
-            out[i, 0] = complex(ox + far_z.real, oy + far_z.imag)
-            out[i, 1] = turn
-        out[i, 2] = 1.0
+    sums[0] = sx
+    sums[1] = sy
+    sums[2] = sc
+    sums[3] = ss
+    sums[4] = total
 
 
 @_jit
@@ -283,32 +320,131 @@ def _symmetric(cov: FloatArray, xx: float, xy: float, xh: float, yy: float, yh: 
 
 
 @_jit
-def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
-                 sum_rot: complex, cov: FloatArray) -> float:
-    """Covariance of ``(x, y, heading)`` (into ``cov``, 3 x 3; m^2, m rad, rad^2) and effective
-    sample size of a weighted packed set: ``w`` unnormalised with sum ``total``, ``sum_z`` and
-    ``sum_rot`` the weighted sums of z and rot (the heading deviations are taken from their
-    circular mean)."""
-    mean = sum_z / total
-    rc = sum_rot.conjugate()
+def paper_resample(s: ComplexArray, w: FloatArray, top: IntArray, u: FloatArray,
+                   plan: FloatArray, sums: FloatArray, out: ComplexArray, cov: FloatArray,
+                   work: FloatArray) -> float:
+    """The covariance and effective sample size of the weighted packed set ``s`` (M, 2: z,
+    rot; ``w`` unnormalised, ``sums`` its eq. 11 sums from :func:`paper_weights`), and the
+    paper's redistribution of ``s`` into ``out``, in one call.
+
+    Covariance of ``(x, y, heading)`` into ``cov`` (3 x 3; m^2, m rad, rad^2),
+    the heading deviations taken from the circular mean; returns the ESS.
+
+    Redistribution from its uniform numbers ``u`` (4, M): particle ``i < n_local`` descends
+    from the parent ``s[top[int(u[0, i] n_top)]]`` (``top``: the heaviest particles), moved by
+    ``u[1:3, i] width + low`` (m) and turned by ``u[3, i] width + low`` (rad); the others are
+    uniform, the work area's centre plus the same offsets over the work area and every
+    heading. ``plan``: :attr:`lgvtool.localize.resampling.RedistributionPlan.kernel_plan`. The
+    same arithmetic, in the same order, as the numpy path's
+    :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
+    turn's rotor for small angles (:func:`_rotor`: within an ulp). ``work``:
+    :func:`paper_scratch`."""
+    ess = _spread(s, w, sums, cov, work)
+    _redistribute(s, top, u, plan, out, work)
+    return ess
+
+
+@_jit
+def _spread(s: ComplexArray, w: FloatArray, sums: FloatArray, cov: FloatArray,
+            work: FloatArray) -> float:
+    """The covariance (into ``cov``) and ESS of :func:`paper_resample`. Particles in chunks
+    laid out as separate arrays (the arithmetic in SIMD registers); the sums in order."""
+    m = s.shape[0]
+    total = sums[4]
+    mean = complex(sums[0], sums[1]) / total
+    mr, mi = mean.real, mean.imag
+    rc = complex(sums[2], sums[3]).conjugate()
+    cr, ci = rc.real, rc.imag
     a00 = a01 = a02 = a11 = a12 = a22 = 0.0
     sw2 = 0.0
-    for i in range(s.shape[0]):
-        wn = w[i] / total
-        d = s[i, 0] - mean
-        r = s[i, 1] * rc
-        h = _heading(r.imag, r.real)
-        dx = d.real
-        dy = d.imag
-        a00 += dx * wn * dx
-        a01 += dx * wn * dy
-        a02 += dx * wn * h
-        a11 += dy * wn * dy
-        a12 += dy * wn * h
-        a22 += h * wn * h
-        sw2 += wn * wn
+    zr, zi, rr, ri, hh = work[0], work[1], work[2], work[3], work[4]
+    p00, p01, p02, p11, p12, p22, pww = work[5], work[6], work[7], work[8], work[9], \
+        work[10], work[11]
+    # 1 for the particles whose heading deviation the series does not give (a flag row: with
+    # the test in the loop below, the series loop no longer runs in SIMD registers)
+    other = work[12]
+    for a in range(0, m, _CHUNK):
+        n = min(_CHUNK, m - a)
+        for i in range(n):
+            z = s[a + i, 0]
+            r = s[a + i, 1]
+            zr[i] = z.real
+            zi[i] = z.imag
+            rr[i] = r.real
+            ri[i] = r.imag
+        for i in range(n):
+            # the heading deviation from the rotor relative to the circular mean (the complex
+            # product), by the series (:func:`_heading`); its other case below
+            yr = rr[i] * cr - ri[i] * ci
+            yi = rr[i] * ci + ri[i] * cr
+            hh[i] = _atan_series(yi / yr)
+            other[i] = 0.0 if yr > 0.0 and abs(yi) < _SMALL_ANGLE * yr else 1.0
+        for i in range(n):
+            if other[i] != 0.0:
+                yr = rr[i] * cr - ri[i] * ci
+                yi = rr[i] * ci + ri[i] * cr
+                hh[i] = math.atan2(yi, yr)
+        for i in range(n):
+            wn = w[a + i] / total
+            dx = zr[i] - mr
+            dy = zi[i] - mi
+            h = hh[i]
+            p00[i] = dx * wn * dx
+            p01[i] = dx * wn * dy
+            p02[i] = dx * wn * h
+            p11[i] = dy * wn * dy
+            p12[i] = dy * wn * h
+            p22[i] = h * wn * h
+            pww[i] = wn * wn
+        for i in range(n):
+            a00 += p00[i]
+            a01 += p01[i]
+            a02 += p02[i]
+            a11 += p11[i]
+            a12 += p12[i]
+            a22 += p22[i]
+            sw2 += pww[i]
     _symmetric(cov, a00, a01, a02, a11, a12, a22)
     return 1.0 / sw2
+
+
+@_jit
+def _redistribute(s: ComplexArray, top: IntArray, u: FloatArray, plan: FloatArray,
+                  out: ComplexArray, work: FloatArray) -> None:
+    """The redistribution of :func:`paper_resample`: the local particles' offsets and turns
+    in chunks (SIMD), then their parents."""
+    m = out.shape[0]
+    wx, wy, wh, lx, ly, lh = plan[0], plan[1], plan[2], plan[3], plan[4], plan[5]
+    fx, fy, fh, gx, gy, gh = plan[6], plan[7], plan[8], plan[9], plan[10], plan[11]
+    cx, cy = plan[12], plan[13]
+    n_top = int(plan[14])
+    n_local = int(plan[15])
+    ox, oy, oh, tc, ts = work[0], work[1], work[2], work[3], work[4]
+    for a in range(0, n_local, _CHUNK):
+        n = min(_CHUNK, n_local - a)
+        for i in range(n):
+            ox[i] = u[1, a + i] * wx + lx
+            oy[i] = u[2, a + i] * wy + ly
+            x = u[3, a + i] * wh + lh
+            oh[i] = x
+            # the turn's rotor by the series (:func:`_rotor`), its other case below
+            tc[i] = _cos_series(x)
+            ts[i] = _sin_series(x)
+        for i in range(n):
+            src = top[int(u[0, a + i] * n_top)]
+            z = s[src, 0]
+            # z (1 + 0i) + shift: the numpy path's product by the scale, then the shift
+            out[a + i, 0] = complex(z.real * 1.0 - z.imag * 0.0, z.real * 0.0 + z.imag * 1.0) \
+                + complex(ox[i], oy[i])
+            x = oh[i]
+            turn = complex(tc[i], ts[i]) if abs(x) < _SMALL_ANGLE else \
+                complex(math.cos(x), math.sin(x))
+            out[a + i, 1] = s[src, 1] * turn + 0j
+    for i in range(n_local, m):
+        px = u[1, i] * fx + gx
+        py = u[2, i] * fy + gy
+        out[i, 0] = complex(px + cx, py + cy)
+        out[i, 1] = _rotor(u[3, i] * fh + gh)
 
 
 # ---------------------------------------------------------------------------- pf

@@ -157,31 +157,85 @@ def test_pf_reuses_only_arrays_nobody_holds(monkeypatch: pytest.MonkeyPatch) -> 
 
 
 def test_paper_redistribution_kernel_matches_numpy() -> None:
-    """One redistribution from the same uniform numbers: the positions bit for bit, the
+    """One weighing and redistribution from the same uniform numbers: eq. 11's sums and the
+    covariance and ESS within rounding of the numpy path, the positions bit for bit, the
     rotors within an ulp (the kernel's small-angle series)."""
     from lgvtool.config import Area
     from lgvtool.localize import pf_kernels as kern
+    from lgvtool.localize.paper_pf import _covariances_and_ess
     from lgvtool.localize.resampling import RedistributionPlan
 
     rng = np.random.default_rng(5)
-    m = 400
-    s = np.empty((m, 3), dtype=np.complex128)
-    s[:, 0] = rng.uniform(0, 20, m) + 1j * rng.uniform(0, 10, m)
-    s[:, 1] = np.exp(1j * rng.uniform(-math.pi, math.pi, m))
-    s[:, 2] = 1.0
-    w = rng.random(m)
-    plan = RedistributionPlan(m, Area(0.0, 20.0, 0.0, 10.0), top_fraction=0.25,
-                              local_fraction=0.95, spread_m=0.25, heading_spread_rad=0.01)
-    ref_draws = plan.draw(np.random.default_rng(9), 3, packed=True)
-    raw_draws = plan.draw(np.random.default_rng(9), 3, packed=True, raw=True)
-    for b in range(3):
-        ref = np.empty_like(s)
-        fast = np.empty_like(s)
-        plan.apply_packed(s, w, ref_draws, b, ref)
-        plan.apply_packed(s, w, raw_draws, b, fast, kern)
-        assert np.array_equal(fast[:, 0], ref[:, 0])
-        assert np.array_equal(fast[:, 2], ref[:, 2])
-        assert np.abs(fast[:, 1] - ref[:, 1]).max() <= 2.5e-16
+    for m, local in ((400, 0.95), (7, 1.0), (9, 0.0)):
+        s = np.empty((m, 3), dtype=np.complex128)
+        s[:, 0] = rng.uniform(0, 20, m) + 1j * rng.uniform(0, 10, m)
+        s[:, 1] = np.exp(1j * rng.uniform(-math.pi, math.pi, m))
+        s[:, 2] = 1.0
+        s2 = np.ascontiguousarray(s[:, :2])  # the kernels' layout, without the ones
+        exponent = -rng.random(m) * 30.0
+        plan = RedistributionPlan(m, Area(0.0, 20.0, 0.0, 10.0), top_fraction=0.25,
+                                  local_fraction=local, spread_m=0.25, heading_spread_rad=0.01)
+        ref_draws = plan.draw(np.random.default_rng(9), 3, packed=True)
+        raw_draws = plan.draw(np.random.default_rng(9), 3, packed=True, raw=True)
+        for b in range(3):
+            e_ref = exponent - exponent.max()
+            w_ref = np.exp(e_ref)
+            sx, sy, sc, ss, total, _ = (w_ref @ s.view(np.float64)).tolist()
+            e_fast, w, sums = exponent.copy(), np.empty(m), np.empty(5)
+            assert kern.paper_weights(s2, e_fast, w, sums) == sums[4]
+            assert np.array_equal(e_fast, e_ref)
+            np.testing.assert_allclose(w, w_ref, rtol=1e-15, atol=0)
+            np.testing.assert_allclose(sums, [sx, sy, sc, ss, total], rtol=1e-12)
+            w = w_ref.copy()  # the same weights on both paths from here
+            kern.paper_sums(s2, w, sums)
+            ref = np.empty_like(s)
+            fast = np.empty_like(s2)
+            plan.apply_packed(s, w, ref_draws, b, ref)
+            cov = np.empty((3, 3))
+            ess = kern.paper_resample(s2, w, plan.top(w), raw_draws.u[b], plan.kernel_plan,
+                                      sums, fast, cov, kern.paper_scratch())
+            assert np.array_equal(fast[:, 0], ref[:, 0])
+            assert np.abs(fast[:, 1] - ref[:, 1]).max() <= 2.5e-16
+            c_ref, e_ref2 = _covariances_and_ess(s[None], w[None], sums[4:5],
+                                                 np.array([complex(*sums[:2])]),
+                                                 np.array([complex(*sums[2:4])]))
+            np.testing.assert_allclose(cov, c_ref[0], rtol=1e-12, atol=1e-15)
+            assert abs(ess - e_ref2[0]) <= 1e-12 * e_ref2[0]
+
+
+def test_paper_weigh_is_its_parts() -> None:
+    """The fused weighing (motion, association, exponents, weights and sums in one call)
+    equals the motion, the exponents and the weights called one after the other, bit for
+    bit, with points both near and far from their candidates (the whole-map search)."""
+    from lgvtool.localize import pf_kernels as kern
+    from lgvtool.localize.paper_pf import _kernel_scan
+
+    rng = np.random.default_rng(8)
+    map_z = rng.uniform(0, 20, 12) + 1j * rng.uniform(0, 10, 12)
+    sep = np.abs(map_z[:, None] - map_z[None, :])
+    np.fill_diagonal(sep, np.inf)
+    half = 0.5 * sep.min(axis=1)
+    for m in (1, 300, 700):
+        prev = np.empty((m, 2), dtype=np.complex128)
+        prev[:, 0] = 10 + 5j + rng.normal(0, 0.3, m) + 1j * rng.normal(0, 0.3, m)
+        prev[:, 1] = np.exp(1j * rng.normal(0.4, 0.05, m))
+        j = rng.integers(0, 12, 9)
+        pose, turn = 10 + 5j, np.exp(0.4j)
+        q = (map_z[j] - pose) / turn + rng.normal(0, 0.05, 9)
+        scan = _kernel_scan(q, map_z[j], half[j])
+        step_z, step_rot = 0.02 + 0.001j, np.exp(0.003j)
+        cur, e, w, sums = (np.empty_like(prev), np.empty(m), np.empty(m), np.empty(5))
+        total = kern.paper_weigh(prev, cur, step_z, step_rot, scan, map_z, -0.5, e, w, sums,
+                                 kern.paper_scratch())
+        moved = np.empty_like(prev)
+        kern.paper_move(prev, moved, step_z, step_rot)
+        e2, w2, sums2 = np.empty(m), np.empty(m), np.empty(5)
+        kern.paper_exponents(moved, moved, 0j, 1 + 0j, scan, map_z, -0.5, e2,
+                             kern.paper_scratch())
+        assert kern.paper_weights(moved, e2, w2, sums2) == total == sums[4]
+        assert np.array_equal(cur, moved)
+        assert np.array_equal(e, e2) and np.array_equal(w, w2) and np.array_equal(sums, sums2)
+        assert e.max() == 0.0
 
 
 def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
