@@ -700,12 +700,12 @@ def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatA
     for i in range(z.shape[0]):
         mz += w[i] * z[i]
         mr += w[i] * rot[i]
-    return _spread(z, rot, w, mz, mr, cov)
+    return _pose_spread(z, rot, w, mz, mr, cov)
 
 
 @_jit
-def _spread(z: ComplexArray, rot: ComplexArray, w: FloatArray, mz: complex, mr: complex,
-            cov: FloatArray) -> tuple[float, float, float]:
+def _pose_spread(z: ComplexArray, rot: ComplexArray, w: FloatArray, mz: complex, mr: complex,
+                 cov: FloatArray) -> tuple[float, float, float]:
     """:func:`weighted_pose` from the weighted sums ``mz`` of the positions (m) and ``mr`` of
     the rotors."""
     mrc = mr.conjugate()
@@ -779,7 +779,7 @@ def pf_weigh(logw: FloatArray, ll: FloatArray, z: ComplexArray, rot: ComplexArra
         logw_out[i] = logw_out[i] - log_avg
         mz += wi * z[i]
         mr += wi * rot[i]
-    x, y, t = _spread(z, rot, w, mz, mr, cov)
+    x, y, t = _pose_spread(z, rot, w, mz, mr, cov)
     return log_avg, 1.0 / sw2, x, y, t
 
 
