@@ -42,9 +42,7 @@ independent measurements (the likelihood is the product of the per-reflector ter
 from __future__ import annotations
 
 import math
-import sys
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -76,16 +74,6 @@ from lgvtool.quantiles import chi2_quantile
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 _LOG_2PI = math.log(2.0 * math.pi)
-
-
-def _sole_references() -> int:
-    """What ``sys.getrefcount`` says of an array only a local variable holds (the count
-    includes the call's own reference, or not, by interpreter version)."""
-    a = np.empty(0)
-    return sys.getrefcount(a)
-
-
-_SOLE_REFERENCES = _sole_references()
 
 
 @dataclass(frozen=True)
@@ -193,9 +181,6 @@ class ParticleFilter(ParticleSet):
     #: from this many particles on, the prediction's normal numbers are drawn inside the
     #: kernel (the same numbers; cheaper per number, but a fixed cost per call)
     DRAW_IN_KERNEL = 2048
-    #: from this many particles on, the kernels fill released arrays again (:meth:`_buffer`;
-    #: a small array is cheaper made anew)
-    POOL_FROM = 4096
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)
@@ -214,8 +199,6 @@ class ParticleFilter(ParticleSet):
         #: ``proposal = ekf``: each particle's motion noise since its last draw, (N, 3, 3) in
         #: x m, y m, heading rad (None: zero, the particles are draws)
         self._pcov: FloatArray | None = None
-        #: arrays the kernels may fill again (:meth:`_buffer`)
-        self._pool: dict[str, NDArray[Any]] = {}
         #: KLD-sampling's bound for 1, 2, ... occupied bins (the kernels' resampling)
         self._need: FloatArray | None = None
         if self.initial_pose is not None:
@@ -260,7 +243,7 @@ class ParticleFilter(ParticleSet):
             # the per-point inputs (association candidates, noise, constants) made in the kernel
             ref = self._reference_pose()
             eps = p.outlier_prob
-            ll_k = self._buffer("ll", len(self.z))
+            ll_k = np.empty(len(self.z))
             self._kern.pf_scan(
                 self.z, self.rot, np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u),
                 np.ascontiguousarray(obs.ranges), obs.map_index(self.map),
@@ -311,14 +294,12 @@ class ParticleFilter(ParticleSet):
         pose: tuple[float, float, float, FloatArray] | None = None
         if p.log_weights and self._kern is not None:
             # the weights and the weighted pose in one call
-            w, logw = self._buffer("w", len(ll)), self._buffer("logw", len(ll))
+            w, logw = np.empty(len(ll)), np.empty(len(ll))
             cov = np.empty((3, 3))
             log_avg, ess, x, y, t = self._kern.pf_weigh(self.logw, ll, self.z, self.rot, w,
                                                         logw, cov)
             if not math.isfinite(log_avg):
                 return False
-            if len(ll) >= self.POOL_FROM:
-                self._pool.update(w=self.w, logw=self.logw, ll=ll)
             self.w, self.logw = w, logw
             pose = (x, y, t, cov)
         elif p.log_weights:
@@ -481,8 +462,8 @@ class ParticleFilter(ParticleSet):
             self._predict_scaled(motion)
         elif self._kern is not None and n > 0 and any(v != 0.0 for v in sigmas):
             # eq. 9 with the numpy path's draw, in one pass
-            z, th, rot = self._buffer("z", n, True), self._buffer("th", n), \
-                self._buffer("rot", n, True)
+            z, th, rot = np.empty(n, dtype=np.complex128), np.empty(n), \
+                np.empty(n, dtype=np.complex128)
             if n >= self.DRAW_IN_KERNEL:
                 self._kern.pf_predict_drawn(self.rng, self.z, self.th, self.rot, motion.dx,
                                             motion.dy, motion.dth, *sigmas, z, th, rot)
@@ -496,22 +477,8 @@ class ParticleFilter(ParticleSet):
             super().predict(motion)
         self._cached = None
 
-    def _buffer(self, key: str, n: int, complex_: bool = False) -> NDArray[Any]:
-        """An array of ``n`` floats (complex with ``complex_``) for a kernel to fill: the one
-        last released under ``key`` when nothing else holds it any more (its pages are
-        mapped: a fresh large array costs more to fault in than the kernel's work), else a
-        new one."""
-        if n >= self.POOL_FROM:
-            a = self._pool.pop(key, None)
-            if a is not None and len(a) == n and sys.getrefcount(a) == _SOLE_REFERENCES:
-                return a
-        return np.empty(n, dtype=np.complex128 if complex_ else np.float64)
-
     def _replace(self, z: ComplexArray, th: FloatArray, rot: ComplexArray) -> None:
-        """Make ``z``, ``th``, ``rot`` the particles; the old arrays are released for
-        :meth:`_buffer`."""
-        if len(self.z) >= self.POOL_FROM:
-            self._pool.update(z=self.z, th=self.th, rot=self.rot)
+        """Make ``z``, ``th``, ``rot`` (positions m, headings rad, rotors) the particles."""
         self.z, self.th, self.rot = z, th, rot
 
     def _prior_scales(self, n: int) -> tuple[FloatArray, FloatArray]:
@@ -644,8 +611,8 @@ class ParticleFilter(ParticleSet):
             # low-variance resampling and the copy in one pass (the numpy path's one draw);
             # the headings wrapped there unless recovery re-draws some below
             idx = np.empty(n_new, dtype=np.intp)
-            z, th = self._buffer("z", n_new, True), self._buffer("th", n_new)
-            rot = self._buffer("rot", n_new, True)
+            z, th = np.empty(n_new, dtype=np.complex128), np.empty(n_new)
+            rot = np.empty(n_new, dtype=np.complex128)
             assert self._kern is not None
             self._kern.low_variance_gather(self.w, self.rng.random(), n_new, self.z, self.th,
                                            self.rot, z, th, rot, idx, n_inject == 0)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from localize_synth import circle_log
 
-from lgvtool.localize.estimator import EstimateRows, Estimator, Motion
+from lgvtool.localize.estimator import EstimateRows, Estimator
 from lgvtool.localize.kernel_choice import KERNELS_ENV
 from lgvtool.localize.motion import MotionTrack
 from lgvtool.localize.particles import fused_kernels
@@ -129,31 +129,6 @@ def test_pf_draws_in_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
     fast, fast_state, _ = _run(monkeypatch, "numba", "pf", settings)
     assert fast_state == ref_state
     _close(fast, ref)
-
-
-def test_pf_reuses_only_arrays_nobody_holds(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The kernels fill released arrays again, but never one a caller still holds."""
-    from lgvtool.localize.particle_filter import ParticleFilter
-
-    monkeypatch.setenv(KERNELS_ENV, "numba")
-    monkeypatch.setattr(ParticleFilter, "POOL_FROM", 1)
-    data, cfg, cls, params, (_times, obs), steps = _inputs("pf", {"kld": False,
-                                                                "particles": 200})
-    est = cls(params, vehicle=cfg.vehicle, reflectors=data.reflectors, area=cfg.area,
-              rng=estimator_rng(0, "pf"))
-    moves = list(zip(steps.dx, steps.dy, steps.dth, steps.dist, steps.rot, strict=True))
-    held: list[np.ndarray] = []
-    copies: list[np.ndarray] = []
-    for i, o in enumerate(obs[:80]):
-        if i > 0:
-            est.predict(Motion(*moves[i - 1]))
-        est.update(o)
-        if i in (20, 21, 40):
-            held += [est.z, est.th, est.w]  # type: ignore[attr-defined]
-            copies += [a.copy() for a in held[-3:]]
-    assert est.resamplings > 0  # type: ignore[attr-defined]
-    for a, c in zip(held, copies, strict=True):
-        assert np.array_equal(a, c)
 
 
 def test_paper_redistribution_kernel_matches_numpy() -> None:
