@@ -150,6 +150,9 @@ class PaperParticleFilter(ParticleSet):
         self._buffers: dict[tuple[int, int, int], tuple[FloatArray, ...]] = {}
         self._map_z3 = self.map.z[:, None, None]
         self._map_z = np.ascontiguousarray(self.map.z)
+        #: eq. 11's sums of the last weighing with the kernels (x, y m, cos, sin, weights)
+        self._sums = np.zeros(5)
+        self._work = self._kern.paper_scratch() if self._kern is not None else None
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
         #: updates left before a large uniform start set shrinks to ``particles``
@@ -165,14 +168,16 @@ class PaperParticleFilter(ParticleSet):
 
     # ------------------------------------------------------------------ packed particles
     def _packed(self) -> ComplexArray:
-        """The particles as one (M, 3) complex array with columns ``z``, ``rot`` and ones."""
+        """The particles as one (M, 3) complex array with columns ``z``, ``rot`` and ones
+        (with the kernels (M, 2), without the ones)."""
         pk = self._packing
         if pk is not None and pk[1] is self.z and pk[2] is self.rot:
             return pk[0]
-        s = np.empty((len(self.z), 3), dtype=np.complex128)
+        s = np.empty((len(self.z), 2 if self._kern is not None else 3), dtype=np.complex128)
         s[:, 0] = self.z
         s[:, 1] = self.rot
-        s[:, 2] = 1.0
+        if self._kern is None:
+            s[:, 2] = 1.0
         self._adopt(s, self._th)
         return s
 
@@ -218,15 +223,18 @@ class PaperParticleFilter(ParticleSet):
             return summed
         return self._nearest_sums(self._packed(), self._scan(obs))
 
-    def _scan(self, obs: ScanObservation) -> _Scan:
+    def _scan(self, obs: ScanObservation) -> _Scan | ComplexArray:
         """``obs`` laid out for :meth:`_nearest_sums`, each point's candidate the map reflector
-        of its id or the nearest one seen from the reference pose."""
+        of its id or the nearest one seen from the reference pose (with the kernels as
+        :func:`_kernel_scan`)."""
         j1 = self._reference_nearest(obs)
         cand = self.map.z[j1]
+        if self._kern is not None:
+            return _kernel_scan(obs.q, cand, self.map.half_sep[j1])
         return _Scan(np.stack((np.ones(len(obs)), obs.q, -cand)), self.map.half_sep[j1], cand)
 
-    def _nearest_sums(self, s: ComplexArray, scan: _Scan, exponent: FloatArray | None = None
-                      ) -> FloatArray:
+    def _nearest_sums(self, s: ComplexArray, scan: _Scan | ComplexArray,
+                      exponent: FloatArray | None = None) -> FloatArray:
         """``D_m``: the summed distances from every particle's measured points to their nearest
         map reflectors, m (``s``: the packed particles). With
         ``exponent``, writes the exponent of eq. 10, ``-D_m^2 / (2 sigma^2)``, there instead
@@ -241,11 +249,13 @@ class PaperParticleFilter(ParticleSet):
         kern = self._kern
         if kern is not None:
             out = np.empty(m) if exponent is None else exponent
-            kern.paper_exponents(s, s, 0j, 1 + 0j, scan.q, scan.cand, scan.half, self._map_z,
-                                 1.0 if exponent is None else self._factor, out)
+            assert not isinstance(scan, _Scan)
+            kern.paper_exponents(s, s, 0j, 1 + 0j, scan, self._map_z,
+                                 1.0 if exponent is None else self._factor, out, self._work)
             if exponent is None:
                 np.sqrt(out, out=out)
             return out
+        assert isinstance(scan, _Scan)
         plan = self._plan
         n = m if plan is None or plan.m != m else plan.n_local
         k = scan.k
@@ -301,29 +311,65 @@ class PaperParticleFilter(ParticleSet):
         return True
 
     def _correct(self, s: ComplexArray, exponent: FloatArray, w: FloatArray,
-                 out: ComplexArray) -> _Weighted:
+                 out: ComplexArray) -> _Weighted | tuple[FloatArray, float]:
         """Weigh the packed particles ``s`` with eq. 10, given its exponent
         ``-D_m^2 / (2 sigma^2)``, into ``w`` (unnormalised), estimate with eq. 11
         (``self._mean``) and redistribute into ``out``. Returns what the estimate's covariance
-        is computed from."""
+        is computed from; with the kernels the covariance (3, 3) and the ESS themselves."""
         # eq. 10 up to its constant factor, which the normalisation removes; taken relative to
         # the best particle, so that the weights of far particles (the uniform start's) cannot
         # all underflow and the covariance's sums stay finite
         kern = self._kern
         if kern is not None:
-            sx, sy, sc, ss, total = kern.paper_weights(s, exponent, w)
-        else:
-            exponent -= exponent.max()
-            np.exp(exponent, out=w)
-            # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one
-            # product
-            sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
+            kern.paper_weights(s, exponent, w, self._sums)
+            cov = np.empty((3, 3))
+            return (cov, self._correct_weighed(s, exponent, w, out, cov))
+        exponent -= exponent.max()
+        np.exp(exponent, out=w)
+        # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one product
+        sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
         if not (total > 0.0 and math.isfinite(total)):
             # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
             np.equal(exponent, exponent.max(), out=w)
             sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
         self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
+        plan, draws, b = self._redistribution(len(s))
+        plan.apply_packed(s, w, draws, b, out)
+        return (s, w, total, complex(sx, sy), complex(sc, ss))
+
+    def _correct_weighed(self, s: ComplexArray, exponent: FloatArray, w: FloatArray,
+                         out: ComplexArray, cov: FloatArray) -> float:
+        """:meth:`_correct` with the kernels, once the particles are weighed (``w`` and
+        eq. 11's sums in ``self._sums``, by :func:`lgvtool.localize.pf_kernels.paper_weigh`
+        or ``paper_weights``): the estimate, and the covariance (into ``cov``, 3 x 3) and
+        redistribution in one kernel call. Returns the ESS."""
+        kern = self._kern
+        assert kern is not None
+        sums = self._sums
+        sx, sy, sc, ss, total = sums.tolist()
+        if not (total > 0.0 and math.isfinite(total)):
+            # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
+            np.equal(exponent, exponent.max(), out=w)
+            kern.paper_sums(s, w, sums)
+            sx, sy, sc, ss, total = sums.tolist()
+        self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
         m = len(s)
+        plan, draws, b = self._plan, self._draws, self._drawn
+        if plan is None or draws is None or plan.m != m or b >= draws.count:
+            plan, draws, b = self._redistribution(m)
+        else:
+            self._drawn = b + 1
+            self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
+        kth = plan.kth
+        top = w.argpartition(kth)[kth:] if kth > 0 else plan.top(w)
+        ess: float = kern.paper_resample(s, w, top, draws.u[b], plan.kernel_plan, sums, out,
+                                         cov, self._work)
+        return ess
+
+    def _redistribution(self, m: int) -> tuple[RedistributionPlan, RedistributionDraws, int]:
+        """The plan of the redistribution of ``m`` particles, its random numbers and which of
+        them (drawn ahead) the next redistribution takes; sets the filter's weights uniform
+        (the redistributed set's)."""
         plan = self._plan
         if plan is None or plan.m != m:
             p = self.params
@@ -334,15 +380,16 @@ class PaperParticleFilter(ParticleSet):
         draws = self._draws
         if draws is None:
             count = max(1, _DRAW_NUMBERS // (4 * m)) if self._quiet_motion else 1
-            draws = self._draws = plan.draw(self.rng, count, packed=True, raw=kern is not None)
+            draws = self._draws = plan.draw(self.rng, count, packed=True,
+                                            raw=self._kern is not None)
             self._drawn = 0
         elif self._drawn >= draws.count:
             draws.refill(self.rng)
             self._drawn = 0
-        plan.apply_packed(s, w, draws, self._drawn, out, kern)
-        self._drawn += 1
+        b = self._drawn
+        self._drawn = b + 1
         self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
-        return (s, w, total, complex(sx, sy), complex(sc, ss))
+        return plan, draws, b
 
     # ------------------------------------------------------------------ estimate
     def _spread(self) -> tuple[FloatArray, float]:
@@ -352,11 +399,6 @@ class PaperParticleFilter(ParticleSet):
             return np.zeros((3, 3)), 0.0
         if len(cov) == 5:
             s, w, total, sum_z, sum_rot = cov
-            if self._kern is not None:
-                c1 = np.empty((3, 3))
-                e1 = self._kern.paper_spread(s, w, total, sum_z, sum_rot, c1)
-                self._cov = (c1, float(e1))
-                return self._cov
             c, e = _covariances_and_ess(s[None], w[None], np.array([total]),
                                         np.array([sum_z]), np.array([sum_rot]))
             self._cov = (c[0], float(e[0]))
@@ -407,14 +449,15 @@ class PaperParticleFilter(ParticleSet):
         if kern is not None and motion is not None:
             # the motions as (step, turn) pairs of the kernels
             steps_z, steps_rot = motion[:, 1, 0].tolist(), motion[:, 1, 1].tolist()
-        map_z, factor = self._map_z, self._factor
+        map_z, factor, sums, work = self._map_z, self._factor, self._sums, self._work
+        correct = self._correct_weighed
         for i, o in enumerate(observations):
             scan = prepared.get(i) if o is not None else None
-            # the motion still to apply to the estimate and the reference pose (a scan weighed
-            # below sets both anew)
-            refs_behind: tuple[float, ...] | None = None
+            # the index of the motion still to apply to the estimate and the reference pose
+            # (-1: none; a scan weighed below sets both anew)
+            refs_behind = -1
             # the motion the kernel applies while weighing the particles
-            step: tuple[complex, complex] = (0j, 1 + 0j)
+            step_z, step_rot = 0j, 1 + 0j
             if i > 0 and moves is not None:
                 if motion is not None and block is not None:
                     if kern is None:
@@ -424,7 +467,7 @@ class PaperParticleFilter(ParticleSet):
                             matmul(block.current, motion[i - 1], out=block.spare)
                         pending = not pending
                     elif scan is not None and self._start_left == 0:
-                        step = (steps_z[i - 1], steps_rot[i - 1])
+                        step_z, step_rot = steps_z[i - 1], steps_rot[i - 1]
                     else:
                         if pending:
                             kern.paper_move(block.spare, block.current, steps_z[i - 1],
@@ -436,7 +479,7 @@ class PaperParticleFilter(ParticleSet):
                     if scan is None:
                         self._move_refs(*moves[i - 1][:3])
                     else:
-                        refs_behind = moves[i - 1][:3]
+                        refs_behind = i - 1
                 else:
                     self._leave(block, rec, pending)
                     pending = False
@@ -446,34 +489,38 @@ class PaperParticleFilter(ParticleSet):
             if o is not None:
                 if scan is not None and block is not None and self._start_left == 0:
                     s = block.current
+                    k = block.k
                     if kern is not None:
-                        # motion, transform, association and eq. 10's exponent in one pass
-                        kern.paper_exponents(block.spare if pending else s, s, step[0],
-                                             step[1], scan.q, scan.cand, scan.half, map_z,
-                                             factor, block.exponent)
-                        exponent = block.exponent
+                        # motion, transform, association, eq. 10 and eq. 11's sums in one
+                        # pass; then the covariance and the redistribution in another
+                        kern.paper_weigh(block.spare if pending else s, s, step_z, step_rot,
+                                         scan, map_z, factor, block.exponent,
+                                         block.weights, sums, work)
+                        block.ess[k] = correct(s, block.exponent, block.weights, block.spare,
+                                               block.cov_rows[k])
                     else:
                         if pending:
                             copyto(s, block.spare)
                         exponent = self._nearest_sums(s, scan, block.exponent)
-                    _, _, total, sum_z, sum_rot = self._correct(s, exponent, block.weights,
-                                                                block.spare)
+                        _, _, total, sum_z, sum_rot = self._correct(  # type: ignore[misc]
+                            s, exponent, block.weights, block.spare)
+                        block.totals.append(total)
+                        block.sum_z.append(sum_z)
+                        block.sum_rot.append(sum_rot)
                     pending = True
                     # on to the next row of the block (recording the block when it is full)
-                    block.totals.append(total)
-                    block.sum_z.append(sum_z)
-                    block.sum_rot.append(sum_rot)
                     rec.count += 1
-                    k = block.k = block.k + 1
+                    k = block.k = k + 1
                     if k < block.size:
-                        block.current = block.states[k]
-                        block.weights = block.w[k]
+                        if kern is None:
+                            block.current = block.states[k]
+                            block.weights = block.w[k]
                     else:
                         rec.close(block)
                         block.restart()
                 else:
-                    if refs_behind is not None:
-                        self._move_refs(*refs_behind)
+                    if refs_behind >= 0:
+                        self._move_refs(*moves[refs_behind][:3])  # type: ignore[index]
                     self._leave(block, rec, pending)
                     pending = False
                     before = self._cov
@@ -484,10 +531,10 @@ class PaperParticleFilter(ParticleSet):
                     m = len(self.z)
             if self._mean is not None and block is not None:
                 t = ts[i]
-                now = block.spare if pending else block.current
                 rows.append((t, *self._mean, m))
                 which.append(rec.count - 1)
                 if cloud_size > 0 and t >= next_cloud:
+                    now = block.spare if pending else block.current
                     c = now[cloud_sample(len(now), cloud_size)]
                     clouds.append((t, c[:, 0].real.copy(), c[:, 0].imag.copy(),
                                    np.angle(c[:, 1])))
@@ -516,10 +563,12 @@ class PaperParticleFilter(ParticleSet):
             rec.close(block)
             block.restart()
 
-    def _prepare_scans(self, observations: Sequence[Observation | None]) -> dict[int, _Scan]:
+    def _prepare_scans(self, observations: Sequence[Observation | None]
+                       ) -> dict[int, _Scan] | dict[int, ComplexArray]:
         """For the scans whose reflectors all have an id in the map (and when association is
         by nearest neighbour): per observation index, the scan for :meth:`_nearest_sums` with
-        the reflector of each point's id as its candidate."""
+        the reflector of each point's id as its candidate (with the kernels as
+        :func:`_kernel_scan`)."""
         if self.params.use_ids or len(self.map) == 0:
             return {}
         idx = [i for i, o in enumerate(observations)
@@ -531,19 +580,31 @@ class PaperParticleFilter(ParticleSet):
         known = j >= 0
         j = np.where(known, j, 0)
         cand = self.map.z[j]
-        b = np.stack((np.ones(len(j)), np.concatenate([o.q for o in scans]), -cand))
+        q = np.concatenate([o.q for o in scans])
         half = self.map.half_sep[j]
-        bounds = np.cumsum([0] + [len(o) for o in scans])
+        bounds = np.cumsum([0] + [len(o.q) for o in scans])
         starts = bounds[:-1]
         complete = np.logical_and.reduceat(known, starts).tolist()
-        least = np.minimum.reduceat(half, starts).tolist()
         bounds_list = bounds.tolist()
+        if self._kern is not None:
+            pack = _kernel_scan(q, cand, half)
+            return {i: pack[a:e] for i, a, e, ok in zip(idx, bounds_list[:-1], bounds_list[1:],
+                                                        complete, strict=True) if ok}
+        b = np.stack((np.ones(len(j)), q, -cand))
+        least = np.minimum.reduceat(half, starts).tolist()
         out: dict[int, _Scan] = {}
         for i, a, e, ok, h in zip(idx, bounds_list[:-1], bounds_list[1:], complete, least,
                                   strict=True):
             if ok:
                 out[i] = _Scan(b[:, a:e], half[a:e], cand[a:e], h)
         return out
+
+
+def _kernel_scan(q: ComplexArray, cand: ComplexArray, half: FloatArray) -> ComplexArray:
+    """A scan laid out for :func:`lgvtool.localize.pf_kernels.paper_exponents`, (K, 3): per
+    point its position in the body frame (m), its candidate map reflector (m) and, as the
+    real part, half the candidate's distance to its nearest neighbour (m)."""
+    return np.stack((q, cand, half), axis=1)
 
 
 _max = np.maximum.reduce
@@ -635,20 +696,28 @@ class _Block:
     """Consecutive particle sets of :meth:`PaperParticleFilter.run`: row ``k`` holds the
     particles of the ``k``-th weighing, so the weighed sets stay for the covariances without
     copies; a redistribution writes ``spare``, from which the next motion moves the particles
-    into the next row. A full block starts over at row 0."""
+    into the next row. A full block starts over at row 0. With the kernels, which compute
+    each set's covariance and ESS as they redistribute it (into ``cov_rows[k]`` and
+    ``ess[k]``), the particles stay in row 0 and ``spare``."""
 
     def __init__(self, first: ComplexArray, kernels: ModuleType | None = None) -> None:
-        m = len(first)
+        m, cols = first.shape
         self.kernels = kernels
         self.size = max(1, _COVARIANCE_BLOCK // max(1, m))
-        self.states = np.empty((self.size, m, 3), dtype=np.complex128)
+        rows = 1 if kernels is not None else self.size
+        self.states = np.empty((rows, m, cols), dtype=np.complex128)
         self.states[0] = first
         #: where a redistribution or a motion writes the particles before they are weighed
-        self.spare = np.empty((m, 3), dtype=np.complex128)
-        self.w = np.empty((self.size, m))
+        self.spare = np.empty((m, cols), dtype=np.complex128)
+        self.w = np.empty((rows, m))
         #: the exponent of eq. 10 of the set being weighed
         self.exponent = np.empty(m)
-        self.work = _Work(self.size, m)
+        if kernels is not None:
+            self.cov = np.empty((self.size, 3, 3))
+            self.cov_rows = list(self.cov)
+            self.ess = np.empty(self.size)
+        else:
+            self.work = _Work(self.size, m)
         self.k = 0
         self.current = self.states[0]
         self.weights = self.w[0]
@@ -662,13 +731,7 @@ class _Block:
         if k == 0:
             return np.zeros((0, 9)), np.zeros(0)
         if self.kernels is not None:
-            covs = np.empty((k, 3, 3))
-            ess_k = np.empty(k)
-            spread = self.kernels.paper_spread
-            for b, (total, sum_z, sum_rot) in enumerate(zip(self.totals, self.sum_z,
-                                                            self.sum_rot, strict=True)):
-                ess_k[b] = spread(self.states[b], self.w[b], total, sum_z, sum_rot, covs[b])
-            return covs.reshape(k, 9), ess_k
+            return self.cov[:k].reshape(k, 9).copy(), self.ess[:k].copy()
         cov, ess = _covariances_and_ess(self.states[:k], self.w[:k], np.array(self.totals),
                                         np.array(self.sum_z), np.array(self.sum_rot),
                                         self.work)

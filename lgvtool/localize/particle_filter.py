@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 
 from lgvtool.localize.camera_fix import residual_chi2, start_fix
 from lgvtool.localize.estimator import Estimate, Motion, Observation
-from lgvtool.localize.kld import bin_keys, kld_count
+from lgvtool.localize.kld import bin_keys, kld_bound, kld_count
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
@@ -178,6 +178,9 @@ class ParticleFilter(ParticleSet):
     Params = PfParams
     summary = "the paper's filter with log weights, ESS/low-variance resampling, KLD, " \
               "augmented MCL, de-skew, outlier-tolerant and pose-only likelihoods"
+    #: from this many particles on, the prediction's normal numbers are drawn inside the
+    #: kernel (the same numbers; cheaper per number, but a fixed cost per call)
+    DRAW_IN_KERNEL = 2048
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)
@@ -196,6 +199,8 @@ class ParticleFilter(ParticleSet):
         #: ``proposal = ekf``: each particle's motion noise since its last draw, (N, 3, 3) in
         #: x m, y m, heading rad (None: zero, the particles are draws)
         self._pcov: FloatArray | None = None
+        #: KLD-sampling's bound for 1, 2, ... occupied bins (the kernels' resampling)
+        self._need: FloatArray | None = None
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":
@@ -234,21 +239,21 @@ class ParticleFilter(ParticleSet):
     def scan_loglik(self, obs: ScanObservation) -> tuple[FloatArray, int]:
         """Log-likelihood of each particle for a scan, and the number of reflectors used."""
         p = self.params
-        sr, st = self.ray_sigmas(obs)
-        const = _LOG_2PI + np.log(sr) + np.log(st)
         if self._kern is not None:
-            j1 = self._reference_nearest(obs)
-            half = self.map.half_sep[j1]
-            if p.use_ids:
-                # a reflector of known id is associated with it: never searched for
-                half = np.where(self._map_index(obs, True) >= 0, np.inf, half)
+            # the per-point inputs (association candidates, noise, constants) made in the kernel
+            ref = self._reference_pose()
             eps = p.outlier_prob
             ll_k = np.empty(len(self.z))
-            self._kern.pf_scan_loglik(
-                self.z, self.rot, np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u.conj()),
-                self.map.z[j1], half, self.map.z, sr, st, const, p.outlier, math.log1p(-eps),
-                math.log(eps) + self._log_outlier(2), ll_k)
+            self._kern.pf_scan(
+                self.z, self.rot, np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u),
+                np.ascontiguousarray(obs.ranges), obs.map_index(self.map),
+                complex(ref[0], ref[1]), complex(math.cos(ref[2]), math.sin(ref[2])),
+                self.map.z, self.map.half_sep, p.sigma_range_m, p.sigma_range_m ** 2,
+                p.sigma_range_per_m, p.sigma_bearing_rad, p.use_ids, p.outlier,
+                math.log1p(-eps), math.log(eps) + self._log_outlier(2), ll_k)
             return ll_k, len(obs)
+        sr, st = self.ray_sigmas(obs)
+        const = _LOG_2PI + np.log(sr) + np.log(st)
         e = self.scan_residuals(obs, p.use_ids)
         # the residual along (er) and across (et) each reflector's ray
         ray = e * np.multiply.outer(self.rot.conj(), obs.u.conj())
@@ -286,13 +291,17 @@ class ParticleFilter(ParticleSet):
             ll, count = self.proposal_loglik(obs) if ekf else self.scan_loglik(obs)
             kind = "scan"
         ess: float | None = None
+        pose: tuple[float, float, float, FloatArray] | None = None
         if p.log_weights and self._kern is not None:
-            w = np.empty(len(ll))
-            logw = np.empty(len(ll))
-            log_avg, ess = self._kern.pf_log_weights(self.logw, ll, w, logw)
+            # the weights and the weighted pose in one call
+            w, logw = np.empty(len(ll)), np.empty(len(ll))
+            cov = np.empty((3, 3))
+            log_avg, ess, x, y, t = self._kern.pf_weigh(self.logw, ll, self.z, self.rot, w,
+                                                        logw, cov)
             if not math.isfinite(log_avg):
                 return False
             self.w, self.logw = w, logw
+            pose = (x, y, t, cov)
         elif p.log_weights:
             lw = self.logw + ll
             top = float(lw.max())
@@ -315,7 +324,7 @@ class ParticleFilter(ParticleSet):
         self._track_likelihood(kind, per_obs)
         n = len(self.z)
         self.last_ess = effective_sample_size(self.w) if ess is None else ess
-        self._cached = self.weighted_pose(self.w)
+        self._cached = self.weighted_pose(self.w) if pose is None else pose
         self._ref = self._cached[:3]
         lost = 0.0
         if p.recovery and p.reset_likelihood > 0.0:
@@ -453,15 +462,24 @@ class ParticleFilter(ParticleSet):
             self._predict_scaled(motion)
         elif self._kern is not None and n > 0 and any(v != 0.0 for v in sigmas):
             # eq. 9 with the numpy path's draw, in one pass
-            g = self.rng.standard_normal((3, n))
-            z, th, rot = np.empty_like(self.z), np.empty(n), np.empty_like(self.rot)
-            self._kern.pf_predict(self.z, self.th, self.rot, g, motion.dx, motion.dy,
-                                  motion.dth, *sigmas, z, th, rot)
-            self.z, self.th, self.rot = z, th, rot
+            z, th, rot = np.empty(n, dtype=np.complex128), np.empty(n), \
+                np.empty(n, dtype=np.complex128)
+            if n >= self.DRAW_IN_KERNEL:
+                self._kern.pf_predict_drawn(self.rng, self.z, self.th, self.rot, motion.dx,
+                                            motion.dy, motion.dth, *sigmas, z, th, rot)
+            else:
+                g = self.rng.standard_normal((3, n))
+                self._kern.pf_predict(self.z, self.th, self.rot, g, motion.dx, motion.dy,
+                                      motion.dth, *sigmas, z, th, rot)
+            self._replace(z, th, rot)
             self._move_ref(motion)
         else:
             super().predict(motion)
         self._cached = None
+
+    def _replace(self, z: ComplexArray, th: FloatArray, rot: ComplexArray) -> None:
+        """Make ``z``, ``th``, ``rot`` (positions m, headings rad, rotors) the particles."""
+        self.z, self.th, self.rot = z, th, rot
 
     def _prior_scales(self, n: int) -> tuple[FloatArray, FloatArray]:
         """``n`` draws of the scales' prior (mean 1)."""
@@ -551,10 +569,25 @@ class ParticleFilter(ParticleSet):
         p = self.params
         draw = low_variance if p.resampler == "low-variance" else multinomial
         idx: NDArray[np.intp] | None
+        z: ComplexArray | None = None
+        th: FloatArray | None = None
+        rot: ComplexArray | None = None
         if self._start_left > 0:
             # the large start set keeps its size until it shrinks
             n_new = len(self.z)
             idx = draw(self.w, n_new, self.rng)
+        elif p.kld and self._kern is not None and draw is low_variance:
+            # the draw (its offset, then the permutation, as the numpy path's), the bins, the
+            # count and the copy in one pass
+            cap = max(p.particles, p.min_particles)
+            u0 = self.rng.random()
+            perm = self.rng.permutation(cap)
+            z, th = np.empty(cap, dtype=np.complex128), np.empty(cap)
+            rot, idx = np.empty(cap, dtype=np.complex128), np.empty(cap, dtype=np.intp)
+            n_new = self._kern.pf_kld_resample(self.w, u0, perm, self._kld_need(cap),
+                                               p.min_particles, p.kld_bin_m, p.kld_bin_rad,
+                                               self.z, self.th, self.rot, z, th, rot, idx)
+            z, th, rot, idx = z[:n_new], th[:n_new], rot[:n_new], idx[:n_new]
         elif p.kld:
             cap = max(p.particles, p.min_particles)
             idx = draw(self.w, cap, self.rng)
@@ -574,7 +607,6 @@ class ParticleFilter(ParticleSet):
             if slow > 0.0:
                 frac = max(frac, 1.0 - fast / slow)
             n_inject = min(n_new, round(frac * n_new))
-        rot = None
         if idx is None:
             # low-variance resampling and the copy in one pass (the numpy path's one draw);
             # the headings wrapped there unless recovery re-draws some below
@@ -584,8 +616,10 @@ class ParticleFilter(ParticleSet):
             assert self._kern is not None
             self._kern.low_variance_gather(self.w, self.rng.random(), n_new, self.z, self.th,
                                            self.rot, z, th, rot, idx, n_inject == 0)
-        else:
+        elif z is None or (n_inject > 0 and rot is not None):
+            # (recovery wraps the headings once, the re-drawn ones with them)
             z, th = self.z[idx], self.th[idx]
+        assert z is not None and th is not None
         scaled = p.odometry_scales and len(self.s_v) == len(self.z)
         if scaled:
             self.s_v, self.s_w = self.s_v[idx], self.s_w[idx]
@@ -597,14 +631,22 @@ class ParticleFilter(ParticleSet):
                 self.s_v[:n_inject], self.s_w[:n_inject] = self._prior_scales(n_inject)
             self.injected += n_inject
             self.w_slow[kind] = self.w_fast[kind] = 0.0
-        self.z = z
         if rot is not None and n_inject == 0:
-            self.th, self.rot = th, rot
+            self._replace(z, th, rot)
         else:
+            self.z = z
             self._set_headings(th)
         self.w = np.full(n_new, 1.0 / n_new)
         self.logw = np.full(n_new, -math.log(n_new))
         self.resamplings += 1
+
+    def _kld_need(self, cap: int) -> FloatArray:
+        """KLD-sampling's particle count for 1 to ``cap`` occupied bins
+        (:func:`lgvtool.localize.kld.kld_bound`), made once."""
+        if self._need is None or len(self._need) != cap:
+            p = self.params
+            self._need = kld_bound(np.arange(1, cap + 1), p.kld_epsilon, p.kld_delta)
+        return self._need
 
     def _recovery_poses(self, obs: Observation, n: int
                         ) -> tuple[FloatArray, FloatArray, FloatArray]:

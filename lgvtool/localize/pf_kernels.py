@@ -26,7 +26,9 @@ from collections.abc import Callable
 from typing import Any, TypeVar, cast
 
 import numba
+import numba.extending
 import numpy as np
+from llvmlite import ir as llvm_ir
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
@@ -42,6 +44,13 @@ def _jit(f: _F) -> _F:
     """Compile ``f`` in nopython mode, cached on disk, without fast-math (the numpy path's
     rounding is kept: no reassociation, no fused multiply-add)."""
     return cast(_F, numba.njit(cache=True, nogil=True, error_model="numpy")(f))
+
+
+def _jit_inline(f: _F) -> _F:
+    """:func:`_jit`, inlined into its callers (so that their loops can run in SIMD
+    registers)."""
+    return cast(_F, numba.njit(cache=True, nogil=True, error_model="numpy",
+                               inline="always")(f))
 
 
 # ---------------------------------------------------------------------------- shared pieces
@@ -79,18 +88,37 @@ def _nearest_index(p: complex, map_z: ComplexArray) -> int:
 _SMALL_ANGLE = 0.05
 
 
+@_jit_inline
+def _cos_series(x: float) -> float:
+    """The Taylor series of ``cos x`` to the 10th order (x rad, meant for ``|x| < 0.05``)."""
+    x2 = x * x
+    return 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (
+        1.0 / 40320.0 - x2 * (1.0 / 3628800.0)))))
+
+
+@_jit_inline
+def _sin_series(x: float) -> float:
+    """The Taylor series of ``sin x`` to the 9th order (x rad, meant for ``|x| < 0.05``)."""
+    x2 = x * x
+    return x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (
+        1.0 / 362880.0)))))
+
+
+@_jit_inline
+def _atan_series(u: float) -> float:
+    """The Taylor series of ``atan u`` to the 13th order (meant for ``|u| < 0.05``), rad."""
+    u2 = u * u
+    return u * (1.0 - u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0 - u2 * (
+        1.0 / 9.0 - u2 * (1.0 / 11.0 - u2 * (1.0 / 13.0)))))))
+
+
 @_jit
 def _rotor(x: float) -> complex:
     """``exp(i x)`` (x rad). For ``|x| < 0.05`` (a redistribution's heading offsets) from the
     Taylor series of cos and sin to the 10th order (truncation below 1e-20, so within an ulp
     of the library's functions, and 5x faster), else from ``math.cos`` and ``math.sin``."""
     if abs(x) < _SMALL_ANGLE:
-        x2 = x * x
-        c = 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (
-            1.0 / 40320.0 - x2 * (1.0 / 3628800.0)))))
-        sn = x * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (
-            1.0 / 362880.0)))))
-        return complex(c, sn)
+        return complex(_cos_series(x), _sin_series(x))
     return complex(math.cos(x), math.sin(x))
 
 
@@ -100,10 +128,7 @@ def _heading(y: float, x: float) -> float:
     mean) from the Taylor series of ``atan(y / x)`` to the 13th order (truncation below
     1e-19, within an ulp or two of the library's function, and several times faster)."""
     if x > 0.0 and abs(y) < _SMALL_ANGLE * x:
-        u = y / x
-        u2 = u * u
-        return u * (1.0 - u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0 - u2 * (
-            1.0 / 9.0 - u2 * (1.0 / 11.0 - u2 * (1.0 / 13.0)))))))
+        return _atan_series(y / x)
     return math.atan2(y, x)
 
 
@@ -132,21 +157,36 @@ def _chunk_arrays() -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, Flo
             np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK))
 
 
+#: rows of the scratch of the pf-paper kernels (:func:`paper_scratch`)
+_SCRATCH_ROWS = 13
+
+
+def paper_scratch() -> FloatArray:
+    """Scratch of :func:`paper_exponents`, :func:`paper_weigh` and :func:`paper_resample`: a
+    chunk of particles laid out as separate arrays (allocated once per filter rather than
+    on every call). The rows are padded so that no two start a multiple of 4 KiB apart
+    (loads from one row would wait for stores to another, falsely aliased)."""
+    return np.empty((_SCRATCH_ROWS, _CHUNK + 8))
+
+
 @_jit
 def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
-                    q: ComplexArray, cand: ComplexArray, half: FloatArray,
-                    map_z: ComplexArray, factor: float, exponent: FloatArray) -> None:
-    """Move the packed particles ``prev`` (M, 3: z, rot, 1) by the body-frame step ``step_z``
+                    scan: ComplexArray, map_z: ComplexArray, factor: float,
+                    exponent: FloatArray, work: FloatArray) -> float:
+    """Move the packed particles ``prev`` (M, 2: z, rot) by the body-frame step ``step_z``
     (m) and the turn ``step_rot`` (a rotor) into ``cur`` (may be ``prev``; ``step_z = 0``,
-    ``step_rot = 1``: no motion), put the measured points ``q`` (K, body frame, m) into the
-    world at every particle, take each point's distance to its nearest map reflector (the
-    candidate ``cand[k]`` when nearer than ``half[k]``, half its distance to its own nearest
-    neighbour, else a search of ``map_z``) and write the exponent of eq. 10,
+    ``step_rot = 1``: no motion), put the measured points into the world at every particle,
+    take each point's distance to its nearest map reflector and write the exponent of eq. 10,
     ``factor * D_m^2`` with ``D_m`` the summed distances (summed in the order of the points).
+    ``scan`` (K, 3): per point its position in the body frame ``q`` (m), its candidate map
+    reflector (m) and, as the real part, half the candidate's distance to its own nearest
+    neighbour (m): the candidate is the nearest reflector when nearer than that, else
+    ``map_z`` is searched. Returns the largest exponent. ``work``: :func:`paper_scratch`.
     """
     m = prev.shape[0]
-    k = q.shape[0]
-    zr, zi, rr, ri, tot, _, far = _chunk_arrays()
+    top = -math.inf
+    k = scan.shape[0]
+    zr, zi, rr, ri, tot, far = work[0], work[1], work[2], work[3], work[4], work[5]
     for a in range(0, m, _CHUNK):
         n = min(_CHUNK, m - a)
         for i in range(n):
@@ -154,7 +194,6 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
             rot = prev[a + i, 1] * step_rot
             cur[a + i, 0] = z
             cur[a + i, 1] = rot
-            cur[a + i, 2] = 1.0
             zr[i] = z.real
             zi[i] = z.imag
             rr[i] = rot.real
@@ -162,11 +201,11 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
             tot[i] = 0.0
             far[i] = -math.inf
         for j in range(k):
-            qr = q[j].real
-            qi = q[j].imag
-            cr = cand[j].real
-            ci = cand[j].imag
-            h = half[j]
+            qr = scan[j, 0].real
+            qi = scan[j, 0].imag
+            cr = scan[j, 1].real
+            ci = scan[j, 1].imag
+            h = scan[j, 2].real
             for i in range(n):
                 dx = zr[i] + (rr[i] * qr - ri[i] * qi) - cr
                 dy = zi[i] + (rr[i] * qi + ri[i] * qr) - ci
@@ -179,47 +218,81 @@ def paper_exponents(prev: ComplexArray, cur: ComplexArray, step_z: complex, step
                 # sum again, such points searched in the whole map
                 t = 0.0
                 for j in range(k):
-                    px = zr[i] + (rr[i] * q[j].real - ri[i] * q[j].imag)
-                    py = zi[i] + (rr[i] * q[j].imag + ri[i] * q[j].real)
-                    dx = px - cand[j].real
-                    dy = py - cand[j].imag
+                    qr = scan[j, 0].real
+                    qi = scan[j, 0].imag
+                    px = zr[i] + (rr[i] * qr - ri[i] * qi)
+                    py = zi[i] + (rr[i] * qi + ri[i] * qr)
+                    dx = px - scan[j, 1].real
+                    dy = py - scan[j, 1].imag
                     d = math.sqrt(dx * dx + dy * dy)
-                    if d >= half[j]:
+                    if d >= scan[j, 2].real:
                         d = _nearest_distance(px, py, map_z)
                     t += d
                 tot[i] = t
-            exponent[a + i] = tot[i] * tot[i] * factor
+            e = tot[i] * tot[i] * factor
+            exponent[a + i] = e
+            if e > top:
+                top = e
+    return top
 
 
 @_jit
 def paper_move(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex
                ) -> None:
-    """Eq. 9 on packed particles: ``cur`` (may be ``prev``) is ``prev`` moved by the
-    body-frame step ``step_z`` (m) and turned by the rotor ``step_rot``."""
+    """Eq. 9 on packed particles (M, 2: z, rot): ``cur`` (may be ``prev``) is ``prev`` moved
+    by the body-frame step ``step_z`` (m) and turned by the rotor ``step_rot``."""
     for i in range(prev.shape[0]):
         z = prev[i, 0] + prev[i, 1] * step_z
         rot = prev[i, 1] * step_rot
         cur[i, 0] = z
         cur[i, 1] = rot
-        cur[i, 2] = 1.0
 
 
 @_jit
-def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray
-                  ) -> tuple[float, float, float, float, float]:
+def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray, sums: FloatArray
+                  ) -> float:
     """Eq. 10 relative to the best particle: ``exponent -= max(exponent)``,
-    ``w = exp(exponent)`` (unnormalised); returns the weighted sums of x, y (m), cos th,
-    sin th and the sum of the weights (eq. 11 before the division)."""
+    ``w = exp(exponent)`` (unnormalised); writes the weighted sums of x, y (m), cos th,
+    sin th and the sum of the weights (eq. 11 before the division) into ``sums`` (5,) and
+    returns the last. ``s``: packed particles (M, 2: z, rot)."""
     top = -math.inf
     for i in range(s.shape[0]):
         if exponent[i] > top:
             top = exponent[i]
-    sx = sy = sc = ss = total = 0.0
+    return _weights_below(s, exponent, top, w, sums)
+
+
+@_jit
+def _weights_below(s: ComplexArray, exponent: FloatArray, top: float, w: FloatArray,
+                   sums: FloatArray) -> float:
+    """:func:`paper_weights` given ``top``, the largest exponent."""
     for i in range(s.shape[0]):
         e = exponent[i] - top
         exponent[i] = e
-        wi = math.exp(e)
-        w[i] = wi
+        w[i] = math.exp(e)
+    paper_sums(s, w, sums)
+    total: float = sums[4]
+    return total
+
+
+@_jit
+def paper_weigh(prev: ComplexArray, cur: ComplexArray, step_z: complex, step_rot: complex,
+                scan: ComplexArray, map_z: ComplexArray, factor: float, exponent: FloatArray,
+                w: FloatArray, sums: FloatArray, work: FloatArray) -> float:
+    """:func:`paper_exponents` then :func:`paper_weights` on the moved particles ``cur``, in
+    one call: motion, association, eq. 10 and eq. 11's sums (into ``sums``; returns the sum
+    of the weights)."""
+    top = paper_exponents(prev, cur, step_z, step_rot, scan, map_z, factor, exponent, work)
+    return _weights_below(cur, exponent, top, w, sums)
+
+
+@_jit
+def paper_sums(s: ComplexArray, w: FloatArray, sums: FloatArray) -> None:
+    """The weighted sums of x, y (m), cos th, sin th and the sum of the weights ``w`` of the
+    packed particles ``s`` (M, 2: z, rot), in order, into ``sums`` (5,)."""
+    sx = sy = sc = ss = total = 0.0
+    for i in range(s.shape[0]):
+        wi = w[i]
         z = s[i, 0]
         r = s[i, 1]
         sx += wi * z.real
@@ -227,45 +300,11 @@ def paper_weights(s: ComplexArray, exponent: FloatArray, w: FloatArray
         sc += wi * r.real
         ss += wi * r.imag
         total += wi
-    return sx, sy, sc, ss, total
-
-
-@_jit
-def paper_redistribute(s: ComplexArray, top: IntArray, u: FloatArray, n_top: int,
-                       n_local: int, width: FloatArray, low: FloatArray, far_z: complex,
-                       out: ComplexArray) -> None:
-    """The paper's redistribution of packed particles ``s`` into ``out`` from its uniform
-    numbers ``u`` (4, M): particle ``i < n_local`` descends from the parent
-    ``s[top[int(u[0, i] n_top)]]`` (``top``: the heaviest particles), moved by
-    ``u[1:3, i] width + low`` (m) and turned by ``u[3, i] width + low`` (rad); the others are
-    uniform, ``far_z`` plus the same offsets over the work area and every heading. The same
-    arithmetic, in the same order, as the numpy path's
-    :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
-    turn's rotor for small angles (:func:`_rotor`: within an ulp)."""
-    m = out.shape[0]
-    # the widths are the same for every local particle, and for every uniform one
-    wx, wy, wh, lx, ly, lh = width[0, 0], width[1, 0], width[2, 0], low[0, 0], low[1, 0], \
-        low[2, 0]
-    fx, fy, fh, gx, gy, gh = width[0, m - 1], width[1, m - 1], width[2, m - 1], \
-        low[0, m - 1], low[1, m - 1], low[2, m - 1]
-    for i in range(m):
-        if i == n_local:
-            wx, wy, wh, lx, ly, lh = fx, fy, fh, gx, gy, gh
-        ox = u[1, i] * wx + lx
-        oy = u[2, i] * wy + ly
-        oh = u[3, i] * wh + lh
-        turn = _rotor(oh)
-        if i < n_local:
-            src = top[int(u[0, i] * n_top)]
-            z = s[src, 0]
-            # z (1 + 0i) + shift: the numpy path's product by the scale, then the shift
-            out[i, 0] = complex(z.real * 1.0 - z.imag * 0.0, z.real * 0.0 + z.imag * 1.0) \
-                + complex(ox, oy)
-            out[i, 1] = s[src, 1] * turn + 0j
-        else:
-            out[i, 0] = complex(ox + far_z.real, oy + far_z.imag)
-            out[i, 1] = turn
-        out[i, 2] = 1.0
+    sums[0] = sx
+    sums[1] = sy
+    sums[2] = sc
+    sums[3] = ss
+    sums[4] = total
 
 
 @_jit
@@ -281,32 +320,131 @@ def _symmetric(cov: FloatArray, xx: float, xy: float, xh: float, yy: float, yh: 
 
 
 @_jit
-def paper_spread(s: ComplexArray, w: FloatArray, total: float, sum_z: complex,
-                 sum_rot: complex, cov: FloatArray) -> float:
-    """Covariance of ``(x, y, heading)`` (into ``cov``, 3 x 3; m^2, m rad, rad^2) and effective
-    sample size of a weighted packed set: ``w`` unnormalised with sum ``total``, ``sum_z`` and
-    ``sum_rot`` the weighted sums of z and rot (the heading deviations are taken from their
-    circular mean)."""
-    mean = sum_z / total
-    rc = sum_rot.conjugate()
+def paper_resample(s: ComplexArray, w: FloatArray, top: IntArray, u: FloatArray,
+                   plan: FloatArray, sums: FloatArray, out: ComplexArray, cov: FloatArray,
+                   work: FloatArray) -> float:
+    """The covariance and effective sample size of the weighted packed set ``s`` (M, 2: z,
+    rot; ``w`` unnormalised, ``sums`` its eq. 11 sums from :func:`paper_weights`), and the
+    paper's redistribution of ``s`` into ``out``, in one call.
+
+    Covariance of ``(x, y, heading)`` into ``cov`` (3 x 3; m^2, m rad, rad^2),
+    the heading deviations taken from the circular mean; returns the ESS.
+
+    Redistribution from its uniform numbers ``u`` (4, M): particle ``i < n_local`` descends
+    from the parent ``s[top[int(u[0, i] n_top)]]`` (``top``: the heaviest particles), moved by
+    ``u[1:3, i] width + low`` (m) and turned by ``u[3, i] width + low`` (rad); the others are
+    uniform, the work area's centre plus the same offsets over the work area and every
+    heading. ``plan``: :attr:`lgvtool.localize.resampling.RedistributionPlan.kernel_plan`. The
+    same arithmetic, in the same order, as the numpy path's
+    :class:`lgvtool.localize.resampling.RedistributionDraws` and ``apply_packed``, except the
+    turn's rotor for small angles (:func:`_rotor`: within an ulp). ``work``:
+    :func:`paper_scratch`."""
+    ess = _spread(s, w, sums, cov, work)
+    _redistribute(s, top, u, plan, out, work)
+    return ess
+
+
+@_jit
+def _spread(s: ComplexArray, w: FloatArray, sums: FloatArray, cov: FloatArray,
+            work: FloatArray) -> float:
+    """The covariance (into ``cov``) and ESS of :func:`paper_resample`. Particles in chunks
+    laid out as separate arrays (the arithmetic in SIMD registers); the sums in order."""
+    m = s.shape[0]
+    total = sums[4]
+    mean = complex(sums[0], sums[1]) / total
+    mr, mi = mean.real, mean.imag
+    rc = complex(sums[2], sums[3]).conjugate()
+    cr, ci = rc.real, rc.imag
     a00 = a01 = a02 = a11 = a12 = a22 = 0.0
     sw2 = 0.0
-    for i in range(s.shape[0]):
-        wn = w[i] / total
-        d = s[i, 0] - mean
-        r = s[i, 1] * rc
-        h = _heading(r.imag, r.real)
-        dx = d.real
-        dy = d.imag
-        a00 += dx * wn * dx
-        a01 += dx * wn * dy
-        a02 += dx * wn * h
-        a11 += dy * wn * dy
-        a12 += dy * wn * h
-        a22 += h * wn * h
-        sw2 += wn * wn
+    zr, zi, rr, ri, hh = work[0], work[1], work[2], work[3], work[4]
+    p00, p01, p02, p11, p12, p22, pww = work[5], work[6], work[7], work[8], work[9], \
+        work[10], work[11]
+    # 1 for the particles whose heading deviation the series does not give (a flag row: with
+    # the test in the loop below, the series loop no longer runs in SIMD registers)
+    other = work[12]
+    for a in range(0, m, _CHUNK):
+        n = min(_CHUNK, m - a)
+        for i in range(n):
+            z = s[a + i, 0]
+            r = s[a + i, 1]
+            zr[i] = z.real
+            zi[i] = z.imag
+            rr[i] = r.real
+            ri[i] = r.imag
+        for i in range(n):
+            # the heading deviation from the rotor relative to the circular mean (the complex
+            # product), by the series (:func:`_heading`); its other case below
+            yr = rr[i] * cr - ri[i] * ci
+            yi = rr[i] * ci + ri[i] * cr
+            hh[i] = _atan_series(yi / yr)
+            other[i] = 0.0 if yr > 0.0 and abs(yi) < _SMALL_ANGLE * yr else 1.0
+        for i in range(n):
+            if other[i] != 0.0:
+                yr = rr[i] * cr - ri[i] * ci
+                yi = rr[i] * ci + ri[i] * cr
+                hh[i] = math.atan2(yi, yr)
+        for i in range(n):
+            wn = w[a + i] / total
+            dx = zr[i] - mr
+            dy = zi[i] - mi
+            h = hh[i]
+            p00[i] = dx * wn * dx
+            p01[i] = dx * wn * dy
+            p02[i] = dx * wn * h
+            p11[i] = dy * wn * dy
+            p12[i] = dy * wn * h
+            p22[i] = h * wn * h
+            pww[i] = wn * wn
+        for i in range(n):
+            a00 += p00[i]
+            a01 += p01[i]
+            a02 += p02[i]
+            a11 += p11[i]
+            a12 += p12[i]
+            a22 += p22[i]
+            sw2 += pww[i]
     _symmetric(cov, a00, a01, a02, a11, a12, a22)
     return 1.0 / sw2
+
+
+@_jit
+def _redistribute(s: ComplexArray, top: IntArray, u: FloatArray, plan: FloatArray,
+                  out: ComplexArray, work: FloatArray) -> None:
+    """The redistribution of :func:`paper_resample`: the local particles' offsets and turns
+    in chunks (SIMD), then their parents."""
+    m = out.shape[0]
+    wx, wy, wh, lx, ly, lh = plan[0], plan[1], plan[2], plan[3], plan[4], plan[5]
+    fx, fy, fh, gx, gy, gh = plan[6], plan[7], plan[8], plan[9], plan[10], plan[11]
+    cx, cy = plan[12], plan[13]
+    n_top = int(plan[14])
+    n_local = int(plan[15])
+    ox, oy, oh, tc, ts = work[0], work[1], work[2], work[3], work[4]
+    for a in range(0, n_local, _CHUNK):
+        n = min(_CHUNK, n_local - a)
+        for i in range(n):
+            ox[i] = u[1, a + i] * wx + lx
+            oy[i] = u[2, a + i] * wy + ly
+            x = u[3, a + i] * wh + lh
+            oh[i] = x
+            # the turn's rotor by the series (:func:`_rotor`), its other case below
+            tc[i] = _cos_series(x)
+            ts[i] = _sin_series(x)
+        for i in range(n):
+            src = top[int(u[0, a + i] * n_top)]
+            z = s[src, 0]
+            # z (1 + 0i) + shift: the numpy path's product by the scale, then the shift
+            out[a + i, 0] = complex(z.real * 1.0 - z.imag * 0.0, z.real * 0.0 + z.imag * 1.0) \
+                + complex(ox[i], oy[i])
+            x = oh[i]
+            turn = complex(tc[i], ts[i]) if abs(x) < _SMALL_ANGLE else \
+                complex(math.cos(x), math.sin(x))
+            out[a + i, 1] = s[src, 1] * turn + 0j
+    for i in range(n_local, m):
+        px = u[1, i] * fx + gx
+        py = u[2, i] * fy + gy
+        out[i, 0] = complex(px + cx, py + cy)
+        out[i, 1] = _rotor(u[3, i] * fh + gh)
 
 
 # ---------------------------------------------------------------------------- pf
@@ -318,15 +456,48 @@ def pf_predict(z: ComplexArray, th: FloatArray, rot: ComplexArray, g: FloatArray
     (m, its body frame) and turned by ``dth + st g[2, i]`` (rad), ``g`` the standard normal
     numbers the numpy path draws; the heading wrapped to [-pi, pi) as the numpy path does.
     The rotor is turned by the turn's own rotor (:func:`_rotor`) instead of being made anew
-    from the heading (the same to an ulp per step)."""
-    for i in range(z.shape[0]):
+    from the heading (the same to an ulp per step).
+
+    The first loop takes every particle down the common branches of :func:`_wrap_pi` and
+    :func:`_rotor` (no call: it is vectorised) and marks those that need the others (a heading
+    leaving [-pi, pi) or a turn of 0.05 rad or more), which the second loop does again with
+    the two functions: the same numbers as calling them for every particle."""
+    n = z.shape[0]
+    other = np.empty(n, dtype=np.bool_)
+    for i in range(n):
         ddx = dx + sa * g[0, i]
         ddy = dy + sl * g[1, i]
         ddth = dth + st * g[2, i]
         r = rot[i]
         z_out[i] = z[i] + r * complex(ddx, ddy)
-        th_out[i] = _wrap_pi(th[i] + ddth)
-        rot_out[i] = r * _rotor(ddth)
+        a = (th[i] + ddth) + math.pi
+        w = a - math.pi
+        th_out[i] = w + _TWO_PI if w <= -math.pi else w
+        x2 = ddth * ddth
+        c = 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0 - x2 * (1.0 / 720.0 - x2 * (
+            1.0 / 40320.0 - x2 * (1.0 / 3628800.0)))))
+        sn = ddth * (1.0 - x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (
+            1.0 / 362880.0)))))
+        rot_out[i] = r * complex(c, sn)
+        other[i] = not (0.0 <= a < _TWO_PI) or not (abs(ddth) < _SMALL_ANGLE)
+    for i in range(n):
+        if other[i]:
+            ddth = dth + st * g[2, i]
+            th_out[i] = _wrap_pi(th[i] + ddth)
+            rot_out[i] = rot[i] * _rotor(ddth)
+
+
+@_jit
+def pf_predict_drawn(rng: np.random.Generator, z: ComplexArray, th: FloatArray,
+                     rot: ComplexArray, dx: float, dy: float, dth: float, sa: float,
+                     sl: float, st: float, z_out: ComplexArray, th_out: FloatArray,
+                     rot_out: ComplexArray) -> None:
+    """:func:`pf_predict` with its normal numbers drawn here from ``rng``: the numpy path's
+    ``rng.standard_normal((3, n))`` (numba's generator methods give the same numbers and
+    leave the generator in the same state, in a third of the time; handing the generator in
+    costs a few microseconds, so the filter does this for large sets only)."""
+    g = rng.standard_normal((3, z.shape[0]))
+    pf_predict(z, th, rot, g, dx, dy, dth, sa, sl, st, z_out, th_out, rot_out)
 
 
 #: ``1 + exp(-t)`` is 1 in double precision beyond this ``t``
@@ -350,6 +521,58 @@ def _ray_loglik(ex: float, ey: float, rr: float, ri: float, ucr: float, uci: flo
     return -0.5 * (a * a + b * b) - const
 
 
+def _pow2_typing(typingctx: Any, k: Any) -> Any:
+    """``2.0 ** k`` for an integer ``-1022 <= k <= 1023``, made from its bits (a shift, no
+    call: the loops that use it stay vectorised)."""
+    sig = numba.types.float64(numba.types.int64)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        i64 = llvm_ir.IntType(64)
+        bits = builder.shl(builder.add(args[0], llvm_ir.Constant(i64, 1023)),
+                           llvm_ir.Constant(i64, 52))
+        return builder.bitcast(bits, llvm_ir.DoubleType())
+
+    return sig, codegen
+
+
+_pow2 = cast(Callable[[int], float], numba.extending.intrinsic(_pow2_typing))
+
+#: :func:`_exp_neg` holds up to this argument (``exp(-708)`` is near the smallest normal
+#: double)
+_EXP_SMALLEST = 708.0
+
+#: ``log 2`` split in two for the range reduction of :func:`_exp_neg` (the high part has
+#: trailing zero bits, so ``k * _LN2_HI`` is exact for the ``k`` used)
+_LN2_HI = 6.93147180369123816490e-01
+_LN2_LO = 1.90821492927058770002e-10
+_INV_LN2 = 1.44269504088896338700e+00
+
+
+@_jit
+def _exp_neg(t: float) -> float:
+    """``exp(-t)`` for ``0 <= t <= 708`` (:data:`_EXP_SMALLEST`) without a library call, so
+    that the loops over the particles are vectorised: ``t = k log 2 - r`` with ``|r| <= log(2) /
+    2``, ``exp(r)`` from its Taylor series to the 13th order (truncation below 1e-17), times
+    ``2 ** -k``. Within 1.2e-16 relative of ``math.exp`` (an ulp)."""
+    k = math.floor(t * _INV_LN2 + 0.5)
+    r = (k * _LN2_HI - t) + k * _LN2_LO
+    p = 1.0 / 6227020800.0
+    p = 1.0 / 479001600.0 + r * p
+    p = 1.0 / 39916800.0 + r * p
+    p = 1.0 / 3628800.0 + r * p
+    p = 1.0 / 362880.0 + r * p
+    p = 1.0 / 40320.0 + r * p
+    p = 1.0 / 5040.0 + r * p
+    p = 1.0 / 720.0 + r * p
+    p = 1.0 / 120.0 + r * p
+    p = 1.0 / 24.0 + r * p
+    p = 1.0 / 6.0 + r * p
+    p = 0.5 + r * p
+    p = 1.0 + r * p
+    p = 1.0 + r * p
+    return p * _pow2(-k)
+
+
 @_jit
 def _mixture(v: float, log_in: float, log_out: float) -> tuple[float, float]:
     """``logaddexp(log_in + v, log_out)`` as ``(max, factor)``: the sum is
@@ -361,7 +584,7 @@ def _mixture(v: float, log_in: float, log_out: float) -> tuple[float, float]:
     else:
         top = log_out
         t = log_out - x
-    return top, 1.0 + math.exp(-min(t, _EXP_NEGLIGIBLE))
+    return top, 1.0 + _exp_neg(min(t, _EXP_NEGLIGIBLE))
 
 
 @_jit
@@ -467,37 +690,6 @@ def _particle_loglik(zr: float, zi: float, rr: float, ri: float, q: ComplexArray
 
 
 @_jit
-def pf_log_weights(logw: FloatArray, ll: FloatArray, w: FloatArray, logw_out: FloatArray
-                   ) -> tuple[float, float]:
-    """Log weights times the likelihoods, normalised by log-sum-exp: ``w`` (normalised) and
-    ``logw_out``. Returns the log of the weighted mean likelihood, ``log sum w p``, and the
-    effective sample size ``1 / sum w^2``; ``-inf, 0`` when every log weight is -inf (the
-    arrays then unchanged)."""
-    n = logw.shape[0]
-    top = -math.inf
-    for i in range(n):
-        v = logw[i] + ll[i]
-        logw_out[i] = v
-        if v > top:
-            top = v
-    if not math.isfinite(top):
-        return -math.inf, 0.0
-    total = 0.0
-    for i in range(n):
-        e = math.exp(logw_out[i] - top)
-        w[i] = e
-        total += e
-    log_avg = top + math.log(total)
-    sw2 = 0.0
-    for i in range(n):
-        wi = w[i] / total
-        w[i] = wi
-        sw2 += wi * wi
-        logw_out[i] = logw_out[i] - log_avg
-    return log_avg, 1.0 / sw2
-
-
-@_jit
 def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatArray
                   ) -> tuple[float, float, float]:
     """Weighted mean pose (x, y m; heading rad, the circular mean) of particles with
@@ -508,12 +700,35 @@ def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatA
     for i in range(z.shape[0]):
         mz += w[i] * z[i]
         mr += w[i] * rot[i]
+    return _pose_spread(z, rot, w, mz, mr, cov)
+
+
+@_jit
+def _pose_spread(z: ComplexArray, rot: ComplexArray, w: FloatArray, mz: complex, mr: complex,
+                 cov: FloatArray) -> tuple[float, float, float]:
+    """:func:`weighted_pose` from the weighted sums ``mz`` of the positions (m) and ``mr`` of
+    the rotors."""
     mrc = mr.conjugate()
-    sxx = sxy = syy = sxh = syh = shh = 0.0
-    for i in range(z.shape[0]):
-        d = z[i] - mz
+    # the heading deviations: the common branch of :func:`_heading` in a vectorised loop,
+    # the others again with the function (the same numbers)
+    n = z.shape[0]
+    hs = np.empty(n)
+    other = np.empty(n, dtype=np.bool_)
+    for i in range(n):
         r = rot[i] * mrc
-        h = _heading(r.imag, r.real)
+        u = r.imag / r.real
+        u2 = u * u
+        hs[i] = u * (1.0 - u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0 - u2 * (
+            1.0 / 9.0 - u2 * (1.0 / 11.0 - u2 * (1.0 / 13.0)))))))
+        other[i] = not (r.real > 0.0 and abs(r.imag) < _SMALL_ANGLE * r.real)
+    for i in range(n):
+        if other[i]:
+            r = rot[i] * mrc
+            hs[i] = _heading(r.imag, r.real)
+    sxx = sxy = syy = sxh = syh = shh = 0.0
+    for i in range(n):
+        d = z[i] - mz
+        h = hs[i]
         wi = w[i]
         sxx += wi * d.real * d.real
         sxy += wi * d.real * d.imag
@@ -526,6 +741,49 @@ def weighted_pose(z: ComplexArray, rot: ComplexArray, w: FloatArray, cov: FloatA
 
 
 @_jit
+def pf_weigh(logw: FloatArray, ll: FloatArray, z: ComplexArray, rot: ComplexArray,
+             w: FloatArray, logw_out: FloatArray, cov: FloatArray
+             ) -> tuple[float, float, float, float, float]:
+    """Log weights times the likelihoods ``ll``, normalised by log-sum-exp (``w`` normalised,
+    ``logw_out``), and then, when some weight is left, :func:`weighted_pose` of the new
+    weights (its first sums taken in the normalising pass). Returns the log of the weighted
+    mean likelihood ``log sum w p``, the effective sample size ``1 / sum w^2`` and the mean
+    pose (x, y m, heading rad; its covariance into ``cov``); ``-inf, 0, 0, 0, 0`` (nothing
+    written but ``logw_out``) when every log weight is -inf."""
+    n = logw.shape[0]
+    top = -math.inf
+    for i in range(n):
+        v = logw[i] + ll[i]
+        logw_out[i] = v
+        if v > top:
+            top = v
+    if not math.isfinite(top):
+        return -math.inf, 0.0, 0.0, 0.0, 0.0
+    for i in range(n):
+        # (vectorised: no call; the weights below exp(-708) relative to the best, which
+        # no sum or estimate can see, are 0)
+        t = top - logw_out[i]
+        e = _exp_neg(min(t, _EXP_SMALLEST))
+        w[i] = 0.0 if t > _EXP_SMALLEST else e
+    total = 0.0
+    for i in range(n):
+        total += w[i]
+    log_avg = top + math.log(total)
+    sw2 = 0.0
+    mz = 0j
+    mr = 0j
+    for i in range(n):
+        wi = w[i] / total
+        w[i] = wi
+        sw2 += wi * wi
+        logw_out[i] = logw_out[i] - log_avg
+        mz += wi * z[i]
+        mr += wi * rot[i]
+    x, y, t = _pose_spread(z, rot, w, mz, mr, cov)
+    return log_avg, 1.0 / sw2, x, y, t
+
+
+@_jit
 def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: FloatArray,
                         rot: ComplexArray, z_out: ComplexArray, th_out: FloatArray,
                         rot_out: ComplexArray, idx: IntArray, wrap: bool) -> None:
@@ -534,6 +792,20 @@ def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: F
     weights (the indices of ``searchsorted(c, (u0 + i) / n, 'right')``, into ``idx``), and the
     copy of the chosen particles (with ``wrap``, the heading wrapped again as the numpy path
     does, the rotor the parent's)."""
+    _low_variance_indices(w, u0, idx[:n])
+    for i in range(n):
+        j = idx[i]
+        z_out[i] = z[j]
+        th_out[i] = _wrap_pi(th[j]) if wrap else th[j]
+        rot_out[i] = rot[j]
+
+
+@_jit
+def _low_variance_indices(w: FloatArray, u0: float, idx: IntArray) -> None:
+    """Low-variance resampling's ``len(idx)`` indices from the normalised weights ``w`` and
+    the offset ``u0``, in one merge over the cumulative weights (the indices of
+    ``searchsorted(c, (u0 + i) / n, 'right')``, the last cumulative weight taken as 1)."""
+    n = idx.shape[0]
     m = w.shape[0]
     j = 0
     c = w[0] if m > 1 else 1.0
@@ -543,9 +815,106 @@ def low_variance_gather(w: FloatArray, u0: float, n: int, z: ComplexArray, th: F
             j += 1
             c = c + w[j] if j < m - 1 else 1.0
         idx[i] = j
-        z_out[i] = z[j]
-        th_out[i] = _wrap_pi(th[j]) if wrap else th[j]
-        rot_out[i] = rot[j]
+
+
+#: ``log(2 pi)``, the 2-D Gaussian's normalising constant
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+@_jit
+def pf_scan(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u: ComplexArray,
+            ranges: FloatArray, j: IntArray, ref_z: complex, ref_rot: complex,
+            map_z: ComplexArray, half_sep: FloatArray, sigma_range: float, sigma_range2: float,
+            sigma_range_per_m: float, sigma_bearing: float, use_ids: bool, outlier: bool,
+            log_in: float, log_out: float, ll: FloatArray) -> None:
+    """:func:`pf_scan_loglik` with its per-point inputs made here, as the numpy path makes
+    them: each point's candidate (the map reflector of its id ``j[k]`` when known, else the
+    one nearest to the point seen from the reference pose ``ref_z``, ``ref_rot``), its
+    ``half`` (infinite for a known id with ``use_ids``: never searched for), the range and
+    across-ray standard deviations from ``ranges`` (m; ``sigma_range`` m, its square
+    ``sigma_range2``, ``sigma_range_per_m`` m/m, ``sigma_bearing`` rad) and the Gaussians'
+    constants ``log 2 pi + log sr + log st``."""
+    k = q.shape[0]
+    cand = np.empty(k, dtype=np.complex128)
+    half = np.empty(k)
+    sr = np.empty(k)
+    st = np.empty(k)
+    const = np.empty(k)
+    u_conj = np.empty(k, dtype=np.complex128)
+    for p in range(k):
+        jp = j[p]
+        c = jp if jp >= 0 else _nearest_index(ref_z + ref_rot * q[p], map_z)
+        cand[p] = map_z[c]
+        half[p] = math.inf if use_ids and jp >= 0 else half_sep[c]
+        r = ranges[p]
+        if sigma_range_per_m > 0.0:
+            e = sigma_range_per_m * r
+            sr[p] = math.sqrt(sigma_range2 + e * e)
+        else:
+            sr[p] = sigma_range
+        b = r * sigma_bearing
+        st[p] = math.sqrt(b * b + 1e-12)
+        const[p] = _LOG_2PI + math.log(sr[p]) + math.log(st[p])
+        u_conj[p] = u[p].conjugate()
+    pf_scan_loglik(z, rot, q, u_conj, cand, half, map_z, sr, st, const, outlier, log_in,
+                   log_out, ll)
+
+
+@_jit
+def _bin_key(x: float, y: float, th: float, bin_xy: float, bin_th: float) -> int:
+    """:func:`lgvtool.localize.kld.bin_keys` of one pose (m, m, rad)."""
+    ix = math.floor(x / bin_xy)
+    iy = math.floor(y / bin_xy)
+    it = math.floor((th + math.pi) / bin_th)
+    return (ix * 1_000_003 + iy) * 4099 + it
+
+
+@_jit
+def pf_kld_resample(w: FloatArray, u0: float, perm: IntArray, need: FloatArray, n_min: int,
+                    bin_xy: float, bin_th: float, z: ComplexArray, th: FloatArray,
+                    rot: ComplexArray, z_out: ComplexArray, th_out: FloatArray,
+                    rot_out: ComplexArray, idx: IntArray) -> int:
+    """Low-variance resampling of ``len(perm)`` particles from the normalised weights ``w``
+    with the offset ``u0`` (as :func:`low_variance_gather`), taken in the order of the
+    permutation ``perm`` (the numpy path's ``rng.permutation``), and KLD-sampling's count
+    (:func:`lgvtool.localize.kld.kld_count`): the first ``n`` draws whose histogram bins
+    (``bin_xy`` m, ``bin_th`` rad) number ``k`` with ``n >= max(need[k - 1], n_min)``
+    (``need``: :func:`~lgvtool.localize.kld.kld_bound` of 1, 2, ... bins), at least
+    ``n_min``. The chosen particles are copied into the first ``n`` entries of the outputs
+    (their indices into ``idx``; the heading wrapped again as the numpy path does, the rotor
+    the parent's); returns ``n``."""
+    cap = perm.shape[0]
+    lv = np.empty(cap, dtype=np.intp)
+    _low_variance_indices(w, u0, lv)
+    size = 1
+    while size < 2 * cap:
+        size *= 2
+    mask = size - 1
+    keys = np.empty(size, dtype=np.int64)
+    used = np.zeros(size, dtype=np.bool_)
+    bins = 0
+    chosen = cap
+    for i in range(cap):
+        s = lv[perm[i]]
+        key = _bin_key(z[s].real, z[s].imag, th[s], bin_xy, bin_th)
+        h = ((key ^ (key >> 29)) * 0x5851F42D4C957F2D) & mask
+        while used[h] and keys[h] != key:
+            h = (h + 1) & mask
+        if not used[h]:
+            used[h] = True
+            keys[h] = key
+            bins += 1
+        if i + 1 >= max(need[bins - 1], n_min):
+            chosen = i + 1
+            break
+    n = min(max(chosen, n_min), cap)
+    for i in range(n):
+        s = lv[perm[i]]
+        idx[i] = s
+        z_out[i] = z[s]
+        th_out[i] = _wrap_pi(th[s])
+        rot_out[i] = rot[s]
+    return int(n)
 
 
 # ---------------------------------------------------------------------------- pf, ekf proposal

@@ -7,7 +7,6 @@ Weights are normalised (they sum to 1). Every random draw comes from the caller'
 from __future__ import annotations
 
 import math
-from types import ModuleType
 
 import numpy as np
 from numpy.typing import NDArray
@@ -82,7 +81,7 @@ class RedistributionDraws:
     ``parents * scale[b] + shift[b]``, with ``parents`` the rows ``slots_all[b]`` of the
     parents in the order of the top weights (the uniform particles take any parent and a
     scale of 0). With ``raw``, only the uniform numbers ``u`` (count, 4, M) that all of these
-    are made of, for :func:`lgvtool.localize.pf_kernels.paper_redistribute`.
+    are made of, for :func:`lgvtool.localize.pf_kernels.paper_resample`.
     """
 
     __slots__ = ("_plan", "count", "far_th", "far_z", "local_th", "local_z", "raw", "scale",
@@ -159,12 +158,21 @@ class RedistributionPlan:
                                        0.5 * (area.y_min + area.y_max))
         self.far_z = np.full(m - n_local, centre)
         self.far_th = np.zeros(m - n_local)
+        self._all = np.arange(m)
+        #: where :meth:`top` partitions the weights (0: every particle is a parent)
+        self.kth = m - self.n_top
+        #: the same for :func:`lgvtool.localize.pf_kernels.paper_resample`: the widths and
+        #: lows of a local particle (x, y m, heading rad) and of a uniform one, the centre
+        #: (x, y m), the number of parents and of local particles
+        self.kernel_plan = np.array([*self.width[:, 0], *self.low[:, 0], *self.width[:, -1],
+                                     *self.low[:, -1], centre.real, centre.imag, self.n_top,
+                                     n_local], dtype=np.float64)
 
     def draw(self, rng: np.random.Generator, count: int = 1, *, packed: bool = False,
              raw: bool = False) -> RedistributionDraws:
         """The random numbers of the next ``count`` redistributions (with ``packed``, also
         laid out for :meth:`apply_packed`; with ``raw``, only the uniform numbers, for
-        :meth:`apply_packed` with kernels)."""
+        :func:`lgvtool.localize.pf_kernels.paper_resample`)."""
         return RedistributionDraws(self, rng, count, packed=packed, raw=raw)
 
     def apply(self, z: NDArray[np.complex128], th: FloatArray, weights: FloatArray,
@@ -189,19 +197,17 @@ class RedistributionPlan:
         return new_z, new_th
 
     def apply_packed(self, state: NDArray[np.complex128], weights: FloatArray,
-                     draws: RedistributionDraws, b: int, out: NDArray[np.complex128],
-                     kernels: ModuleType | None = None) -> None:
+                     draws: RedistributionDraws, b: int, out: NDArray[np.complex128]) -> None:
         """:meth:`apply_drawn` on particles packed as the rows of ``state`` (M, 3): columns
         ``z`` (m), ``rot`` (heading rotor ``exp(i th)``) and ones; writes ``out`` (M, 3). The
         weights need not be normalised. A heading offset multiplies the parent's rotor by
-        ``exp(i offset)``. ``kernels``: :mod:`lgvtool.localize.pf_kernels` to do it in one
-        pass (the same numbers; ``draws`` drawn ``raw``)."""
-        m, n_top = self.m, self.n_top
-        top = weights.argpartition(m - n_top)[m - n_top:] if n_top < m else np.arange(m)
-        if kernels is not None:
-            kernels.paper_redistribute(state, top, draws.u[b], n_top, self.n_local,
-                                       self.width, self.low, self.centre, out)
-            return
-        state.take(top[draws.slots_all[b]], axis=0, out=out)
+        ``exp(i offset)``."""
+        state.take(self.top(weights)[draws.slots_all[b]], axis=0, out=out)
         np.multiply(out, draws.scale[b], out=out)
         np.add(out, draws.shift[b], out=out)
+
+    def top(self, weights: FloatArray) -> NDArray[np.intp]:
+        """Indices of the ``n_top`` heaviest particles, in the order of numpy's
+        ``argpartition`` (the parents' order, on which the redistribution depends)."""
+        kth = self.kth
+        return weights.argpartition(kth)[kth:] if kth > 0 else self._all

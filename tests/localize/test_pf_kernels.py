@@ -118,32 +118,99 @@ def test_kernels_match_the_numpy_path(monkeypatch: pytest.MonkeyPatch, name: str
     _close(fast, ref)
 
 
+def test_pf_draws_in_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The prediction's normal numbers drawn inside the kernel (as for large sets): the same
+    stream and estimates as the numpy path."""
+    from lgvtool.localize.particle_filter import ParticleFilter
+
+    settings = {"kld": False, "particles": 300}
+    ref, ref_state, _ = _run(monkeypatch, "numpy", "pf", settings)
+    monkeypatch.setattr(ParticleFilter, "DRAW_IN_KERNEL", 1)
+    fast, fast_state, _ = _run(monkeypatch, "numba", "pf", settings)
+    assert fast_state == ref_state
+    _close(fast, ref)
+
+
 def test_paper_redistribution_kernel_matches_numpy() -> None:
-    """One redistribution from the same uniform numbers: the positions bit for bit, the
+    """One weighing and redistribution from the same uniform numbers: eq. 11's sums and the
+    covariance and ESS within rounding of the numpy path, the positions bit for bit, the
     rotors within an ulp (the kernel's small-angle series)."""
     from lgvtool.config import Area
     from lgvtool.localize import pf_kernels as kern
+    from lgvtool.localize.paper_pf import _covariances_and_ess
     from lgvtool.localize.resampling import RedistributionPlan
 
     rng = np.random.default_rng(5)
-    m = 400
-    s = np.empty((m, 3), dtype=np.complex128)
-    s[:, 0] = rng.uniform(0, 20, m) + 1j * rng.uniform(0, 10, m)
-    s[:, 1] = np.exp(1j * rng.uniform(-math.pi, math.pi, m))
-    s[:, 2] = 1.0
-    w = rng.random(m)
-    plan = RedistributionPlan(m, Area(0.0, 20.0, 0.0, 10.0), top_fraction=0.25,
-                              local_fraction=0.95, spread_m=0.25, heading_spread_rad=0.01)
-    ref_draws = plan.draw(np.random.default_rng(9), 3, packed=True)
-    raw_draws = plan.draw(np.random.default_rng(9), 3, packed=True, raw=True)
-    for b in range(3):
-        ref = np.empty_like(s)
-        fast = np.empty_like(s)
-        plan.apply_packed(s, w, ref_draws, b, ref)
-        plan.apply_packed(s, w, raw_draws, b, fast, kern)
-        assert np.array_equal(fast[:, 0], ref[:, 0])
-        assert np.array_equal(fast[:, 2], ref[:, 2])
-        assert np.abs(fast[:, 1] - ref[:, 1]).max() <= 2.5e-16
+    for m, local in ((400, 0.95), (7, 1.0), (9, 0.0)):
+        s = np.empty((m, 3), dtype=np.complex128)
+        s[:, 0] = rng.uniform(0, 20, m) + 1j * rng.uniform(0, 10, m)
+        s[:, 1] = np.exp(1j * rng.uniform(-math.pi, math.pi, m))
+        s[:, 2] = 1.0
+        s2 = np.ascontiguousarray(s[:, :2])  # the kernels' layout, without the ones
+        exponent = -rng.random(m) * 30.0
+        plan = RedistributionPlan(m, Area(0.0, 20.0, 0.0, 10.0), top_fraction=0.25,
+                                  local_fraction=local, spread_m=0.25, heading_spread_rad=0.01)
+        ref_draws = plan.draw(np.random.default_rng(9), 3, packed=True)
+        raw_draws = plan.draw(np.random.default_rng(9), 3, packed=True, raw=True)
+        for b in range(3):
+            e_ref = exponent - exponent.max()
+            w_ref = np.exp(e_ref)
+            sx, sy, sc, ss, total, _ = (w_ref @ s.view(np.float64)).tolist()
+            e_fast, w, sums = exponent.copy(), np.empty(m), np.empty(5)
+            assert kern.paper_weights(s2, e_fast, w, sums) == sums[4]
+            assert np.array_equal(e_fast, e_ref)
+            np.testing.assert_allclose(w, w_ref, rtol=1e-15, atol=0)
+            np.testing.assert_allclose(sums, [sx, sy, sc, ss, total], rtol=1e-12)
+            w = w_ref.copy()  # the same weights on both paths from here
+            kern.paper_sums(s2, w, sums)
+            ref = np.empty_like(s)
+            fast = np.empty_like(s2)
+            plan.apply_packed(s, w, ref_draws, b, ref)
+            cov = np.empty((3, 3))
+            ess = kern.paper_resample(s2, w, plan.top(w), raw_draws.u[b], plan.kernel_plan,
+                                      sums, fast, cov, kern.paper_scratch())
+            assert np.array_equal(fast[:, 0], ref[:, 0])
+            assert np.abs(fast[:, 1] - ref[:, 1]).max() <= 2.5e-16
+            c_ref, e_ref2 = _covariances_and_ess(s[None], w[None], sums[4:5],
+                                                 np.array([complex(*sums[:2])]),
+                                                 np.array([complex(*sums[2:4])]))
+            np.testing.assert_allclose(cov, c_ref[0], rtol=1e-12, atol=1e-15)
+            assert abs(ess - e_ref2[0]) <= 1e-12 * e_ref2[0]
+
+
+def test_paper_weigh_is_its_parts() -> None:
+    """The fused weighing (motion, association, exponents, weights and sums in one call)
+    equals the motion, the exponents and the weights called one after the other, bit for
+    bit, with points both near and far from their candidates (the whole-map search)."""
+    from lgvtool.localize import pf_kernels as kern
+    from lgvtool.localize.paper_pf import _kernel_scan
+
+    rng = np.random.default_rng(8)
+    map_z = rng.uniform(0, 20, 12) + 1j * rng.uniform(0, 10, 12)
+    sep = np.abs(map_z[:, None] - map_z[None, :])
+    np.fill_diagonal(sep, np.inf)
+    half = 0.5 * sep.min(axis=1)
+    for m in (1, 300, 700):
+        prev = np.empty((m, 2), dtype=np.complex128)
+        prev[:, 0] = 10 + 5j + rng.normal(0, 0.3, m) + 1j * rng.normal(0, 0.3, m)
+        prev[:, 1] = np.exp(1j * rng.normal(0.4, 0.05, m))
+        j = rng.integers(0, 12, 9)
+        pose, turn = 10 + 5j, np.exp(0.4j)
+        q = (map_z[j] - pose) / turn + rng.normal(0, 0.05, 9)
+        scan = _kernel_scan(q, map_z[j], half[j])
+        step_z, step_rot = 0.02 + 0.001j, np.exp(0.003j)
+        cur, e, w, sums = (np.empty_like(prev), np.empty(m), np.empty(m), np.empty(5))
+        total = kern.paper_weigh(prev, cur, step_z, step_rot, scan, map_z, -0.5, e, w, sums,
+                                 kern.paper_scratch())
+        moved = np.empty_like(prev)
+        kern.paper_move(prev, moved, step_z, step_rot)
+        e2, w2, sums2 = np.empty(m), np.empty(m), np.empty(5)
+        kern.paper_exponents(moved, moved, 0j, 1 + 0j, scan, map_z, -0.5, e2,
+                             kern.paper_scratch())
+        assert kern.paper_weights(moved, e2, w2, sums2) == total == sums[4]
+        assert np.array_equal(cur, moved)
+        assert np.array_equal(e, e2) and np.array_equal(w, w2) and np.array_equal(sums, sums2)
+        assert e.max() == 0.0
 
 
 def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -154,7 +221,8 @@ def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_kernel_pieces_against_numpy() -> None:
-    """The wrap bit for bit, the resampling's indices exactly, the series within ulps."""
+    """The wrap bit for bit, the resampling's indices exactly, the series (and the
+    exponential of the mixture) within ulps."""
     from lgvtool.angles import wrap_angle
     from lgvtool.localize import pf_kernels as k
     from lgvtool.localize.resampling import low_variance
@@ -167,6 +235,10 @@ def test_kernel_pieces_against_numpy() -> None:
     y = rng.uniform(-0.05, 0.05, 2000)
     h = np.array([k._heading(float(v), 1.0) for v in y])
     np.testing.assert_allclose(h, np.arctan2(y, 1.0), rtol=5e-16, atol=0)
+    t = np.concatenate((rng.uniform(0.0, 38.0, 5000), rng.uniform(38.0, 708.0, 5000),
+                        [0.0, 38.0, 708.0, 5e-324, math.log(2) / 2]))
+    e = np.array([k._exp_neg(float(v)) for v in t])
+    np.testing.assert_allclose(e, [math.exp(-v) for v in t], rtol=2.5e-16, atol=0)
     x = rng.uniform(-0.2, 0.2, 2000)
     r = np.array([k._rotor(float(v)) for v in x])
     assert np.abs(r - np.exp(1j * x)).max() <= 2.5e-16
@@ -183,3 +255,37 @@ def test_kernel_pieces_against_numpy() -> None:
         assert np.array_equal(out[3], ref)
         assert np.array_equal(out[0], z[ref])
         assert np.array_equal(out[1], np.remainder(ths[ref] + math.pi, 2 * math.pi) - math.pi)
+
+
+def test_kld_resampling_kernel_against_numpy() -> None:
+    """KLD resampling in one pass: the same count and indices as low-variance draws, the
+    permutation, the bin keys and the sequential count of the numpy path, from the same
+    generator (its state equal afterwards)."""
+    from lgvtool.localize import pf_kernels as k
+    from lgvtool.localize.kld import bin_keys, kld_bound, kld_count
+    from lgvtool.localize.resampling import low_variance
+
+    rng = np.random.default_rng(21)
+    for m, cap, spread, n_min in ((1, 50, 1.0, 10), (105, 2000, 0.3, 100), (300, 2000, 40.0, 100),
+                                  (2000, 2000, 5.0, 1), (50, 400, 1e4, 20)):
+        w = rng.random(m) ** 3
+        w /= w.sum()
+        z = rng.normal(0.0, spread, m) + 1j * rng.normal(-3.0, spread, m)
+        th = rng.uniform(-math.pi, math.pi, m)
+        a, b = np.random.default_rng(m), np.random.default_rng(m)
+        idx = low_variance(w, cap, a)
+        idx = idx[a.permutation(cap)]
+        keys = bin_keys(z.real[idx], z.imag[idx], th[idx], 0.25, 0.1)
+        n_ref = kld_count(keys, 0.02, 0.01, n_min, cap)
+        out = (np.empty(cap, dtype=np.complex128), np.empty(cap),
+               np.empty(cap, dtype=np.complex128), np.empty(cap, dtype=np.intp))
+        u0 = b.random()
+        n = k.pf_kld_resample(w, u0, b.permutation(cap),
+                              kld_bound(np.arange(1, cap + 1), 0.02, 0.01), n_min, 0.25, 0.1,
+                              z, th, np.exp(1j * th), *out)
+        assert a.bit_generator.state == b.bit_generator.state
+        assert n == n_ref
+        assert np.array_equal(out[3][:n], idx[:n])
+        assert np.array_equal(out[0][:n], z[idx[:n]])
+        assert np.array_equal(out[1][:n], np.remainder(th[idx[:n]] + math.pi, 2 * math.pi)
+                              - math.pi)
