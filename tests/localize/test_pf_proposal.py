@@ -12,7 +12,7 @@ import pytest
 from localize_synth import REFLECTORS, small_config
 from test_ekf_scales import run_biased
 
-from lgvtool.localize.estimator import Motion
+from lgvtool.localize.estimator import Estimate, Motion
 from lgvtool.localize.observations import ScanObservation
 from lgvtool.localize.particle_filter import ParticleFilter
 from lgvtool.localize.pf_proposal import (
@@ -239,7 +239,7 @@ class Traced(ParticleFilter):
         super().__init__(*args, **kwargs)
         self.trace: list[tuple[float, float, float]] = []
 
-    def estimate(self):  # type: ignore[no-untyped-def]
+    def estimate(self) -> Estimate | None:
         e = super().estimate()
         if e is not None:
             self.trace.append((e.x, e.y, e.heading))
