@@ -471,15 +471,11 @@ class ParticleFilter(ParticleSet):
                 g = self.rng.standard_normal((3, n))
                 self._kern.pf_predict(self.z, self.th, self.rot, g, motion.dx, motion.dy,
                                       motion.dth, *sigmas, z, th, rot)
-            self._replace(z, th, rot)
+            self.z, self.th, self.rot = z, th, rot
             self._move_ref(motion)
         else:
             super().predict(motion)
         self._cached = None
-
-    def _replace(self, z: ComplexArray, th: FloatArray, rot: ComplexArray) -> None:
-        """Make ``z``, ``th``, ``rot`` (positions m, headings rad, rotors) the particles."""
-        self.z, self.th, self.rot = z, th, rot
 
     def _prior_scales(self, n: int) -> tuple[FloatArray, FloatArray]:
         """``n`` draws of the scales' prior (mean 1)."""
@@ -632,7 +628,7 @@ class ParticleFilter(ParticleSet):
             self.injected += n_inject
             self.w_slow[kind] = self.w_fast[kind] = 0.0
         if rot is not None and n_inject == 0:
-            self._replace(z, th, rot)
+            self.z, self.th, self.rot = z, th, rot
         else:
             self.z = z
             self._set_headings(th)
