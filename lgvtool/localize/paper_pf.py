@@ -360,9 +360,7 @@ class PaperParticleFilter(ParticleSet):
         else:
             self._drawn = b + 1
             self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
-        kth = plan.kth
-        top = w.argpartition(kth)[kth:] if kth > 0 else plan.top(w)
-        ess: float = kern.paper_resample(s, w, top, draws.u[b], plan.kernel_plan, sums, out,
+        ess: float = kern.paper_resample(s, w, plan.top(w), draws.u[b], plan.kernel_plan, sums, out,
                                          cov, self._work)
         return ess
 

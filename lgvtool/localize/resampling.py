@@ -185,9 +185,8 @@ class RedistributionPlan:
                     ) -> tuple[NDArray[np.complex128], FloatArray]:
         """New positions and headings (local particles first) from redistribution ``b`` of
         numbers drawn ahead."""
-        m, n_top, n_local = self.m, self.n_top, self.n_local
-        top = np.argpartition(weights, m - n_top)[m - n_top:] if n_top < m else np.arange(m)
-        parents = top[draws.slots[b]]
+        m, n_local = self.m, self.n_local
+        parents = self.top(weights)[draws.slots[b]]
         new_z = np.empty(m, dtype=np.complex128)
         np.add(z[parents], draws.local_z[b], out=new_z[:n_local])
         new_z[n_local:] = draws.far_z[b]
