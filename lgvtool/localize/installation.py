@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
+from numpy.typing import NDArray
 
 from lgvtool.angles import wrap_angle
 from lgvtool.config import Vehicle
@@ -39,24 +40,26 @@ def is_nominal(vehicle: Vehicle) -> bool:
 
 class CorrectedScans(LazyScans):
     """Scans of a :class:`LazyScans` with their times moved by ``-offset`` s and their bearings
-    turned by ``yaw`` rad, decoded only when used."""
+    turned by ``yaw`` rad, decoded (and corrected) when first used."""
 
     def __init__(self, scans: LazyScans, offset: float, yaw: float) -> None:
         self._inner = scans
         self._offset = offset
         self._yaw = yaw
+        self._n = len(scans)
+        self._all: tuple[ScanBatch, NDArray[np.int64]] | None = None
         self.source = scans.source
         self.received = scans.received - offset
-        self._start = np.full(len(scans), np.nan)  # start_and_period's cache, as LazyScans'
-        self._period = np.full(len(scans), np.nan)
 
-    def __len__(self) -> int:
-        return len(self._inner)
-
-    def batch(self, indices: Sequence[int] | None = None) -> ScanBatch:
-        b = self._inner.batch(indices)
-        return ScanBatch(b.t - self._offset, b.period, b.counts, b.ranges,
-                         b.bearings + self._yaw, b.times, b.ids)
+    def decoded(self) -> tuple[ScanBatch, NDArray[np.int64]]:
+        if self._all is None:
+            b, offsets = self._inner.decoded()
+            t, bearings = b.t - self._offset, b.bearings + self._yaw
+            t.setflags(write=False)
+            bearings.setflags(write=False)
+            self._all = (ScanBatch(t, b.period, b.counts, b.ranges, bearings, b.times, b.ids),
+                         offsets)
+        return self._all
 
 
 def correct_scans(scans: Sequence[RawScan], offset: float, yaw: float) -> Sequence[RawScan]:

@@ -1,7 +1,7 @@
 """What the estimators need from a log, read into arrays (:func:`load_log`).
 
 Times are seconds relative to the first message read (``LogData.t0_ns``). Reflector scans are
-kept as their JSON bytes (:class:`LazyScans`) and decoded only for the estimators that use them.
+kept as their JSON bytes (:class:`LazyScans`) until an estimator uses them, then decoded once.
 """
 
 from __future__ import annotations
@@ -39,56 +39,37 @@ def _seconds(ns: NDArray[np.int64], t0_ns: int) -> FloatArray:
 
 class LazyScans(Sequence[RawScan]):
     """Reflector scans kept as their JSON bytes (compressed, :class:`PackedBytes`, when read
-    by :func:`load_log`) and decoded only when an estimator needs them (the paper's filter
-    uses one revolution per NAV poll, about a quarter of them)."""
+    by :func:`load_log`) until an estimator first needs them, then decoded once, all of them,
+    into flat arrays that every later use shares (the arrays take about as much memory as the
+    compressed bytes they replace, which are freed)."""
 
     def __init__(self, t0_ns: int, received_ns: list[int] | NDArray[np.int64],
                  raw: list[bytes] | PackedBytes, source: str = "log") -> None:
         self._t0 = t0_ns
-        self._raw = raw
+        self._raw: list[bytes] | PackedBytes | None = raw
+        self._n = len(raw)
+        self._all: tuple[ScanBatch, NDArray[np.int64]] | None = None
         #: what the scans came from, for messages (the log's path)
         self.source = source
         #: receive (log) time of each scan, s after ``t0_ns``
         self.received = _seconds(np.asarray(received_ns, dtype=np.int64), t0_ns)
-        self._start = np.full(len(raw), np.nan)
-        self._period = np.full(len(raw), np.nan)
 
-    def _take(self, indices: Sequence[int] | None) -> list[bytes]:
-        raw = self._raw
-        if isinstance(raw, PackedBytes):
-            return raw.take(range(len(raw)) if indices is None else indices)
-        return raw if indices is None else [raw[k] for k in indices]
+    def decoded(self) -> tuple[ScanBatch, NDArray[np.int64]]:
+        """Every scan as flat read-only arrays, with the offset of each scan's first reflector
+        (``len + 1`` entries); decoded on the first call."""
+        if self._all is None:
+            raw = self._raw
+            assert raw is not None
+            b = self._decode(raw.take(range(len(raw))) if isinstance(raw, PackedBytes) else raw)
+            for a in (b.t, b.period, b.counts, b.ranges, b.bearings, b.times, b.ids):
+                a.setflags(write=False)
+            offsets = np.concatenate(([0], np.cumsum(b.counts))).astype(np.int64)
+            self._all = (b, offsets)
+            self._raw = None  # the bytes are no longer needed
+        return self._all
 
-    def start_and_period(self, indices: Sequence[int]) -> tuple[FloatArray, FloatArray]:
-        """Start time (s after ``t0_ns``) and revolution period (s) of the scans ``indices``,
-        decoded once and kept (they give the scans' observation times)."""
-        idx = np.asarray(indices, dtype=np.int64)
-        todo = idx[np.isnan(self._start[idx])] if len(idx) else idx
-        for a in range(0, len(todo), _DECODE_BLOCK):
-            part = todo[a:a + _DECODE_BLOCK]
-            b = self.batch(part.tolist())
-            self._start[part] = b.t
-            self._period[part] = b.period
-        return self._start[idx], self._period[idx]
-
-    def __len__(self) -> int:
-        return len(self._raw)
-
-    @overload
-    def __getitem__(self, i: int) -> RawScan: ...
-
-    @overload
-    def __getitem__(self, i: slice) -> list[RawScan]: ...
-
-    def __getitem__(self, i: int | slice) -> RawScan | list[RawScan]:
-        if isinstance(i, slice):
-            return [self[k] for k in range(*i.indices(len(self)))]
-        b = self.batch([i if i >= 0 else len(self) + i])
-        return RawScan(float(b.t[0]), float(b.period[0]), b.ranges, b.bearings, b.times, b.ids)
-
-    def batch(self, indices: Sequence[int] | None = None) -> ScanBatch:
-        """Decode the scans ``indices`` (all if None) into flat arrays."""
-        chosen = self._take(indices)
+    def _decode(self, chosen: Sequence[bytes]) -> ScanBatch:
+        """Flat arrays of the JSON scans ``chosen``."""
         try:
             t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64),
                                       _scan_fields)
@@ -105,6 +86,45 @@ class LazyScans(Sequence[RawScan]):
             return ScanBatch(z, z, e, z, z, z, e)
         period, counts, ranges, bearings, times, ids = cols
         return ScanBatch(_seconds(t, self._t0), period, counts, ranges, bearings, times, ids)
+
+    def start_and_period(self, indices: Sequence[int]) -> tuple[FloatArray, FloatArray]:
+        """Start time (s after ``t0_ns``) and revolution period (s) of the scans ``indices``
+        (they give the scans' observation times)."""
+        b, _ = self.decoded()
+        idx = np.asarray(indices, dtype=np.int64)
+        return b.t[idx], b.period[idx]
+
+    def __len__(self) -> int:
+        return self._n
+
+    @overload
+    def __getitem__(self, i: int) -> RawScan: ...
+
+    @overload
+    def __getitem__(self, i: slice) -> list[RawScan]: ...
+
+    def __getitem__(self, i: int | slice) -> RawScan | list[RawScan]:
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(len(self)))]
+        b = self.batch([i if i >= 0 else len(self) + i])
+        return RawScan(float(b.t[0]), float(b.period[0]), b.ranges, b.bearings, b.times, b.ids)
+
+    def batch(self, indices: Sequence[int] | None = None) -> ScanBatch:
+        """The scans ``indices`` (all if None) as flat arrays (read-only: shared)."""
+        b, offsets = self.decoded()
+        if indices is None:
+            return b
+        idx = np.asarray(indices, dtype=np.int64)
+        if len(idx) and (idx.min() < -self._n or idx.max() >= self._n):
+            raise IndexError("scan index out of range")
+        idx = np.where(idx < 0, idx + self._n, idx)
+        counts = b.counts[idx]
+        # the reflectors of each chosen scan: its first offset, then one after the other
+        ends = np.cumsum(counts)
+        flat = np.repeat(offsets[idx] - (ends - counts), counts) + np.arange(
+            int(ends[-1]) if len(ends) else 0)
+        return ScanBatch(b.t[idx], b.period[idx], counts, b.ranges[flat], b.bearings[flat],
+                         b.times[flat], b.ids[flat])
 
 
 def _scan_fields(docs: list[dict[str, Any]]) -> tuple[NDArray[Any], ...]:

@@ -7,6 +7,7 @@ import warnings
 from collections.abc import Sequence
 
 import numpy as np
+import orjson
 import pytest
 from simlogs import simulate_log
 
@@ -105,3 +106,39 @@ def test_scan_start_times_are_decoded_from_the_store() -> None:
     start, period = scans.start_and_period([9, 0, 4])
     assert start.tolist() == pytest.approx([9.0, 0.0, 4.0], abs=1e-9)
     assert period.tolist() == pytest.approx([0.125] * 3, abs=1e-12)
+
+
+def test_scans_are_decoded_once_and_any_selection_gathers_its_own_reflectors() -> None:
+    from lgvtool.localize.installation import correct_scans
+    from lgvtool.localize.logdata import LazyScans
+
+    rng = np.random.default_rng(5)
+    counts = rng.integers(0, 5, 40)
+    raw, want = [], []
+    for i, k in enumerate(counts.tolist()):
+        obs = [{"range": float(rng.uniform(1, 20)), "bearing": float(rng.uniform(-3, 3)),
+                "time_in_scan": 0.001 * j, "id": int(rng.integers(-1, 30))} for j in range(k)]
+        raw.append(orjson.dumps({"timestamp": {"sec": 1_704_067_200 + i, "nsec": 0},
+                                 "scan_period": 0.125, "observations": obs}))
+        want.append(obs)
+    packed = PackedBytes()
+    packed.append_block(raw)
+    scans = LazyScans(1_704_067_200 * 10**9, np.arange(40) * 10**9, packed)
+    pick = [39, 0, 7, 7, -1, 12, 3]
+    b = scans.batch(pick)
+    assert b.counts.tolist() == [int(counts[i]) for i in pick]
+    flat = [o for i in pick for o in want[i]]
+    assert b.ranges.tolist() == [o["range"] for o in flat]
+    assert b.bearings.tolist() == [o["bearing"] for o in flat]
+    assert b.ids.tolist() == [o["id"] for o in flat]
+    assert b.t.tolist() == pytest.approx([float(i % 40) for i in pick], abs=1e-9)
+    assert scans._raw is None  # decoded once: the bytes are freed
+    whole = scans.batch()
+    assert not whole.ranges.flags.writeable  # shared between the estimators: read-only
+    assert scans.batch([]).ranges.size == 0
+    with pytest.raises(IndexError):
+        scans.batch([40])
+    turned = correct_scans(scans, 0.5, 0.25)
+    c = turned.batch(pick)
+    assert c.bearings.tolist() == [o["bearing"] + 0.25 for o in flat]
+    assert c.t.tolist() == pytest.approx([float(i % 40) - 0.5 for i in pick], abs=1e-9)
