@@ -104,8 +104,9 @@ def evaluate_log(
     ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress.
     """
     from lgvtool.evaluate.evaluation import evaluate_trajectories
-    from lgvtool.evaluate.reference import steering_from_frames
+    from lgvtool.evaluate.reference import median_steering
     from lgvtool.log import LogReader, topics
+    from lgvtool.log.frames import steering_columns
 
     reader = (path_or_reader if isinstance(path_or_reader, LogReader)
               else LogReader(path_or_reader))
@@ -135,7 +136,7 @@ def evaluate_log(
     steering = None
     steering_source = "none"
     if reader.has_topic(topics.MCU_FRAME):
-        steering = steering_from_frames(reader.dataframe(topics.MCU_FRAME))
+        steering = median_steering(*steering_columns(reader))
         steering_source = "log" if steering is not None else "none"
     if steering is None and cfg.reference.steering_angle_deg is not None:
         steering = math.radians(cfg.reference.steering_angle_deg)

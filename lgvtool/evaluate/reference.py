@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from lgvtool.errors import InputError
 from lgvtool.evaluate.circle import Circle, fit_circle
@@ -52,15 +53,23 @@ MOVING_SPEED = 0.01
 
 
 def steering_from_frames(frames: pd.DataFrame | None) -> float | None:
-    """Median steering angle over the drive, rad, from MCU frames (columns steering_angle in
-    rad and, if present, drive_speed in m/s); frames at standstill are left out unless the
-    vehicle never moves. None if there is no usable angle."""
+    """:func:`median_steering` of MCU frames (columns steering_angle in rad and, if present,
+    drive_speed in m/s)."""
     if frames is None or frames.empty or "steering_angle" not in frames.columns:
         return None
-    angle = frames["steering_angle"].to_numpy(dtype=float)
+    speed = (frames["drive_speed"].to_numpy(dtype=float) if "drive_speed" in frames.columns
+             else None)
+    return median_steering(frames["steering_angle"].to_numpy(dtype=float), speed)
+
+
+def median_steering(angle: NDArray[np.float64], speed: NDArray[np.float64] | None
+                    ) -> float | None:
+    """Median steering angle over the drive, rad, from the MCU frames' steering angles (rad,
+    NaN where absent) and drive speeds (m/s; None: unknown); frames at standstill are left out
+    unless the vehicle never moves. None if there is no usable angle."""
     ok = np.isfinite(angle)
-    if "drive_speed" in frames.columns:
-        moving = ok & (np.abs(frames["drive_speed"].to_numpy(dtype=float)) > MOVING_SPEED)
+    if speed is not None:
+        moving = ok & (np.abs(speed) > MOVING_SPEED)
         if moving.any():
             ok = moving
     return float(np.median(angle[ok])) if ok.any() else None

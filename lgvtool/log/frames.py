@@ -12,10 +12,12 @@ import math
 from collections.abc import Iterable
 from typing import Any
 
+import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from lgvtool.log.messages import yaw_from_quaternion
-from lgvtool.log.reader import LogMessage
+from lgvtool.log.reader import LogMessage, LogReader
 from lgvtool.timestamps import stamp_seconds
 
 
@@ -47,6 +49,25 @@ def pose_table(messages: Iterable[tuple[int, dict[str, Any]]]) -> pd.DataFrame:
         qx, qy, qz, qw = (float(q.get(k, 0.0)) for k in ("x", "y", "z", "w"))
         heading.append(atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
     return pd.DataFrame(cols)
+
+
+def steering_columns(reader: LogReader) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Steering angle (rad, NaN where a frame has none) and absolute drive speed (m/s, 0 where
+    a frame has none) of every MCU frame of the log, in stored order (read a chunk at a time,
+    two fields decoded; empty without /mcu/frame)."""
+    import orjson
+
+    from lgvtool.log import topics as T
+
+    angle: list[float] = []
+    speed: list[float] = []
+    if reader.has_topic(T.MCU_FRAME):
+        loads = orjson.loads
+        for block in reader.raw_column_chunks([T.MCU_FRAME]):
+            for d in map(loads, block[T.MCU_FRAME][1] if T.MCU_FRAME in block else ()):
+                angle.append(float(d.get("steering_angle", math.nan)))
+                speed.append(abs(float(d.get("drive_speed", 0.0))))
+    return np.array(angle, dtype=np.float64), np.array(speed, dtype=np.float64)
 
 
 def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:

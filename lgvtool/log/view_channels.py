@@ -28,10 +28,6 @@ if TYPE_CHECKING:
     from lgvtool.log.reader import LogReader
 
 
-MOVING_SPEED = 0.01
-"""Drive speed above which an MCU frame counts for the steering median, m/s."""
-
-
 def _nav_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
     """x, y, heading (m, m, rad; NaN when not a number) and the valid flag of NAV poses."""
     return ([_num(d, "x") for d in docs], [_num(d, "y") for d in docs],
@@ -185,13 +181,10 @@ def truth_stream(rows: LogRows, m: fx.Mounting) -> list[Source]:
 
 def steering_angle(rows: LogRows) -> float | None:
     """Median logged steering angle while driving, rad (None without MCU frames)."""
-    import numpy as np
+    from lgvtool.evaluate.reference import median_steering
 
     _t, (angle, speed) = rows.columns(T.MCU_FRAME)
-    ok = np.isfinite(angle)
-    if (ok & (speed > MOVING_SPEED)).any():
-        ok &= speed > MOVING_SPEED
-    return float(np.median(angle[ok])) if ok.any() else None
+    return median_steering(angle, speed)
 
 
 def reference_stream(rows: LogRows, config: Any,

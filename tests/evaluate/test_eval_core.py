@@ -113,3 +113,21 @@ def test_steering_median_over_the_drive() -> None:
     assert steering_from_frames(frames.assign(drive_speed=0.0)) == pytest.approx(0.52)  # all
     assert steering_from_frames(pd.DataFrame()) is None
     assert steering_from_frames(frames.drop(columns="drive_speed")) == pytest.approx(0.52)
+
+
+def test_logged_steering_read_as_two_columns_is_the_frames_table_median() -> None:
+    from pathlib import Path
+
+    from lgvtool.evaluate.reference import median_steering, steering_from_frames
+    from lgvtool.log import LogReader, topics
+    from lgvtool.log.frames import steering_columns
+
+    reader = LogReader(Path(__file__).resolve().parents[2] / "sample_logs" / "degraded.mcap")
+    angle, speed = steering_columns(reader)
+    frames = reader.dataframe(topics.MCU_FRAME)
+    assert len(angle) == len(frames) > 100
+    np.testing.assert_array_equal(angle, frames["steering_angle"].to_numpy(dtype=float))
+    np.testing.assert_array_equal(speed, np.abs(frames["drive_speed"].to_numpy(dtype=float)))
+    assert median_steering(angle, speed) == steering_from_frames(frames)
+    assert median_steering(np.array([np.nan, 0.5]), None) == 0.5
+    assert median_steering(np.array([np.nan]), np.array([1.0])) is None
