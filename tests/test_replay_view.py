@@ -189,3 +189,26 @@ def test_layout_opens_every_view_channel(replayed: Path) -> None:
             for p in cfg["paths"]:
                 assert p["value"].split(".")[0] in names, p["value"]
     assert "/work" not in text
+
+
+def test_view_draws_the_scans_the_estimators_decoded_as_its_own_reading_would() -> None:
+    """replay hands the view the scans the estimators decoded; the view's rows are then those of
+    its own reading of the log, array for array (and nothing is shared before a decode)."""
+    from lgvtool.localize.installation import correct_scans
+    from lgvtool.localize.logdata import LazyScans, load_log
+    from lgvtool.log.view_channels import LogRows
+
+    reader = LogReader(REPO / "sample_logs" / "degraded.mcap")
+    scans = load_log(reader).scans
+    assert isinstance(scans, LazyScans)
+    assert scans.decoded_columns() is None
+    correct_scans(scans, 0.03, 0.01).batch([0])  # an estimator with an installation correction
+    shared = scans.decoded_columns()
+    assert shared is not None
+    own_t, own = LogRows(reader).columns(topics.NAV_REFLECTORS)
+    t, cols = LogRows(reader, shared).columns(topics.NAV_REFLECTORS)
+    np.testing.assert_array_equal(t, own_t)
+    assert len(cols) == len(own) == 6
+    for a, b in zip(cols, own, strict=True):
+        assert a.dtype == b.dtype
+        np.testing.assert_array_equal(a, b)

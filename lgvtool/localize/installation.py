@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -48,7 +49,9 @@ class CorrectedScans(LazyScans):
         self._yaw = yaw
         self._n = len(scans)
         self._all: tuple[ScanBatch, NDArray[np.int64]] | None = None
+        self._start_ns = None
         self.source = scans.source
+        self.received_ns = scans.received_ns - round(offset * 1e9)
         self.received = scans.received - offset
 
     def decoded(self) -> tuple[ScanBatch, NDArray[np.int64]]:
@@ -60,6 +63,10 @@ class CorrectedScans(LazyScans):
             self._all = (ScanBatch(t, b.period, b.counts, b.ranges, bearings, b.times, b.ids),
                          offsets)
         return self._all
+
+    def decoded_columns(self) -> tuple[NDArray[Any], ...] | None:
+        """The scans as logged (the view draws what the NAV reported)."""
+        return self._inner.decoded_columns()
 
 
 def correct_scans(scans: Sequence[RawScan], offset: float, yaw: float) -> Sequence[RawScan]:

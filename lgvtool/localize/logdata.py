@@ -49,10 +49,13 @@ class LazyScans(Sequence[RawScan]):
         self._raw: list[bytes] | PackedBytes | None = raw
         self._n = len(raw)
         self._all: tuple[ScanBatch, NDArray[np.int64]] | None = None
+        self._start_ns: NDArray[np.int64] | None = None
         #: what the scans came from, for messages (the log's path)
         self.source = source
+        #: receive (log) time of each scan, ns since the epoch
+        self.received_ns = np.asarray(received_ns, dtype=np.int64)
         #: receive (log) time of each scan, s after ``t0_ns``
-        self.received = _seconds(np.asarray(received_ns, dtype=np.int64), t0_ns)
+        self.received = _seconds(self.received_ns, t0_ns)
 
     def decoded(self) -> tuple[ScanBatch, NDArray[np.int64]]:
         """Every scan as flat read-only arrays, with the offset of each scan's first reflector
@@ -60,16 +63,28 @@ class LazyScans(Sequence[RawScan]):
         if self._all is None:
             raw = self._raw
             assert raw is not None
-            b = self._decode(raw.take(range(len(raw))) if isinstance(raw, PackedBytes) else raw)
-            for a in (b.t, b.period, b.counts, b.ranges, b.bearings, b.times, b.ids):
+            b, self._start_ns = self._decode(raw.take(range(len(raw)))
+                                             if isinstance(raw, PackedBytes) else raw)
+            for a in (b.t, b.period, b.counts, b.ranges, b.bearings, b.times, b.ids,
+                      self._start_ns):
                 a.setflags(write=False)
             offsets = np.concatenate(([0], np.cumsum(b.counts))).astype(np.int64)
             self._all = (b, offsets)
             self._raw = None  # the bytes are no longer needed
         return self._all
 
-    def _decode(self, chosen: Sequence[bytes]) -> ScanBatch:
-        """Flat arrays of the JSON scans ``chosen``."""
+    def decoded_columns(self) -> tuple[NDArray[Any], ...] | None:
+        """The scans as the view channels draw them (:class:`lgvtool.log.view_channels.LogRows`)
+        once an estimator has decoded them, else None: log time (ns), start (ns), count, then
+        per reflector range (m), bearing (rad), id and time in scan (s)."""
+        if self._all is None or self._start_ns is None:
+            return None
+        b = self._all[0]
+        return (self.received_ns, self._start_ns, b.counts, b.ranges, b.bearings, b.ids,
+                b.times)
+
+    def _decode(self, chosen: Sequence[bytes]) -> tuple[ScanBatch, NDArray[np.int64]]:
+        """Flat arrays of the JSON scans ``chosen``, and their start times (ns)."""
         try:
             t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64),
                                       _scan_fields)
@@ -83,9 +98,10 @@ class LazyScans(Sequence[RawScan]):
         if not cols:
             z = np.zeros(0)
             e = np.zeros(0, dtype=np.int64)
-            return ScanBatch(z, z, e, z, z, z, e)
+            return ScanBatch(z, z, e, z, z, z, e), e
         period, counts, ranges, bearings, times, ids = cols
-        return ScanBatch(_seconds(t, self._t0), period, counts, ranges, bearings, times, ids)
+        return ScanBatch(_seconds(t, self._t0), period, counts, ranges, bearings, times,
+                         ids), t
 
     def start_and_period(self, indices: Sequence[int]) -> tuple[FloatArray, FloatArray]:
         """Start time (s after ``t0_ns``) and revolution period (s) of the scans ``indices``

@@ -68,12 +68,16 @@ _FIELDS = {T.NAV_POSE: (_nav_fields, ("d", "d", "d", "?")),
 class LogRows:
     """The numeric rows of the log that the view channels draw, read in one pass over the
     log's chunks and decoded a chunk at a time: per topic the log times (ns) and its columns
-    (see the ``_*_fields`` functions), in log-time order; topics the log lacks are empty."""
+    (see the ``_*_fields`` functions), in log-time order; topics the log lacks are empty.
+    ``scans``: the reflector scans' log times and columns already decoded, in log-time order
+    (:meth:`lgvtool.localize.logdata.LazyScans.decoded_columns`), which are then not read
+    again."""
 
-    def __init__(self, reader: LogReader) -> None:
+    def __init__(self, reader: LogReader, scans: tuple[Any, ...] | None = None) -> None:
         import numpy as np
 
-        wanted = [t for t in _FIELDS if reader.has_topic(t)]
+        wanted = [t for t in _FIELDS if reader.has_topic(t)
+                  and not (scans is not None and t == T.NAV_REFLECTORS)]
         acc: dict[str, tuple[list[Any], list[tuple[list[Any], ...]]]] = {
             t: ([], []) for t in wanted}
         loads = orjson.loads
@@ -100,6 +104,8 @@ class LogRows:
                 else:
                     cols = [c[order] for c in cols]
             self._cols[topic] = (t, cols)
+        if scans is not None:
+            self._cols[T.NAV_REFLECTORS] = (scans[0], list(scans[1:]))
 
     def columns(self, topic: str) -> tuple[Any, list[Any]]:
         """Log times (ns) and columns of ``topic``."""
@@ -245,12 +251,14 @@ def estimate_streams(name: str, tab: Any, m: fx.Mounting) -> list[Source]:
                                                           cov[idx]))]
 
 
-def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any]) -> list[Source]:
+def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any],
+                 scans: tuple[Any, ...] | None = None) -> list[Source]:
     """Every Foxglove view channel of a replayed log: from the log (NAV, truth, reference
-    circle) and from the estimators' ``tables`` (frames and covariance ellipses)."""
+    circle) and from the estimators' ``tables`` (frames and covariance ellipses); ``scans``
+    as :class:`LogRows` takes them."""
     m = fx.mounting_of(config.vehicle)
     fallback = "truth" if reader.has_topic(T.TRUTH) else next(iter(tables), "nav")
-    rows = LogRows(reader)
+    rows = LogRows(reader, scans)
     out = (nav_streams(rows, m, fallback) + truth_stream(rows, m)
            + reference_stream(rows, config, tables))
     for name, tab in tables.items():
