@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.config import Reflector
+from lgvtool.errors import LogFormatError
 from lgvtool.localize.motion import (
     Increments,
     MotionSettings,
@@ -61,16 +62,16 @@ class LazyScans(Sequence[RawScan]):
         """Every scan as flat read-only arrays, with the offset of each scan's first reflector
         (``len + 1`` entries); decoded on the first call."""
         if self._all is None:
-            raw = self._raw
-            assert raw is not None
-            b, self._start_ns = self._decode(raw.take(range(len(raw)))
-                                             if isinstance(raw, PackedBytes) else raw)
+            if self._raw is None:
+                raise LogFormatError(f"{self.source}: reflector scans could not be decoded")
+            raw, self._raw = self._raw, None  # the bytes are consumed by the decoding
+            b, self._start_ns = self._decode(raw.consume() if isinstance(raw, PackedBytes)
+                                             else [raw])
             for a in (b.t, b.period, b.counts, b.ranges, b.bearings, b.times, b.ids,
                       self._start_ns):
                 a.setflags(write=False)
             offsets = np.concatenate(([0], np.cumsum(b.counts))).astype(np.int64)
             self._all = (b, offsets)
-            self._raw = None  # the bytes are no longer needed
         return self._all
 
     def decoded_columns(self) -> tuple[NDArray[Any], ...] | None:
@@ -83,22 +84,28 @@ class LazyScans(Sequence[RawScan]):
         return (self.received_ns, self._start_ns, b.counts, b.ranges, b.bearings, b.ids,
                 b.times)
 
-    def _decode(self, chosen: Sequence[bytes]) -> tuple[ScanBatch, NDArray[np.int64]]:
-        """Flat arrays of the JSON scans ``chosen``, and their start times (ns)."""
+    def _decode(self, blocks: Iterable[Sequence[bytes]]
+                ) -> tuple[ScanBatch, NDArray[np.int64]]:
+        """Flat arrays of the JSON scans of ``blocks`` (one after the other), and their start
+        times (ns)."""
+        stamps: list[NDArray[np.int64]] = []
+        parts: list[Sequence[NDArray[Any]]] = []
         try:
-            t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64),
-                                      _scan_fields)
-            if cols:
-                _checked("/nav/reflectors", t[t != 0], ranges=cols[2], bearings=cols[3],
-                         time_in_scan=cols[4])
+            for chosen in blocks:
+                t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64),
+                                          _scan_fields)
+                if cols:
+                    stamps.append(t)
+                    parts.append(cols)
+            if not parts:
+                z = np.zeros(0)
+                e = np.zeros(0, dtype=np.int64)
+                return ScanBatch(z, z, e, z, z, z, e), e
+            t, cols = np.concatenate(stamps), _joined(parts)
+            _checked("/nav/reflectors", t[t != 0], ranges=cols[2], bearings=cols[3],
+                     time_in_scan=cols[4])
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            from lgvtool.errors import LogFormatError
-
             raise LogFormatError(f"{self.source}: {_what(exc)}") from None
-        if not cols:
-            z = np.zeros(0)
-            e = np.zeros(0, dtype=np.int64)
-            return ScanBatch(z, z, e, z, z, z, e), e
         period, counts, ranges, bearings, times, ids = cols
         return ScanBatch(_seconds(t, self._t0), period, counts, ranges, bearings, times,
                          ids), t
@@ -240,14 +247,26 @@ def _decode_columns(raw: Sequence[bytes], log_ns: NDArray[np.int64],
 
     loads = orjson.loads
     stamps: list[NDArray[np.int64]] = []
-    parts: list[tuple[NDArray[Any], ...]] = []
+    parts: list[Sequence[NDArray[Any]]] = []
     for a in range(0, len(raw), _DECODE_BLOCK):
         docs = [loads(x) for x in raw[a:a + _DECODE_BLOCK]]
         stamps.append(message_stamps_ns(docs, log_ns[a:a + _DECODE_BLOCK]))
         parts.append(fields(docs))
     if not parts:
         return np.zeros(0, dtype=np.int64), []
-    return np.concatenate(stamps), [np.concatenate(c, axis=-1) for c in zip(*parts, strict=True)]
+    return np.concatenate(stamps), _joined(parts)
+
+
+def _joined(parts: list[Sequence[NDArray[Any]]]) -> list[NDArray[Any]]:
+    """The columns of ``parts`` (blocks of columns, messages on the last axis) joined, one
+    column at a time, each column's blocks freed once it is joined (``parts`` is emptied)."""
+    columns = [list(c) for c in zip(*parts, strict=True)]
+    parts.clear()
+    out: list[NDArray[Any]] = []
+    for col in columns:
+        out.append(np.concatenate(col, axis=-1))
+        col.clear()
+    return out
 
 
 def _columns(docs: list[dict[str, Any]], keys: Sequence[str], dtype: type) -> NDArray[Any]:

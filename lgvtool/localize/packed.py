@@ -8,13 +8,16 @@ decompressed only when one of its messages is asked for.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 import zstandard
 from numpy.typing import NDArray
 
 #: uncompressed bytes compressed together as one block
+CONSUME_ITEMS = 2048
+"""Items per list of :meth:`PackedBytes.consume` after a reorder."""
+
 BLOCK_BYTES = 1 << 20
 
 
@@ -109,6 +112,24 @@ class PackedBytes:
             data = self._block(b[pos])
             out[pos] = data[s[pos]:e[pos]]
         return out
+
+    def consume(self) -> Iterator[list[bytes]]:
+        """Every item in index order, a list at a time, the store emptied as it goes (each
+        compressed block is freed once its items are handed out; after a :meth:`reorder`,
+        lists of :data:`CONSUME_ITEMS` items, the store emptied at the end)."""
+        self._seal()
+        if self._reordered:
+            for a in range(0, self._n, CONSUME_ITEMS):
+                yield self.take(range(a, min(a + CONSUME_ITEMS, self._n)))
+        else:
+            for k in range(len(self._blocks)):
+                data = self._block(k)
+                starts = self._start[k].tolist()
+                self._blocks[k] = b""
+                self._cached = None
+                yield [data[starts[i]:starts[i + 1]] for i in range(len(starts) - 1)]
+        self._blocks, self._sizes, self._block_of, self._start = [], [], [], []
+        self._index, self._cached, self._n = None, None, 0
 
     def reorder(self, order: NDArray[np.int64]) -> None:
         """Put the items in the order ``order`` (a permutation of their indices)."""

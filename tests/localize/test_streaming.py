@@ -37,6 +37,26 @@ def test_packed_bytes_round_trip_and_reorder() -> None:
         p.append_block([b"x"])
 
 
+def test_packed_bytes_consumed_in_order_free_their_blocks_as_they_go() -> None:
+    rng = np.random.default_rng(4)
+    items = [rng.bytes(int(n)) for n in rng.integers(0, 6000, 900)]
+    p = PackedBytes()
+    for a in range(0, len(items), 37):
+        p.append_block(items[a:a + 37])
+    stored = p.stored_bytes
+    lists = p.consume()
+    first = next(lists)
+    assert p.stored_bytes < stored  # the first block is freed once handed out
+    assert first + [x for part in lists for x in part] == items
+    assert len(p) == 0 and p.stored_bytes == 0
+    q = PackedBytes()
+    q.append_block(items)
+    order = np.argsort(rng.random(len(items)))
+    q.reorder(order)
+    assert [x for part in q.consume() for x in part] == [items[i] for i in order.tolist()]
+    assert len(q) == 0
+
+
 def test_blockwise_motions_equal_the_whole(monkeypatch: pytest.MonkeyPatch) -> None:
     rng = np.random.default_rng(1)
     t = np.cumsum(rng.uniform(0.05, 0.15, 300))
