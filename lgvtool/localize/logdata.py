@@ -325,7 +325,8 @@ class _Topic:
 def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *,
              truth: bool = False) -> LogData:
     """Read the motion and observation topics of a log (and the ground truth if ``truth``)
-    into arrays; reflector scans are kept undecoded (compressed) until used.
+    into arrays; reflector scans are kept undecoded (compressed) until first used, then
+    decoded once (:class:`LazyScans`).
 
     The log is read one chunk at a time and each chunk's messages are decoded before the next
     is read, so memory holds the arrays, not the messages.

@@ -1,9 +1,11 @@
 """Many small byte strings (message JSON) held compressed, in blocks (:class:`PackedBytes`).
 
 A log's reflector scans are kept undecoded until an estimator needs them; as JSON they take
-about 2 KB each, 58 MB per hour of a paper-circle log. Held here, compressed with zstd
-level 1 in blocks of about 1 MB, they take about a quarter of that, and a block is
-decompressed only when one of its messages is asked for.
+about 1.6 KB each, 47 MB per hour of a paper-circle log. Held here, compressed with zstd
+level 1 in blocks of about 1 MB, they take about a quarter of that; a block is decompressed
+only when one of its messages is asked for, and :meth:`PackedBytes.consume` hands them all
+out once, freeing each block as it goes (the scans' one decoding,
+:class:`lgvtool.localize.logdata.LazyScans`).
 """
 
 from __future__ import annotations
@@ -14,10 +16,10 @@ import numpy as np
 import zstandard
 from numpy.typing import NDArray
 
-#: uncompressed bytes compressed together as one block
 CONSUME_ITEMS = 2048
 """Items per list of :meth:`PackedBytes.consume` after a reorder."""
 
+#: uncompressed bytes compressed together as one block
 BLOCK_BYTES = 1 << 20
 
 
