@@ -20,12 +20,19 @@ from lgvtool.localize.packed import PackedBytes
 from lgvtool.log import LogReader
 
 
-def test_packed_bytes_round_trip_and_reorder() -> None:
-    rng = np.random.default_rng(3)
-    items = [rng.bytes(int(n)) for n in rng.integers(0, 3000, 900)]
+def _packed(rng: np.random.Generator, longest: int) -> tuple[list[bytes], PackedBytes]:
+    """900 random byte strings of up to ``longest`` bytes, and a store of them added 37 at a
+    time."""
+    items = [rng.bytes(int(n)) for n in rng.integers(0, longest, 900)]
     p = PackedBytes()
     for a in range(0, len(items), 37):
         p.append_block(items[a:a + 37])
+    return items, p
+
+
+def test_packed_bytes_round_trip_and_reorder() -> None:
+    rng = np.random.default_rng(3)
+    items, p = _packed(rng, 3000)
     assert len(p) == len(items)
     assert p.stored_bytes > 0
     idx = rng.permutation(len(items)).tolist()
@@ -39,10 +46,7 @@ def test_packed_bytes_round_trip_and_reorder() -> None:
 
 def test_packed_bytes_consumed_in_order_free_their_blocks_as_they_go() -> None:
     rng = np.random.default_rng(4)
-    items = [rng.bytes(int(n)) for n in rng.integers(0, 6000, 900)]
-    p = PackedBytes()
-    for a in range(0, len(items), 37):
-        p.append_block(items[a:a + 37])
+    items, p = _packed(rng, 6000)
     stored = p.stored_bytes
     lists = p.consume()
     first = next(lists)
