@@ -195,14 +195,14 @@ def test_view_draws_the_scans_the_estimators_decoded_as_its_own_reading_would() 
     """replay hands the view the scans the estimators decoded; the view's rows are then those of
     its own reading of the log, array for array (and nothing is shared before a decode)."""
     from lgvtool.localize.installation import correct_scans
-    from lgvtool.localize.logdata import LazyScans, load_log
+    from lgvtool.localize.logdata import LazyScans, load_log, scan_batch
     from lgvtool.log.view_channels import LogRows
 
     reader = LogReader(REPO / "sample_logs" / "degraded.mcap")
     scans = load_log(reader).scans
     assert isinstance(scans, LazyScans)
     assert scans.decoded_columns() is None
-    correct_scans(scans, 0.03, 0.01).batch([0])  # an estimator with an installation correction
+    scan_batch(correct_scans(scans, 0.03, 0.01), [0])  # an estimator with an installation fix
     shared = scans.decoded_columns()
     assert shared is not None
     own_t, own = LogRows(reader).columns(topics.NAV_REFLECTORS)

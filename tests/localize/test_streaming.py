@@ -163,6 +163,6 @@ def test_scans_are_decoded_once_and_any_selection_gathers_its_own_reflectors() -
     with pytest.raises(IndexError):
         scans.batch([40])
     turned = correct_scans(scans, 0.5, 0.25)
-    c = turned.batch(pick)
+    c = scan_batch(turned, pick)
     assert c.bearings.tolist() == [o["bearing"] + 0.25 for o in flat]
     assert c.t.tolist() == pytest.approx([float(i % 40) - 0.5 for i in pick], abs=1e-9)
