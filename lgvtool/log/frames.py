@@ -57,16 +57,22 @@ def steering_columns(reader: LogReader) -> tuple[NDArray[np.float64], NDArray[np
     two fields decoded; empty without /mcu/frame)."""
     import orjson
 
+    from lgvtool.errors import LogFormatError
     from lgvtool.log import topics as T
 
     angle: list[float] = []
     speed: list[float] = []
     if reader.has_topic(T.MCU_FRAME):
         loads = orjson.loads
-        for block in reader.raw_column_chunks([T.MCU_FRAME]):
-            for d in map(loads, block[T.MCU_FRAME][1] if T.MCU_FRAME in block else ()):
-                angle.append(float(d.get("steering_angle", math.nan)))
-                speed.append(abs(float(d.get("drive_speed", 0.0))))
+        try:
+            for block in reader.raw_column_chunks([T.MCU_FRAME]):
+                for d in map(loads, block[T.MCU_FRAME][1] if T.MCU_FRAME in block else ()):
+                    angle.append(float(d.get("steering_angle", math.nan)))
+                    speed.append(abs(float(d.get("drive_speed", 0.0))))
+        except (TypeError, ValueError, AttributeError) as exc:
+            raise LogFormatError(f"{reader.path}: topic {T.MCU_FRAME}: messages do not match "
+                                 f"schema lgvtool.McuFrame ({type(exc).__name__}: {exc})"
+                                 ) from None
     return np.array(angle, dtype=np.float64), np.array(speed, dtype=np.float64)
 
 

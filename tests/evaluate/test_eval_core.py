@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -116,8 +117,6 @@ def test_steering_median_over_the_drive() -> None:
 
 
 def test_logged_steering_read_as_two_columns_is_the_frames_table_median() -> None:
-    from pathlib import Path
-
     from lgvtool.evaluate.reference import median_steering, steering_from_frames
     from lgvtool.log import LogReader, topics
     from lgvtool.log.frames import steering_columns
@@ -131,3 +130,28 @@ def test_logged_steering_read_as_two_columns_is_the_frames_table_median() -> Non
     assert median_steering(angle, speed) == steering_from_frames(frames)
     assert median_steering(np.array([np.nan, 0.5]), None) == 0.5
     assert median_steering(np.array([np.nan]), np.array([1.0])) is None
+
+
+def test_a_steering_angle_that_is_not_a_number_is_one_clear_error(tmp_path: Path) -> None:
+    from mcap.writer import Writer
+
+    from lgvtool.errors import LogFormatError
+    from lgvtool.log import LogReader, topics
+    from lgvtool.log.frames import steering_columns
+    from lgvtool.log.reader import LogWarning
+
+    log = tmp_path / "steer.mcap"
+    with open(log, "wb") as f:
+        w = Writer(f)
+        w.start()
+        sid = w.register_schema("lgvtool.McuFrame", "jsonschema", b"{}")
+        cid = w.register_channel(topics.MCU_FRAME, "json", sid)
+        for i, angle in enumerate(["0.5", '"left"']):
+            t = 1_704_067_200_000_000_000 + i * 10_000_000
+            data = b'{"steering_angle": %b, "drive_speed": 0.3}' % angle.encode()
+            w.add_message(cid, t, data, t)
+        w.finish()
+    with pytest.warns(LogWarning, match="no lgvtool metadata"):
+        reader = LogReader(log)
+    with pytest.raises(LogFormatError, match="/mcu/frame"):
+        steering_columns(reader)
