@@ -46,7 +46,8 @@ def pose_table(messages: Iterable[tuple[int, dict[str, Any]]]) -> pd.DataFrame:
         x.append(pos["x"])
         y.append(pos["y"])
         z.append(pos.get("z", 0.0))
-        qx, qy, qz, qw = (float(q.get(k, 0.0)) for k in ("x", "y", "z", "w"))
+        qx, qy = float(q.get("x", 0.0)), float(q.get("y", 0.0))
+        qz, qw = float(q.get("z", 0.0)), float(q.get("w", 0.0))
         heading.append(atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
     return pd.DataFrame(cols)
 
