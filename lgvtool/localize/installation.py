@@ -49,7 +49,6 @@ class CorrectedScans(LazyScans):
         self._yaw = yaw
         self._n = len(scans)
         self._all: tuple[ScanBatch, NDArray[np.int64]] | None = None
-        self._start_ns = None
         self.source = scans.source
         self.received_ns = scans.received_ns - round(offset * 1e9)
         self.received = scans.received - offset

@@ -98,9 +98,7 @@ class LazyScans(Sequence[RawScan]):
                     stamps.append(t)
                     parts.append(cols)
             if not parts:
-                z = np.zeros(0)
-                e = np.zeros(0, dtype=np.int64)
-                return ScanBatch(z, z, e, z, z, z, e), e
+                return ScanBatch.from_scans([]), np.zeros(0, dtype=np.int64)
             t, cols = np.concatenate(stamps), _joined(parts)
             _checked("/nav/reflectors", t[t != 0], ranges=cols[2], bearings=cols[3],
                      time_in_scan=cols[4])

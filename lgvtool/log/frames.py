@@ -52,6 +52,13 @@ def pose_table(messages: Iterable[tuple[int, dict[str, Any]]]) -> pd.DataFrame:
     return pd.DataFrame(cols)
 
 
+def steering_fields(docs: list[dict[str, Any]]) -> tuple[list[float], list[float]]:
+    """Steering angle (rad, NaN where absent) and absolute drive speed (m/s, 0 where absent)
+    of decoded MCU frames."""
+    return ([float(d.get("steering_angle", math.nan)) for d in docs],
+            [abs(float(d.get("drive_speed", 0.0))) for d in docs])
+
+
 def steering_columns(reader: LogReader) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Steering angle (rad, NaN where a frame has none) and absolute drive speed (m/s, 0 where
     a frame has none) of every MCU frame of the log, in stored order (read a chunk at a time,
@@ -67,9 +74,11 @@ def steering_columns(reader: LogReader) -> tuple[NDArray[np.float64], NDArray[np
         loads = orjson.loads
         try:
             for block in reader.raw_column_chunks([T.MCU_FRAME]):
-                for d in map(loads, block[T.MCU_FRAME][1] if T.MCU_FRAME in block else ()):
-                    angle.append(float(d.get("steering_angle", math.nan)))
-                    speed.append(abs(float(d.get("drive_speed", 0.0))))
+                docs = [loads(x) for x in (block[T.MCU_FRAME][1] if T.MCU_FRAME in block
+                                           else ())]
+                a, v = steering_fields(docs)
+                angle.extend(a)
+                speed.extend(v)
         except (TypeError, ValueError, AttributeError) as exc:
             raise LogFormatError(f"{reader.path}: topic {T.MCU_FRAME}: messages do not match "
                                  f"schema lgvtool.McuFrame ({type(exc).__name__}: {exc})"

@@ -54,9 +54,11 @@ def _truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
 
 
 def _mcu_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
-    """Steering angle (rad, NaN when absent) and absolute drive speed (m/s) of MCU frames."""
-    return ([float(d.get("steering_angle", math.nan)) for d in docs],
-            [abs(float(d.get("drive_speed", 0.0))) for d in docs])
+    """Steering angle (rad, NaN when absent) and absolute drive speed (m/s) of MCU frames
+    (:func:`lgvtool.log.frames.steering_fields`)."""
+    from lgvtool.log.frames import steering_fields
+
+    return steering_fields(docs)
 
 
 _FIELDS = {T.NAV_POSE: (_nav_fields, ("d", "d", "d", "?")),
