@@ -217,6 +217,9 @@ class ReflectorMap:
     of the whole map. Points outside the grid are compared with the whole map.
     """
 
+    #: maps whose ids span at most this many numbers look ids up in a table
+    ID_TABLE_SPAN = 1 << 16
+
     def __init__(self, reflectors: tuple[Reflector, ...] | list[Reflector], *,
                  cell: float = 0.1, margin: float = 3.0) -> None:
         self.reflectors = tuple(reflectors)
@@ -229,6 +232,17 @@ class ReflectorMap:
         last = np.ones(len(order), dtype=bool)
         last[:-1] = sorted_ids[:-1] != sorted_ids[1:]
         self._sorted_ids, self._sorted_index = sorted_ids[last], order[last]
+        # ids of a compact range (a NAV's are small numbers) looked up in one table: entry
+        # ``id - ids.min() + 1``, with -1 at both ends for the ids outside the range
+        self._table: NDArray[np.int64] | None = None
+        self._table_base = 0
+        if len(self._sorted_ids) and int(self._sorted_ids[0]) >= -(1 << 31) and \
+                int(self._sorted_ids[-1]) <= 1 << 31 and \
+                int(self._sorted_ids[-1]) - int(self._sorted_ids[0]) <= self.ID_TABLE_SPAN:
+            self._table_base = int(self._sorted_ids[0]) - 1
+            self._table = np.full(int(self._sorted_ids[-1]) - self._table_base + 2, -1,
+                                  dtype=np.int64)
+            self._table[self._sorted_ids - self._table_base] = self._sorted_index
         #: reflector positions as complex numbers x + iy, m
         self.z = self.x + 1j * self.y
         #: half the distance from each reflector to its nearest neighbour, m: a point closer
@@ -249,6 +263,10 @@ class ReflectorMap:
     def index_of(self, ids: NDArray[np.int64]) -> NDArray[np.int64]:
         """Map indices of reflector ids; -1 for an unknown or absent id."""
         ids = np.asarray(ids, dtype=np.int64)
+        if self._table is not None:
+            # an id outside the range lands (clipped) on an end entry, -1; with the map's ids
+            # within +-2**31, an int64 id the subtraction wraps round lands on one as well
+            return self._table.take(ids - self._table_base, mode="clip")
         known = self._sorted_ids
         if len(known) == 0:
             return np.full(ids.shape, -1, dtype=np.int64)
