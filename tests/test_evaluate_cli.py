@@ -214,8 +214,12 @@ def fake_replay(monkeypatch: pytest.MonkeyPatch, df: pd.DataFrame) -> list[dict]
     """Stand in for lgvtool.localize.run_replay; returns the list of calls made."""
     calls: list[dict] = []
 
-    def run_replay(reader, names, *, config=None, seed=0, settings=None, progress=None):
+    def run_replay(reader, names, *, config=None, seed=0, settings=None, progress=None,
+                   tap=None):
         calls.append({"names": list(names), "seed": seed})
+        if tap is not None:  # the log read as load_log reads it, for the tap
+            for block in reader.raw_column_chunks(tap.topics):
+                tap.add(block)
         trajs = {n: df.assign(x=df["x"] + 0.01 * i) for i, n in enumerate(names)}
         return types.SimpleNamespace(trajectories=trajs, settings={n: {"k": 1} for n in names})
 

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 
     from lgvtool.config import Config
     from lgvtool.evaluate.evaluation import EvaluationResult
+    from lgvtool.evaluate.log_inputs import EvaluationInputs
     from lgvtool.log import LogReader
     from lgvtool.progress import Progress
 
@@ -51,7 +52,7 @@ def _estimates_from_log(
 def _run_estimators(
     reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
     settings: Mapping[str, Any] | None, warnings: list[str], start_at_truth: bool = False,
-    progress: Progress | None = None,
+    progress: Progress | None = None, read: EvaluationInputs | None = None,
 ) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
     from lgvtool.log import topics
@@ -65,7 +66,7 @@ def _run_estimators(
         progress.stage(f"{Path(str(reader.path)).name}: estimators", len(chosen) * per)
         start["progress"] = progress.advance
     out = run_replay(reader, chosen, config=cfg, seed=seed, settings=dict(settings or {}),
-                     **start)
+                     tap=read, **start)
     for name, reason in (getattr(out, "skipped", None) or {}).items():
         warnings.append(f"estimator '{name}' left out: {reason}")
     return dict(out.trajectories), dict(out.settings)
@@ -104,6 +105,7 @@ def evaluate_log(
     ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress.
     """
     from lgvtool.evaluate.evaluation import evaluate_trajectories
+    from lgvtool.evaluate.log_inputs import EvaluationInputs
     from lgvtool.evaluate.reference import median_steering
     from lgvtool.log import LogReader, topics
     from lgvtool.log.frames import steering_columns
@@ -115,9 +117,12 @@ def evaluate_log(
     trajs = None if replay else _estimates_from_log(reader, estimators)
     source = "log"
     used: dict[str, Any] = {}
+    read = None
     if trajs is None:
+        # the truth, the steering and the data quality from the estimators' reading
+        read = EvaluationInputs(reader)
         trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
-                                      start_at_truth, progress)
+                                      start_at_truth, progress, read)
         source = "replay"
     else:
         if start_at_truth:
@@ -126,7 +131,10 @@ def evaluate_log(
         if settings:
             warnings.append("--set has no effect: the log's own estimates are scored (evaluate a "
                             "log without /estimate/* channels to run the estimators)")
-    truth = _pose_frame(reader, topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
+    if read is not None:
+        truth = read.truth_table()
+    else:
+        truth = _pose_frame(reader, topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
     if truth is not None and truth.empty:
         truth = None
     if trajectories:
@@ -136,7 +144,8 @@ def evaluate_log(
     steering = None
     steering_source = "none"
     if reader.has_topic(topics.MCU_FRAME):
-        steering = median_steering(*steering_columns(reader))
+        steering = median_steering(*(read.steering_columns() if read is not None
+                                     else steering_columns(reader)))
         steering_source = "log" if steering is not None else "none"
     if steering is None and cfg.reference.steering_angle_deg is not None:
         steering = math.radians(cfg.reference.steering_angle_deg)
@@ -148,6 +157,8 @@ def evaluate_log(
         lap_source=lap_source,
     )
     result.path = str(reader.path)
+    if read is not None:
+        result.quality = read.quality(result.t0)
     result.source = source
     result.settings = used
     late = [w for w in reader.warnings if w not in warnings]  # corrupt chunks met in reading

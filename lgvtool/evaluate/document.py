@@ -15,7 +15,7 @@ from typing import Any
 from lgvtool import __version__
 from lgvtool.evaluate.evaluation import EvaluationResult
 from lgvtool.evaluate.metrics import RadialStats, TruthStats
-from lgvtool.evaluate.quality import DataQuality, quality_of_log
+from lgvtool.evaluate.quality import DataQuality, log_quality
 from lgvtool.evaluate.table import MM, Table1, build_table
 
 FORMAT = "lgvtool.evaluation"
@@ -121,7 +121,7 @@ def _log_doc(res: EvaluationResult) -> dict[str, Any]:
                             "radius_m": res.truth_circle.r, "fitted_radius_m": None,
                             "centre_offset_m": 0.0}
     estimators = _estimators(table)
-    quality = quality_of_log(res.path, res.t0) if res.path else None
+    quality = log_quality(res)
     for n, block in estimators.items():
         if res.settings.get(n):
             block["settings"] = res.settings[n]

@@ -40,6 +40,7 @@ from lgvtool.evaluate.metrics import (
     truth_errors,
     truth_stats,
 )
+from lgvtool.evaluate.quality import DataQuality
 from lgvtool.evaluate.reference import (
     MIN_SAMPLES,
     TRIM,
@@ -124,6 +125,9 @@ class EvaluationResult:
     settings: dict[str, Any] = field(default_factory=dict)
     t0: float = 0.0
     """Start of the drive, s (plots show time since t0)."""
+    quality: DataQuality | None = None
+    """The log's data quality when it was gathered while the log was read (else the report
+    reads it: :func:`lgvtool.evaluate.quality.quality_of_log`)."""
 
     @property
     def has_truth(self) -> bool:

@@ -18,7 +18,7 @@ import plotly.graph_objects as go
 from lgvtool import __version__
 from lgvtool.evaluate.evaluation import EvaluationResult
 from lgvtool.evaluate.plots import log_figures, quality_timeline_figure, rotation_bars_figure
-from lgvtool.evaluate.quality import quality_of_log
+from lgvtool.evaluate.quality import log_quality
 from lgvtool.evaluate.table import (
     Table1,
     build_table,
@@ -136,7 +136,7 @@ def _quality_html(res: EvaluationResult, fig_html: _Figures, prefix: str,
     """The data-quality section of one log (empty when the log cannot be read again)."""
     if not res.path:
         return ""
-    q = quality_of_log(res.path, res.t0)
+    q = log_quality(res)
     if q is None:
         return ""
     e = html.escape

@@ -26,10 +26,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
+    from lgvtool.evaluate.evaluation import EvaluationResult
     from lgvtool.log import LogReader
 
-__all__ = ["GAP_FACTOR", "GAP_MIN_S", "DataQuality", "Gap", "find_gaps", "read_quality",
-           "summarise"]
+__all__ = ["GAP_FACTOR", "GAP_MIN_S", "DataQuality", "Gap", "QualityInputs", "find_gaps",
+           "log_quality", "quality_of_log", "read_quality", "summarise"]
 
 GAP_FACTOR = 3.0
 """A gap is an interval longer than this many median intervals of its topic ..."""
@@ -126,45 +127,77 @@ def summarise(diagnostics: Sequence[Mapping[str, Any]], *, t0: float, duration: 
     return q
 
 
+class QualityInputs:
+    """:func:`summarise`'s inputs gathered from a log's chunks as they are read (``add``, one
+    chunk's undecoded messages of :attr:`topics` at a time): the diagnostics, the NAV poses'
+    valid flags and the receive times of :data:`GAP_TOPICS`; never the bytes of the (100 Hz)
+    MCU frames of the whole log."""
+
+    #: a topic's receive times are joined into one array once this many pieces are held
+    JOIN = 256
+
+    def __init__(self, reader: LogReader) -> None:
+        from lgvtool.log import topics
+
+        #: the topics to read (those of the log)
+        self.topics = [t for t in (topics.DIAGNOSTICS, topics.NAV_POSE, *GAP_TOPICS)
+                       if reader.has_topic(t)]
+        self._diags: list[dict[str, Any]] = []
+        self._valid: list[bool] = []
+        self._stamps: dict[str, list[NDArray[np.int64]]] = {}
+
+    def add(self, block: Mapping[str, tuple[NDArray[np.int64], list[bytes]]]) -> None:
+        """Take one chunk's messages (other topics than :attr:`topics` are passed over)."""
+        import orjson
+
+        from lgvtool.log import topics
+
+        for topic, (log_ns, raw) in block.items():
+            if topic == topics.DIAGNOSTICS:
+                self._diags.extend(orjson.loads(b) for b in raw)
+                continue
+            if topic not in GAP_TOPICS:
+                continue
+            if topic == topics.NAV_POSE:
+                self._valid.extend(bool(orjson.loads(b).get("valid")) for b in raw)
+            parts = self._stamps.setdefault(topic, [])
+            parts.append(np.asarray(log_ns, dtype=np.int64))
+            if len(parts) >= self.JOIN:  # few large arrays, however small the chunks
+                parts[:] = [np.concatenate(parts)]
+
+    def quality(self, reader: LogReader, t0: float | None = None) -> DataQuality:
+        """The data quality of what was added, times counted from ``t0`` (s since the epoch;
+        default: the log's first message); the topics' spans come from ``reader``'s chunk
+        indexes, so the chunks must have been read (checked) first."""
+        from lgvtool.log import topics
+
+        infos = reader.topics()
+        starts = [i.start_ns for i in infos.values() if i.count]
+        ends = [i.end_ns for i in infos.values() if i.count]
+        first = min(starts) * 1e-9 if starts else 0.0
+        start = first if t0 is None else t0
+        duration = (max(ends) * 1e-9 - start) if ends else 0.0
+        times: dict[str, NDArray[np.float64]] = {}
+        nav_valid = np.array(self._valid, dtype=bool)
+        for topic, parts in self._stamps.items():
+            t = np.concatenate(parts)
+            order = np.argsort(t, kind="stable")
+            if topic == topics.NAV_POSE:
+                nav_valid = nav_valid[order]
+            times[topic] = t[order].astype(np.float64) * 1e-9
+        return summarise(self._diags, t0=start, duration=duration, nav_valid=nav_valid,
+                         topic_times=times)
+
+
 def read_quality(reader: LogReader, t0: float | None = None) -> DataQuality:
     """Gather :func:`summarise`'s inputs from a log (``t0``: s since the epoch that times are
     counted from; default: the log's first message)."""
-    import orjson
-
-    from lgvtool.log import topics
-
-    wanted = [t for t in (topics.DIAGNOSTICS, topics.NAV_POSE, *GAP_TOPICS)
-              if reader.has_topic(t)]
-    diags: list[dict[str, Any]] = []
-    valid: list[bool] = []
-    stamps: dict[str, list[NDArray[np.int64]]] = {}
-    # one chunk at a time: only the times, the diagnostics and the NAV poses' valid flags are
-    # kept, never the bytes of the (100 Hz) MCU frames of the whole log
-    for block in reader.raw_column_chunks(wanted):
-        for topic, (log_ns, raw) in block.items():
-            if topic == topics.DIAGNOSTICS:
-                diags.extend(orjson.loads(b) for b in raw)
-                continue
-            if topic == topics.NAV_POSE:
-                valid.extend(bool(orjson.loads(b).get("valid")) for b in raw)
-            stamps.setdefault(topic, []).append(np.asarray(log_ns, dtype=np.int64))
-    # after the pass above, which checked the chunks, the topics' spans come from the indexes
-    infos = reader.topics()
-    starts = [i.start_ns for i in infos.values() if i.count]
-    ends = [i.end_ns for i in infos.values() if i.count]
-    first = min(starts) * 1e-9 if starts else 0.0
-    start = first if t0 is None else t0
-    duration = (max(ends) * 1e-9 - start) if ends else 0.0
-    times: dict[str, NDArray[np.float64]] = {}
-    nav_valid = np.array(valid, dtype=bool)
-    for topic, parts in stamps.items():
-        t = np.concatenate(parts)
-        order = np.argsort(t, kind="stable")
-        if topic == topics.NAV_POSE:
-            nav_valid = nav_valid[order]
-        times[topic] = t[order].astype(np.float64) * 1e-9
-    return summarise(diags, t0=start, duration=duration, nav_valid=nav_valid,
-                     topic_times=times)
+    inputs = QualityInputs(reader)
+    # one chunk at a time; after this pass, which checked the chunks, the topics' spans come
+    # from the indexes
+    for block in reader.raw_column_chunks(inputs.topics):
+        inputs.add(block)
+    return inputs.quality(reader, t0)
 
 
 def quality_of_log(path: str, t0: float | None = None) -> DataQuality | None:
@@ -179,6 +212,14 @@ def quality_of_log(path: str, t0: float | None = None) -> DataQuality | None:
     return _cached_quality(path, st.st_size, st.st_mtime_ns, t0)
 
 
+def log_quality(res: EvaluationResult) -> DataQuality | None:
+    """The data quality of an evaluated log: the one gathered while it was read, else
+    :func:`quality_of_log` of its path (None without a path)."""
+    if res.quality is not None:
+        return res.quality
+    return quality_of_log(res.path, res.t0) if res.path else None
+
+
 @functools.lru_cache(maxsize=16)
 def _cached_quality(path: str, size: int, mtime_ns: int, t0: float | None) -> DataQuality | None:
     import warnings
@@ -190,5 +231,5 @@ def _cached_quality(path: str, size: int, mtime_ns: int, t0: float | None) -> Da
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             return read_quality(LogReader(path), t0)
-    except (LgvError, OSError, ValueError, KeyError):
+    except (LgvError, OSError, ValueError, KeyError, TypeError, AttributeError):
         return None

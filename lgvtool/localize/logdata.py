@@ -7,10 +7,10 @@ kept as their JSON bytes (:class:`LazyScans`) until an estimator uses them, then
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from operator import itemgetter
-from typing import TYPE_CHECKING, Any, overload
+from typing import TYPE_CHECKING, Any, Protocol, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -320,26 +320,58 @@ class _Topic:
         return log_ns, stamps, cols
 
 
+#: one chunk's messages of some topics, undecoded: per topic, the log times (ns since the
+#: epoch) and the JSON bytes in stored order (:meth:`LogReader.raw_column_chunks`)
+RawBlock = Mapping[str, tuple[NDArray[np.int64], list[bytes]]]
+
+
+class Tap(Protocol):
+    """Another reader of the chunks :func:`load_log` reads, so that a caller takes more from
+    the log in the same pass: it names its ``topics`` and is handed each chunk's messages of
+    them (with those of load_log's own topics) before load_log decodes them."""
+
+    @property
+    def topics(self) -> Sequence[str]:
+        """The topics to be read for this tap (those the log has)."""
+        ...
+
+    def add(self, block: RawBlock) -> None:
+        """Take one chunk's messages."""
+        ...
+
+
 def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *,
-             truth: bool = False) -> LogData:
+             truth: bool = False, tap: Tap | None = None) -> LogData:
     """Read the motion and observation topics of a log (and the ground truth if ``truth``)
     into arrays; reflector scans are kept undecoded (compressed) until first used, then
     decoded once (:class:`LazyScans`).
 
     The log is read one chunk at a time and each chunk's messages are decoded before the next
-    is read, so memory holds the arrays, not the messages.
+    is read, so memory holds the arrays, not the messages. ``tap`` is handed every chunk's
+    messages of its topics too (the read's errors are load_log's, the tap's its own).
     """
     from lgvtool.log import topics as T
 
     wanted = [T.MCU_FRAME, T.ODOM, T.NAV_POSE, T.NAV_REFLECTORS]
     if truth:
         wanted.append(T.TRUTH)
+    own = frozenset(wanted)
+    chunks: Iterable[RawBlock] = (
+        reader.raw_column_chunks(wanted) if tap is None
+        else _tapped(reader.raw_column_chunks([*wanted, *tap.topics]), tap, own))
     try:
-        return _log_data(reader, reader.raw_column_chunks(wanted), reflectors)
+        return _log_data(reader, chunks, reflectors)
     except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
         from lgvtool.errors import LogFormatError
 
         raise LogFormatError(f"{reader.path}: {_what(exc)}") from None
+
+
+def _tapped(chunks: Iterable[RawBlock], tap: Tap, own: frozenset[str]) -> Iterator[RawBlock]:
+    """``chunks`` handed to ``tap``, then passed on with only the topics ``own``."""
+    for block in chunks:
+        tap.add(block)
+        yield {topic: found for topic, found in block.items() if topic in own}
 
 
 def _what(exc: BaseException) -> str:
@@ -370,8 +402,7 @@ def _checked(topic: str, ti: NDArray[np.int64], **columns: NDArray[Any]) -> None
     check_finite(topic, columns)
 
 
-def _log_data(reader: LogReader,
-              chunks: Iterable[dict[str, tuple[NDArray[np.int64], list[bytes]]]],
+def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
               reflectors: Sequence[Reflector] | None) -> LogData:
     """:func:`load_log` from the raw messages of each chunk; raises KeyError, TypeError or
     ValueError when they do not match the contract."""
@@ -405,7 +436,8 @@ def _log_data(reader: LogReader,
         decode(topic)
     done = {topic: a.done() for topic, a in acc.items()}
     scans_log_ns = np.concatenate(scan_ns) if scan_ns else np.zeros(0, np.int64)
-    firsts = [int(d[0][0]) for d in done.values() if len(d[0])]
+    # the clock starts with the motion and observation data, whether the truth is read or not
+    firsts = [int(d[0][0]) for topic, d in done.items() if len(d[0]) and topic != T.TRUTH]
     if len(scans_log_ns):
         firsts.append(int(scans_log_ns.min()))
     t0 = min(firsts, default=0)

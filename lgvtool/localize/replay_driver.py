@@ -28,7 +28,7 @@ from lgvtool.config import Config, default_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
 from lgvtool.localize.installation import apply_installation
-from lgvtool.localize.logdata import LazyScans, LogData, load_log, scan_batch
+from lgvtool.localize.logdata import LazyScans, LogData, Tap, load_log, scan_batch
 from lgvtool.localize.motion import Deltas, MotionSettings, MotionTrack
 from lgvtool.localize.observations import (
     PoseObservation,
@@ -394,7 +394,8 @@ def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
                settings: Mapping[str, Any] | None = None,
                initial_pose: tuple[float, float, float] | str | None = None,
                progress: Callable[[int], None] | None = None,
-               cloud_period_s: float = 2.0, cloud_size: int = 50) -> ReplayResult:
+               cloud_period_s: float = 2.0, cloud_size: int = 50,
+               tap: Tap | None = None) -> ReplayResult:
     """Run estimators over a log.
 
     :param reader: an open :class:`lgvtool.log.LogReader`.
@@ -409,12 +410,14 @@ def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
     :param progress: called with the number of observations processed since the last call.
     :param cloud_period_s: keep one particle cloud per this many seconds, s.
     :param cloud_size: at most this many particles per kept cloud (0: none).
+    :param tap: handed the log's chunks as they are read
+        (:func:`lgvtool.localize.logdata.load_log`), for a caller that takes more from them.
     :raises MissingDataError: no motion data, or no observation source.
     :raises InputError: an unknown estimator or parameter.
     """
     started = time.perf_counter()
     cfg = config if config is not None else reader.config()
-    data = load_log(reader, cfg.reflectors or None, truth=initial_pose == "truth")
+    data = load_log(reader, cfg.reflectors or None, truth=initial_pose == "truth", tap=tap)
     read_s = time.perf_counter() - started
     result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
                          initial_pose=initial_pose, progress=progress,

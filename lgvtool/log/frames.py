@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from lgvtool.errors import LogFormatError
 from lgvtool.log.messages import yaw_from_quaternion
 from lgvtool.log.reader import LogMessage, LogReader
 from lgvtool.timestamps import stamp_seconds
@@ -32,24 +33,59 @@ def _pose_row(t: float, d: dict[str, Any]) -> dict[str, Any]:
 ROWS_PER_BLOCK = 8192
 
 
+class PoseColumns:
+    """The columns of :func:`pose_table` (t, stamp in s; x, y, z in m; heading in rad), filled
+    a few messages at a time; every :data:`ROWS_PER_BLOCK` rows become arrays (few, large
+    blocks however small the pieces added)."""
+
+    NAMES = ("t", "stamp", "x", "y", "z", "heading")
+
+    def __init__(self) -> None:
+        self._blocks: list[NDArray[np.float64]] = []
+        self._rows: list[tuple[float, float, float, float, float, float]] = []
+
+    def add(self, messages: Iterable[tuple[int, dict[str, Any]]]) -> None:
+        """Add foxglove.PoseInFrame messages ``(log time ns, decoded message)``."""
+        rows = self._rows
+        atan2 = math.atan2
+        for ns, d in messages:
+            p = d["pose"]
+            pos, q = p["position"], p["orientation"]
+            qx, qy = float(q.get("x", 0.0)), float(q.get("y", 0.0))
+            qz, qw = float(q.get("z", 0.0)), float(q.get("w", 0.0))
+            rows.append((ns * 1e-9, stamp_seconds(d.get("timestamp")), float(pos["x"]),
+                         float(pos["y"]), float(pos.get("z", 0.0)),
+                         atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))))
+            if len(rows) >= ROWS_PER_BLOCK:
+                self._seal()
+                rows = self._rows
+
+    def _seal(self) -> None:
+        if self._rows:
+            self._blocks.append(np.array(self._rows, dtype=np.float64))
+            self._rows = []
+
+    def table(self) -> pd.DataFrame:
+        """The table of every message added, in the order added; the rows are handed over
+        (each block freed as it is copied), so call it once."""
+        self._seal()
+        blocks, self._blocks = self._blocks, []
+        # one (columns, rows) array, as pandas makes of a table of lists
+        cols = np.empty((len(self.NAMES), sum(len(b) for b in blocks)))
+        at = 0
+        while blocks:
+            b = blocks.pop(0)
+            cols[:, at:at + len(b)] = b.T
+            at += len(b)
+        return pd.DataFrame(cols.T, columns=list(self.NAMES))
+
+
 def pose_table(messages: Iterable[tuple[int, dict[str, Any]]]) -> pd.DataFrame:
     """The table of foxglove.PoseInFrame messages ``(log time ns, decoded message)``, built
     column by column (the same values as :func:`_pose_row` per message)."""
-    cols: dict[str, list[float]] = {k: [] for k in ("t", "stamp", "x", "y", "z", "heading")}
-    t, stamp, x, y, z, heading = cols.values()
-    atan2 = math.atan2
-    for ns, d in messages:
-        p = d["pose"]
-        pos, q = p["position"], p["orientation"]
-        t.append(ns * 1e-9)
-        stamp.append(stamp_seconds(d.get("timestamp")))
-        x.append(pos["x"])
-        y.append(pos["y"])
-        z.append(pos.get("z", 0.0))
-        qx, qy = float(q.get("x", 0.0)), float(q.get("y", 0.0))
-        qz, qw = float(q.get("z", 0.0)), float(q.get("w", 0.0))
-        heading.append(atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz)))
-    return pd.DataFrame(cols)
+    cols = PoseColumns()
+    cols.add(messages)
+    return cols.table()
 
 
 def steering_fields(docs: list[dict[str, Any]]) -> tuple[list[float], list[float]]:
@@ -59,31 +95,60 @@ def steering_fields(docs: list[dict[str, Any]]) -> tuple[list[float], list[float
             [abs(float(d.get("drive_speed", 0.0))) for d in docs])
 
 
+class SteeringColumns:
+    """Steering angle (rad, NaN where a frame has none) and absolute drive speed (m/s, 0 where
+    a frame has none) of MCU frames, filled a block of decoded frames at a time."""
+
+    def __init__(self) -> None:
+        self._blocks: list[NDArray[np.float64]] = []
+        self._angle: list[float] = []
+        self._speed: list[float] = []
+
+    def add(self, docs: list[dict[str, Any]]) -> None:
+        """Add decoded MCU frames (:func:`steering_fields`); every :data:`ROWS_PER_BLOCK`
+        frames become an array."""
+        a, v = steering_fields(docs)
+        self._angle.extend(a)
+        self._speed.extend(v)
+        if len(self._angle) >= ROWS_PER_BLOCK:
+            self._seal()
+
+    def _seal(self) -> None:
+        if self._angle:
+            self._blocks.append(np.array([self._angle, self._speed], dtype=np.float64))
+            self._angle, self._speed = [], []
+
+    def arrays(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The angles and speeds of every frame added, in the order added."""
+        self._seal()
+        both = np.concatenate(self._blocks, axis=1) if self._blocks else np.zeros((2, 0))
+        return both[0].copy(), both[1].copy()
+
+
+def decoding_error(path: object, topic: str, schema: str, exc: BaseException) -> LogFormatError:
+    """The one-line error of messages of ``topic`` that do not match ``schema``."""
+    return LogFormatError(f"{path}: topic {topic}: messages do not match schema {schema} "
+                          f"({type(exc).__name__}: {exc})")
+
+
 def steering_columns(reader: LogReader) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Steering angle (rad, NaN where a frame has none) and absolute drive speed (m/s, 0 where
     a frame has none) of every MCU frame of the log, in stored order (read a chunk at a time,
     two fields decoded; empty without /mcu/frame)."""
     import orjson
 
-    from lgvtool.errors import LogFormatError
     from lgvtool.log import topics as T
 
-    angle: list[float] = []
-    speed: list[float] = []
+    cols = SteeringColumns()
     if reader.has_topic(T.MCU_FRAME):
         loads = orjson.loads
         try:
             for block in reader.raw_column_chunks([T.MCU_FRAME]):
-                docs = [loads(x) for x in (block[T.MCU_FRAME][1] if T.MCU_FRAME in block
-                                           else ())]
-                a, v = steering_fields(docs)
-                angle.extend(a)
-                speed.extend(v)
+                cols.add([loads(x) for x in (block[T.MCU_FRAME][1] if T.MCU_FRAME in block
+                                             else ())])
         except (TypeError, ValueError, AttributeError) as exc:
-            raise LogFormatError(f"{reader.path}: topic {T.MCU_FRAME}: messages do not match "
-                                 f"schema lgvtool.McuFrame ({type(exc).__name__}: {exc})"
-                                 ) from None
-    return np.array(angle, dtype=np.float64), np.array(speed, dtype=np.float64)
+            raise decoding_error(reader.path, T.MCU_FRAME, "lgvtool.McuFrame", exc) from None
+    return cols.arrays()
 
 
 def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:

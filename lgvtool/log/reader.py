@@ -503,7 +503,7 @@ class LogReader:
 
     def dataframe(self, topic: str) -> pd.DataFrame:
         """One table of ``topic`` with SI-unit columns; ``t`` is the log time in s."""
-        from lgvtool.log.frames import to_dataframe
+        from lgvtool.log.frames import decoding_error, to_dataframe
 
         schema = next((self._schemas[c.schema_id].name for c in self._channels.values()
                        if c.topic == topic and c.schema_id in self._schemas),
@@ -515,8 +515,7 @@ class LogReader:
                     return table
             return to_dataframe(schema, self.messages([topic]))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise LogFormatError(f"{self.path}: topic {topic}: messages do not match schema "
-                                 f"{schema} ({type(exc).__name__}: {exc})") from None
+            raise decoding_error(self.path, topic, schema, exc) from None
 
     def _pose_table(self, topic: str) -> pd.DataFrame | None:
         """The table of a foxglove.PoseInFrame topic read a chunk at a time through the chunk

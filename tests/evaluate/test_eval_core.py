@@ -155,3 +155,22 @@ def test_a_steering_angle_that_is_not_a_number_is_one_clear_error(tmp_path: Path
         reader = LogReader(log)
     with pytest.raises(LogFormatError, match="/mcu/frame"):
         steering_columns(reader)
+
+
+def test_truth_or_steering_that_do_not_match_their_schema_stop_the_evaluations_read() -> None:
+    """Read with the estimators (:class:`EvaluationInputs`), a truth pose or an MCU frame
+    that does not match its schema is one LogFormatError naming its topic and schema."""
+    from lgvtool.errors import LogFormatError
+    from lgvtool.evaluate.log_inputs import EvaluationInputs
+    from lgvtool.log import LogReader, topics
+
+    reader = LogReader(Path(__file__).resolve().parents[2] / "sample_logs" / "degraded.mcap")
+    inputs = EvaluationInputs(reader)
+    assert {topics.TRUTH, topics.MCU_FRAME, topics.DIAGNOSTICS} <= set(inputs.topics)
+    ns = np.array([1_704_067_200_000_000_000], dtype=np.int64)
+    with pytest.raises(LogFormatError, match=r"/truth/pose.*foxglove\.PoseInFrame"):
+        inputs.add({topics.TRUTH: (ns, [b'{"pose": 3}'])})
+    with pytest.raises(LogFormatError, match=r"/mcu/frame.*lgvtool\.McuFrame"):
+        inputs.add({topics.MCU_FRAME: (ns, [b'{"steering_angle": "left"}'])})
+    inputs.add({topics.DIAGNOSTICS: (ns, [b'[1, 2]'])})  # the quality is left out, no error
+    assert inputs.quality(0.0) is None

@@ -13,7 +13,7 @@ from simlogs import simulate_log
 
 from lgvtool.localize import obsstream
 from lgvtool.localize import replay_driver as R
-from lgvtool.localize.logdata import load_log, scan_batch
+from lgvtool.localize.logdata import RawBlock, load_log, scan_batch
 from lgvtool.localize.motion import Increments, MotionSettings, MotionTrack
 from lgvtool.localize.observations import scan_observations
 from lgvtool.localize.packed import PackedBytes
@@ -73,11 +73,19 @@ def test_blockwise_motions_equal_the_whole(monkeypatch: pytest.MonkeyPatch) -> N
 
 
 @pytest.fixture(scope="module")
-def data(tmp_path_factory: pytest.TempPathFactory):
-    log = simulate_log(tmp_path_factory.mktemp("stream") / "run.mcap", 90, 6)
+def run_log(tmp_path_factory: pytest.TempPathFactory):
+    return simulate_log(tmp_path_factory.mktemp("stream") / "run.mcap", 90, 6)
+
+
+def _reader(log) -> LogReader:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        reader = LogReader(log)
+        return LogReader(log)
+
+
+@pytest.fixture(scope="module")
+def data(run_log):
+    reader = _reader(run_log)
     cfg = reader.config()
     return cfg, load_log(reader, cfg.reflectors or None)
 
@@ -166,3 +174,65 @@ def test_scans_are_decoded_once_and_any_selection_gathers_its_own_reflectors() -
     c = scan_batch(turned, pick)
     assert c.bearings.tolist() == [o["bearing"] + 0.25 for o in flat]
     assert c.t.tolist() == pytest.approx([float(i % 40) - 0.5 for i in pick], abs=1e-9)
+
+
+def test_reflector_ids_looked_up_in_a_table_as_by_search() -> None:
+    """A map of compact ids looks them up in a table: the same index (-1 unknown) as the
+    sorted search for ids inside, beside and far outside the map's range; a repeated id is
+    its last reflector."""
+    from lgvtool.config import Reflector
+    from lgvtool.localize.observations import ReflectorMap
+
+    probe = np.array([-2 ** 63, 2 ** 63 - 1, -(2 ** 31) - 1, 2 ** 31 + 1, -6, -5, -1, 0, 1, 2,
+                      3, 4, 5, 6, 7, 8, 39, 40, 41, 10 ** 9, 10 ** 9 + 1, 10 ** 9 + 3],
+                     dtype=np.int64)
+    for ids in ([1, 2, 3, 7, 7, 40], [-5, 0, 3], [10 ** 9, 10 ** 9 + 3], [5]):
+        rmap = ReflectorMap([Reflector(i, float(k), 0.0) for k, i in enumerate(ids)])
+        assert rmap._table is not None
+        got = rmap.index_of(probe)
+        rmap._table = None  # the search
+        want = rmap.index_of(probe)
+        np.testing.assert_array_equal(got, want)
+        assert got.dtype == np.int64 and (got >= 0).sum() == len(set(ids))
+    assert ReflectorMap([Reflector(0, 0.0, 0.0), Reflector(1, 1.0, 0.0),
+                         Reflector(1, 2.0, 0.0)]).index_of(np.array([1, 0, 2])).tolist() == \
+        [2, 0, -1]
+    wide = ReflectorMap([Reflector(0, 0.0, 0.0), Reflector(10 ** 6, 1.0, 0.0)])
+    assert wide._table is None and wide.index_of(np.array([10 ** 6, 5])).tolist() == [1, -1]
+
+
+class _Tap:
+    """A tap that keeps what it is handed."""
+
+    def __init__(self, topics: list[str]) -> None:
+        self.topics = topics
+        self.seen: dict[str, list[int]] = {}
+
+    def add(self, block: RawBlock) -> None:
+        for topic, (ns, raw) in block.items():
+            assert len(ns) == len(raw)
+            self.seen.setdefault(topic, []).extend(ns.tolist())
+
+
+def test_a_tap_sees_every_message_of_its_topics_and_changes_nothing(data, run_log) -> None:
+    """load_log hands a tap every chunk's messages of its topics (and of load_log's own) in
+    stored order, and reads the same data with or without one: a tap on the truth moves no
+    clock."""
+    from lgvtool.log import topics as T
+
+    cfg, plain = data
+    reader = _reader(run_log)
+    tap = _Tap([T.TRUTH, T.DIAGNOSTICS])
+    tapped = load_log(reader, cfg.reflectors or None, tap=tap)
+    for topic in (T.TRUTH, T.MCU_FRAME, T.NAV_REFLECTORS):
+        want = [m.log_time_ns for m in reader.raw_messages([topic])]
+        assert sorted(tap.seen[topic]) == want and len(want) > 100
+    assert tapped.t0_ns == plain.t0_ns and tapped.truth is None
+    for name in ("mcu", "nav"):
+        a, b = getattr(plain, name), getattr(tapped, name)
+        assert a.keys() == b.keys()
+        for k in a:
+            np.testing.assert_array_equal(a[k], b[k])
+    with_truth = load_log(reader, cfg.reflectors or None, truth=True)
+    assert with_truth.t0_ns == plain.t0_ns
+    np.testing.assert_array_equal(with_truth.mcu["t"], plain.mcu["t"])

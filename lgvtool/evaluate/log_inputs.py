@@ -1,0 +1,95 @@
+"""What the evaluation reads from a raw log besides running the estimators: the ground truth's
+poses, the MCU frames' steering and the data-quality inputs, taken in the same pass as the
+estimators' reading (:class:`EvaluationInputs`, a :class:`lgvtool.localize.logdata.Tap`), so
+that evaluating a log reads its chunks once.
+
+Times in s since the epoch (the log time), positions in m, headings and steering in rad,
+speeds in m/s.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from lgvtool.errors import LgvError, LogFormatError
+from lgvtool.evaluate.quality import DataQuality, QualityInputs
+from lgvtool.log import topics as T
+from lgvtool.log.frames import PoseColumns, SteeringColumns, decoding_error
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from lgvtool.log import LogReader
+
+__all__ = ["EvaluationInputs"]
+
+
+class EvaluationInputs:
+    """Handed each chunk's messages as the estimators' reading goes (:meth:`add`), it keeps
+    the truth's poses, the steering and the data quality's inputs. The quality is None when
+    its inputs cannot be read (as :func:`lgvtool.evaluate.quality.quality_of_log` gives None);
+    a truth or MCU frame that does not match its schema is a :class:`LogFormatError`."""
+
+    def __init__(self, reader: LogReader) -> None:
+        self.reader = reader
+        self._truth = PoseColumns()
+        self._steering = SteeringColumns()
+        self._inputs: QualityInputs | None = QualityInputs(reader)
+        try:
+            reader.check_topics(self._inputs.topics)
+        except LogFormatError:
+            self._inputs = None
+        quality_topics = self._inputs.topics if self._inputs is not None else []
+        #: the topics to read (those of the log)
+        self.topics = [t for t in (T.TRUTH, T.MCU_FRAME, *quality_topics) if reader.has_topic(t)]
+
+    def add(self, block: Mapping[str, tuple[NDArray[np.int64], list[bytes]]]) -> None:
+        """Take one chunk's messages (:data:`lgvtool.localize.logdata.RawBlock`)."""
+        import orjson
+
+        loads = orjson.loads
+        if T.TRUTH in block:
+            ns, raw = block[T.TRUTH]
+            try:
+                self._truth.add(zip(ns.tolist(), map(loads, raw), strict=True))
+            except (KeyError, TypeError, ValueError, AttributeError) as exc:
+                raise decoding_error(self.reader.path, T.TRUTH, "foxglove.PoseInFrame",
+                                     exc) from None
+        if T.MCU_FRAME in block:
+            try:
+                self._steering.add([loads(x) for x in block[T.MCU_FRAME][1]])
+            except (TypeError, ValueError, AttributeError) as exc:
+                raise decoding_error(self.reader.path, T.MCU_FRAME, "lgvtool.McuFrame",
+                                     exc) from None
+        if self._inputs is not None:
+            try:
+                self._inputs.add(block)
+            except (KeyError, TypeError, ValueError, AttributeError):
+                self._inputs = None
+
+    def truth_table(self) -> pd.DataFrame:
+        """The truth's t, x, y, heading in log-time order (ties in stored order), as
+        :meth:`LogReader.dataframe` gives them; empty without truth. Call it once."""
+        table = self._truth.table()
+        t = table["t"].to_numpy()
+        if len(t) > 1 and not bool((t[1:] >= t[:-1]).all()):
+            table = table.iloc[np.argsort(t, kind="stable")].reset_index(drop=True)
+        return table[["t", "x", "y", "heading"]]
+
+    def steering_columns(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Steering angle and absolute drive speed of every MCU frame, as
+        :func:`lgvtool.log.frames.steering_columns` gives them."""
+        return self._steering.arrays()
+
+    def quality(self, t0: float) -> DataQuality | None:
+        """The data quality, times counted from ``t0`` (s since the epoch)."""
+        if self._inputs is None:
+            return None
+        try:
+            return self._inputs.quality(self.reader, t0)
+        except (LgvError, OSError, ValueError, KeyError, TypeError, AttributeError):
+            return None
