@@ -132,6 +132,22 @@ def test_help_imports_no_command_and_no_operation() -> None:
     assert out.stdout.strip().splitlines()[-1] == "[]"
 
 
+def test_replay_imports_neither_pandas_nor_plotly(tmp_path: Path) -> None:
+    """``replay`` (the estimators and the Foxglove view, its reference circle included) needs
+    no table library: pandas' import alone is 0.2-0.4 s of a replay."""
+    import subprocess
+
+    code = ("import sys\nfrom lgvtool.app.replay_job import replay_log\n"
+            f"replay_log({str(ROOT / 'sample_logs' / 'paper-circle.mcap')!r}, "
+            f"{str(tmp_path / 'out.mcap')!r}, "
+            "show_progress=False)\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pandas', 'plotly')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+    assert (tmp_path / "out.mcap").stat().st_size > 0
+
+
 def test_the_lazy_group_offers_only_commands_whose_module_is_there() -> None:
     import click
     from click.testing import CliRunner

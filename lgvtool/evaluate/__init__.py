@@ -11,26 +11,61 @@ of :func:`lgvtool.app.evaluate_job.evaluate_log`; plots and the HTML report live
 >>> print(to_markdown(build_table([result])))                              # doctest: +SKIP
 """
 
-from lgvtool.evaluate.circle import Circle, fit_centre, fit_circle, fit_geometric, fit_kasa
-from lgvtool.evaluate.document import build_document, to_json
-from lgvtool.evaluate.evaluation import (
-    EstimatorEvaluation,
-    EvaluationResult,
-    Rotation,
-    evaluate_trajectories,
-)
-from lgvtool.evaluate.laps import Laps, segment_laps
-from lgvtool.evaluate.metrics import (
-    RadialStats,
-    TruthStats,
-    associate_truth,
-    radial_stats,
-    truth_errors,
-    truth_stats,
-)
-from lgvtool.evaluate.reference import ReferenceInfo, kinematic_radius
-from lgvtool.evaluate.regress import check_baseline, check_bounds, lookup
-from lgvtool.evaluate.table import Table1, build_table, to_csv, to_latex, to_markdown, to_text
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from lgvtool.evaluate.circle import Circle, fit_centre, fit_circle, fit_geometric, fit_kasa
+    from lgvtool.evaluate.document import build_document, to_json
+    from lgvtool.evaluate.evaluation import (
+        EstimatorEvaluation,
+        EvaluationResult,
+        Rotation,
+        evaluate_trajectories,
+    )
+    from lgvtool.evaluate.laps import Laps, segment_laps
+    from lgvtool.evaluate.metrics import (
+        RadialStats,
+        TruthStats,
+        associate_truth,
+        radial_stats,
+        truth_errors,
+        truth_stats,
+    )
+    from lgvtool.evaluate.reference import ReferenceInfo, kinematic_radius
+    from lgvtool.evaluate.regress import check_baseline, check_bounds, lookup
+    from lgvtool.evaluate.table import Table1, build_table, to_csv, to_latex, to_markdown, to_text
+
+#: public name -> module that defines it (imported on first use, so that a command drawing a
+#: reference circle, ``replay``'s view, does not import the tables and pandas)
+_EXPORTS = {
+    "Circle": "circle", "fit_centre": "circle", "fit_circle": "circle",
+    "fit_geometric": "circle", "fit_kasa": "circle",
+    "build_document": "document", "to_json": "document",
+    "EstimatorEvaluation": "evaluation", "EvaluationResult": "evaluation",
+    "Rotation": "evaluation", "evaluate_trajectories": "evaluation",
+    "Laps": "laps", "segment_laps": "laps",
+    "RadialStats": "metrics", "TruthStats": "metrics", "associate_truth": "metrics",
+    "radial_stats": "metrics", "truth_errors": "metrics", "truth_stats": "metrics",
+    "ReferenceInfo": "reference", "kinematic_radius": "reference",
+    "check_baseline": "regress", "check_bounds": "regress", "lookup": "regress",
+    "Table1": "table", "build_table": "table", "to_csv": "table", "to_latex": "table",
+    "to_markdown": "table", "to_text": "table",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'lgvtool.evaluate' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"lgvtool.evaluate.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))
+
 
 __all__ = [
     "Circle",

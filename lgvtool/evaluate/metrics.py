@@ -18,12 +18,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike
 
 from lgvtool.angles import wrap_angle
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 TRUTH_MAX_GAP = 0.5
 """Longest gap between two truth samples that interpolation always bridges, s. Longer
@@ -91,6 +94,8 @@ def associate_truth(
     Both frames have columns t (s), x (m), y (m), heading (rad). Returns the estimate rows that
     can be associated with columns t, x, y, heading, x_true, y_true, heading_true.
     """
+    import pandas as pd
+
     tt = truth["t"].to_numpy(dtype=float)
     order = np.argsort(tt, kind="stable")
     tt = tt[order]
@@ -125,6 +130,8 @@ def associate_truth(
 def truth_errors(estimate: pd.DataFrame, truth: pd.DataFrame, **kwargs: float) -> pd.DataFrame:
     """Per-sample errors against the interpolated truth: columns t (s), position_error (m,
     Euclidean), heading_error (rad, wrapped, estimate minus truth)."""
+    import pandas as pd
+
     a = associate_truth(estimate, truth, **kwargs)
     return pd.DataFrame(
         {

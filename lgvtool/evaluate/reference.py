@@ -9,15 +9,18 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 from numpy.typing import NDArray
 
 from lgvtool.errors import InputError
 from lgvtool.evaluate.circle import Circle, fit_circle
 from lgvtool.evaluate.laps import Laps, segment_laps
 from lgvtool.evaluate.metrics import radial_stats
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 TRIM = 5.0
 """Outlier trim of the centre fits, robust standard deviations (see circle.py)."""

@@ -17,7 +17,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from lgvtool.errors import LogFormatError
-from lgvtool.log.messages import yaw_from_quaternion
+from lgvtool.log.messages import steering_fields, yaw_from_quaternion
 from lgvtool.log.reader import LogMessage, LogReader
 from lgvtool.timestamps import stamp_seconds
 
@@ -86,13 +86,6 @@ def pose_table(messages: Iterable[tuple[int, dict[str, Any]]]) -> pd.DataFrame:
     cols = PoseColumns()
     cols.add(messages)
     return cols.table()
-
-
-def steering_fields(docs: list[dict[str, Any]]) -> tuple[list[float], list[float]]:
-    """Steering angle (rad, NaN where absent) and absolute drive speed (m/s, 0 where absent)
-    of decoded MCU frames."""
-    return ([float(d.get("steering_angle", math.nan)) for d in docs],
-            [abs(float(d.get("drive_speed", 0.0))) for d in docs])
 
 
 class SteeringColumns:

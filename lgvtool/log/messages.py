@@ -36,6 +36,13 @@ def quaternion_from_yaw(yaw: float) -> dict[str, float]:
     return {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2.0), "w": math.cos(yaw / 2.0)}
 
 
+def steering_fields(docs: list[dict[str, Any]]) -> tuple[list[float], list[float]]:
+    """Steering angle (rad, NaN where absent) and absolute drive speed (m/s, 0 where absent)
+    of decoded MCU frames."""
+    return ([float(d.get("steering_angle", math.nan)) for d in docs],
+            [abs(float(d.get("drive_speed", 0.0))) for d in docs])
+
+
 def yaw_from_quaternion(q: Mapping[str, float]) -> float:
     """Rotation about z, rad in (-pi, pi], of a quaternion ``{x, y, z, w}``."""
     x, y, z, w = (float(q.get(k, 0.0)) for k in ("x", "y", "z", "w"))

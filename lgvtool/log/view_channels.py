@@ -18,6 +18,7 @@ import orjson
 
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
+from lgvtool.log.messages import steering_fields
 from lgvtool.log.windows import Source, constant, source
 from lgvtool.timestamps import from_stamp
 
@@ -53,18 +54,10 @@ def _truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
             [p["orientation"].get("w", 1.0) for p in poses])
 
 
-def _mcu_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
-    """Steering angle (rad, NaN when absent) and absolute drive speed (m/s) of MCU frames
-    (:func:`lgvtool.log.frames.steering_fields`)."""
-    from lgvtool.log.frames import steering_fields
-
-    return steering_fields(docs)
-
-
 _FIELDS = {T.NAV_POSE: (_nav_fields, ("d", "d", "d", "?")),
            T.NAV_REFLECTORS: (_scan_fields, ("q", "q", "d", "d", "q", "d")),
            T.TRUTH: (_truth_fields, ("d", "d", "d", "d")),
-           T.MCU_FRAME: (_mcu_fields, ("d", "d"))}
+           T.MCU_FRAME: (steering_fields, ("d", "d"))}
 
 
 class LogRows:
