@@ -5,6 +5,7 @@ from __future__ import annotations
 import random
 from pathlib import Path
 
+import pytest
 from mcap.reader import make_reader
 
 from lgvtool.log import LogReader, LogWriter, topics
@@ -89,11 +90,14 @@ def test_messages_written_out_of_order_come_back_sorted(tmp_path: Path) -> None:
     assert [m.log_time_ns for m in LogReader(path).raw_messages()] == times
 
 
-def test_many_messages_at_once_write_the_file_of_one_at_a_time() -> None:
+@pytest.mark.parametrize("chunk_bytes", [20_000, 400_000])
+def test_many_messages_at_once_write_the_file_of_one_at_a_time(chunk_bytes: int) -> None:
     """``add_messages`` (headers packed as an array, chunk boundaries from cumulative sizes)
     writes the same bytes as ``add_message`` per message: chunks closing mid-batch and on a
     batch's last message, three channels interleaved (new ones appearing mid-chunk), times out
-    of order (the chunk is then sorted), empty payloads, several batches into one chunk."""
+    of order (the chunk is then sorted), empty payloads, several batches into one chunk; with
+    small chunks (a hundred messages each) and large ones (more than
+    two thousand messages each)."""
     import io
 
     from lgvtool.log.mcapio import McapWriter
@@ -108,7 +112,7 @@ def test_many_messages_at_once_write_the_file_of_one_at_a_time() -> None:
 
     def build(batched: bool) -> bytes:
         buf = io.BytesIO()
-        w = McapWriter(buf, compression="none", chunk_bytes=20_000, library="test")
+        w = McapWriter(buf, compression="none", chunk_bytes=chunk_bytes, library="test")
         sid = w.add_schema("x", "jsonschema", b"{}")
         ids = [w.add_channel(f"/c{k}", "json", sid) for k in range(3)]
         if batched:
