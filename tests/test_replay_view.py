@@ -212,3 +212,45 @@ def test_view_draws_the_scans_the_estimators_decoded_as_its_own_reading_would() 
     for a, b in zip(cols, own, strict=True):
         assert a.dtype == b.dtype
         np.testing.assert_array_equal(a, b)
+
+
+def test_replay_reads_its_input_once_for_the_estimators_and_the_view(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The view's rows (NAV poses, truth, MCU frames) are gathered in the estimators' reading
+    of the log (a tap of load_log): one pass over the chunks before the copy, and the rows are
+    those of the view's own reading, topic for topic, array for array."""
+    from lgvtool.app.replay_job import replay_log
+    from lgvtool.localize.logdata import LazyScans, load_log
+    from lgvtool.log.view_channels import LogRows, RowCollector
+
+    log = REPO / "sample_logs" / "degraded.mcap"
+    passes: list[list[str]] = []
+    chunks = LogReader.raw_column_chunks
+
+    def counted(self: LogReader, wanted):
+        passes.append(sorted(set(wanted)))
+        return chunks(self, wanted)
+
+    monkeypatch.setattr(LogReader, "raw_column_chunks", counted)
+    replay_log(str(log), str(tmp_path / "out.mcap"), estimators=["laser", "ekf"],
+               show_progress=False)
+    assert len(passes) == 1 and {topics.TRUTH, topics.MCU_FRAME} <= set(passes[0])
+    monkeypatch.setattr(LogReader, "raw_column_chunks", chunks)
+
+    reader = LogReader(log)
+    collector = RowCollector(reader, skip_scans=True)
+    data = load_log(reader, tap=collector)
+    assert topics.NAV_REFLECTORS not in collector.topics
+    scans = data.scans
+    assert isinstance(scans, LazyScans)
+    scans.decoded()
+    gathered = LogRows(reader, scans.decoded_columns(), collector)
+    own = LogRows(reader)
+    for topic in (topics.NAV_POSE, topics.TRUTH, topics.MCU_FRAME, topics.NAV_REFLECTORS):
+        t, cols = gathered.columns(topic)
+        own_t, own_cols = own.columns(topic)
+        assert len(own_t) > 100
+        np.testing.assert_array_equal(t, own_t)
+        for a, b in zip(cols, own_cols, strict=True):
+            assert a.dtype == b.dtype
+            np.testing.assert_array_equal(a, b)

@@ -76,7 +76,8 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
     from lgvtool.errors import InputError, MissingDataError
     from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS, check_names
     from lgvtool.localize.replay_driver import LazyScans, load_log, replay_data
-    from lgvtool.log import LogReader
+    from lgvtool.log import LogReader, topics
+    from lgvtool.log.view_channels import LogRows, RowCollector
     from lgvtool.outputs import atomic_output
 
     started = time.perf_counter()
@@ -96,7 +97,9 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
     for w in reader.warnings:
         warn(w)
     cfg = load_config(config_path) if config_path else reader.config()
-    data = load_log(reader, cfg.reflectors or None, truth=start_at_truth)
+    # the view's rows (NAV poses, truth, MCU frames) gathered in the estimators' reading
+    collector = RowCollector(reader, skip_scans=True) if view else None
+    data = load_log(reader, cfg.reflectors or None, truth=start_at_truth, tap=collector)
     t_read = time.perf_counter() - started
 
     from lgvtool.progress import Progress
@@ -119,10 +122,14 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
 
     t1 = time.perf_counter()
     with atomic_output(output) as tmp:
-        scans = data.scans.decoded_columns() if isinstance(data.scans, LazyScans) else None
+        rows = None
+        if collector is not None:
+            # the scans as the estimators decoded them (read here if the log's are not lazy)
+            scans = data.scans.decoded_columns() if isinstance(data.scans, LazyScans) else None
+            complete = scans is not None or not reader.has_topic(topics.NAV_REFLECTORS)
+            rows = LogRows(reader, scans, collector if complete else None)
         written = write_replay_log(reader, str(tmp), result, cfg if config_path else None, log,
-                                   compression, view_config=cfg if view else None,
-                                   scans=scans)
+                                   compression, view_config=cfg if view else None, rows=rows)
     t_write = time.perf_counter() - t1
     return {
         "output": output,
@@ -141,7 +148,7 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
 
 def write_replay_log(reader: Any, output: str, result: Any, config: Any, source: str,
                      compression: str = "zstd", view_config: Any = None,
-                     window_ns: int | None = None, scans: tuple[Any, ...] | None = None) -> int:
+                     window_ns: int | None = None, rows: Any = None) -> int:
     """Write ``output``: the messages of ``reader`` (the input, named ``source`` in the
     metadata), the metadata, the estimates of ``result`` (a replay result), ``config`` (when
     given) and the Foxglove view channels of ``view_config``; returns the messages written.
@@ -151,17 +158,16 @@ def write_replay_log(reader: Any, output: str, result: Any, config: Any, source:
     pose before state before cloud before the view channels, estimators in run order), so
     that the file passes the reference checker without an ordering warning. The added
     messages are encoded one window of log time (``window_ns``, default
-    lgvtool.log.windows.WINDOW_NS) at a time, as the merge reaches it. ``scans``: the log's
-    reflector scans as the estimators decoded them
-    (:meth:`lgvtool.localize.logdata.LazyScans.decoded_columns`), which the view then does not
-    decode again."""
+    lgvtool.log.windows.WINDOW_NS) at a time, as the merge reaches it. ``rows``: the rows
+    the view draws, already gathered (:class:`lgvtool.log.view_channels.LogRows`, with the
+    scans as the estimators decoded them), which the view then does not read again."""
     from pathlib import Path
 
     from lgvtool.localize.replay_sources import replay_sources
     from lgvtool.log import LogWriter
     from lgvtool.log.windows import WINDOW_NS, WindowedMerge
 
-    merge = WindowedMerge(replay_sources(reader, result, view_config, scans),
+    merge = WindowedMerge(replay_sources(reader, result, view_config, rows),
                           WINDOW_NS if window_ns is None else window_ns)
     skip = frozenset(t for t in merge.topics if reader.has_topic(t))
     with LogWriter(output, source="replay", chunk_seconds=None, compression=compression) as w:

@@ -72,19 +72,19 @@ def _gated_sources(gated: list[tuple[int, str]]) -> list[Source]:
 
 
 def replay_sources(reader: Any, result: Any, view_config: Any = None,
-                   scans: tuple[Any, ...] | None = None) -> list[Source]:
+                   rows: Any = None) -> list[Source]:
     """The sources of a replay ``result`` (lgvtool.localize.replay_driver.ReplayResult) of the log of
     ``reader``: estimates, then (with ``view_config``, the configuration the view is drawn
-    with) the view channels, then the gated NAV poses. ``scans``: the log's reflector scans
-    already decoded (:meth:`lgvtool.localize.logdata.LazyScans.decoded_columns`), for the
-    view."""
+    with) the view channels, then the gated NAV poses. ``rows``: the log's rows the view
+    draws, already gathered (:class:`lgvtool.log.view_channels.LogRows`; else the view
+    reads them)."""
     from lgvtool.log.view_channels import view_streams
 
     pairs = [_estimate_sources(name, tab) for name, tab in result.tables.items()]
     out = [p[0] for p in pairs] + [p[1] for p in pairs]
     out += [_cloud_source(name, clouds) for name, clouds in result.clouds.items()]
     if view_config is not None:
-        out += view_streams(reader, view_config, result.tables, scans)
+        out += view_streams(reader, view_config, result.tables, rows)
     if result.gated:
         out += _gated_sources(result.gated)
     return out

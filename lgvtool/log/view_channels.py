@@ -60,29 +60,52 @@ _FIELDS = {T.NAV_POSE: (_nav_fields, ("d", "d", "d", "?")),
            T.MCU_FRAME: (steering_fields, ("d", "d"))}
 
 
+class RowCollector:
+    """The raw material of :class:`LogRows`, gathered a chunk at a time (:meth:`add`, one
+    chunk's undecoded messages of :attr:`topics`): a tap of
+    :func:`lgvtool.localize.logdata.load_log`, so that ``replay`` reads the log once for its
+    estimators and its view. ``skip_scans``: the scans come decoded from elsewhere."""
+
+    def __init__(self, reader: LogReader, skip_scans: bool = False) -> None:
+        #: the topics to read (those of the log)
+        self.topics = [t for t in _FIELDS if reader.has_topic(t)
+                       and not (skip_scans and t == T.NAV_REFLECTORS)]
+        self.parts: dict[str, tuple[list[Any], list[tuple[list[Any], ...]]]] = {
+            t: ([], []) for t in self.topics}
+
+    def add(self, block: Mapping[str, tuple[Any, list[bytes]]]) -> None:
+        """Take one chunk's messages (other topics are passed over), decoded to the
+        ``_*_fields`` lists."""
+        loads = orjson.loads
+        for topic, (times, parts) in self.parts.items():
+            found = block.get(topic)
+            if found is not None:
+                times.append(found[0])
+                parts.append(_FIELDS[topic][0]([loads(d) for d in found[1]]))
+
+
 class LogRows:
     """The numeric rows of the log that the view channels draw, read in one pass over the
     log's chunks and decoded a chunk at a time: per topic the log times (ns) and its columns
     (see the ``_*_fields`` functions), in log-time order; topics the log lacks are empty.
     ``scans``: the reflector scans' log times and columns already decoded, in log-time order
     (:meth:`lgvtool.localize.logdata.LazyScans.decoded_columns`), which are then not read
-    again."""
+    again; ``collected``: the other rows, gathered while the log was read for something
+    else (its parts are handed over), else they are read here."""
 
-    def __init__(self, reader: LogReader, scans: tuple[Any, ...] | None = None) -> None:
+    def __init__(self, reader: LogReader, scans: tuple[Any, ...] | None = None,
+                 collected: RowCollector | None = None) -> None:
         import numpy as np
 
-        wanted = [t for t in _FIELDS if reader.has_topic(t)
-                  and not (scans is not None and t == T.NAV_REFLECTORS)]
-        acc: dict[str, tuple[list[Any], list[tuple[list[Any], ...]]]] = {
-            t: ([], []) for t in wanted}
-        loads = orjson.loads
-        for block in (reader.raw_column_chunks(wanted) if wanted else ()):
-            for topic, (t, datas) in block.items():
-                acc[topic][0].append(t)
-                acc[topic][1].append(_FIELDS[topic][0]([loads(d) for d in datas]))
+        if collected is None:
+            collected = RowCollector(reader, skip_scans=scans is not None)
+            for block in (reader.raw_column_chunks(collected.topics) if collected.topics
+                          else ()):
+                collected.add(block)
+        acc, collected.parts = collected.parts, {}
         self._cols: dict[str, tuple[Any, list[Any]]] = {}
         for topic, (_fields, codes) in _FIELDS.items():
-            times, parts = acc.get(topic, ([], []))
+            times, parts = acc.pop(topic, ([], []))
             t = np.concatenate(times).astype(np.int64) if times else np.zeros(0, np.int64)
             cols = [np.array([v for p in parts for v in p[c]],
                              dtype=np.int64 if code == "q" else bool if code == "?"
@@ -247,13 +270,13 @@ def estimate_streams(name: str, tab: Any, m: fx.Mounting) -> list[Source]:
 
 
 def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any],
-                 scans: tuple[Any, ...] | None = None) -> list[Source]:
+                 rows: LogRows | None = None) -> list[Source]:
     """Every Foxglove view channel of a replayed log: from the log (NAV, truth, reference
-    circle) and from the estimators' ``tables`` (frames and covariance ellipses); ``scans``
-    as :class:`LogRows` takes them."""
+    circle) and from the estimators' ``tables`` (frames and covariance ellipses); ``rows``:
+    the log's rows already gathered (else they are read here)."""
     m = fx.mounting_of(config.vehicle)
     fallback = "truth" if reader.has_topic(T.TRUTH) else next(iter(tables), "nav")
-    rows = LogRows(reader, scans)
+    rows = rows if rows is not None else LogRows(reader)
     out = (nav_streams(rows, m, fallback) + truth_stream(rows, m)
            + reference_stream(rows, config, tables))
     for name, tab in tables.items():
