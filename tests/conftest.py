@@ -30,3 +30,20 @@ def run_cli():
                               capture_output=True, text=True, timeout=timeout, **kw)
 
     return run
+
+
+@pytest.fixture
+def chunk_passes(monkeypatch: pytest.MonkeyPatch) -> list[list[str]]:
+    """The topics of every pass over a log's chunks (``LogReader.raw_column_chunks``) made
+    while the test runs, in order."""
+    from lgvtool.log import LogReader
+
+    passes: list[list[str]] = []
+    chunks = LogReader.raw_column_chunks
+
+    def counted(self: LogReader, wanted):
+        passes.append(sorted(set(wanted)))
+        return chunks(self, wanted)
+
+    monkeypatch.setattr(LogReader, "raw_column_chunks", counted)
+    return passes

@@ -14,3 +14,20 @@ def simulate_log(path: Path, duration: float, seed: int, scenario: str = "paper-
                     "--duration", str(duration), "--seed", str(seed), "-o", str(path)],
                    check=True, capture_output=True)
     return path
+
+
+def write_topic_log(path: Path, topic: str, schema: str, payloads: list[bytes],
+                    start_ns: int = 1_704_067_200_000_000_000, step_ns: int = 10_000_000
+                    ) -> Path:
+    """A log of one JSON topic written with the ``mcap`` package (no lgvtool metadata): the
+    ``payloads`` ``step_ns`` apart from ``start_ns``."""
+    from mcap.writer import Writer
+
+    with open(path, "wb") as f:
+        w = Writer(f)
+        w.start()
+        cid = w.register_channel(topic, "json", w.register_schema(schema, "jsonschema", b"{}"))
+        for i, data in enumerate(payloads):
+            w.add_message(cid, start_ns + i * step_ns, data, start_ns + i * step_ns)
+        w.finish()
+    return path

@@ -215,7 +215,7 @@ def test_view_draws_the_scans_the_estimators_decoded_as_its_own_reading_would() 
 
 
 def test_replay_reads_its_input_once_for_the_estimators_and_the_view(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+        tmp_path: Path, chunk_passes: list[list[str]]) -> None:
     """The view's rows (NAV poses, truth, MCU frames) are gathered in the estimators' reading
     of the log (a tap of load_log): one pass over the chunks before the copy, and the rows are
     those of the view's own reading, topic for topic, array for array."""
@@ -224,18 +224,10 @@ def test_replay_reads_its_input_once_for_the_estimators_and_the_view(
     from lgvtool.log.view_channels import LogRows, RowCollector
 
     log = REPO / "sample_logs" / "degraded.mcap"
-    passes: list[list[str]] = []
-    chunks = LogReader.raw_column_chunks
-
-    def counted(self: LogReader, wanted):
-        passes.append(sorted(set(wanted)))
-        return chunks(self, wanted)
-
-    monkeypatch.setattr(LogReader, "raw_column_chunks", counted)
     replay_log(str(log), str(tmp_path / "out.mcap"), estimators=["laser", "ekf"],
                show_progress=False)
-    assert len(passes) == 1 and {topics.TRUTH, topics.MCU_FRAME} <= set(passes[0])
-    monkeypatch.setattr(LogReader, "raw_column_chunks", chunks)
+    assert len(chunk_passes) == 1 and {topics.TRUTH, topics.MCU_FRAME} <= set(chunk_passes[0])
+    chunk_passes.clear()
 
     reader = LogReader(log)
     collector = RowCollector(reader, skip_scans=True)

@@ -11,8 +11,9 @@ of :func:`lgvtool.app.evaluate_job.evaluate_log`; plots and the HTML report live
 >>> print(to_markdown(build_table([result])))                              # doctest: +SKIP
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from lgvtool.lazy_names import lazy_names
 
 if TYPE_CHECKING:
     from lgvtool.evaluate.circle import Circle, fit_centre, fit_circle, fit_geometric, fit_kasa
@@ -54,18 +55,7 @@ _EXPORTS = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'lgvtool.evaluate' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"lgvtool.evaluate.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_EXPORTS))
-
+__getattr__, __dir__ = lazy_names(__name__, _EXPORTS, globals())
 
 __all__ = [
     "Circle",

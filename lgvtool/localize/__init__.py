@@ -13,8 +13,9 @@ Python without a log::
 and the replay driver that runs them over a log (:func:`run_replay`).
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from lgvtool.lazy_names import lazy_names
 
 if TYPE_CHECKING:
     from lgvtool.localize.deadreckoning import DeadReckoning, DeadReckoningParams
@@ -45,18 +46,7 @@ _EXPORTS = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'lgvtool.localize' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"lgvtool.localize.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_EXPORTS))
-
+__getattr__, __dir__ = lazy_names(__name__, _EXPORTS, globals())
 
 __all__ = [
     "DEFAULT_ESTIMATORS",

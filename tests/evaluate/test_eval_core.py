@@ -133,24 +133,16 @@ def test_logged_steering_read_as_two_columns_is_the_frames_table_median() -> Non
 
 
 def test_a_steering_angle_that_is_not_a_number_is_one_clear_error(tmp_path: Path) -> None:
-    from mcap.writer import Writer
+    from simlogs import write_topic_log
 
     from lgvtool.errors import LogFormatError
     from lgvtool.log import LogReader, topics
     from lgvtool.log.frames import steering_columns
     from lgvtool.log.reader import LogWarning
 
-    log = tmp_path / "steer.mcap"
-    with open(log, "wb") as f:
-        w = Writer(f)
-        w.start()
-        sid = w.register_schema("lgvtool.McuFrame", "jsonschema", b"{}")
-        cid = w.register_channel(topics.MCU_FRAME, "json", sid)
-        for i, angle in enumerate(["0.5", '"left"']):
-            t = 1_704_067_200_000_000_000 + i * 10_000_000
-            data = b'{"steering_angle": %b, "drive_speed": 0.3}' % angle.encode()
-            w.add_message(cid, t, data, t)
-        w.finish()
+    log = write_topic_log(tmp_path / "steer.mcap", topics.MCU_FRAME, "lgvtool.McuFrame",
+                          [b'{"steering_angle": %b, "drive_speed": 0.3}' % angle
+                           for angle in (b"0.5", b'"left"')])
     with pytest.warns(LogWarning, match="no lgvtool metadata"):
         reader = LogReader(log)
     with pytest.raises(LogFormatError, match="/mcu/frame"):

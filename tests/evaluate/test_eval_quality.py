@@ -152,7 +152,7 @@ def test_json_document_carries_the_figures_and_they_can_be_bounded(tmp_path: Pat
     assert build_document([res])["data_quality"] is None
 
 
-def test_evaluating_a_raw_log_reads_its_chunks_once(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_evaluating_a_raw_log_reads_its_chunks_once(chunk_passes: list[list[str]]) -> None:
     """The estimators' reading of a raw log also gives the evaluation its ground truth, its
     steering and its data quality: one pass over the chunks, and the same figures as reading
     each of them on its own."""
@@ -160,17 +160,9 @@ def test_evaluating_a_raw_log_reads_its_chunks_once(monkeypatch: pytest.MonkeyPa
     from lgvtool.evaluate.reference import median_steering
     from lgvtool.log.frames import steering_columns
 
-    passes: list[list[str]] = []
-    chunks = LogReader.raw_column_chunks
-
-    def counted(self: LogReader, wanted):
-        passes.append(sorted(set(wanted)))
-        return chunks(self, wanted)
-
-    monkeypatch.setattr(LogReader, "raw_column_chunks", counted)
     result = evaluate_job.evaluate_log(SAMPLE, estimators=["laser"])
-    assert len(passes) == 1 and topics.TRUTH in passes[0] and topics.DIAGNOSTICS in passes[0]
-    monkeypatch.setattr(LogReader, "raw_column_chunks", chunks)
+    assert len(chunk_passes) == 1
+    assert topics.TRUTH in chunk_passes[0] and topics.DIAGNOSTICS in chunk_passes[0]
     reader = LogReader(SAMPLE)
     assert result.quality == read_quality(reader, result.t0) and result.quality.any
     truth = evaluate_job._pose_frame(reader, topics.TRUTH)
@@ -183,18 +175,12 @@ def test_evaluating_a_raw_log_reads_its_chunks_once(monkeypatch: pytest.MonkeyPa
 def test_diagnostics_that_are_not_objects_leave_the_quality_out(tmp_path: Path) -> None:
     """A /diagnostics message that is JSON but not an object gives no data quality (the
     report leaves its section out), not a traceback."""
-    from mcap.writer import Writer
+    from simlogs import write_topic_log
 
     from lgvtool.evaluate.quality import quality_of_log
 
-    log = tmp_path / "diag.mcap"
-    with open(log, "wb") as f:
-        w = Writer(f)
-        w.start()
-        sid = w.register_schema("lgvtool.Diagnostic", "jsonschema", b"{}")
-        cid = w.register_channel(topics.DIAGNOSTICS, "json", sid)
-        w.add_message(cid, 1_704_067_200_000_000_000, b"[1, 2]", 1_704_067_200_000_000_000)
-        w.finish()
+    log = write_topic_log(tmp_path / "diag.mcap", topics.DIAGNOSTICS, "lgvtool.Diagnostic",
+                          [b"[1, 2]"])
     with pytest.warns(Warning):
         assert LogReader(log).has_topic(topics.DIAGNOSTICS)
     assert quality_of_log(str(log)) is None
