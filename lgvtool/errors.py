@@ -36,3 +36,10 @@ class ThresholdError(LgvError):
     """A regression check (``--max``, ``--baseline``) failed."""
 
     exit_code = 1
+
+
+def decoding_error(path: object, topic: str, schema: str, exc: BaseException) -> LogFormatError:
+    """The one-line error of messages of ``topic`` in the log at ``path`` that do not match
+    ``schema`` (``exc``: the failure met in decoding them)."""
+    return LogFormatError(f"{path}: topic {topic}: messages do not match schema {schema} "
+                          f"({type(exc).__name__}: {exc})")

@@ -246,3 +246,16 @@ def test_replay_reads_its_input_once_for_the_estimators_and_the_view(
         for a, b in zip(cols, own_cols, strict=True):
             assert a.dtype == b.dtype
             np.testing.assert_array_equal(a, b)
+
+
+def test_a_view_row_that_does_not_match_the_contract_is_one_error_naming_its_topic() -> None:
+    """Gathered for the view in the estimators' reading, a truth pose without a pose is one
+    LogFormatError naming the log, the topic and its schema (it was an internal error)."""
+    from lgvtool.errors import LogFormatError
+    from lgvtool.log.view_channels import RowCollector
+
+    collector = RowCollector(LogReader(REPO / "sample_logs" / "degraded.mcap"), skip_scans=True)
+    ns = np.array([1_704_067_200_000_000_000], dtype=np.int64)
+    with pytest.raises(LogFormatError,
+                       match=r"degraded\.mcap: topic /truth/pose: .*PoseInFrame.*KeyError"):
+        collector.add({topics.TRUTH: (ns, [b'{"x": 1}'])})

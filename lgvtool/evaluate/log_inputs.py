@@ -15,10 +15,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.errors import LgvError, LogFormatError
+from lgvtool.errors import LgvError, LogFormatError, decoding_error
 from lgvtool.evaluate.quality import DataQuality, QualityInputs
 from lgvtool.log import topics as T
-from lgvtool.log.frames import PoseColumns, SteeringColumns, decoding_error
+from lgvtool.log.frames import PoseColumns, SteeringColumns
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from lgvtool.errors import LogFormatError
+from lgvtool.errors import decoding_error
 from lgvtool.log.messages import steering_fields, yaw_from_quaternion
 from lgvtool.log.reader import LogMessage, LogReader
 from lgvtool.timestamps import stamp_seconds
@@ -116,12 +116,6 @@ class SteeringColumns:
         self._seal()
         both = np.concatenate(self._blocks, axis=1) if self._blocks else np.zeros((2, 0))
         return both[0].copy(), both[1].copy()
-
-
-def decoding_error(path: object, topic: str, schema: str, exc: BaseException) -> LogFormatError:
-    """The one-line error of messages of ``topic`` that do not match ``schema``."""
-    return LogFormatError(f"{path}: topic {topic}: messages do not match schema {schema} "
-                          f"({type(exc).__name__}: {exc})")
 
 
 def steering_columns(reader: LogReader) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

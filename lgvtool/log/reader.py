@@ -503,7 +503,8 @@ class LogReader:
 
     def dataframe(self, topic: str) -> pd.DataFrame:
         """One table of ``topic`` with SI-unit columns; ``t`` is the log time in s."""
-        from lgvtool.log.frames import decoding_error, to_dataframe
+        from lgvtool.errors import decoding_error
+        from lgvtool.log.frames import to_dataframe
 
         schema = next((self._schemas[c.schema_id].name for c in self._channels.values()
                        if c.topic == topic and c.schema_id in self._schemas),

@@ -67,6 +67,7 @@ class RowCollector:
     estimators and its view. ``skip_scans``: the scans come decoded from elsewhere."""
 
     def __init__(self, reader: LogReader, skip_scans: bool = False) -> None:
+        self._path = reader.path
         #: the topics to read (those of the log)
         self.topics = [t for t in _FIELDS if reader.has_topic(t)
                        and not (skip_scans and t == T.NAV_REFLECTORS)]
@@ -75,13 +76,22 @@ class RowCollector:
 
     def add(self, block: Mapping[str, tuple[Any, list[bytes]]]) -> None:
         """Take one chunk's messages (other topics are passed over), decoded to the
-        ``_*_fields`` lists."""
+        ``_*_fields`` lists; a message that does not match its schema is a
+        :class:`~lgvtool.errors.LogFormatError` naming its topic and schema."""
+        from lgvtool.errors import decoding_error
+
         loads = orjson.loads
         for topic, (times, parts) in self.parts.items():
             found = block.get(topic)
-            if found is not None:
-                times.append(found[0])
-                parts.append(_FIELDS[topic][0]([loads(d) for d in found[1]]))
+            if found is None:
+                continue
+            try:
+                fields = _FIELDS[topic][0]([loads(d) for d in found[1]])
+            except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+                raise decoding_error(self._path, topic, T.schema_for_topic(topic) or "?",
+                                     exc) from None
+            times.append(found[0])
+            parts.append(fields)
 
 
 class LogRows:
