@@ -76,7 +76,7 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
     from lgvtool.errors import InputError, MissingDataError
     from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS, check_names
     from lgvtool.localize.replay_driver import LazyScans, load_log, replay_data
-    from lgvtool.log import LogReader, topics
+    from lgvtool.log import LogReader
     from lgvtool.log.view_channels import LogRows, RowCollector
     from lgvtool.outputs import atomic_output
 
@@ -124,10 +124,9 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
     with atomic_output(output) as tmp:
         rows = None
         if collector is not None:
-            # the scans as the estimators decoded them (read here if the log's are not lazy)
+            # the scans as the estimators decoded them, if any did
             scans = data.scans.decoded_columns() if isinstance(data.scans, LazyScans) else None
-            complete = scans is not None or not reader.has_topic(topics.NAV_REFLECTORS)
-            rows = LogRows(reader, scans, collector if complete else None)
+            rows = LogRows(reader, scans, collector)
         written = write_replay_log(reader, str(tmp), result, cfg if config_path else None, log,
                                    compression, view_config=cfg if view else None, rows=rows)
     t_write = time.perf_counter() - t1

@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
+import orjson
 from numpy.typing import NDArray
 
 from lgvtool.errors import LgvError, LogFormatError, decoding_error
@@ -49,8 +50,6 @@ class EvaluationInputs:
 
     def add(self, block: Mapping[str, tuple[NDArray[np.int64], list[bytes]]]) -> None:
         """Take one chunk's messages (:data:`lgvtool.localize.logdata.RawBlock`)."""
-        import orjson
-
         loads = orjson.loads
         if T.TRUTH in block:
             ns, raw = block[T.TRUTH]

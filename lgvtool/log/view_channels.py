@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import orjson
 
+from lgvtool.errors import decoding_error
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
 from lgvtool.log.messages import steering_fields
@@ -78,8 +79,6 @@ class RowCollector:
         """Take one chunk's messages (other topics are passed over), decoded to the
         ``_*_fields`` lists; a message that does not match its schema is a
         :class:`~lgvtool.errors.LogFormatError` naming its topic and schema."""
-        from lgvtool.errors import decoding_error
-
         loads = orjson.loads
         for topic, (times, parts) in self.parts.items():
             found = block.get(topic)
@@ -93,6 +92,13 @@ class RowCollector:
             times.append(found[0])
             parts.append(fields)
 
+    def read(self, reader: LogReader, topics: list[str]) -> None:
+        """Read ``topics`` of the log (among those of the view) and gather them."""
+        for t in topics:
+            self.parts.setdefault(t, ([], []))
+        for block in reader.raw_column_chunks(topics) if topics else ():
+            self.add(block)
+
 
 class LogRows:
     """The numeric rows of the log that the view channels draw, read in one pass over the
@@ -100,8 +106,9 @@ class LogRows:
     (see the ``_*_fields`` functions), in log-time order; topics the log lacks are empty.
     ``scans``: the reflector scans' log times and columns already decoded, in log-time order
     (:meth:`lgvtool.localize.logdata.LazyScans.decoded_columns`), which are then not read
-    again; ``collected``: the other rows, gathered while the log was read for something
-    else (its parts are handed over), else they are read here."""
+    again; ``collected``: the rows gathered while the log was read for something else (its
+    parts are handed over; the scans are read here if neither gives them), else they are read
+    here."""
 
     def __init__(self, reader: LogReader, scans: tuple[Any, ...] | None = None,
                  collected: RowCollector | None = None) -> None:
@@ -109,9 +116,11 @@ class LogRows:
 
         if collected is None:
             collected = RowCollector(reader, skip_scans=scans is not None)
-            for block in (reader.raw_column_chunks(collected.topics) if collected.topics
-                          else ()):
-                collected.add(block)
+            collected.read(reader, collected.topics)
+        elif scans is None and reader.has_topic(T.NAV_REFLECTORS) and \
+                T.NAV_REFLECTORS not in collected.parts:
+            # gathered without the scans, which no estimator decoded: read them alone
+            collected.read(reader, [T.NAV_REFLECTORS])
         acc, collected.parts = collected.parts, {}
         self._cols: dict[str, tuple[Any, list[Any]]] = {}
         for topic, (_fields, codes) in _FIELDS.items():
