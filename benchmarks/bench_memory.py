@@ -40,8 +40,14 @@ print(json.dumps({"rc": res.returncode, "wall_s": wall, "peak_kib": use.ru_maxrs
 """
 
 
-def simulate(path: Path, hours: float) -> None:
-    """Simulate a paper-circle log of ``hours`` into ``path`` unless it exists."""
+def _tree_env(tree: Path | None) -> dict[str, str] | None:
+    """The environment that runs the lgvtool of the checkout ``tree`` (None: this one's)."""
+    return None if tree is None else dict(os.environ, PYTHONPATH=str(tree))
+
+
+def simulate(path: Path, hours: float, tree: Path | None = None) -> None:
+    """Simulate a paper-circle log of ``hours`` into ``path`` unless it exists (with the
+    lgvtool of the checkout ``tree`` when given, as :func:`measure` runs it)."""
     if path.exists():
         return
     tmp = path.with_suffix(".part.mcap")
@@ -49,7 +55,7 @@ def simulate(path: Path, hours: float) -> None:
     res = subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "--scenario",
                           "paper-circle", "--seed", "1", "--duration", str(hours * 3600),
                           "-o", str(tmp)], capture_output=True, text=True,
-                         check=False)
+                         check=False, env=_tree_env(tree), cwd=tree)
     if res.returncode != 0:
         raise SystemExit(f"simulate failed: {res.stderr.strip()}")
     tmp.rename(path)
@@ -59,10 +65,9 @@ def measure(args: list[str], tree: Path | None = None) -> dict[str, Any]:
     """Peak RSS (MB), wall and CPU time (s) and the end of the stdout of ``lgvtool ARGS`` run
     as a subprocess (the lgvtool of the checkout ``tree`` when given: it is put on PYTHONPATH
     and the command runs in that folder, since ``python -m`` looks there first)."""
-    env = None if tree is None else dict(os.environ, PYTHONPATH=str(tree))
     res = subprocess.run([sys.executable, "-c", _MEASURE, sys.executable, "-m", "lgvtool",
-                          *args], capture_output=True, text=True, check=True, env=env,
-                         cwd=tree)
+                          *args], capture_output=True, text=True, check=True,
+                         env=_tree_env(tree), cwd=tree)
     out = json.loads(res.stdout)
     if out["rc"] != 0:
         raise SystemExit(f"lgvtool {' '.join(args)} failed: {out['stderr'].strip()}")

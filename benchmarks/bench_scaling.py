@@ -72,7 +72,7 @@ def main() -> None:
         out = Path(tmp) / "out.mcap"
         if "pf-paper" in wanted:
             log = opts.cache / "paper-circle-1h.mcap"
-            simulate(log, 1.0)
+            simulate(log, 1.0, tree)
             r = median_run(tree, ["replay", str(log), "-o", str(out), "--estimator", "pf-paper",
                                   "--particles", "150", "--seed", "0", "--json", "--force"],
                            opts.repeat)
@@ -86,7 +86,7 @@ def main() -> None:
         rows: list[tuple[str, float, dict[str, object]]] = []
         for h in hours:
             log = opts.cache / f"paper-circle-{h:g}h.mcap"
-            simulate(log, h)
+            simulate(log, h, tree)
             if "replay" in wanted:
                 r = median_run(tree, ["replay", str(log), "-o", str(out), "--seed", "0",
                                       "--force", "--no-progress"], opts.repeat)
