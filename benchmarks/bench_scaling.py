@@ -65,6 +65,7 @@ def main() -> None:
     opts = ap.parse_args()
     hours = [float(h) for h in opts.hours.split(",")]
     wanted = set(opts.commands.split(","))
+    opts.cache = opts.cache.resolve()  # the commands run in --tree's folder
     opts.cache.mkdir(parents=True, exist_ok=True)
     tree = opts.tree.resolve()
     print(f"lgvtool of {tree}; {load()}", flush=True)
