@@ -1,11 +1,15 @@
 """Short simulated logs for tests that need real traffic (built in the test, never the
-sample logs)."""
+sample logs), and reading back what lgvtool writes into them."""
 
 from __future__ import annotations
 
+import base64
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 
 def simulate_log(path: Path, duration: float, seed: int, scenario: str = "paper-circle") -> Path:
@@ -31,3 +35,14 @@ def write_topic_log(path: Path, topic: str, schema: str, payloads: list[bytes],
             w.add_message(cid, start_ns + i * step_ns, data, start_ns + i * step_ns)
         w.finish()
     return path
+
+
+def cloud_points(msg: dict[str, Any]) -> np.ndarray:
+    """The points of a foxglove.PointCloud message, read by its own fields (name, byte offset,
+    numeric type) and point stride."""
+    kinds = {1: "<u1", 2: "<i1", 3: "<u2", 4: "<i2", 5: "<u4", 6: "<i4", 7: "<f4", 8: "<f8"}
+    dtype = np.dtype({"names": [f["name"] for f in msg["fields"]],
+                      "formats": [kinds[f["type"]] for f in msg["fields"]],
+                      "offsets": [f["offset"] for f in msg["fields"]],
+                      "itemsize": msg["point_stride"]})
+    return np.frombuffer(base64.b64decode(msg["data"]), dtype=dtype)

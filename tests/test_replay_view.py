@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from simlogs import cloud_points
 
 from lgvtool.log import LogReader, topics
 from lgvtool.log.messages import yaw_from_quaternion
@@ -102,30 +103,32 @@ def test_nav_frames_put_o_near_the_truth(replayed: Path) -> None:
 
 
 def test_scans_drawn_in_the_head_frame_land_on_the_map(replayed: Path) -> None:
-    """Each observed reflector, placed in the head frame and carried to the map by the true
-    head pose at the scan's time, lies on the map's reflector of that id."""
+    """Each scan is one foxglove.PointCloud in the head frame at the scan's start: every
+    observed reflector, carried to the map by the true head pose at that instant, lies on the
+    map's reflector of its id."""
     log = LogReader(replayed)
+    assert log.topics()[topics.NAV_SCAN].schema == "foxglove.PointCloud"
     cfg = log.config()
     refl = {r.id: (r.x, r.y) for r in log.reflector_map()}
     t, x, y, h = _truth(log)
     h = np.unwrap(h)
     checked = 0
     for m in log.messages([topics.NAV_SCAN]):
-        for e in m.data["entities"]:
-            assert e["frame_id"] == "nav/head"
-            ns = e["timestamp"]["sec"] * 1_000_000_000 + e["timestamp"]["nsec"]
-            if not t[0] <= ns <= t[-1]:
-                continue
-            ox, oy, oh = (float(np.interp(ns, t, v)) for v in (x, y, h))
-            c, s = math.cos(oh), math.sin(oh)
-            hx = ox + c * cfg.vehicle.nav_x - s * cfg.vehicle.nav_y
-            hy = oy + s * cfg.vehicle.nav_x + c * cfg.vehicle.nav_y
-            p = e["spheres"][0]["pose"]["position"]
+        assert m.data["frame_id"] == "nav/head"
+        ns = m.data["timestamp"]["sec"] * 1_000_000_000 + m.data["timestamp"]["nsec"]
+        if not t[0] <= ns <= t[-1]:
+            continue
+        ox, oy, oh = (float(np.interp(ns, t, v)) for v in (x, y, h))
+        c, s = math.cos(oh), math.sin(oh)
+        hx = ox + c * cfg.vehicle.nav_x - s * cfg.vehicle.nav_y
+        hy = oy + s * cfg.vehicle.nav_x + c * cfg.vehicle.nav_y
+        for p in cloud_points(m.data):
             mx, my = hx + c * p["x"] - s * p["y"], hy + s * p["x"] + c * p["y"]
-            near = min(refl.values(), key=lambda r: math.hypot(r[0] - mx, r[1] - my))
-            # the simulated laser's error is a few cm; 0.3 m leaves room for a noisier one
-            assert math.hypot(near[0] - mx, near[1] - my) < 0.3
-            checked += 1
+            if p["id"] >= 0:
+                rx, ry = refl[int(p["id"])]
+                # the simulated laser's error is a few cm; 0.3 m leaves room for a noisier one
+                assert math.hypot(rx - mx, ry - my) < 0.3
+                checked += 1
     assert checked > 50
 
 
@@ -179,7 +182,8 @@ def test_layout_opens_every_view_channel(replayed: Path) -> None:
     shown = {t for t, v in three_d[0]["topics"].items() if v.get("visible")}
     assert shown <= names
     drawable = {n for n in names if LogReader(replayed).topics()[n].schema in (
-        "foxglove.SceneUpdate", "foxglove.PoseInFrame", "foxglove.PosesInFrame")}
+        "foxglove.SceneUpdate", "foxglove.PoseInFrame", "foxglove.PosesInFrame",
+        "foxglove.PointCloud")}
     assert drawable <= shown
     logs = [c for k, c in panels.items() if k.startswith("RosOut!") or k.startswith("Log!")]
     assert logs and all(c["topicToRender"] == topics.DIAGNOSTICS_LOG for c in logs)

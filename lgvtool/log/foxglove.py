@@ -14,8 +14,9 @@ row, the same message as the builder's for that row (their equality is tested).
 
 from __future__ import annotations
 
+import base64
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import orjson
@@ -23,7 +24,7 @@ import orjson
 from lgvtool.angles import wrap_angle
 from lgvtool.log import topics
 from lgvtool.log.messages import FRAME_ID, pose, quaternion_from_yaw
-from lgvtool.timestamps import seconds_to_ns, seconds_to_ns_array, stamp, stamp_columns
+from lgvtool.timestamps import stamp, stamp_columns
 
 if TYPE_CHECKING:
     import numpy as np
@@ -39,8 +40,14 @@ positions of a 2-D Gaussian fall inside)."""
 ELLIPSE_HEIGHT = 0.02
 """Thickness of a drawn covariance ellipse (a flattened sphere), m."""
 
-SCAN_MARK = 0.12
-"""Diameter of a drawn reflector observation, m."""
+SCAN_POINT_FIELDS: tuple[tuple[str, int, int], ...] = (
+    ("x", 0, 7), ("y", 4, 7), ("z", 8, 7), ("red", 12, 1), ("green", 13, 1), ("blue", 14, 1),
+    ("alpha", 15, 1), ("id", 16, 6))
+"""The fields of a /nav/scan point: name, byte offset and foxglove.NumericType (7 FLOAT32,
+1 UINT8, 6 INT32); x, y, z in m in the head frame, the colour 0..255, the reflector id or -1."""
+SCAN_POINT_STRIDE = 20
+"""Bytes per /nav/scan point."""
+_SCAN_DTYPE = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("rgba", "u1", (4,)), ("id", "<i4")]
 
 PALETTE: dict[str, tuple[float, float, float]] = {
     "truth": (1.0, 1.0, 1.0),
@@ -171,32 +178,35 @@ def covariance_ellipse(ns: int, source: str, x: float, y: float, covariance: Seq
     return scene(_entity(ns, MAP_FRAME, f"{source}/covariance", spheres=[sphere]))
 
 
-def scan_scene(ns: int, observations: Iterable[tuple[float, float, int] |
-                                             tuple[float, float, int, float]],
-               source: str = "nav") -> dict[str, Any]:
-    """A foxglove.SceneUpdate drawing one scan's reflector observations in ``source``'s head
-    frame, replacing the scan before (entities on the topic older than ``ns`` are deleted).
-    Each observation (range m, bearing rad counter-clockwise, id or -1, and optionally its
-    time after the scan start, s) is one entity stamped with its own time, so that the 3D
-    panel places it with the head's pose when it was measured: a sphere at the reflector and
-    a ray to it from the head; known reflectors in the source's colour, unknown ones grey."""
-    entities = []
-    for k, obs in enumerate(observations):
-        rng, bearing, rid = obs[0], obs[1], obs[2]
-        dt = obs[3] if len(obs) > 3 else 0.0
-        px, py = rng * math.cos(bearing), rng * math.sin(bearing)
-        sphere = {"pose": pose(px, py, 0.0),
-                  "size": {"x": SCAN_MARK, "y": SCAN_MARK, "z": SCAN_MARK},
-                  "color": color(source) if rid >= 0 else color("deadreckoning")}
-        ray = {"type": 2, "pose": pose(0.0, 0.0, 0.0), "thickness": 1.5,
-               "scale_invariant": True,
-               "points": [{"x": 0.0, "y": 0.0, "z": 0.0}, {"x": px, "y": py, "z": 0.0}],
-               "color": color(source, 0.5), "colors": [], "indices": []}
-        entities.append(_entity(ns + seconds_to_ns(dt), head_frame(source), f"{source}/scan/{k}",
-                                spheres=[sphere], lines=[ray]))
-    out = scene(*entities)
-    out["deletions"] = [{"timestamp": stamp(ns), "type": 1, "id": ""}]
-    return out
+def _rgba8(source: str, known: bool) -> tuple[int, int, int, int]:
+    """RGBA (0..255) of a scan point: ``source``'s colour when the reflector is known, grey
+    otherwise."""
+    c = color(source) if known else color("deadreckoning")
+    return tuple(round(255 * c[k]) for k in "rgba")  # type: ignore[return-value]
+
+
+def scan_points(x: ArrayLike, y: ArrayLike, ids: ArrayLike, source: str = "nav") -> bytes:
+    """The packed points of :data:`SCAN_POINT_FIELDS` (``SCAN_POINT_STRIDE`` bytes each, little
+    endian) of reflector observations at (x, y) m in the head frame, with their ids (or -1)."""
+    import numpy as np
+
+    ida = np.asarray(ids, dtype=np.int64)
+    pts = np.zeros(len(ida), dtype=_SCAN_DTYPE)
+    pts["x"], pts["y"], pts["id"] = x, y, ida
+    pts["rgba"] = np.where((ida >= 0)[:, None], _rgba8(source, True), _rgba8(source, False))
+    return pts.tobytes()
+
+
+def scan_cloud(ns: int, x: ArrayLike, y: ArrayLike, ids: ArrayLike, source: str = "nav"
+               ) -> dict[str, Any]:
+    """A foxglove.PointCloud of one reflector scan starting at ``ns``: each observation a point
+    at (x, y) m in ``source``'s head frame as it was at ``ns`` (the caller carries each
+    observation there from the instant it was measured), known reflectors in the source's
+    colour, unknown ones grey, with the reflector id (-1 unknown) as the field ``id``."""
+    return {"timestamp": stamp(ns), "frame_id": head_frame(source), "pose": pose(0.0, 0.0, 0.0),
+            "point_stride": SCAN_POINT_STRIDE,
+            "fields": [{"name": n, "offset": o, "type": t} for n, o, t in SCAN_POINT_FIELDS],
+            "data": base64.b64encode(scan_points(x, y, ids, source)).decode("ascii")}
 
 
 def reference_circle(ns: int, cx: float, cy: float, r: float, n: int = 180,
@@ -224,13 +234,6 @@ def nav_pose_messages(ns: int, x: float, y: float, heading: float, m: Mounting
     return [encoded(topics.NAV_HEAD, {"timestamp": stamp(ns), "frame_id": MAP_FRAME,
                                       "pose": pose(x, y, heading)}),
             encoded(topics.NAV_TF, frame_transforms(ns, "nav", ox, oy, oh, m))]
-
-
-def scan_messages(ns: int, observations: Iterable[tuple[float, float, int, float]]
-                  ) -> list[Encoded]:
-    """The Foxglove message of one reflector scan starting at ``ns``: (range m, bearing rad,
-    id or -1, time in scan s) per observation, drawn in the frame nav/head."""
-    return [encoded(topics.NAV_SCAN, scan_scene(ns, observations))]
 
 
 def pose_estimate(ns: int, name: str, x: float, y: float, heading: float,
@@ -417,44 +420,25 @@ def _template(sample: bytes, slots: Sequence[tuple[bytes, bytes]]) -> bytes:
     return out
 
 
-_SEC, _NSEC, _K, _PX, _PY = 1111111111, 222222222, 987654321, 1234567.125, 7654321.125
+_SEC, _NSEC = 1111111111, 222222222
 
 
-def scan_scenes_many(scans: Sequence[tuple[int, ArrayLike, ArrayLike, ArrayLike, ArrayLike]],
-                     source: str = "nav") -> list[bytes]:
-    """foxglove.SceneUpdate messages (JSON) of reflector scans ``(start ns, ranges m,
-    bearings rad, ids, times in scan s)``, as :func:`scan_scene`."""
+def scan_clouds_many(start_ns: ArrayLike, offsets: ArrayLike, x: ArrayLike, y: ArrayLike,
+                     ids: ArrayLike, source: str = "nav") -> list[bytes]:
+    """foxglove.PointCloud messages (JSON) of reflector scans, as :func:`scan_cloud`: scan ``k``
+    starts at ``start_ns[k]`` (ns) and holds the points ``offsets[k]:offsets[k + 1]`` of the
+    flat columns ``x``, ``y`` (m, head frame at the scan start) and ``ids``."""
     import numpy as np
 
-    if not scans:
+    starts = np.asarray(start_ns, dtype=np.int64)
+    if not len(starts):
         return []
-    ns0 = _SEC * 1_000_000_000 + _NSEC
-    slots = [(b'{"sec":%d,"nsec":%d}' % (_SEC, _NSEC), _STAMP), (b"%d" % _K, b"%d"),
-             (orjson.dumps(_PX), b"%b"), (orjson.dumps(_PY), b"%b")]
-    entity = {}
-    for known in (True, False):
-        sample = scan_scene(ns0, [(math.hypot(_PX, _PY), math.atan2(_PY, _PX), 0 if known
-                                   else -1, 0.0)], source)["entities"][0]
-        sample["id"] = f"{source}/scan/{_K}"
-        sample["spheres"][0]["pose"]["position"].update(x=_PX, y=_PY)
-        sample["lines"][0]["points"][1].update(x=_PX, y=_PY)
-        entity[known] = _template(orjson.dumps(sample), slots)
-    head = _template(orjson.dumps({"deletions": scan_scene(ns0, [])["deletions"]})[:-1],
-                     slots[:1]) + b',"entities":['
-    sizes = [len(np.asarray(sc[1])) for sc in scans]
-    rng = np.concatenate([np.asarray(sc[1], dtype=np.float64) for sc in scans])
-    brg = np.concatenate([np.asarray(sc[2], dtype=np.float64) for sc in scans])
-    ids = np.concatenate([np.asarray(sc[3], dtype=np.int64) for sc in scans]).tolist()
-    start = np.repeat(np.array([sc[0] for sc in scans], dtype=np.int64), sizes)
-    dts = np.concatenate([np.asarray(sc[4], dtype=np.float64) for sc in scans])
-    secs, nsecs = stamp_columns(start + seconds_to_ns_array(dts))
-    px, py = numbers(rng * np.cos(brg)), numbers(rng * np.sin(brg))
-    s0, n0 = stamp_columns([sc[0] for sc in scans])
-    out: list[bytes] = []
-    at = 0
-    for j, n in enumerate(sizes):
-        parts = [entity[ids[i] >= 0] % (secs[i], nsecs[i], i - at, px[i], py[i], px[i], py[i])
-                 for i in range(at, at + n)]
-        out.append(head % (s0[j], n0[j]) + b",".join(parts) + b"]}")
-        at += n
-    return out
+    sample = scan_cloud(_SEC * 1_000_000_000 + _NSEC, [], [], [], source)
+    sample["data"] = "@DATA@"
+    template = _template(orjson.dumps(sample), [(b'{"sec":%d,"nsec":%d}' % (_SEC, _NSEC),
+                                                 _STAMP), (b"@DATA@", b"%b")])
+    data = scan_points(x, y, ids, source)
+    at = (np.asarray(offsets, dtype=np.int64) * SCAN_POINT_STRIDE).tolist()
+    b64 = base64.b64encode
+    return [template % (sec, nsec, b64(data[at[k]:at[k + 1]]))
+            for k, (sec, nsec) in enumerate(zip(*stamp_columns(starts), strict=True))]

@@ -37,7 +37,7 @@ NAV_HEAD = "/nav/head"
 NAV_TF = "/nav/tf"
 """Frames map -> nav/O -> nav/head from the NAV's reported pose (foxglove.FrameTransforms)."""
 NAV_SCAN = "/nav/scan"
-"""Each reflector scan drawn in the frame nav/head (foxglove.SceneUpdate)."""
+"""Each reflector scan as points in the frame nav/head (foxglove.PointCloud)."""
 TRUTH_TF = "/truth/tf"
 """Frames map -> truth/O -> truth/head from the ground truth (foxglove.FrameTransforms)."""
 REFERENCE = "/reference/circle"
@@ -63,7 +63,7 @@ FIXED: dict[str, str] = {
     DIAGNOSTICS_LOG: "foxglove.Log",
     NAV_HEAD: "foxglove.PoseInFrame",
     NAV_TF: "foxglove.FrameTransforms",
-    NAV_SCAN: "foxglove.SceneUpdate",
+    NAV_SCAN: "foxglove.PointCloud",
     TRUTH_TF: "foxglove.FrameTransforms",
     REFERENCE: "foxglove.SceneUpdate",
 }

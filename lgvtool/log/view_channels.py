@@ -154,24 +154,71 @@ def _num(d: dict[str, Any], key: str) -> float:
     return float(v) if isinstance(v, int | float) else math.nan
 
 
-def _scan_rows(rows: LogRows) -> tuple[Any, ...]:
-    """The reflector scans of the log as flat arrays: log time (ns), start (ns), row offsets,
-    then per observation range (m), bearing (rad), id and time in scan (s)."""
+Track = tuple["NDArray[np.int64]", "NDArray[np.float64]", "NDArray[np.float64]",
+              "NDArray[np.float64]"]
+"""Poses of a head in the map: times (ns), x, y (m), heading (rad), finite, in time order."""
+
+
+def head_track(t: Any, x: Any, y: Any, heading: Any, m: fx.Mounting) -> Track:
+    """The head's poses of the poses (t ns, x, y m, heading rad) of O, the rows with a finite
+    pose, in time order."""
     import numpy as np
+
+    t, x, y, h = (np.asarray(v, dtype=np.int64 if k == 0 else np.float64)
+                  for k, v in enumerate((t, x, y, heading)))
+    ok = np.isfinite(x) & np.isfinite(y) & np.isfinite(h)
+    order = np.argsort(t[ok], kind="stable")
+    t, x, y, h = (v[ok][order] for v in (t, x, y, h))
+    c, s = np.cos(h), np.sin(h)
+    return t, x + c * m.x - s * m.y, y + s * m.x + c * m.y, h + m.yaw
+
+
+def carry_to_start(t_start: Any, t_obs: Any, px: Any, py: Any, track: Track
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Points (px, py m) measured in the head frame at ``t_obs`` (ns), expressed in the head
+    frame as it was at ``t_start`` (ns), with the head's ``track`` interpolated linearly
+    (the heading unwrapped; held at the track's ends), as Foxglove's 3D panel carries a
+    frame between two of its transforms. Unchanged without a track."""
+    import numpy as np
+
+    px, py = np.asarray(px, dtype=np.float64), np.asarray(py, dtype=np.float64)
+    tt, x, y, h = track
+    if not len(tt):
+        return px, py
+    h = np.unwrap(h)
+
+    def at(t: Any) -> tuple[Any, Any, Any]:
+        rel = (np.asarray(t, dtype=np.int64) - tt[0]).astype(np.float64)
+        grid = (tt - tt[0]).astype(np.float64)
+        return np.interp(rel, grid, x), np.interp(rel, grid, y), np.interp(rel, grid, h)
+
+    xs, ys, hs = at(t_start)
+    xo, yo, ho = at(t_obs)
+    co, so = np.cos(ho), np.sin(ho)
+    dx, dy = xo + co * px - so * py - xs, yo + so * px + co * py - ys
+    cs, ss = np.cos(hs), np.sin(hs)
+    return cs * dx + ss * dy, cs * dy - ss * dx
+
+
+def _scan_encoder(rows: LogRows, track: Track, source_name: str) -> Any:
+    """The encoder of /nav/scan: each scan one foxglove.PointCloud in the head frame at its
+    start, every observation carried there from its own instant along ``track``."""
+    import numpy as np
+
+    from lgvtool.timestamps import seconds_to_ns_array
 
     times, (start, counts, rng, brg, ids, dts) = rows.columns(T.NAV_REFLECTORS)
     offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    return times, start, offsets, rng, brg, ids, dts
-
-
-def _scan_encoder(t: NDArray[np.int64], rows: tuple[Any, ...], source_name: str) -> Any:
-    start, offsets, rng, brg, ids, dts = rows
+    first = np.repeat(start, counts)
+    qx, qy = carry_to_start(first, first + seconds_to_ns_array(dts), rng * np.cos(brg),
+                            rng * np.sin(brg), track)
 
     def encode(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
-        scans = [(int(start[i]), rng[offsets[i]:offsets[i + 1]], brg[offsets[i]:offsets[i + 1]],
-                  ids[offsets[i]:offsets[i + 1]], dts[offsets[i]:offsets[i + 1]])
-                 for i in idx.tolist()]
-        return t[idx].tolist(), fx.scan_scenes_many(scans, source_name)
+        n = offsets[idx + 1] - offsets[idx]
+        sub = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
+        flat = np.repeat(offsets[idx] - sub[:-1], n) + np.arange(sub[-1])
+        return times[idx].tolist(), fx.scan_clouds_many(start[idx], sub, qx[flat], qy[flat],
+                                                      ids[flat], source_name)
     return encode
 
 
@@ -183,15 +230,18 @@ def _frames(name: str, t: NDArray[np.int64], x: Any, y: Any, h: Any, m: fx.Mount
     return lambda idx: fx.frame_transforms_many(name, t[idx], x[idx], y[idx], h[idx], m)
 
 
-def nav_streams(rows: LogRows, m: fx.Mounting, fallback: str = "truth") -> list[Source]:
+def nav_streams(rows: LogRows, m: fx.Mounting, fallback: str = "truth",
+                fallback_track: Track | None = None) -> list[Source]:
     """/nav/head and /nav/tf of every valid NAV pose, /nav/scan of every reflector scan,
     drawn in the frame nav/head when the log has a valid NAV pose, else in the head frame of
     ``fallback`` (an imported dataset's sensor reports no pose: its scans ride on the head of
-    the ground truth, or of an estimator)."""
+    the ground truth, or of an estimator), whose head poses ``fallback_track`` carries the
+    observations to their scan's start."""
     import numpy as np
 
     out: list[Source] = []
     t, (x, y, h, valid) = rows.columns(T.NAV_POSE)
+    track = fallback_track if fallback_track is not None else head_track([], [], [], [], m)
     if len(t):
         ok = valid & np.isfinite(x + y + h)
         t, x, y, h = t[ok], x[ok], y[ok], h[ok]
@@ -199,10 +249,11 @@ def nav_streams(rows: LogRows, m: fx.Mounting, fallback: str = "truth") -> list[
             out.append(source(T.NAV_HEAD, t, _poses(t, x, y, h)))
             ox, oy, oh = fx.o_from_head(x, y, h, m)
             out.append(source(T.NAV_TF, t, _frames("nav", t, ox, oy, oh, m)))
-    t_scan, *scans = _scan_rows(rows)
+            track = head_track(t, x, y, h, fx.Mounting(0.0, 0.0))  # the NAV reports its head
+    t_scan = rows.columns(T.NAV_REFLECTORS)[0]
     if len(t_scan):
         out.append(source(T.NAV_SCAN, t_scan,
-                          _scan_encoder(t_scan, tuple(scans), "nav" if out else fallback)))
+                          _scan_encoder(rows, track, "nav" if out else fallback)))
     return out
 
 
@@ -294,11 +345,17 @@ def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any],
     circle) and from the estimators' ``tables`` (frames and covariance ellipses); ``rows``:
     the log's rows already gathered (else they are read here)."""
     m = fx.mounting_of(config.vehicle)
-    fallback = "truth" if reader.has_topic(T.TRUTH) else next(iter(tables), "nav")
     rows = rows if rows is not None else LogRows(reader)
-    out = (nav_streams(rows, m, fallback) + truth_stream(rows, m)
+    track: Track | None = None
+    if reader.has_topic(T.TRUTH):
+        fallback, track = "truth", head_track(*_truth_rows(rows), m)
+    else:
+        fallback = next(iter(tables), "nav")
+        if fallback in tables:
+            tab = tables[fallback]
+            track = head_track(tab.t_ns, tab.x, tab.y, tab.heading, m)
+    out = (nav_streams(rows, m, fallback, track) + truth_stream(rows, m)
            + reference_stream(rows, config, tables))
     for name, tab in tables.items():
         out += estimate_streams(name, tab, m)
     return out
-

@@ -3,12 +3,14 @@ fast paths giving the builders' messages."""
 
 from __future__ import annotations
 
+import base64
 import math
 
 import jsonschema
 import numpy as np
 import orjson
 import pytest
+from simlogs import cloud_points
 
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics
@@ -45,12 +47,13 @@ def test_builders_validate_against_foxglove_schemas() -> None:
     _valid("foxglove.SceneUpdate", fx.covariance_ellipse(T0, "pf", 1.0, 2.0,
                                                          [0.01, 0.002, 0, 0.002, 0.004, 0, 0, 0,
                                                           0.001]))
-    _valid("foxglove.SceneUpdate", fx.scan_scene(T0, [(5.0, 0.3, 4, 0.0), (7.0, -1.0, -1, 0.1)]))
-    _valid("foxglove.SceneUpdate", fx.scan_scene(T0, []))
+    _valid("foxglove.PointCloud", fx.scan_cloud(T0, [5.0, -7.0], [0.3, 1.0], [4, -1]))
+    _valid("foxglove.PointCloud", fx.scan_cloud(T0, [], [], []))
     _valid("foxglove.SceneUpdate", fx.reference_circle(T0, 10.0, 9.0, 0.69))
-    for e in (fx.nav_pose_messages(T0, 1.0, 2.0, 0.5, M) + fx.scan_messages(T0, [(3.0, 0.1, 2, 0.05)])
-              + fx.estimate_messages("ekf", T0, 1.0, 2.0, 0.5, [1e-4, 0, 0, 0, 1e-4, 0, 0, 0,
-                                                                1e-3], M)):
+    scan = fx.encoded(topics.NAV_SCAN, fx.scan_cloud(T0, [3.0], [0.1], [2]))
+    for e in (*fx.nav_pose_messages(T0, 1.0, 2.0, 0.5, M), scan,
+              *fx.estimate_messages("ekf", T0, 1.0, 2.0, 0.5, [1e-4, 0, 0, 0, 1e-4, 0, 0, 0,
+                                                               1e-3], M)):
         assert e.schema == topics.schema_for_topic(e.topic)
         _valid(e.schema, orjson.loads(e.data))
 
@@ -93,19 +96,22 @@ def test_covariance_ellipse_axes() -> None:
     assert msg["entities"][0]["frame_id"] == "map"
 
 
-def test_scan_points_are_range_and_bearing_in_the_head_frame() -> None:
-    msg = fx.scan_scene(T0, [(5.0, math.pi / 2, 3, 0.01), (2.0, 0.0, -1, 0.1)])
-    assert msg["deletions"] == [{"timestamp": {"sec": T0 // 10**9, "nsec": 0}, "type": 1,
-                                 "id": ""}]
-    a, b = msg["entities"]
-    assert a["frame_id"] == b["frame_id"] == "nav/head"
-    assert a["timestamp"]["nsec"] == 10_000_000 and b["timestamp"]["nsec"] == 100_000_000
-    p = [e["spheres"][0]["pose"]["position"] for e in (a, b)]
-    assert (p[0]["x"], p[0]["y"]) == pytest.approx((0.0, 5.0), abs=1e-12)
-    assert (p[1]["x"], p[1]["y"]) == pytest.approx((2.0, 0.0), abs=1e-12)
-    assert a["spheres"][0]["color"] != b["spheres"][0]["color"]  # known vs unknown id
-    assert a["lines"][0]["points"][1] == p[0]
-    assert a["id"] != b["id"]
+def test_scan_cloud_holds_each_observation_as_a_point_in_the_head_frame() -> None:
+    msg = fx.scan_cloud(T0 + 10_000_000, [0.0, 2.0], [5.0, 0.0], [3, -1])
+    assert msg["frame_id"] == "nav/head"
+    assert msg["timestamp"] == {"sec": T0 // 10**9, "nsec": 10_000_000}
+    assert msg["pose"]["position"] == {"x": 0.0, "y": 0.0, "z": 0.0}
+    pts = cloud_points(msg)
+    assert len(pts) == 2 and len(base64.b64decode(msg["data"])) == 2 * msg["point_stride"]
+    assert (pts["x"].tolist(), pts["y"].tolist(), pts["z"].tolist()) == (
+        [0.0, 2.0], [5.0, 0.0], [0.0, 0.0])
+    assert pts["id"].tolist() == [3, -1]
+    nav = [round(255 * v) for v in fx.PALETTE["nav"]] + [255]
+    grey = [round(255 * v) for v in fx.PALETTE["deadreckoning"]] + [255]
+    rgba = [[int(p[c]) for c in ("red", "green", "blue", "alpha")] for p in pts]
+    assert rgba == [nav, grey]  # a known reflector in the source's colour, an unknown grey
+    assert fx.scan_cloud(T0, [1.0], [1.0], [0], "truth")["frame_id"] == "truth/head"
+
 
 
 def test_reference_circle_points_lie_on_it() -> None:
@@ -161,15 +167,18 @@ def test_fast_paths_equal_the_builders() -> None:
 
 def test_scan_fast_path_equals_the_builder() -> None:
     rng = np.random.default_rng(2)
-    scans = []
-    for j in range(6):
-        n = int(rng.integers(0, 7))
-        scans.append((T0 + j * 125_000_000, rng.uniform(1, 20, n), rng.uniform(-3, 3, n),
-                      rng.integers(-1, 30, n), np.sort(rng.uniform(0, 0.125, n))))
-    for sc, text in zip(scans, fx.scan_scenes_many(scans), strict=True):
-        obs = list(zip(sc[1].tolist(), sc[2].tolist(), sc[3].tolist(), sc[4].tolist(),
-                       strict=True))
-        _approx(fx.scan_scene(sc[0], obs), orjson.loads(text))
+    counts = rng.integers(0, 7, 6)
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    n = int(offsets[-1])
+    x, y, ids = rng.uniform(-20, 20, n), rng.uniform(-20, 20, n), rng.integers(-1, 30, n)
+    starts = T0 + 125_000_000 * np.arange(6)
+    texts = fx.scan_clouds_many(starts, offsets, x, y, ids, "pf")
+    assert len(texts) == 6
+    for k, text in enumerate(texts):
+        a, b = offsets[k], offsets[k + 1]
+        assert orjson.loads(text) == fx.scan_cloud(int(starts[k]), x[a:b], y[a:b], ids[a:b], "pf")
+    assert fx.scan_clouds_many([], [0], [], [], []) == []
+
 
 
 def test_fast_paths_leave_out_rows_that_are_not_finite() -> None:

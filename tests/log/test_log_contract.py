@@ -92,6 +92,7 @@ FOXGLOVE_REQUIRED = {
     "foxglove.SceneUpdate": ["deletions", "entities"],
     "foxglove.Log": ["timestamp", "level", "message", "name", "file", "line"],
     "foxglove.FrameTransforms": ["transforms"],
+    "foxglove.PointCloud": ["timestamp", "frame_id", "pose", "point_stride", "fields", "data"],
 }
 """The top-level required lists of Foxglove's published schemas (@foxglove/schemas 2.1.0)."""
 
