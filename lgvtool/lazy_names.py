@@ -11,14 +11,16 @@ from typing import Any
 def lazy_names(package: str, exports: Mapping[str, str], namespace: dict[str, Any]
                ) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """The module ``__getattr__`` and ``__dir__`` of ``package``: each name of ``exports``
-    (name -> the submodule that defines it) is imported from its submodule when first asked
-    for and then kept in the package's ``namespace`` (its ``globals()``)."""
+    (name -> the submodule that defines it, or the full name of a module elsewhere in lgvtool)
+    is imported from that module when first asked for and then kept in the package's
+    ``namespace`` (its ``globals()``)."""
 
     def getattr_(name: str) -> Any:
         module = exports.get(name)
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        value = getattr(importlib.import_module(f"{package}.{module}"), name)
+        full = module if module.startswith("lgvtool.") else f"{package}.{module}"
+        value = getattr(importlib.import_module(full), name)
         namespace[name] = value
         return value
 

@@ -3,6 +3,8 @@
 - every module basename is unique across lgvtool (``__init__.py`` and ``__main__.py`` aside);
 - the device side (codecs, sessions, device models, emulators) imports no estimator;
 - nothing outside the command line imports ``lgvtool.commands``;
+- the log layer (``lgvtool.log``) imports none of the layers above it: the estimators, the
+  evaluation, the jobs, the commands;
 - importing the pure core opens no file.
 """
 
@@ -27,7 +29,7 @@ COMMAND_LINE = ("lgvtool/commands/", "lgvtool/cli.py")
 
 PURE_CORE = ("lgvtool.angles", "lgvtool.timestamps", "lgvtool.quantiles", "lgvtool.values",
              "lgvtool.wire", "lgvtool.localize", "lgvtool.evaluate.metrics",
-             "lgvtool.evaluate.circle", "lgvtool.evaluate.laps")
+             "lgvtool.circle", "lgvtool.evaluate.laps")
 """Modules and packages without I/O: importing them opens no file of their own."""
 
 
@@ -78,6 +80,19 @@ def test_device_code_imports_no_estimator() -> None:
     assert device_modules
     bad = [_rel(p) for p in device_modules if _imports_any(p, ESTIMATOR_PACKAGES)]
     assert not bad, f"device modules importing an estimator package: {bad}"
+
+
+LOG_LAYER_ABOVE = ("lgvtool.localize", "lgvtool.evaluate", "lgvtool.app", "lgvtool.commands")
+"""What ``lgvtool/log`` (log I/O, messages, the view's channels) must not import."""
+
+
+def test_the_log_layer_imports_no_layer_above_it() -> None:
+    log_modules = [p for p in _modules() if _rel(p).startswith("lgvtool/log/")]
+    assert log_modules
+    bad = {_rel(p): sorted(m for m in _imported(p) if any(
+        m == a or m.startswith(a + ".") for a in LOG_LAYER_ABOVE)) for p in log_modules}
+    bad = {k: v for k, v in bad.items() if v}
+    assert not bad, f"log modules importing a layer above them: {bad}"
 
 
 def test_only_the_command_line_imports_the_commands() -> None:

@@ -104,9 +104,9 @@ def evaluate_log(
     (``--trajectory``, :mod:`lgvtool.interop.foreign_trajectories`).
     ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress.
     """
+    from lgvtool.circle import median_steering
     from lgvtool.evaluate.evaluation import evaluate_trajectories
     from lgvtool.evaluate.log_inputs import EvaluationInputs
-    from lgvtool.evaluate.reference import median_steering
     from lgvtool.log import LogReader, topics
     from lgvtool.log.frames import steering_columns
 

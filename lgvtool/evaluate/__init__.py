@@ -16,7 +16,14 @@ from typing import TYPE_CHECKING
 from lgvtool.lazy_names import lazy_names
 
 if TYPE_CHECKING:
-    from lgvtool.evaluate.circle import Circle, fit_centre, fit_circle, fit_geometric, fit_kasa
+    from lgvtool.circle import (
+        Circle,
+        fit_centre,
+        fit_circle,
+        fit_geometric,
+        fit_kasa,
+        kinematic_radius,
+    )
     from lgvtool.evaluate.document import build_document, to_json
     from lgvtool.evaluate.evaluation import (
         EstimatorEvaluation,
@@ -33,22 +40,22 @@ if TYPE_CHECKING:
         truth_errors,
         truth_stats,
     )
-    from lgvtool.evaluate.reference import ReferenceInfo, kinematic_radius
+    from lgvtool.evaluate.reference import ReferenceInfo
     from lgvtool.evaluate.regress import check_baseline, check_bounds, lookup
     from lgvtool.evaluate.table import Table1, build_table, to_csv, to_latex, to_markdown, to_text
 
-#: public name -> module that defines it (imported on first use, so that a command drawing a
-#: reference circle, ``replay``'s view, does not import the tables and pandas)
+#: public name -> module that defines it (imported on first use, so that a command needing one
+#: part does not import the tables and pandas; the circle's fits are :mod:`lgvtool.circle`)
 _EXPORTS = {
-    "Circle": "circle", "fit_centre": "circle", "fit_circle": "circle",
-    "fit_geometric": "circle", "fit_kasa": "circle",
+    "Circle": "lgvtool.circle", "fit_centre": "lgvtool.circle", "fit_circle": "lgvtool.circle",
+    "fit_geometric": "lgvtool.circle", "fit_kasa": "lgvtool.circle",
     "build_document": "document", "to_json": "document",
     "EstimatorEvaluation": "evaluation", "EvaluationResult": "evaluation",
     "Rotation": "evaluation", "evaluate_trajectories": "evaluation",
     "Laps": "laps", "segment_laps": "laps",
     "RadialStats": "metrics", "TruthStats": "metrics", "associate_truth": "metrics",
     "radial_stats": "metrics", "truth_errors": "metrics", "truth_stats": "metrics",
-    "ReferenceInfo": "reference", "kinematic_radius": "reference",
+    "ReferenceInfo": "reference", "kinematic_radius": "lgvtool.circle",
     "check_baseline": "regress", "check_bounds": "regress", "lookup": "regress",
     "Table1": "table", "build_table": "table", "to_csv": "table", "to_latex": "table",
     "to_markdown": "table", "to_text": "table",

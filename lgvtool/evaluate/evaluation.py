@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from lgvtool.circle import TRIM, Circle, fit_geometric
 from lgvtool.errors import InputError
-from lgvtool.evaluate.circle import Circle, fit_geometric
 from lgvtool.evaluate.laps import Laps
 from lgvtool.evaluate.metrics import (
     RadialStats,
@@ -43,7 +43,6 @@ from lgvtool.evaluate.metrics import (
 from lgvtool.evaluate.quality import DataQuality
 from lgvtool.evaluate.reference import (
     MIN_SAMPLES,
-    TRIM,
     ReferenceInfo,
     circles_and_laps,
     reference_info,

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from lgvtool.evaluate.circle import Circle
+from lgvtool.circle import Circle
 
 PARTIAL_MIN_ANGLE = float(np.deg2rad(1.0))
 """Angular tolerance at the end of a drive, rad: a remainder smaller than this after the last

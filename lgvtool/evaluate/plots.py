@@ -25,8 +25,8 @@ import plotly.graph_objects as go
 from plotly.colors import qualitative
 from plotly.subplots import make_subplots
 
+from lgvtool.circle import Circle
 from lgvtool.errors import InputError
-from lgvtool.evaluate.circle import Circle
 from lgvtool.evaluate.evaluation import EvaluationResult
 from lgvtool.evaluate.quality import DataQuality
 from lgvtool.evaluate.table import MM, Table1, estimator_order

@@ -12,22 +12,21 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
 
+from lgvtool.circle import (
+    TRIM,
+    Circle,
+    fit_circle,
+    follows_circle,
+    kinematic_radius,
+    median_steering,
+)
 from lgvtool.errors import InputError
-from lgvtool.evaluate.circle import Circle, fit_circle
 from lgvtool.evaluate.laps import Laps, segment_laps
 from lgvtool.evaluate.metrics import radial_stats
 
 if TYPE_CHECKING:
     import pandas as pd
-
-TRIM = 5.0
-"""Outlier trim of the centre fits, robust standard deviations (see circle.py)."""
-
-NOT_A_CIRCLE = 0.25
-"""A lap source whose radial RMSE exceeds this fraction of the radius (and 0.1 m) is not
-driving a circle: circle metrics are left out."""
 
 MIN_SAMPLES = 3
 """Fewest samples that make a trajectory usable."""
@@ -51,10 +50,6 @@ class ReferenceInfo:
     """False when the drive is not a circle (or has no reference): no circle metrics."""
 
 
-MOVING_SPEED = 0.01
-"""Drive speed above which an MCU frame counts as driving, m/s (steering median)."""
-
-
 def steering_from_frames(frames: pd.DataFrame | None) -> float | None:
     """:func:`median_steering` of MCU frames (columns steering_angle in rad and, if present,
     drive_speed in m/s)."""
@@ -63,25 +58,6 @@ def steering_from_frames(frames: pd.DataFrame | None) -> float | None:
     speed = (frames["drive_speed"].to_numpy(dtype=float) if "drive_speed" in frames.columns
              else None)
     return median_steering(frames["steering_angle"].to_numpy(dtype=float), speed)
-
-
-def median_steering(angle: NDArray[np.float64], speed: NDArray[np.float64] | None
-                    ) -> float | None:
-    """Median steering angle over the drive, rad, from the MCU frames' steering angles (rad,
-    NaN where absent) and drive speeds (m/s; None: unknown); frames at standstill are left out
-    unless the vehicle never moves. None if there is no usable angle."""
-    ok = np.isfinite(angle)
-    if speed is not None:
-        moving = ok & (np.abs(speed) > MOVING_SPEED)
-        if moving.any():
-            ok = moving
-    return float(np.median(angle[ok])) if ok.any() else None
-
-
-def kinematic_radius(h: float, steering_angle: float) -> float:
-    """R = h / |tan(delta)|, m (inf for a straight drive)."""
-    t = abs(math.tan(steering_angle))
-    return math.inf if t < 1e-9 else h / t
 
 
 def fit_circles(
@@ -181,7 +157,7 @@ def circles_and_laps(
     src = choose_lap_source(candidates, fitted, prefer)
     src_df, src_circle = candidates[src], fitted[src]
     spread = radial_stats(src_circle.radial_error(src_df["x"], src_df["y"])).rmse
-    if spread > max(NOT_A_CIRCLE * src_circle.r, 0.1):
+    if not follows_circle(spread, src_circle.r):
         warnings.append(
             f"the trajectory '{src}' does not follow a circle (radial RMSE {spread * 1e3:.0f} mm "
             f"about a {src_circle.r:.3f} m circle): circle metrics left out")

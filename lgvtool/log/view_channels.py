@@ -275,7 +275,7 @@ def truth_stream(rows: LogRows, m: fx.Mounting) -> list[Source]:
 
 def steering_angle(rows: LogRows) -> float | None:
     """Median logged steering angle while driving, rad (None without MCU frames)."""
-    from lgvtool.evaluate.reference import median_steering
+    from lgvtool.circle import median_steering
 
     _t, (angle, speed) = rows.columns(T.MCU_FRAME)
     return median_steering(angle, speed)
@@ -289,9 +289,8 @@ def reference_stream(rows: LogRows, config: Any,
     configured), free otherwise. None when the drive is not a circle."""
     import numpy as np
 
+    from lgvtool.circle import TRIM, fit_circle, follows_circle, kinematic_radius
     from lgvtool.errors import InputError
-    from lgvtool.evaluate.circle import fit_circle
-    from lgvtool.evaluate.reference import NOT_A_CIRCLE, TRIM, kinematic_radius
 
     t_truth, x, y, _yaw = _truth_rows(rows)
     if len(t_truth):
@@ -318,7 +317,7 @@ def reference_stream(rows: LogRows, config: Any,
     except (InputError, ValueError, ArithmeticError):  # no circle fits: none is drawn
         return []
     rmse = float(np.sqrt(np.mean(c.radial_error(x[ok], y[ok]) ** 2)))
-    if not math.isfinite(c.r) or rmse > max(NOT_A_CIRCLE * c.r, 0.1):
+    if not math.isfinite(c.r) or not follows_circle(rmse, c.r):
         return []
     msg = fx.reference_circle(t0, c.cx, c.cy, c.r, label=label)
     return [constant(T.REFERENCE, [t0], [orjson.dumps(msg)])]

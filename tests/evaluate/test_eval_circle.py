@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from lgvtool.circle import Circle, fit_centre, fit_geometric, fit_kasa, radial_error
 from lgvtool.errors import InputError
-from lgvtool.evaluate.circle import Circle, fit_centre, fit_geometric, fit_kasa, radial_error
 
 
 def noisy_circle(cx: float, cy: float, r: float, n: int, sd: float, seed: int = 0,

@@ -117,7 +117,8 @@ def test_steering_median_over_the_drive() -> None:
 
 
 def test_logged_steering_read_as_two_columns_is_the_frames_table_median() -> None:
-    from lgvtool.evaluate.reference import median_steering, steering_from_frames
+    from lgvtool.circle import median_steering
+    from lgvtool.evaluate.reference import steering_from_frames
     from lgvtool.log import LogReader, topics
     from lgvtool.log.frames import steering_columns
 

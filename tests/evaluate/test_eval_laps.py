@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from evaluate_synth import CENTRE, PERIOD, T0, circle_drive
 
-from lgvtool.evaluate.circle import Circle
+from lgvtool.circle import Circle
 from lgvtool.evaluate.laps import segment_laps, swept_angle
 
 C = Circle(CENTRE[0], CENTRE[1], 0.7)

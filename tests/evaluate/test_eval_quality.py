@@ -157,7 +157,7 @@ def test_evaluating_a_raw_log_reads_its_chunks_once(chunk_passes: list[list[str]
     steering and its data quality: one pass over the chunks, and the same figures as reading
     each of them on its own."""
     from lgvtool.app import evaluate_job
-    from lgvtool.evaluate.reference import median_steering
+    from lgvtool.circle import median_steering
     from lgvtool.log.frames import steering_columns
 
     result = evaluate_job.evaluate_log(SAMPLE, estimators=["laser"])

@@ -1,8 +1,10 @@
-"""Circle fits for the reference trajectory of a circle drive.
+"""The circle of a circle drive: its kinematic radius and the fits of its centre.
 
 With a fixed steering angle the target rotation centre O drives a circle of radius
-``R = h / tan(delta)`` (domain.md section 1). The evaluation needs its centre, and optionally a
-radius fitted to the data instead of the kinematic one:
+``R = h / tan(delta)`` (domain.md section 1, :func:`kinematic_radius`, the steering angle of a
+drive by :func:`median_steering`). The evaluation (``lgvtool.evaluate``) and ``replay``'s view
+of the reference circle need its centre, and optionally a radius fitted to the data instead of
+the kinematic one:
 
 - :func:`fit_kasa`: algebraic (Kasa) fit of centre and radius, linear least squares; fast, and
   the starting point of the geometric fits;
@@ -21,6 +23,7 @@ All lengths in m.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +36,16 @@ TRIM_PASSES = 3
 
 TRIM_FLOOR = 0.02
 """Residuals smaller than this never count as outliers, m (keeps noise-free data intact)."""
+
+TRIM = 5.0
+"""Outlier trim of the reference circle's centre fits, robust standard deviations."""
+
+NOT_A_CIRCLE = 0.25
+"""A trajectory whose radial RMSE about its circle exceeds this fraction of the radius (and
+0.1 m) is not driving a circle (:func:`follows_circle`)."""
+
+MOVING_SPEED = 0.01
+"""Drive speed above which an MCU frame counts as driving, m/s (:func:`median_steering`)."""
 
 _MAX_ITERATIONS = 100
 _TOLERANCE = 1e-12
@@ -256,3 +269,28 @@ def fit_circle(
     if radius is None:
         return fit_geometric(x, y, weights=weights, trim=trim, start=start)
     return fit_centre(x, y, radius, weights=weights, trim=trim, start=start)
+
+
+def follows_circle(radial_rmse: float, r: float) -> bool:
+    """Whether a trajectory with this radial RMSE (m) about a circle of radius ``r`` (m)
+    follows it (:data:`NOT_A_CIRCLE`)."""
+    return not radial_rmse > max(NOT_A_CIRCLE * r, 0.1)
+
+
+def median_steering(angle: NDArray[np.float64], speed: NDArray[np.float64] | None
+                    ) -> float | None:
+    """Median steering angle over the drive, rad, from the MCU frames' steering angles (rad,
+    NaN where absent) and drive speeds (m/s; None: unknown); frames at standstill are left out
+    unless the vehicle never moves. None if there is no usable angle."""
+    ok = np.isfinite(angle)
+    if speed is not None:
+        moving = ok & (np.abs(speed) > MOVING_SPEED)
+        if moving.any():
+            ok = moving
+    return float(np.median(angle[ok])) if ok.any() else None
+
+
+def kinematic_radius(h: float, steering_angle: float) -> float:
+    """R = h / |tan(delta)|, m (inf for a straight drive)."""
+    t = abs(math.tan(steering_angle))
+    return math.inf if t < 1e-9 else h / t
