@@ -29,23 +29,25 @@ import tempfile
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+# the in-process filter timings import this checkout's lgvtool
+sys.path.insert(1, str(Path(__file__).resolve().parents[1]))
+
+from bench_memory import _tree_env, simulate
+
+REPO = Path(__file__).resolve().parents[1]
+
 PARTICLES = (150, 1_000, 10_000, 100_000)
-TARGET_S = 1.8
+TARGET_S = 0.72
 #: targets: pf-paper update at 150 particles (us); ns per particle per update at 100 000
 TARGET_UPDATE_US = 20.0
 TARGET_NS = {"pf-paper": 40.0, "pf": 60.0}
 
 
 def lgvtool(*args: str) -> subprocess.CompletedProcess[str]:
+    """``lgvtool ARGS`` of this checkout, run as a subprocess."""
     return subprocess.run([sys.executable, "-m", "lgvtool", *args], capture_output=True,
-                          text=True, check=False)
-
-
-def simulate(path: Path, duration: float) -> None:
-    res = lgvtool("simulate", "--scenario", "paper-circle", "--seed", "1", "--duration",
-                  str(duration), "-o", str(path))
-    if res.returncode != 0:
-        raise SystemExit(f"simulate failed: {res.stderr.strip()}")
+                          text=True, check=False, env=_tree_env(REPO), cwd=REPO)
 
 
 def time_replay(log: Path, out: Path, repeat: int) -> list[tuple[float, dict]]:
@@ -116,12 +118,13 @@ def main() -> None:
     # as the replay command: single-threaded BLAS (set before numpy is imported here)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     with tempfile.TemporaryDirectory() as tmp:
-        folder = args.keep or Path(tmp)
+        # resolved: the commands run in this checkout's folder
+        folder = (args.keep or Path(tmp)).resolve()
         folder.mkdir(parents=True, exist_ok=True)
-        log = args.log or folder / "paper-circle-1h.mcap"
+        log = (args.log or folder / "paper-circle-1h.mcap").resolve()
         if not log.exists():
             print(f"simulating {log} ...", flush=True)
-            simulate(log, 3600.0)
+            simulate(log, 1.0, REPO)
         print(f"kernels: {kernels()}; load average {os.getloadavg()[0]:.2f}")
         if not args.filters_only:
             replay_rows(log, folder, args.repeat)

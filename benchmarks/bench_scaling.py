@@ -26,6 +26,7 @@ import os
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -38,12 +39,11 @@ TARGETS = {"replay pf-paper end to end": 0.72, "replay five estimators": 3.0,
 """Wall-time targets on the one-hour log, s (evaluate of the 4-hour log: 25 s, 500 MB)."""
 
 
-def median_run(tree: Path, args: list[str], repeat: int) -> dict[str, object]:
+def median_run(tree: Path, args: list[str], repeat: int) -> dict[str, Any]:
     """The run of median wall time of ``repeat`` runs (with every run's wall time)."""
-    runs = sorted((measure(args, tree) for _ in range(repeat)),
-                  key=lambda r: float(r["wall_s"]))  # type: ignore[arg-type]
+    runs = sorted((measure(args, tree) for _ in range(repeat)), key=lambda r: float(r["wall_s"]))
     best = dict(runs[len(runs) // 2])
-    best["walls"] = [float(r["wall_s"]) for r in runs]  # type: ignore[arg-type]
+    best["walls"] = [float(r["wall_s"]) for r in runs]
     return best
 
 
@@ -80,11 +80,11 @@ def main() -> None:
             sec = json.loads(str(r["stdout"]))["seconds"]
             print(f"replay pf-paper end to end, 1 h: {r['wall_s']:.2f} s wall, "
                   f"{r['cpu_s']:.2f} s CPU (walls "
-                  f"{', '.join(f'{w:.2f}' for w in r['walls'])}; target "  # type: ignore[attr-defined]
+                  f"{', '.join(f'{w:.2f}' for w in r['walls'])}; target "
                   f"{TARGETS['replay pf-paper end to end']} s), peak {r['peak_mb']:.0f} MB; "
                   f"inside: read {sec['read']:.2f} s, filter {sec['filter']:.2f} s, write "
                   f"{sec['write']:.2f} s", flush=True)
-        rows: list[tuple[str, float, dict[str, object]]] = []
+        rows: list[tuple[str, float, dict[str, Any]]] = []
         for h in hours:
             log = opts.cache / f"paper-circle-{h:g}h.mcap"
             simulate(log, h, tree)
