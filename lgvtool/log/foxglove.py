@@ -182,7 +182,7 @@ def _rgba8(source: str, known: bool) -> tuple[int, int, int, int]:
     """RGBA (0..255) of a scan point: ``source``'s colour when the reflector is known, grey
     otherwise."""
     c = color(source) if known else color("deadreckoning")
-    return tuple(round(255 * c[k]) for k in "rgba")  # type: ignore[return-value]
+    return round(255 * c["r"]), round(255 * c["g"]), round(255 * c["b"]), round(255 * c["a"])
 
 
 def scan_points(x: ArrayLike, y: ArrayLike, ids: ArrayLike, source: str = "nav") -> bytes:
