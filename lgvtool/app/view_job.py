@@ -39,7 +39,7 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
     from lgvtool.live.online import OnlineEstimator
     from lgvtool.live.tap import LiveFeed, describe
     from lgvtool.localize.registry import check_names
-    from lgvtool.log import LogReader, topics
+    from lgvtool.log import LogReader
     from lgvtool.progress import Progress
 
     address = parse_address(live)
@@ -52,8 +52,8 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
         warn(w)
     cfg = reader.config()
     estimators = [OnlineEstimator(n, cfg, seed=seed, settings=settings) for n in names]
-    skip = frozenset(t for n in names for t in (topics.estimate_pose(n), topics.estimate_state(n),
-                                                 topics.estimate_particles(n)))
+    # the log's own channels of an estimator computed online are not sent: the online one is
+    skip = frozenset(t for e in estimators for t in e.output_topics)
     infos = reader.topics()
     starts = [i.start_ns for i in infos.values() if i.count]
     ends = [i.end_ns for i in infos.values() if i.count]

@@ -3,7 +3,8 @@
 :class:`OnlineEstimator` takes the log's own messages (``/mcu/frame`` or ``/odom/twist``,
 ``/nav/pose``, ``/nav/reflectors``, ``/map/reflectors``) one at a time, in arrival order, and
 returns the messages replay would write for the estimate (``/estimate/NAME/pose``, ``/state``,
-``/particles``, same schemas and JSON layout). It uses the same estimators, parameters,
+``/tf``, ``/covariance``, ``/particles``, same schemas and JSON layout, from the same builders,
+:mod:`lgvtool.log.foxglove`). It uses the same estimators, parameters,
 motion integration and observation geometry as ``lgvtool replay``; what differs is what an online
 estimate cannot know:
 
@@ -48,8 +49,9 @@ from lgvtool.localize.observations import (
 )
 from lgvtool.localize.registry import ESTIMATORS, check_names, resolve_params, split_settings
 from lgvtool.localize.replay_driver import estimator_rng
+from lgvtool.log import foxglove as fx
 from lgvtool.log import messages, topics
-from lgvtool.timestamps import message_stamp_ns, seconds_to_ns, stamp
+from lgvtool.timestamps import message_stamp_ns, seconds_to_ns
 
 __all__ = ["INPUT_TOPICS", "OnlineEstimator", "Output"]
 
@@ -105,13 +107,16 @@ class OnlineEstimator:
         self._last_scan: RawScan | None = None
         self._next_cloud = -math.inf
         self._topics = (topics.estimate_pose(name), topics.estimate_state(name),
+                        topics.estimate_tf(name), topics.estimate_covariance(name),
                         topics.estimate_particles(name))
+        self._mounting = fx.mounting_of(config.vehicle)
         #: processing time of every observation applied, s
         self.update_seconds: list[float] = []
 
     @property
     def output_topics(self) -> tuple[str, ...]:
-        """The topics this estimator publishes: pose, state and (particle filters) cloud."""
+        """The topics this estimator publishes: pose, state, frames, covariance ellipse and
+        (particle filters) cloud, as ``replay`` writes them."""
         return self._topics
 
     # ------------------------------------------------------------------ input
@@ -268,16 +273,11 @@ class OnlineEstimator:
             return []
         t_ns = self._t0_ns + seconds_to_ns(t)
         heading = wrap_scalar(e.heading)
-        pose_t, state_t, cloud_t = self._topics
-        out = [
-            Output(pose_t, "foxglove.PoseInFrame",
-                   orjson.dumps(messages.pose_in_frame(t_ns, e.x, e.y, heading)), t_ns),
-            Output(state_t, "lgvtool.PoseEstimate", orjson.dumps({
-                "timestamp": stamp(t_ns), "estimator": self.name, "x": e.x, "y": e.y,
-                "heading": heading,
-                "covariance": np.asarray(e.covariance, dtype=np.float64).ravel().tolist(),
-                "particles": int(e.particles), "ess": float(e.ess)}), t_ns),
-        ]
+        cloud_t = self._topics[-1]
+        out = [Output(m.topic, m.schema, m.data, t_ns) for m in fx.estimate_messages(
+            self.name, t_ns, float(e.x), float(e.y), heading,
+            np.asarray(e.covariance, dtype=np.float64).ravel().tolist(), self._mounting,
+            particles=int(e.particles), ess=float(e.ess))]
         if self.cloud_size > 0 and t >= self._next_cloud:
             c = self.est.cloud()
             if c is not None:

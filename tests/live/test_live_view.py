@@ -97,7 +97,8 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
     player.start()
     try:
         wanted = {topics.NAV_POSE, topics.MCU_FRAME, topics.NAV_REFLECTORS,
-                  topics.estimate_pose("pf"), topics.estimate_state("pf"), topics.MAP}
+                  topics.estimate_pose("pf"), topics.estimate_state("pf"),
+                  topics.estimate_tf("pf"), topics.estimate_covariance("pf"), topics.MAP}
         got = collect(feed.server.url, None, timeout=8.0)  # the 30 s log plays in 5 s
     finally:
         player.join(60)
@@ -113,6 +114,9 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
         assert ch["schemaName"] == info.schema
         assert json.loads(ch["schema"]) == json.loads(schema_bytes(info.schema))
     assert got.channels[topics.estimate_pose("pf")]["schemaName"] == "foxglove.PoseInFrame"
+    # the online estimate's view channels, as replay writes them
+    assert got.channels[topics.estimate_tf("pf")]["schemaName"] == "foxglove.FrameTransforms"
+    assert got.channels[topics.estimate_covariance("pf")]["schemaName"] == "foxglove.SceneUpdate"
     # every subscribed topic received; the map (published once) reached the late subscriber
     assert wanted <= set(got.messages)
     (refl,) = {json.dumps(m) for _, m in got.messages[topics.MAP]}
@@ -129,6 +133,19 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
                    np.array([m["y"] for _, m in est]) - np.interp(t, truth.t, truth.y))
     assert len(est) > 50 and float(np.median(err[len(err) // 4:])) < 0.15
     assert all(len(m["covariance"]) == 9 and math.isfinite(m["heading"]) for _, m in est)
+    # the frame pf/O sits at each estimate's position (map -> pf/O, then pf/O -> pf/head)
+    state_at = {ts: (m["x"], m["y"]) for ts, m in est}
+    frames = got.messages[topics.estimate_tf("pf")]
+    assert len(frames) > 50
+    for ts, m in frames:
+        o, head = m["transforms"]
+        assert (o["parent_frame_id"], o["child_frame_id"], head["child_frame_id"]) == (
+            "map", "pf/O", "pf/head")
+        if ts in state_at:
+            x, y = state_at[ts]
+            assert (o["translation"]["x"], o["translation"]["y"]) == pytest.approx((x, y), abs=1e-9)
+    ellipses = got.messages[topics.estimate_covariance("pf")]
+    assert len(ellipses) > 50 and all(e["entities"][0]["frame_id"] == "map" for _, e in ellipses)
     assert got.times, "the playback broadcasts the data's time"
     assert done["r"].messages == sum(i.count for i in log_topics.values())  # type: ignore[attr-defined]
     stats = feed.stats()
