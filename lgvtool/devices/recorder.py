@@ -144,9 +144,11 @@ class Recorder:
         """Bind the live server now, before anything is recorded (a port in use or a host
         that does not resolve fails here, as bad input)."""
         from lgvtool.live.live_server import LiveServer
+        from lgvtool.live.nav_view import NavView
         from lgvtool.live.online import OnlineEstimator
         from lgvtool.live.tap import LiveFeed
         from lgvtool.log import topics
+        from lgvtool.log.foxglove import mounting_of
 
         estimators = [OnlineEstimator(n, self.config) for n in self.settings.live_estimators]
         server = LiveServer(self.settings.live)
@@ -155,7 +157,8 @@ class Recorder:
         fixed = {t: s for t, s in topics.FIXED.items() if t not in (topics.TRUTH, topics.ODOM)}
         server.prepare({**fixed, **{t: s for reg in registrations()
                                     for t, s in reg.TOPICS.items()}})
-        return LiveFeed(server, estimators, warn=self._warn)
+        return LiveFeed(server, estimators, warn=self._warn,
+                        nav_view=NavView(mounting_of(self.config.vehicle)))
 
     def stop(self, reason: str = "stopped") -> None:
         """Ask the recording to end (thread-safe, idempotent)."""

@@ -21,9 +21,11 @@ from foxglove_client import collect
 from lgvtool.errors import InputError
 from lgvtool.live.live_playback import play, prepare_channels
 from lgvtool.live.live_server import LiveAddress, LiveServer, parse_address
+from lgvtool.live.nav_view import NavView
 from lgvtool.live.online import OnlineEstimator
 from lgvtool.live.tap import LiveFeed, TappedLogWriter
 from lgvtool.log import LogReader, topics
+from lgvtool.log.foxglove import mounting_of
 from lgvtool.log.schemas import schema_bytes
 
 
@@ -91,14 +93,16 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
     server = LiveServer(LiveAddress("127.0.0.1", 0))
     prepare_channels(server, reader)
     feed = LiveFeed(server,
-                    [OnlineEstimator("pf", reader.config(), settings={"pf.particles": 500})])
+                    [OnlineEstimator("pf", reader.config(), settings={"pf.particles": 500})],
+                    nav_view=NavView(mounting_of(reader.config().vehicle)))
     done: dict[str, object] = {}
     player = threading.Thread(target=lambda: done.update(r=play(reader, feed, speed=6.0)))
     player.start()
     try:
         wanted = {topics.NAV_POSE, topics.MCU_FRAME, topics.NAV_REFLECTORS,
                   topics.estimate_pose("pf"), topics.estimate_state("pf"),
-                  topics.estimate_tf("pf"), topics.estimate_covariance("pf"), topics.MAP}
+                  topics.estimate_tf("pf"), topics.estimate_covariance("pf"), topics.MAP,
+                  topics.NAV_HEAD, topics.NAV_TF, topics.NAV_SCAN}
         got = collect(feed.server.url, None, timeout=8.0)  # the 30 s log plays in 5 s
     finally:
         player.join(60)
@@ -114,7 +118,11 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
         assert ch["schemaName"] == info.schema
         assert json.loads(ch["schema"]) == json.loads(schema_bytes(info.schema))
     assert got.channels[topics.estimate_pose("pf")]["schemaName"] == "foxglove.PoseInFrame"
-    # the online estimate's view channels, as replay writes them
+    # the NAV drawn live (a raw log), and the online estimate's view channels, as replay
+    # writes them
+    assert got.channels[topics.NAV_SCAN]["schemaName"] == "foxglove.PointCloud"
+    assert all(m["frame_id"] == "nav/head" and m["point_stride"] == 20
+               for _, m in got.messages[topics.NAV_SCAN])
     assert got.channels[topics.estimate_tf("pf")]["schemaName"] == "foxglove.FrameTransforms"
     assert got.channels[topics.estimate_covariance("pf")]["schemaName"] == "foxglove.SceneUpdate"
     # every subscribed topic received; the map (published once) reached the late subscriber

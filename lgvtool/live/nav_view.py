@@ -1,0 +1,91 @@
+"""The NAV's view channels of a live feed, message by message: what ``replay`` draws of the
+NAV (docs/log-format.md) for a recording as it arrives or a raw log played back.
+
+:class:`NavView` takes the log's ``/nav/pose`` and ``/nav/reflectors`` messages in arrival
+order and returns, for each valid NAV pose, the head's pose and frames (``/nav/head``,
+``/nav/tf``) and, for each scan, its reflector observations as one point cloud in the frame
+``nav/head`` at the scan's start (``/nav/scan``), from the builders ``replay`` uses
+(:mod:`lgvtool.log.foxglove`). What a live view cannot know: the head's poses after the last
+one received. Each observation is carried to its scan's start along the NAV poses received so
+far (:func:`lgvtool.log.view_channels.carry_to_start`), continued past the last one at the
+speed and turn rate of the last two; replay carries it along the poses on both sides. Times in
+integer ns since the Unix epoch.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Any
+
+import orjson
+
+from lgvtool.log import foxglove as fx
+from lgvtool.log import topics as T
+from lgvtool.log.view_channels import Track, carry_to_start, head_track
+from lgvtool.timestamps import from_stamp
+
+#: NAV poses kept for carrying the observations (at the NAV200's 2-8 Hz, several seconds)
+TRACK_POSES = 32
+
+TOPICS: dict[str, str] = {t: T.FIXED[t] for t in (T.NAV_HEAD, T.NAV_TF, T.NAV_SCAN)}
+"""The channels a :class:`NavView` publishes: topic -> schema name."""
+
+
+class NavView:
+    """The NAV's view channels of the messages fed one at a time (see the module docstring);
+    ``mounting``: the NAV head's mounting on the vehicle (``vehicle.nav_x``, ``nav_y``,
+    ``nav_yaw``)."""
+
+    def __init__(self, mounting: fx.Mounting) -> None:
+        self._m = mounting
+        self._track: deque[tuple[int, float, float, float]] = deque(maxlen=TRACK_POSES)
+
+    def feed(self, topic: str, data: bytes, log_time_ns: int) -> list[fx.Encoded]:
+        """The view messages of one log message (JSON bytes) received at ``log_time_ns``;
+        none for other topics, an invalid pose or a scan without observations."""
+        if topic == T.NAV_POSE:
+            return self._pose(orjson.loads(data), log_time_ns)
+        if topic == T.NAV_REFLECTORS:
+            return self._scan(orjson.loads(data))
+        return []
+
+    def _pose(self, doc: dict[str, Any], log_time_ns: int) -> list[fx.Encoded]:
+        x, y, h = (doc.get(k) for k in ("x", "y", "heading"))
+        if not (doc.get("valid") and all(isinstance(v, int | float) and math.isfinite(v)
+                                         for v in (x, y, h))):
+            return []
+        x, y, h = float(x), float(y), float(h)  # type: ignore[arg-type]
+        self._track.append((log_time_ns, x, y, h))
+        return fx.nav_pose_messages(log_time_ns, x, y, h, self._m)
+
+    def _extended(self, until_ns: int) -> Track:
+        """The head's poses received so far, continued to ``until_ns`` at the speed and turn
+        rate of the last two (the poses after the last one have not arrived yet)."""
+        rows = list(self._track)
+        if len(rows) >= 2 and until_ns > rows[-1][0] > rows[-2][0]:
+            (t0, x0, y0, h0), (t1, x1, y1, h1) = rows[-2], rows[-1]
+            f = (until_ns - t1) / (t1 - t0)
+            dh = math.remainder(h1 - h0, math.tau)
+            rows.append((until_ns, x1 + f * (x1 - x0), y1 + f * (y1 - y0), h1 + f * dh))
+        t, x, y, h = (list(c) for c in zip(*rows, strict=True)) if rows else ([], [], [], [])
+        return head_track(t, x, y, h, fx.Mounting(0.0, 0.0))  # the NAV reports its head
+
+    def _scan(self, doc: dict[str, Any]) -> list[fx.Encoded]:
+        import numpy as np
+
+        from lgvtool.timestamps import seconds_to_ns_array
+
+        obs = doc.get("observations") or []
+        if not obs:
+            return []
+        start = from_stamp(doc["timestamp"])
+        rng = np.array([float(o["range"]) for o in obs])
+        brg = np.array([float(o["bearing"]) for o in obs])
+        ids = np.array([int(o.get("id", -1)) for o in obs], dtype=np.int64)
+        dts = np.array([float(o.get("time_in_scan", 0.0)) for o in obs])
+        firsts = np.full(len(obs), start, dtype=np.int64)
+        instants = firsts + seconds_to_ns_array(dts)
+        qx, qy = carry_to_start(firsts, instants, rng * np.cos(brg), rng * np.sin(brg),
+                                self._extended(int(instants.max())))
+        return [fx.encoded(T.NAV_SCAN, fx.scan_cloud(start, qx, qy, ids))]
