@@ -51,11 +51,11 @@ class NavView:
         return []
 
     def _pose(self, doc: dict[str, Any], log_time_ns: int) -> list[fx.Encoded]:
-        x, y, h = (doc.get(k) for k in ("x", "y", "heading"))
+        vals = [doc.get(k, math.nan) for k in ("x", "y", "heading")]
         if not (doc.get("valid") and all(isinstance(v, int | float) and math.isfinite(v)
-                                         for v in (x, y, h))):
+                                         for v in vals)):
             return []
-        x, y, h = float(x), float(y), float(h)  # type: ignore[arg-type]
+        x, y, h = (float(v) for v in vals)
         self._track.append((log_time_ns, x, y, h))
         return fx.nav_pose_messages(log_time_ns, x, y, h, self._m)
 

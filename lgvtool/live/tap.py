@@ -101,7 +101,8 @@ class LiveFeed:
     :param warn: called with one line when the live side fails (once per kind of failure).
     :param nav_view: publishes the NAV's view channels (``/nav/head``, ``/nav/tf``,
         ``/nav/scan``) of each NAV pose and scan as it passes, on the writer's thread (about
-        20 us a message); None: not drawn (a log that holds them already).
+        0.1 ms a message, 1 ms per second of a NAV200's traffic); None: not drawn (a log that
+        holds them already).
     """
 
     def __init__(self, server: LiveServer, estimators: Sequence[OnlineEstimator] = (), *,
