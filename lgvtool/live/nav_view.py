@@ -22,8 +22,7 @@ import orjson
 
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
-from lgvtool.log.view_channels import Track, carry_to_start, head_track
-from lgvtool.timestamps import from_stamp
+from lgvtool.log.view_channels import Track, carry_to_start, head_track, nav_fields, scan_fields
 
 #: NAV poses kept for carrying the observations (at the NAV200's 2-8 Hz, several seconds)
 TRACK_POSES = 32
@@ -51,11 +50,9 @@ class NavView:
         return []
 
     def _pose(self, doc: dict[str, Any], log_time_ns: int) -> list[fx.Encoded]:
-        vals = [doc.get(k, math.nan) for k in ("x", "y", "heading")]
-        if not (doc.get("valid") and all(isinstance(v, int | float) and math.isfinite(v)
-                                         for v in vals)):
+        (x,), (y,), (h,), (valid,) = nav_fields([doc])
+        if not (valid and math.isfinite(x + y + h)):
             return []
-        x, y, h = (float(v) for v in vals)
         self._track.append((log_time_ns, x, y, h))
         return fx.nav_pose_messages(log_time_ns, x, y, h, self._m)
 
@@ -76,15 +73,12 @@ class NavView:
 
         from lgvtool.timestamps import seconds_to_ns_array
 
-        obs = doc.get("observations") or []
-        if not obs:
+        (start,), (count,), *cols = scan_fields([doc])
+        if not count:
             return []
-        start = from_stamp(doc["timestamp"])
-        rng = np.array([float(o["range"]) for o in obs])
-        brg = np.array([float(o["bearing"]) for o in obs])
-        ids = np.array([int(o.get("id", -1)) for o in obs], dtype=np.int64)
-        dts = np.array([float(o.get("time_in_scan", 0.0)) for o in obs])
-        firsts = np.full(len(obs), start, dtype=np.int64)
+        rng, brg, dts = (np.array(cols[k], dtype=np.float64) for k in (0, 1, 3))
+        ids = np.array(cols[2], dtype=np.int64)
+        firsts = np.full(count, start, dtype=np.int64)
         instants = firsts + seconds_to_ns_array(dts)
         qx, qy = carry_to_start(firsts, instants, rng * np.cos(brg), rng * np.sin(brg),
                                 self._extended(int(instants.max())))

@@ -30,13 +30,13 @@ if TYPE_CHECKING:
     from lgvtool.log.reader import LogReader
 
 
-def _nav_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+def nav_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
     """x, y, heading (m, m, rad; NaN when not a number) and the valid flag of NAV poses."""
     return ([_num(d, "x") for d in docs], [_num(d, "y") for d in docs],
             [_num(d, "heading") for d in docs], [bool(d.get("valid")) for d in docs])
 
 
-def _scan_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+def scan_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
     """Per scan its start (ns) and count; per observation range (m), bearing (rad), id and time
     in scan (s)."""
     obs = [d.get("observations", []) for d in docs]
@@ -55,8 +55,8 @@ def _truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
             [p["orientation"].get("w", 1.0) for p in poses])
 
 
-_FIELDS = {T.NAV_POSE: (_nav_fields, ("d", "d", "d", "?")),
-           T.NAV_REFLECTORS: (_scan_fields, ("q", "q", "d", "d", "q", "d")),
+_FIELDS = {T.NAV_POSE: (nav_fields, ("d", "d", "d", "?")),
+           T.NAV_REFLECTORS: (scan_fields, ("q", "q", "d", "d", "q", "d")),
            T.TRUTH: (_truth_fields, ("d", "d", "d", "d")),
            T.MCU_FRAME: (steering_fields, ("d", "d"))}
 
@@ -77,7 +77,7 @@ class RowCollector:
 
     def add(self, block: Mapping[str, tuple[Any, list[bytes]]]) -> None:
         """Take one chunk's messages (other topics are passed over), decoded to the
-        ``_*_fields`` lists; a message that does not match its schema is a
+        ``*_fields`` lists; a message that does not match its schema is a
         :class:`~lgvtool.errors.LogFormatError` naming its topic and schema."""
         loads = orjson.loads
         for topic, (times, parts) in self.parts.items():
