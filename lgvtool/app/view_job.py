@@ -34,14 +34,14 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
     import warnings
 
     from lgvtool.config import parse_set_options
+    from lgvtool.live.drawing import TOPICS as DRAWING_TOPICS
+    from lgvtool.live.drawing import LiveDrawing
     from lgvtool.live.live_playback import play, prepare_channels
     from lgvtool.live.live_server import LiveServer, parse_address
-    from lgvtool.live.nav_view import TOPICS as NAV_VIEW_TOPICS
-    from lgvtool.live.nav_view import NavView
     from lgvtool.live.online import OnlineEstimator
     from lgvtool.live.tap import LiveFeed, describe
     from lgvtool.localize.registry import check_names
-    from lgvtool.log import LogReader
+    from lgvtool.log import LogReader, topics
     from lgvtool.log.foxglove import mounting_of
     from lgvtool.progress import Progress
 
@@ -63,10 +63,13 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
     span = (max(ends) - min(starts)) * 1e-9 if starts else 0.0
     server = LiveServer(address)
     prepare_channels(server, reader, skip)
-    # a raw log's NAV drawn as replay draws it (a replayed log holds its own drawing)
-    nav_view = None if any(t in infos for t in NAV_VIEW_TOPICS) else \
-        NavView(mounting_of(cfg.vehicle))
-    feed = LiveFeed(server, estimators, warn=warn, nav_view=nav_view)
+    # a raw log drawn as replay draws it (a replayed log holds its own drawing); its scans on
+    # the NAV's head, or on the truth's when it has no NAV poses (an imported dataset)
+    drawing = None
+    if not any(t in infos for t in DRAWING_TOPICS):
+        on = "truth" if topics.NAV_POSE not in infos and topics.TRUTH in infos else "nav"
+        drawing = LiveDrawing(mounting_of(cfg.vehicle), scans_on=on)
+    feed = LiveFeed(server, estimators, warn=warn, drawing=drawing)
     stop = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
     notify(f"lgvtool: live view on {feed.server.url}: {log} ({span:.1f} s of data) at "

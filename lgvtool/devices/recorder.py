@@ -143,8 +143,8 @@ class Recorder:
     def _start_live(self) -> Any:
         """Bind the live server now, before anything is recorded (a port in use or a host
         that does not resolve fails here, as bad input)."""
+        from lgvtool.live.drawing import LiveDrawing
         from lgvtool.live.live_server import LiveServer
-        from lgvtool.live.nav_view import NavView
         from lgvtool.live.online import OnlineEstimator
         from lgvtool.live.tap import LiveFeed
         from lgvtool.log import topics
@@ -158,7 +158,7 @@ class Recorder:
         server.prepare({**fixed, **{t: s for reg in registrations()
                                     for t, s in reg.TOPICS.items()}})
         return LiveFeed(server, estimators, warn=self._warn,
-                        nav_view=NavView(mounting_of(self.config.vehicle)))
+                        drawing=LiveDrawing(mounting_of(self.config.vehicle)))
 
     def stop(self, reason: str = "stopped") -> None:
         """Ask the recording to end (thread-safe, idempotent)."""

@@ -22,9 +22,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any, Protocol
 
+from lgvtool.live.drawing import INPUTS as DRAWN_FROM
+from lgvtool.live.drawing import TOPICS as DRAWING_TOPICS
+from lgvtool.live.drawing import LiveDrawing
 from lgvtool.live.live_server import LiveServer
-from lgvtool.live.nav_view import TOPICS as NAV_VIEW_TOPICS
-from lgvtool.live.nav_view import NavView
 from lgvtool.live.online import INPUT_TOPICS, OnlineEstimator
 from lgvtool.log import topics
 from lgvtool.log.writer import LogWriter
@@ -36,8 +37,6 @@ _STOP = object()
 MAX_LAG_S = 0.5
 #: observations the estimators may shed; motion and the map are always applied
 _SHEDDABLE = frozenset({topics.NAV_POSE, topics.NAV_REFLECTORS})
-#: the messages the NAV view is drawn from
-_NAV_VIEW_INPUTS = frozenset({topics.NAV_POSE, topics.NAV_REFLECTORS})
 
 
 class LogTap(Protocol):
@@ -99,21 +98,21 @@ class LiveFeed:
     :param estimators: online estimators fed from the input topics, on one worker thread;
         their estimates are published (not written to the log).
     :param warn: called with one line when the live side fails (once per kind of failure).
-    :param nav_view: publishes the NAV's view channels (``/nav/head``, ``/nav/tf``,
-        ``/nav/scan``) of each NAV pose and scan as it passes, on the writer's thread (about
-        0.1 ms a message, 1 ms per second of a NAV200's traffic); None: not drawn (a log that
-        holds them already).
+    :param drawing: publishes what ``replay`` draws of the log's own data (``/nav/head``,
+        ``/nav/tf``, ``/nav/scan``, ``/truth/tf``) as each NAV pose, scan and ground-truth pose
+        passes, on the writer's thread (about 0.1 ms a message, 1 ms per second of a NAV200's
+        traffic); None: nothing drawn (a log that holds its drawing already).
     """
 
     def __init__(self, server: LiveServer, estimators: Sequence[OnlineEstimator] = (), *,
-                 warn: Any = None, nav_view: NavView | None = None) -> None:
+                 warn: Any = None, drawing: LiveDrawing | None = None) -> None:
         self.server = server
         self.estimators = list(estimators)
         server.prepare({t: topics.schema_for_topic(t) or "" for e in self.estimators
                         for t in e.output_topics})
-        self._nav_view = nav_view
-        if nav_view is not None:
-            server.prepare(NAV_VIEW_TOPICS)
+        self._drawing = drawing
+        if drawing is not None:
+            server.prepare(DRAWING_TOPICS)
         self._warn = warn
         self._warned: set[str] = set()
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
@@ -144,12 +143,12 @@ class LiveFeed:
             self.server.publish(topic, schema, data, log_time_ns)
         except Exception as exc:
             self._fail("publishing", exc)
-        if self._nav_view is not None and topic in _NAV_VIEW_INPUTS:
+        if self._drawing is not None and topic in DRAWN_FROM:
             try:
-                for m in self._nav_view.feed(topic, data, log_time_ns):
+                for m in self._drawing.feed(topic, data, log_time_ns):
                     self.server.publish(m.topic, m.schema, m.data, log_time_ns)
             except Exception as exc:
-                self._fail("the NAV view", exc)
+                self._fail("the drawing", exc)
         if self._thread is not None and topic in INPUT_TOPICS:
             now = time.perf_counter()
             if topic in _SHEDDABLE:

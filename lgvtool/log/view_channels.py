@@ -47,7 +47,7 @@ def scan_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
             [float(o.get("time_in_scan", 0.0)) for o in flat])
 
 
-def _truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+def truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
     """x, y (m) and the quaternion's z and w of ground-truth poses."""
     poses = [d["pose"] for d in docs]
     return ([p["position"]["x"] for p in poses], [p["position"]["y"] for p in poses],
@@ -57,7 +57,7 @@ def _truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
 
 _FIELDS = {T.NAV_POSE: (nav_fields, ("d", "d", "d", "?")),
            T.NAV_REFLECTORS: (scan_fields, ("q", "q", "d", "d", "q", "d")),
-           T.TRUTH: (_truth_fields, ("d", "d", "d", "d")),
+           T.TRUTH: (truth_fields, ("d", "d", "d", "d")),
            T.MCU_FRAME: (steering_fields, ("d", "d"))}
 
 

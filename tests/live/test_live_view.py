@@ -19,9 +19,9 @@ pytest.importorskip("websockets")
 from foxglove_client import collect
 
 from lgvtool.errors import InputError
+from lgvtool.live.drawing import LiveDrawing
 from lgvtool.live.live_playback import play, prepare_channels
 from lgvtool.live.live_server import LiveAddress, LiveServer, parse_address
-from lgvtool.live.nav_view import NavView
 from lgvtool.live.online import OnlineEstimator
 from lgvtool.live.tap import LiveFeed, TappedLogWriter
 from lgvtool.log import LogReader, topics
@@ -94,7 +94,7 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
     prepare_channels(server, reader)
     feed = LiveFeed(server,
                     [OnlineEstimator("pf", reader.config(), settings={"pf.particles": 500})],
-                    nav_view=NavView(mounting_of(reader.config().vehicle)))
+                    drawing=LiveDrawing(mounting_of(reader.config().vehicle)))
     done: dict[str, object] = {}
     player = threading.Thread(target=lambda: done.update(r=play(reader, feed, speed=6.0)))
     player.start()
@@ -102,7 +102,7 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
         wanted = {topics.NAV_POSE, topics.MCU_FRAME, topics.NAV_REFLECTORS,
                   topics.estimate_pose("pf"), topics.estimate_state("pf"),
                   topics.estimate_tf("pf"), topics.estimate_covariance("pf"), topics.MAP,
-                  topics.NAV_HEAD, topics.NAV_TF, topics.NAV_SCAN}
+                  topics.NAV_HEAD, topics.NAV_TF, topics.NAV_SCAN, topics.TRUTH_TF}
         got = collect(feed.server.url, None, timeout=8.0)  # the 30 s log plays in 5 s
     finally:
         player.join(60)
