@@ -86,9 +86,8 @@ class LiveDrawing:
         if not math.isfinite(x + y + yaw):
             return []
         if self._scans_on == "truth":
-            c, s = math.cos(yaw), math.sin(yaw)
-            self._track.append((log_time_ns, x + c * self._m.x - s * self._m.y,
-                                y + s * self._m.x + c * self._m.y, yaw + self._m.yaw))
+            (t,), (hx,), (hy,), (hh,) = head_track([log_time_ns], [x], [y], [yaw], self._m)
+            self._track.append((int(t), float(hx), float(hy), float(hh)))
         return [fx.encoded(T.TRUTH_TF, fx.frame_transforms(log_time_ns, "truth", x, y, yaw,
                                                            self._m))]
 
