@@ -24,6 +24,7 @@ from lgvtool.live.live_playback import play, prepare_channels
 from lgvtool.live.live_server import LiveAddress, LiveServer, parse_address
 from lgvtool.live.online import OnlineEstimator
 from lgvtool.live.tap import LiveFeed, TappedLogWriter
+from lgvtool.localize.replay_driver import run_replay
 from lgvtool.log import LogReader, topics
 from lgvtool.log.foxglove import mounting_of
 from lgvtool.log.schemas import schema_bytes
@@ -90,6 +91,9 @@ def test_view_live_port_in_use(circle_log: Path) -> None:
 def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_log: Path
                                                                          ) -> None:
     reader = LogReader(circle_log)
+    # the filter's compiled kernels made (or loaded) before the clock starts: on a cold cache
+    # they take seconds, during which the live feed rightly skips the stale observations
+    run_replay(reader, ["pf"], settings={"pf.particles": 500})
     server = LiveServer(LiveAddress("127.0.0.1", 0))
     prepare_channels(server, reader)
     feed = LiveFeed(server,
