@@ -17,6 +17,7 @@ import heapq
 import os
 import struct
 import zlib
+from array import array
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import IO, TYPE_CHECKING, Any
@@ -36,6 +37,7 @@ _CHUNK_HEAD = struct.Struct("<QQQI")  # start, end, uncompressed size, crc
 _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
 _U64 = struct.Struct("<Q")
+_MI_HEAD = struct.Struct("<BQHI")  # message index: opcode, record length, channel, array bytes
 _MAP_ENTRY = struct.Struct("<HQ")  # channel id -> u64 (chunk index offsets, statistics counts)
 
 # record opcodes (MCAP specification)
@@ -392,10 +394,12 @@ def decompress(kind: str, data: bytes | memoryview, size: int) -> bytes:
 
 
 class _OpenChunk:
-    """The chunk being filled: records, time span (ns), message count, per-channel index, the
-    last message's log time and whether the messages are in log-time order so far."""
+    """The chunk being filled: records, time span (ns), message count, the message index as
+    three columns in record order (channel id, log time in ns, offset of the record in
+    ``buf``), the last message's log time and whether the messages are in log-time order so
+    far."""
 
-    __slots__ = ("buf", "count", "end", "index", "last", "ordered", "start")
+    __slots__ = ("buf", "cids", "count", "end", "last", "offsets", "ordered", "start", "times")
 
     def __init__(self) -> None:
         self.buf = bytearray()
@@ -404,13 +408,31 @@ class _OpenChunk:
         self.count = 0
         self.last = 0
         self.ordered = True
-        self.index: dict[int, list[tuple[int, int]]] = {}
+        self.cids = array("H")
+        self.times = array("Q")
+        self.offsets = array("Q")
+
+    def columns(self) -> tuple[NDArray[np.uint16], NDArray[np.uint64], NDArray[np.uint64]]:
+        """The index columns as arrays (views of the columns, not copies)."""
+        import numpy as np
+
+        return (np.frombuffer(self.cids, np.uint16), np.frombuffer(self.times, np.uint64),
+                np.frombuffer(self.offsets, np.uint64))
+
+    def _set_index(self, cids: Any, times: Any, offsets: Any) -> None:
+        self.cids = array("H", cids.astype("<u2").tobytes())
+        self.times = array("Q", times.astype("<u8").tobytes())
+        self.offsets = array("Q", offsets.astype("<u8").tobytes())
+        self.count = len(self.cids)
 
     def sort(self) -> None:
         """Put the messages in log-time order (stable), after the schema and channel records
         (which move to the front, so each still precedes its channel's messages)."""
+        import numpy as np
+
         buf = self.buf
-        msgs = sorted(e for entries in self.index.values() for e in entries)
+        cids, times, offsets = self.columns()
+        order = np.lexsort((offsets, times))
         out = bytearray()
         pos = 0
         while pos + 9 <= len(buf):
@@ -418,41 +440,64 @@ class _OpenChunk:
             if opcode != OP_MESSAGE:
                 out += buf[pos:pos + 9 + length]
             pos += 9 + length
-        index: dict[int, list[tuple[int, int]]] = {}
-        for t, at in msgs:
+        new_offsets = np.empty(len(order), np.uint64)
+        for k, at in enumerate(offsets[order].tolist()):
             (length,) = _U64.unpack_from(buf, at + 1)
-            (cid,) = _U16.unpack_from(buf, at + 9)
-            index.setdefault(cid, []).append((t, len(out)))
+            new_offsets[k] = len(out)
             out += buf[at:at + 9 + length]
-        self.buf, self.index, self.ordered = out, index, True
+        self.buf = out
+        self._set_index(cids[order], times[order], new_offsets)
+        self.ordered = True
 
     def split_after(self, cutoff: int) -> _OpenChunk | None:
         """Move the messages newer than ``cutoff`` (ns), with every record after the first of
         them, into a new chunk and return it; None (nothing moved) when none is newer or none
         would stay. The messages must be in log-time order."""
-        at = min((o for entries in self.index.values() for t, o in entries if t > cutoff),
-                 default=None)
-        if at is None or not any(t <= cutoff for entries in self.index.values()
-                                 for t, _o in entries):
+        import numpy as np
+
+        cids, times, offsets = self.columns()
+        newer = times > cutoff
+        if not newer.any() or newer.all():
             return None
+        at = int(offsets[newer].min())
+        moved = offsets >= at
         tail = _OpenChunk()
         tail.buf = self.buf[at:]
         del self.buf[at:]
-        kept: dict[int, list[tuple[int, int]]] = {}
-        for cid, entries in self.index.items():
-            for t, o in entries:
-                if o < at:
-                    kept.setdefault(cid, []).append((t, o))
-                else:
-                    tail.index.setdefault(cid, []).append((t, o - at))
-        self.index = kept
-        self.count = sum(len(e) for e in kept.values())
-        tail.count = sum(len(e) for e in tail.index.values())
-        self.start = min(e[0][0] for e in kept.values())
-        self.end = max(e[-1][0] for e in kept.values())
-        tail.start = min(e[0][0] for e in tail.index.values())
-        tail.end = tail.last = max(e[-1][0] for e in tail.index.values())
+        tail._set_index(cids[moved], times[moved], offsets[moved] - np.uint64(at))
+        self._set_index(cids[~moved], times[~moved], offsets[~moved])
+        self.start, self.end = int(times[~moved].min()), int(times[~moved].max())
+        tail.start = int(times[moved].min())
+        tail.end = tail.last = int(times[moved].max())
         return tail
+
+    def message_indexes(self, at: int) -> tuple[dict[int, int], bytes]:
+        """The Message Index records of this chunk, to be written at file offset ``at``: the
+        offset of each channel's record (channels in order of their first message) and the
+        records. Each lists the channel's messages in record order."""
+        import numpy as np
+
+        cids, times, offsets = self.columns()
+        if not len(cids):
+            return {}, b""
+        order = np.argsort(cids, kind="stable")
+        pairs = np.empty((len(order), 2), "<u8")
+        pairs[:, 0] = times[order]
+        pairs[:, 1] = offsets[order]
+        flat = pairs.tobytes()
+        ids, first, counts = np.unique(cids[order], return_index=True, return_counts=True)
+        firsts = order[first]  # each channel's first message in record order
+        out: dict[int, int] = {}
+        parts: list[bytes] = []
+        pos = at
+        for k in np.argsort(firsts, kind="stable").tolist():
+            cid, lo, n = int(ids[k]), int(first[k]), int(counts[k])
+            body = flat[16 * lo:16 * (lo + n)]
+            out[cid] = pos
+            rec = _MI_HEAD.pack(OP_MESSAGE_INDEX, 6 + len(body), cid, len(body)) + body
+            parts.append(rec)
+            pos += len(rec)
+        return out, b"".join(parts)
 
 
 class McapWriter:
@@ -534,10 +579,9 @@ class McapWriter:
         if c.count and log_time < c.last:
             c.ordered = False
         c.last = log_time
-        entries = c.index.get(channel_id)
-        if entries is None:
-            entries = c.index[channel_id] = []
-        entries.append((log_time, len(c.buf)))
+        c.cids.append(channel_id)
+        c.times.append(log_time)
+        c.offsets.append(len(c.buf))
         c.buf += _MSG_HEAD.pack(5, 22 + len(data), channel_id, sequence, log_time,
                                 log_time if publish_time is None else publish_time)
         c.buf += data
@@ -550,41 +594,44 @@ class McapWriter:
                      datas: Sequence[bytes]) -> None:
         """Append many message records (publish time = log time): the same file as
         :meth:`add_message` one after the other, with the records of each chunk joined at
-        once."""
-        pack = _MSG_HEAD.pack
+        once and their index kept as columns."""
+        import numpy as np
+
         n = len(datas)
+        if n == 0:
+            return
+        pack = _MSG_HEAD.pack
         records = [pack(5, 22 + len(d), c, 0, t, t)
                    for c, t, d in zip(channel_ids, log_times, datas, strict=True)]
-        sizes = [31 + len(d) for d in datas]
-        counts = self._counts
+        cid_a = np.asarray(channel_ids, dtype=np.uint16)
+        t_a = np.asarray(log_times, dtype=np.int64)
+        sizes = np.fromiter(map(len, datas), np.int64, n) + _MSG_HEAD.size
+        ends = np.cumsum(sizes)  # end of each record, from the first record of the call
+        ids, first, counts = np.unique(cid_a, return_index=True, return_counts=True)
+        for k in np.argsort(first).tolist():  # the channels in order of their first message
+            cid = int(ids[k])
+            self._counts[cid] = self._counts.get(cid, 0) + int(counts[k])
         i = 0
         while i < n:
             c = self._chunk
             pos = len(c.buf)
+            base = int(ends[i - 1]) if i else 0
             # the messages that go into this chunk: it closes once it holds chunk_bytes
-            j = i
-            end = pos
-            while j < n and end < self._chunk_bytes:
-                end += sizes[j]
-                j += 1
-            index = c.index
-            for cid, t, size in zip(channel_ids[i:j], log_times[i:j], sizes[i:j], strict=True):
-                entries = index.get(cid)
-                if entries is None:
-                    entries = index[cid] = []
-                entries.append((t, pos))
-                pos += size
-                counts[cid] = counts.get(cid, 0) + 1
+            j = int(np.searchsorted(ends, base + self._chunk_bytes - pos, "left")) + 1
+            j = min(max(j, i + 1), n)
             parts: list[bytes] = [b""] * (2 * (j - i))
             parts[0::2] = records[i:j]
             parts[1::2] = datas[i:j]
             c.buf += b"".join(parts)
-            lo, hi = min(log_times[i:j]), max(log_times[i:j])
-            if c.ordered and ((c.count and log_times[i] < c.last) or any(
-                    a > b for a, b in zip(log_times[i:j - 1], log_times[i + 1:j],
-                                          strict=True))):
+            t = t_a[i:j]
+            c.cids.frombytes(cid_a[i:j].tobytes())
+            c.times.frombytes(t.astype(np.uint64).tobytes())
+            c.offsets.frombytes((ends[i:j] - sizes[i:j] + (pos - base)).astype(np.uint64)
+                                .tobytes())
+            lo, hi, t0 = int(t.min()), int(t.max()), int(t[0])
+            if c.ordered and ((c.count and t0 < c.last) or bool((t[1:] < t[:-1]).any())):
                 c.ordered = False
-            c.last = log_times[j - 1]
+            c.last = int(t[-1])
             if c.count == 0:
                 c.start, c.end = lo, hi
             else:
@@ -639,14 +686,7 @@ class McapWriter:
         self._emit(_REC_HEAD.pack(OP_CHUNK, len(head) + len(compressed)) + head)
         self._emit(compressed)
         mi_start = self._pos
-        offsets: dict[int, int] = {}
-        parts: list[bytes] = []
-        for cid, entries in c.index.items():
-            offsets[cid] = self._pos + sum(len(p) for p in parts)
-            body = struct.pack(f"<{2 * len(entries)}Q", *[v for e in entries for v in e])
-            parts.append(struct.pack("<BQHI", OP_MESSAGE_INDEX, 6 + len(body), cid, len(body))
-                         + body)
-        blob = b"".join(parts)
+        offsets, blob = c.message_indexes(mi_start)
         self._emit(blob)
         self._chunk_indexes.append(ChunkIndex(
             message_start_time=c.start, message_end_time=c.end, chunk_start_offset=start_offset,
