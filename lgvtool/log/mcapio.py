@@ -18,6 +18,7 @@ import os
 import struct
 import zlib
 from array import array
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import IO, TYPE_CHECKING, Any
@@ -368,6 +369,11 @@ ZSTD_LEVEL = 1
 """zstd level of the chunks written: on lgvtool's logs (JSON messages) level 1 compresses
 about twice as fast as level 3 and as small or smaller (docs/performance.md)."""
 
+BACKGROUND_DEPTH = 4
+"""Chunks a background-compressing writer may have waiting for its worker thread (4 MiB each
+by default): bursts of fast filling (a copied log's chunks) then do not wait for the worker;
+the file is the same."""
+
 
 def _compress_with_crc(kind: str, data: bytes) -> tuple[bytes, int]:
     """``data`` compressed, and its CRC-32 (both release the GIL for large buffers)."""
@@ -512,11 +518,13 @@ class McapWriter:
                  chunk_bytes: int = 4 * 1024 * 1024, profile: str = "", library: str = "",
                  background: bool = False) -> None:
         self._out = stream
-        #: compress each chunk on a worker thread while the next one fills (the same bytes;
-        #: a closed chunk reaches the stream at the next close, metadata record or the end)
+        #: compress each chunk on a worker thread while the next ones fill (the same bytes; a
+        #: closed chunk reaches the stream once compressed, at a later close, at a metadata
+        #: record or at the end)
         self._background = background
         self._pool: ThreadPoolExecutor | None = None
-        self._pending: tuple[Future[tuple[bytes, int]], _OpenChunk, int] | None = None
+        # the chunks being compressed, oldest first (at most BACKGROUND_DEPTH)
+        self._pending: deque[tuple[Future[tuple[bytes, int]], _OpenChunk, int]] = deque()
         self._compression = "" if compression == "none" else compression
         self._chunk_bytes = chunk_bytes
         self._schemas: dict[int, Schema] = {}
@@ -659,22 +667,26 @@ class McapWriter:
         data = bytes(c.buf)
         self._chunk = held if held is not None else _OpenChunk()
         if self._background:
-            self.drain()
+            pending = self._pending
+            # write the chunks compressed by now, and the oldest ones beyond the depth
+            while pending and (pending[0][0].done() or len(pending) >= BACKGROUND_DEPTH):
+                self._write_pending()
             if self._pool is None:
                 self._pool = ThreadPoolExecutor(1, thread_name_prefix="mcap-chunk")
-            self._pending = (self._pool.submit(_compress_with_crc, self._compression, data), c,
-                             len(data))
+            pending.append((self._pool.submit(_compress_with_crc, self._compression, data), c,
+                            len(data)))
             return
         self._write_chunk(c, len(data), *_compress_with_crc(self._compression, data))
 
     def drain(self) -> None:
-        """Write the chunk a worker thread is compressing, if any (a no-op unless the
-        writer compresses in the background)."""
-        pending = self._pending
-        if pending is None:
-            return
-        self._pending = None
-        future, c, size = pending
+        """Write the chunks a worker thread is compressing, if any, in order (a no-op unless
+        the writer compresses in the background)."""
+        while self._pending:
+            self._write_pending()
+
+    def _write_pending(self) -> None:
+        """Write the oldest chunk handed to the worker thread (waiting for it if need be)."""
+        future, c, size = self._pending.popleft()
         self._write_chunk(c, size, *future.result())
 
     def _write_chunk(self, c: _OpenChunk, size: int, compressed: bytes, crc: int) -> None:
