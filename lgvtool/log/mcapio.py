@@ -375,17 +375,17 @@ by default): bursts of fast filling (a copied log's chunks) then do not wait for
 the file is the same."""
 
 
-def _compress_with_crc(kind: str, data: bytes) -> tuple[bytes, int]:
+def _compress_with_crc(kind: str, data: bytes | bytearray) -> tuple[bytes, int]:
     """``data`` compressed, and its CRC-32 (both release the GIL for large buffers)."""
     return _compress(kind, data), zlib.crc32(data)
 
 
-def _compress(kind: str, data: bytes) -> bytes:
+def _compress(kind: str, data: bytes | bytearray) -> bytes:
     if kind == "zstd":
         return zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(data)
     if kind == "lz4":
         return bytes(lz4.frame.compress(data))
-    return data
+    return bytes(data)
 
 
 def decompress(kind: str, data: bytes | memoryview, size: int) -> bytes:
@@ -664,7 +664,8 @@ class McapWriter:
             # readers (the reference checker among them) expect log-time order in a chunk
             c.sort()
         held = c.split_after(c.end - hold_ns) if hold_ns > 0 else None
-        data = bytes(c.buf)
+        # the records leave the chunk (only its index is kept until the chunk is written)
+        data, c.buf = c.buf, bytearray()
         self._chunk = held if held is not None else _OpenChunk()
         if self._background:
             pending = self._pending
