@@ -35,14 +35,13 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
 
     from lgvtool.config import parse_set_options
     from lgvtool.live.drawing import TOPICS as DRAWING_TOPICS
-    from lgvtool.live.drawing import LiveDrawing
+    from lgvtool.live.drawing import drawing_of
     from lgvtool.live.live_playback import play, prepare_channels
     from lgvtool.live.live_server import LiveServer, parse_address
     from lgvtool.live.online import OnlineEstimator
     from lgvtool.live.tap import LiveFeed, describe
     from lgvtool.localize.registry import check_names
     from lgvtool.log import LogReader, topics
-    from lgvtool.log.foxglove import mounting_of
     from lgvtool.progress import Progress
 
     address = parse_address(live)
@@ -68,7 +67,7 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
     drawing = None
     if not any(t in infos for t in DRAWING_TOPICS):
         on = "truth" if topics.NAV_POSE not in infos and topics.TRUTH in infos else "nav"
-        drawing = LiveDrawing(mounting_of(cfg.vehicle), scans_on=on)
+        drawing = drawing_of(cfg, scans_on=on)
     feed = LiveFeed(server, estimators, warn=warn, drawing=drawing)
     stop = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *_: stop.set())

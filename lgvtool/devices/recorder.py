@@ -143,12 +143,11 @@ class Recorder:
     def _start_live(self) -> Any:
         """Bind the live server now, before anything is recorded (a port in use or a host
         that does not resolve fails here, as bad input)."""
-        from lgvtool.live.drawing import LiveDrawing
+        from lgvtool.live.drawing import drawing_of
         from lgvtool.live.live_server import LiveServer
         from lgvtool.live.online import OnlineEstimator
         from lgvtool.live.tap import LiveFeed
         from lgvtool.log import topics
-        from lgvtool.log.foxglove import mounting_of
 
         estimators = [OnlineEstimator(n, self.config) for n in self.settings.live_estimators]
         server = LiveServer(self.settings.live)
@@ -158,7 +157,7 @@ class Recorder:
         server.prepare({**fixed, **{t: s for reg in registrations()
                                     for t, s in reg.TOPICS.items()}})
         return LiveFeed(server, estimators, warn=self._warn,
-                        drawing=LiveDrawing(mounting_of(self.config.vehicle)))
+                        drawing=drawing_of(self.config))
 
     def stop(self, reason: str = "stopped") -> None:
         """Ask the recording to end (thread-safe, idempotent)."""

@@ -25,7 +25,7 @@ from lgvtool.timestamps import from_stamp
 
 if TYPE_CHECKING:
     import numpy as np
-    from numpy.typing import NDArray
+    from numpy.typing import ArrayLike, NDArray
 
     from lgvtool.log.reader import LogReader
 
@@ -281,6 +281,10 @@ def steering_angle(rows: LogRows) -> float | None:
     return median_steering(angle, speed)
 
 
+CIRCLE_COVERAGE = 1.5 * math.pi
+"""How far round its circle a drive must go for the circle to be drawn, rad (3/4 of a turn)."""
+
+
 def reference_stream(rows: LogRows, config: Any,
                      tables: Mapping[str, Any]) -> list[Source]:
     """/reference/circle: the circle the drive follows, once at the start of the trajectory it
@@ -288,9 +292,6 @@ def reference_stream(rows: LogRows, config: Any,
     with the kinematic radius R = h / tan(steering) when the steering is known (logged, else
     configured), free otherwise. None when the drive is not a circle."""
     import numpy as np
-
-    from lgvtool.circle import TRIM, fit_circle, follows_circle, kinematic_radius
-    from lgvtool.errors import InputError
 
     t_truth, x, y, _yaw = _truth_rows(rows)
     if len(t_truth):
@@ -303,24 +304,46 @@ def reference_stream(rows: LogRows, config: Any,
         tab = tables[name]
         t0, x, y = int(tab.t_ns[0]), np.asarray(tab.x), np.asarray(tab.y)
         label = f"reference ({name})"
-    ok = np.isfinite(x) & np.isfinite(y)
-    if ok.sum() < 3:
-        return []
     delta = steering_angle(rows)
     if delta is None and config.reference.steering_angle_deg is not None:
         delta = math.radians(config.reference.steering_angle_deg)
-    radius = kinematic_radius(config.vehicle.h, delta) if delta is not None else None
+    msg = reference_message(t0, x, y, label, config.vehicle.h, delta)
+    return [] if msg is None else [constant(T.REFERENCE, [t0], [msg])]
+
+
+def reference_message(t_ns: int, x: ArrayLike, y: ArrayLike, label: str, h: float,
+                      steering: float | None) -> bytes | None:
+    """The /reference/circle message (JSON, stamped ``t_ns``) of the circle fitted to the
+    positions ``x``, ``y`` (m; non-finite ones left out): of the kinematic radius
+    R = ``h`` / tan(``steering``) (m, rad) when the steering is known, free when None. None
+    when fewer than 3 positions are left, no circle fits, they do not follow one
+    (:func:`lgvtool.circle.follows_circle`) or do not go :data:`CIRCLE_COVERAGE` round it."""
+    import numpy as np
+
+    from lgvtool.circle import TRIM, fit_circle, follows_circle, kinematic_radius
+    from lgvtool.errors import InputError
+
+    xa, ya = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    ok = np.isfinite(xa) & np.isfinite(ya)
+    if ok.sum() < 3:
+        return None
+    radius = kinematic_radius(h, steering) if steering is not None else None
     if radius is not None and not math.isfinite(radius):
-        return []
+        return None
     try:
-        c = fit_circle(x[ok], y[ok], radius, trim=TRIM)
+        c = fit_circle(xa[ok], ya[ok], radius, trim=TRIM)
     except (InputError, ValueError, ArithmeticError):  # no circle fits: none is drawn
-        return []
-    rmse = float(np.sqrt(np.mean(c.radial_error(x[ok], y[ok]) ** 2)))
+        return None
+    rmse = float(np.sqrt(np.mean(c.radial_error(xa[ok], ya[ok]) ** 2)))
     if not math.isfinite(c.r) or not follows_circle(rmse, c.r):
-        return []
-    msg = fx.reference_circle(t0, c.cx, c.cy, c.r, label=label)
-    return [constant(T.REFERENCE, [t0], [orjson.dumps(msg)])]
+        return None
+    # the positions go round the circle: no angular gap about its centre wider than the
+    # circle's part they may leave out (a gentle curve fits a circle of kilometres)
+    around = np.sort(np.arctan2(ya[ok] - c.cy, xa[ok] - c.cx))
+    gap = max(float(np.diff(around).max(initial=0.0)), float(around[0] + math.tau - around[-1]))
+    if gap > math.tau - CIRCLE_COVERAGE:
+        return None
+    return orjson.dumps(fx.reference_circle(t_ns, c.cx, c.cy, c.r, label=label))
 
 
 def estimate_streams(name: str, tab: Any, m: fx.Mounting) -> list[Source]:

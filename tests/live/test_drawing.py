@@ -4,16 +4,18 @@ ground truth's frames), made one message at a time as a recording arrives
 
 from __future__ import annotations
 
+import itertools
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import orjson
 import pytest
 from simlogs import cloud_points
 
-from lgvtool.live.drawing import LiveDrawing
+from lgvtool.live.drawing import CIRCLE_PERIOD_NS, LiveDrawing, Thinned, drawing_of
 from lgvtool.log import LogReader, topics
 from lgvtool.log.foxglove import mounting_of
 
@@ -109,6 +111,116 @@ def test_a_log_without_nav_poses_has_its_scans_drawn_on_the_truth_s_head(circle_
                 assert np.hypot(rx - mx, ry - my) < 0.3
                 checked += 1
     assert checked > 100
+
+
+def _circles(log: Path, *, truth: bool = True, mcu: bool = True
+             ) -> list[tuple[int, dict[str, Any]]]:
+    """The /reference/circle messages of the drawing of ``log`` (with its vehicle's steering
+    geometry), fed its NAV poses and, as asked, its ground truth and MCU frames."""
+    reader = LogReader(log)
+    view = drawing_of(reader.config())
+    wanted = [topics.NAV_POSE, topics.NAV_REFLECTORS] + [topics.TRUTH] * truth \
+        + [topics.MCU_FRAME] * mcu
+    out = []
+    for m in reader.messages(wanted):
+        for e in view.feed(m.topic, orjson.dumps(m.data), m.log_time_ns):
+            if e.topic == topics.REFERENCE:
+                out.append((m.log_time_ns, orjson.loads(e.data)))
+    return out
+
+
+def _circle_of(msg: dict[str, Any]) -> tuple[float, float, float, str]:
+    """Centre (m), radius (m) and label text of a reference-circle scene update."""
+    (entity,) = msg["entities"]
+    pts = np.array([(p["x"], p["y"]) for p in entity["lines"][0]["points"]])
+    cx, cy = pts.mean(axis=0)
+    return float(cx), float(cy), float(np.hypot(*(pts[0] - (cx, cy)))), entity["texts"][0]["text"]
+
+
+@pytest.fixture(scope="module")
+def minute(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """60 s of the paper's circle drive (two and a half laps) and its replay."""
+    from simlogs import simulate_log
+
+    folder = tmp_path_factory.mktemp("minute")
+    log = simulate_log(folder / "circle.mcap", 60.0, 5)
+    out = folder / "rep.mcap"
+    subprocess.run([sys.executable, "-m", "lgvtool", "replay", str(log), "-o", str(out),
+                    "-e", "laser"], check=True, capture_output=True, timeout=300)
+    return log, out
+
+
+def test_the_live_drawing_draws_replay_s_reference_circle(minute: tuple[Path, Path]) -> None:
+    """Fitted to the ground truth as it arrives, every 5 s of log time once the drive has gone
+    3/4 of the way round, with the radius from the logged steering: by the end of the drive it
+    is replay's circle (fitted to the whole truth once)."""
+    log, replayed = minute
+    live = _circles(log)
+    (want,) = [m.data for m in LogReader(replayed).messages([topics.REFERENCE])]
+    wx, wy, wr, wtext = _circle_of(want)
+    times = [t for t, _ in live]
+    start = next(iter(LogReader(log).messages([topics.TRUTH]))).log_time_ns
+    # the first lap takes about 25 s (from the start at 5 s): first drawn then, then every 5 s
+    assert len(live) >= 6 and times[0] - start <= 35_000_000_000
+    assert all(b - a >= CIRCLE_PERIOD_NS for a, b in itertools.pairwise(times))
+    gx, gy, gr, gtext = _circle_of(live[-1][1])
+    assert gtext == wtext and "reference (truth)" in gtext
+    # the kinematic radius of the median steering; live, of the median of the MCU frames
+    # kept (at most 2000, evenly spread): measured 0.1 mm apart
+    assert abs(gr - wr) < 1e-3
+    assert np.hypot(gx - wx, gy - wy) < 0.005
+    # stamped when it is drawn, not at the start of the drive
+    stamp = live[-1][1]["entities"][0]["timestamp"]
+    assert stamp["sec"] * 1_000_000_000 + stamp["nsec"] == times[-1]
+
+
+def test_without_truth_the_circle_is_fitted_to_the_nav_and_without_mcu_frames_configured(
+        minute: tuple[Path, Path]) -> None:
+    """A recording (no ground truth): the circle through O's positions from the NAV poses; with
+    no MCU frame either, of the configured steering angle's radius."""
+    log, _ = minute
+    cfg = LogReader(log).config()
+    live = _circles(log, truth=False, mcu=False)
+    assert len(live) >= 5
+    gx, gy, gr, text = _circle_of(live[-1][1])
+    assert "reference (nav)" in text
+    from lgvtool.circle import kinematic_radius
+
+    want_r = kinematic_radius(cfg.vehicle.h, np.radians(cfg.reference.steering_angle_deg))
+    assert abs(gr - want_r) < 1e-6
+    with_truth = _circle_of(_circles(log, mcu=False)[-1][1])
+    assert np.hypot(gx - with_truth[0], gy - with_truth[1]) < 0.1
+
+
+def test_a_drive_that_is_no_circle_draws_none(tmp_path: Path) -> None:
+    from simlogs import simulate_log
+
+    """A warehouse route's gentle curves fit circles of kilometres that the route does not go
+    round: replay draws none (it drew one of 1964 m before the coverage rule), nor does the
+    live drawing."""
+    log = simulate_log(tmp_path / "wh.mcap", 120.0, 3, scenario="warehouse")
+    assert _circles(log) == []
+    out = tmp_path / "rep.mcap"
+    subprocess.run([sys.executable, "-m", "lgvtool", "replay", str(log), "-o", str(out),
+                    "-e", "laser"], check=True, capture_output=True, timeout=300)
+    assert list(LogReader(out).messages([topics.REFERENCE])) == []
+
+
+def test_the_drawing_without_the_steering_geometry_draws_no_circle(circle_log: Path) -> None:
+    """``LiveDrawing`` without ``h`` (as the tests above feed it) draws no circle."""
+    assert topics.REFERENCE not in _live(circle_log)
+
+
+def test_thinned_keeps_a_bounded_even_spread() -> None:
+    kept = Thinned(2, limit=100)
+    for i in range(10_000):
+        kept.offer(float(i), -float(i))
+    a, b = kept.columns()
+    assert 50 <= len(a) < 100 and (b == -a).all()
+    gaps = np.diff(a)
+    assert (gaps == gaps[0]).all() and a[0] == 0.0 and a[-1] > 9_000
+    with pytest.raises(ValueError):
+        Thinned(1, limit=1)
 
 
 def test_invalid_poses_and_empty_scans_draw_nothing() -> None:

@@ -19,14 +19,13 @@ pytest.importorskip("websockets")
 from foxglove_client import collect
 
 from lgvtool.errors import InputError
-from lgvtool.live.drawing import LiveDrawing
+from lgvtool.live.drawing import drawing_of
 from lgvtool.live.live_playback import play, prepare_channels
 from lgvtool.live.live_server import LiveAddress, LiveServer, parse_address
 from lgvtool.live.online import OnlineEstimator
 from lgvtool.live.tap import LiveFeed, TappedLogWriter
 from lgvtool.localize.replay_driver import run_replay
 from lgvtool.log import LogReader, topics
-from lgvtool.log.foxglove import mounting_of
 from lgvtool.log.schemas import schema_bytes
 
 
@@ -98,7 +97,7 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
     prepare_channels(server, reader)
     feed = LiveFeed(server,
                     [OnlineEstimator("pf", reader.config(), settings={"pf.particles": 500})],
-                    drawing=LiveDrawing(mounting_of(reader.config().vehicle)))
+                    drawing=drawing_of(reader.config()))
     done: dict[str, object] = {}
     player = threading.Thread(target=lambda: done.update(r=play(reader, feed, speed=6.0)))
     player.start()
@@ -106,7 +105,8 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
         wanted = {topics.NAV_POSE, topics.MCU_FRAME, topics.NAV_REFLECTORS,
                   topics.estimate_pose("pf"), topics.estimate_state("pf"),
                   topics.estimate_tf("pf"), topics.estimate_covariance("pf"), topics.MAP,
-                  topics.NAV_HEAD, topics.NAV_TF, topics.NAV_SCAN, topics.TRUTH_TF}
+                  topics.NAV_HEAD, topics.NAV_TF, topics.NAV_SCAN, topics.TRUTH_TF,
+                  topics.REFERENCE}
         got = collect(feed.server.url, None, timeout=8.0)  # the 30 s log plays in 5 s
     finally:
         player.join(60)
@@ -128,6 +128,10 @@ def test_a_log_played_live_mirrors_its_channels_and_the_online_estimate(circle_l
     assert all(m["frame_id"] == "nav/head" and m["point_stride"] == 20
                for _, m in got.messages[topics.NAV_SCAN])
     assert got.channels[topics.estimate_tf("pf")]["schemaName"] == "foxglove.FrameTransforms"
+    # the reference circle, once the drive has gone 3/4 of the way round (after 25 s)
+    assert got.channels[topics.REFERENCE]["schemaName"] == "foxglove.SceneUpdate"
+    assert all(m["entities"][0]["id"] == "reference-circle"
+               for _, m in got.messages[topics.REFERENCE])
     assert got.channels[topics.estimate_covariance("pf")]["schemaName"] == "foxglove.SceneUpdate"
     # every subscribed topic received; the map (published once) reached the late subscriber
     assert wanted <= set(got.messages)
