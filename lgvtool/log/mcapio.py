@@ -28,7 +28,7 @@ import zstandard
 
 if TYPE_CHECKING:
     import numpy as np
-    from numpy.typing import NDArray
+    from numpy.typing import ArrayLike, NDArray
 
 MAGIC = b"\x89MCAP0\r\n"
 _MSG_HEAD = struct.Struct("<BQHIQQ")  # opcode, record length, channel, sequence, log, publish
@@ -506,6 +506,28 @@ class _OpenChunk:
         return out, b"".join(parts)
 
 
+FramedRecords = tuple[bytes, "NDArray[np.uint16]", "NDArray[np.int64]", "NDArray[np.int64]"]
+"""Message records one after the other, and their channel ids, log times (ns) and sizes
+(bytes, opcode and length included)."""
+
+
+def framed_records(channel_ids: Sequence[int], log_times: Sequence[int],
+                   datas: Sequence[bytes]) -> FramedRecords:
+    """The message records of ``datas`` (publish time = log time, sequence 0), one after the
+    other, with their columns."""
+    import numpy as np
+
+    n = len(datas)
+    pack = _MSG_HEAD.pack
+    parts: list[bytes] = [b""] * (2 * n)
+    parts[0::2] = [pack(OP_MESSAGE, 22 + len(d), c, 0, t, t)
+                   for c, t, d in zip(channel_ids, log_times, datas, strict=True)]
+    parts[1::2] = datas
+    return (b"".join(parts), np.asarray(channel_ids, dtype=np.uint16).reshape(n),
+            np.asarray(log_times, dtype=np.int64).reshape(n),
+            np.fromiter(map(len, datas), np.int64, n) + _MSG_HEAD.size)
+
+
 class McapWriter:
     """Write an MCAP file: chunked, indexed, with a summary. Times in ns.
 
@@ -601,40 +623,46 @@ class McapWriter:
     def add_messages(self, channel_ids: Sequence[int], log_times: Sequence[int],
                      datas: Sequence[bytes]) -> None:
         """Append many message records (publish time = log time): the same file as
-        :meth:`add_message` one after the other, with the records of each chunk joined at
-        once and their index kept as columns."""
+        :meth:`add_message` one after the other (:meth:`add_records` of
+        :func:`framed_records`)."""
+        if len(datas):
+            self.add_records(*framed_records(channel_ids, log_times, datas))
+
+    def add_records(self, block: bytes | bytearray | memoryview, channel_ids: ArrayLike,
+                    log_times: ArrayLike, sizes: ArrayLike) -> None:
+        """Append framed message records: ``block`` holds them one after the other,
+        ``sizes[i]`` bytes each (opcode and length included), of channels ``channel_ids`` at
+        ``log_times`` (ns). The open chunk closes once it holds ``chunk_bytes``, after the
+        record that reaches it, as with :meth:`add_message`; the index is kept as columns."""
         import numpy as np
 
-        n = len(datas)
+        cid_a = np.asarray(channel_ids, dtype=np.uint16).reshape(-1)
+        t_a = np.asarray(log_times, dtype=np.int64).reshape(-1)
+        size_a = np.asarray(sizes, dtype=np.int64).reshape(-1)
+        n = len(cid_a)
         if n == 0:
             return
-        pack = _MSG_HEAD.pack
-        records = [pack(5, 22 + len(d), c, 0, t, t)
-                   for c, t, d in zip(channel_ids, log_times, datas, strict=True)]
-        cid_a = np.asarray(channel_ids, dtype=np.uint16)
-        t_a = np.asarray(log_times, dtype=np.int64)
-        sizes = np.fromiter(map(len, datas), np.int64, n) + _MSG_HEAD.size
-        ends = np.cumsum(sizes)  # end of each record, from the first record of the call
+        ends = np.cumsum(size_a)  # end of each record in ``block``
+        if len(t_a) != n or len(size_a) != n or int(ends[-1]) != len(block):
+            raise ValueError("add_records: the records and their columns do not match")
         ids, first, counts = np.unique(cid_a, return_index=True, return_counts=True)
         for k in np.argsort(first).tolist():  # the channels in order of their first message
             cid = int(ids[k])
             self._counts[cid] = self._counts.get(cid, 0) + int(counts[k])
+        view = memoryview(block)
         i = 0
         while i < n:
             c = self._chunk
             pos = len(c.buf)
             base = int(ends[i - 1]) if i else 0
-            # the messages that go into this chunk: it closes once it holds chunk_bytes
+            # the records that go into this chunk: it closes once it holds chunk_bytes
             j = int(np.searchsorted(ends, base + self._chunk_bytes - pos, "left")) + 1
             j = min(max(j, i + 1), n)
-            parts: list[bytes] = [b""] * (2 * (j - i))
-            parts[0::2] = records[i:j]
-            parts[1::2] = datas[i:j]
-            c.buf += b"".join(parts)
+            c.buf += view[base:int(ends[j - 1])]
             t = t_a[i:j]
             c.cids.frombytes(cid_a[i:j].tobytes())
             c.times.frombytes(t.astype(np.uint64).tobytes())
-            c.offsets.frombytes((ends[i:j] - sizes[i:j] + (pos - base)).astype(np.uint64)
+            c.offsets.frombytes((ends[i:j] - size_a[i:j] + (pos - base)).astype(np.uint64)
                                 .tobytes())
             lo, hi, t0 = int(t.min()), int(t.max()), int(t[0])
             if c.ordered and ((c.count and t0 < c.last) or bool((t[1:] < t[:-1]).any())):
@@ -648,6 +676,7 @@ class McapWriter:
             if len(c.buf) >= self._chunk_bytes:
                 self.close_chunk()
             i = j
+        view.release()
 
     def close_chunk(self, hold_ns: int = 0) -> None:
         """Compress and write the open chunk and its message indexes (no-op when empty).
@@ -990,6 +1019,155 @@ def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
             return None
         out.append(records[at + 31:at + 9 + length])
     return times, out
+
+
+RecordColumns = tuple["NDArray[np.uint16]", "NDArray[np.int64]", "NDArray[np.int64]",
+                      "NDArray[np.int64]"]
+"""The message records of a chunk as columns: channel id, log time (ns), offset of the record
+in the chunk's records and its size (bytes, opcode and length included)."""
+
+
+def record_columns(chunks: Sequence[tuple[Any, ChunkIndex, bytes]],
+                   on_corrupt: Callable[[int, str], None] | None = None
+                   ) -> tuple[bytes, RecordColumns]:
+    """The uncompressed records of consecutive chunks joined (``chunks``: per chunk a buffer
+    holding it and, at its index's offsets, its message indexes, as :func:`chunk_window` reads
+    them, the index, and the chunk's records), and the columns of their message records in
+    log-time order (ties in stored order), offsets into the joined records. Found through the
+    message indexes when they account for every message record, else by walking the records.
+    A chunk whose records do not frame is passed to ``on_corrupt`` (its position in
+    ``chunks`` and the reason) and left out; without ``on_corrupt`` it raises.
+
+    :raises CorruptChunkError: a record runs past the end of its chunk (no ``on_corrupt``).
+    """
+    import numpy as np
+
+    def joined(parts: Sequence[bytes]) -> tuple[bytes, list[int]]:
+        return b"".join(parts), np.cumsum([0] + [len(r) for r in parts[:-1]]).tolist()
+
+    records, bases = joined([r for _b, _ci, r in chunks])
+    cols = _indexed_columns([(buf, ci, base) for (buf, ci, _r), base in
+                             zip(chunks, bases, strict=True)], records)
+    if cols is None:
+        good: list[tuple[bytes, RecordColumns]] = []
+        for k, (buf, ci, r) in enumerate(chunks):
+            try:
+                good.append((r, _indexed_columns([(buf, ci, 0)], r) or _walked_columns(r)))
+            except CorruptChunkError as exc:
+                if on_corrupt is None:
+                    raise
+                on_corrupt(k, exc.reason)
+        records, bases = joined([r for r, _c in good])
+        parts = [c for _r, c in good]
+        cols = (np.concatenate([c[0] for c in parts] or [np.zeros(0, np.uint16)]),
+                np.concatenate([c[1] for c in parts] or [np.zeros(0, np.int64)]),
+                np.concatenate([c[2] + base for c, base in zip(parts, bases, strict=True)]
+                               or [np.zeros(0, np.int64)]),
+                np.concatenate([c[3] for c in parts] or [np.zeros(0, np.int64)]))
+    cids, times, offsets, sizes = cols
+    if len(times) > 1 and bool((np.diff(times) < 0).any()):
+        order = np.lexsort((offsets, times))
+        cids, times, offsets, sizes = cids[order], times[order], offsets[order], sizes[order]
+    return records, (cids, times, offsets, sizes)
+
+
+def _walked_columns(records: bytes) -> RecordColumns:
+    """:func:`record_columns` by walking every record (stored order)."""
+    import numpy as np
+
+    cids: list[int] = []
+    times: list[int] = []
+    offsets: list[int] = []
+    sizes: list[int] = []
+    pos, n = 0, len(records)
+    rec_head, fields = _REC_HEAD.unpack_from, _MSG_FIELDS.unpack_from
+    while pos + 9 <= n:
+        opcode, length = rec_head(records, pos)
+        body = pos + 9
+        if body + length > n or (opcode == OP_MESSAGE and length < 22):
+            raise CorruptChunkError(-1, f"a record at byte {pos} of the chunk runs past its end")
+        if opcode == OP_MESSAGE:
+            cid, _seq, log_time, _pub = fields(records, body)
+            cids.append(cid)
+            times.append(log_time)
+            offsets.append(pos)
+            sizes.append(9 + length)
+        pos = body + length
+    if pos != n:
+        raise CorruptChunkError(-1, "the chunk ends inside a record")
+    return (np.array(cids, dtype=np.uint16), np.array(times, dtype=np.uint64).astype(np.int64),
+            np.array(offsets, dtype=np.int64), np.array(sizes, dtype=np.int64))
+
+
+def _indexed_columns(chunks: Sequence[tuple[Any, ChunkIndex, int]], records: bytes
+                     ) -> RecordColumns | None:
+    """:func:`record_columns` from the chunks' message indexes (``chunks``: buffer, index and
+    where the chunk's records start in ``records``), in stored order; None when they do not
+    parse, do not fit the records or leave a message record out."""
+    import numpy as np
+
+    # each index's (time, offset) pairs, its channel, count and the chunk's base, gathered
+    # as bytes and lists (tens of indexes per chunk), then turned into columns at once
+    pairs: list[bytes] = []
+    ids: list[int] = []
+    counts: list[int] = []
+    bases: list[int] = []
+    u16, u32 = _U16.unpack_from, _U32.unpack_from
+    for buf, ci, base in chunks:
+        if not ci.message_index_offsets:
+            if ci.uncompressed_size:
+                return None
+            continue
+        for cid, off in ci.message_index_offsets.items():
+            if off < 0 or off + 15 > len(buf) or buf[off] != OP_MESSAGE_INDEX:
+                return None
+            (got,) = u16(buf, off + 9)
+            (nbytes,) = u32(buf, off + 11)
+            if got != cid or nbytes % 16 or off + 15 + nbytes > len(buf):
+                return None
+            pairs.append(bytes(buf[off + 15:off + 15 + nbytes]))
+            ids.append(cid)
+            counts.append(nbytes // 16)
+            bases.append(base)
+    if not sum(counts):
+        return None
+    flat = np.frombuffer(b"".join(pairs), dtype="<u8")
+    offsets = flat[1::2].astype(np.int64) + np.repeat(np.array(bases, dtype=np.int64), counts)
+    n = len(records)
+    order = np.argsort(offsets, kind="stable")
+    offsets = offsets[order]
+    cids = np.repeat(np.array(ids, dtype=np.uint16), counts)[order]
+    times = flat[0::2][order].astype(np.int64)
+    if offsets[0] < 0 or offsets[-1] + 31 > n or bool((np.diff(offsets) <= 0).any()):
+        return None
+    rec = np.frombuffer(records, dtype=np.uint8)
+    if bool((rec[offsets] != OP_MESSAGE).any()):
+        return None
+    head = rec[offsets[:, None] + np.arange(1, 31)]  # length, channel, sequence, log time
+    lengths = head[:, 0:8].copy().view("<u8").reshape(-1).astype(np.int64)
+    sizes = lengths + 9
+    if (bool((lengths < 22).any()) or offsets[-1] + sizes[-1] > n
+            or bool((offsets[:-1] + sizes[:-1] > offsets[1:]).any())
+            or bool((head[:, 8:10].copy().view("<u2").reshape(-1) != cids).any())
+            or bool((head[:, 14:22].copy().view("<u8").reshape(-1).astype(np.int64)
+                     != times).any())):
+        return None
+    # every other record lies in the gaps between the messages: a message the indexes leave
+    # out would be lost, so the gaps are walked and must hold no message record
+    gaps = np.flatnonzero(np.concatenate(([offsets[0] > 0], offsets[1:] > offsets[:-1] + sizes[:-1],
+                                          [offsets[-1] + sizes[-1] < n])))
+    ends = np.concatenate(([0], offsets + sizes))
+    starts = np.concatenate((offsets, [n]))
+    for g in gaps.tolist():
+        pos, stop = int(ends[g]), int(starts[g])
+        while pos < stop:
+            if pos + 9 > stop:
+                return None
+            opcode, length = _REC_HEAD.unpack_from(records, pos)
+            if opcode == OP_MESSAGE or pos + 9 + length > stop:
+                return None
+            pos += 9 + length
+    return cids, times, offsets, sizes
 
 
 def indexed_times(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex]

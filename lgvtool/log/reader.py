@@ -11,6 +11,7 @@ import json
 import warnings as _warnings
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from itertools import pairwise
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -25,9 +26,11 @@ from lgvtool.log.mcapio import (
     ChunkIndex,
     CorruptChunkError,
     Metadata,
+    RecordColumns,
     Schema,
     checked_records,
     chunk_messages,
+    chunk_window,
     data_section_crc,
     iter_channel_chunks,
     iter_indexed,
@@ -35,6 +38,8 @@ from lgvtool.log.mcapio import (
     read_channels,
     read_metadata,
     read_summary,
+    record_columns,
+    verified_records,
 )
 from lgvtool.log.validate import check_channel
 from lgvtool.log.writer import FORMAT_VERSION
@@ -83,6 +88,12 @@ class TopicInfo:
     def rate_hz(self) -> float:
         """Mean message rate, Hz (0 with fewer than two messages)."""
         return (self.count - 1) / self.duration_s if self.count > 1 and self.duration_s > 0 else 0.0
+
+
+RECORD_GROUP_BYTES = 4 * 1024 * 1024
+"""Uncompressed bytes of records :meth:`LogReader.record_chunks` hands over at once (a log
+recorded with a chunk a second has chunks of 40 kB: numpy's cost per call is then paid per
+4 MiB, not per chunk)."""
 
 
 class LogWarning(UserWarning):
@@ -294,6 +305,63 @@ class LogReader:
         with open(self.path, "rb") as f:
             yield from iter_indexed_blocks(f, self._chunk_indexes, None, self._note_corrupt,
                                            self._verified)
+
+    def registrations(self) -> tuple[dict[int, Schema], dict[int, Channel]]:
+        """The log's schemas and channels by id (copies)."""
+        return dict(self._schemas), dict(self._channels)
+
+    def record_chunks(self) -> Iterator[tuple[bytes, RecordColumns]] | None:
+        """The log's message records in log-time order, as the uncompressed records of runs of
+        consecutive chunks (at least :data:`RECORD_GROUP_BYTES` each, but the last) with the
+        columns of their message records (:func:`lgvtool.log.mcapio.record_columns`);
+        corrupt chunks skipped with a warning as :meth:`raw_blocks` skips them: the same
+        messages in the same order as :meth:`raw_blocks`. None when that order is not the
+        chunks' (a salvaged file, chunks whose times overlap)."""
+        self.check_topics(None)
+        if self._salvaged is not None:
+            return None
+        order = sorted(self._chunk_indexes,
+                       key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
+        if any(b.message_start_time < a.message_end_time for a, b in pairwise(order)):
+            return None
+        return self._record_chunks(order)
+
+    def _record_chunks(self, order: list[ChunkIndex]) -> Iterator[tuple[bytes, RecordColumns]]:
+        import zstandard
+
+        zstd = zstandard.ZstdDecompressor()
+        group: list[tuple[bytes, ChunkIndex, bytes]] = []
+        sources: list[ChunkIndex] = []
+        size = 0
+
+        def columns() -> tuple[bytes, RecordColumns]:
+            bad: set[int] = set()
+
+            def corrupt(k: int, reason: str) -> None:
+                bad.add(k)
+                self._note_corrupt(sources[k], reason)
+
+            out = record_columns(group, corrupt)
+            self._verified.update(ci.chunk_start_offset for k, ci in enumerate(sources)
+                                  if k not in bad)
+            return out
+
+        with open(self.path, "rb") as f:
+            for ci in order:
+                try:
+                    buf, local = chunk_window(f, ci)
+                    records = verified_records(buf, local, zstd)
+                except CorruptChunkError as exc:
+                    self._note_corrupt(ci, exc.reason)
+                    continue
+                group.append((buf, local, records))
+                sources.append(ci)
+                size += len(records)
+                if size >= RECORD_GROUP_BYTES:
+                    yield columns()
+                    group, sources, size = [], [], 0
+        if group:
+            yield columns()
 
     def channel_topic(self, channel_id: int) -> tuple[str, str]:
         """Topic and schema name of a channel id."""

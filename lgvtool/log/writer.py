@@ -15,6 +15,7 @@ import os
 import sys
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
+from itertools import pairwise
 from pathlib import Path
 from types import TracebackType
 from typing import IO, TYPE_CHECKING, Any
@@ -30,6 +31,7 @@ from lgvtool.log.schemas import schema_bytes
 from lgvtool.timestamps import stamp
 
 if TYPE_CHECKING:
+    from lgvtool.log.mcapio import RecordColumns
     from lgvtool.log.reader import LogReader
 
 FORMAT_VERSION = "1.0"
@@ -56,6 +58,10 @@ def _dumps(data: Any) -> bytes:
 
 
 COPY_BATCH = 65536
+
+SPLICE_BYTES = 1 << 20
+"""Bytes of a copied log's records spliced with the further messages at a time (with them,
+about 4 MiB for a replay of the five estimators and the view)."""
 """Messages :meth:`LogWriter.copy_from` writes at a time."""
 
 
@@ -245,6 +251,10 @@ class LogWriter:
             self.message_count += n
             return n
         batches = iter([extra] if isinstance(extra, tuple) else extra if extra else [])
+        chunks = reader.record_chunks() if not self._channels and self._chunk_ns is None \
+            else None
+        if chunks is not None:
+            return self._splice(reader, chunks, skip_topics, batches)
         merge = _Merge(self, batches, {s.name: (s.encoding, s.data)
                                        for s in getattr(reader, "_schemas", {}).values()})
         seen: set[int] = set()
@@ -262,6 +272,67 @@ class LogWriter:
                 n += len(kept)
         merge.finish()
         return n
+
+    def _splice(self, reader: LogReader, chunks: Iterator[tuple[bytes, RecordColumns]],
+                skip_topics: frozenset[str], batches: Iterator[_Batch]) -> int:
+        """:meth:`copy_from` of a fresh writer from the input's chunks as records: the input's
+        schemas and channels registered under their own ids, its records copied as they are
+        (:func:`lgvtool.log.splice.spliced`), the further messages framed and merged in."""
+        import numpy as np
+
+        from lgvtool.log.mcapio import framed_records
+        from lgvtool.log.splice import spliced
+
+        w = self._writer
+        schemas, channels = reader.registrations()
+        for sid, s in schemas.items():
+            w.add_schema(s.name, s.encoding, s.data, schema_id=sid)
+            # the further messages share a schema the input holds as lgvtool writes it
+            try:
+                if s.encoding == "jsonschema" and s.data == schema_bytes(s.name):
+                    self._schemas.setdefault(s.name, sid)
+            except KeyError:
+                pass
+        dropped = []
+        for cid, c in channels.items():
+            if c.topic in skip_topics:
+                dropped.append(cid)
+                continue
+            w.add_channel(c.topic, c.message_encoding, c.schema_id, channel_id=cid,
+                          metadata=c.metadata)
+            self._channels[c.topic] = cid
+        skip = np.array(dropped, dtype=np.uint16)
+        pending = _Pending(batches)
+        copied = 0
+        full = (c for c in chunks if len(c[1][1]))  # the chunks with a message record
+        current = next(full, None)
+        while current is not None:
+            records, (cids, times, offsets, sizes) = current
+            current = next(full, None)
+            keep = ~np.isin(cids, skip) if len(skip) else np.ones(len(cids), dtype=bool)
+            copied += int(np.count_nonzero(keep))
+            # about SPLICE_BYTES of the input at a time, with the further messages before the
+            # next part's first message (they outweigh the input: the estimates, the view)
+            cuts = np.searchsorted(np.cumsum(sizes), np.arange(SPLICE_BYTES, int(sizes.sum()),
+                                                                SPLICE_BYTES))
+            bounds = [0, *np.unique(cuts[(cuts > 0) & (cuts < len(cids))]).tolist(), len(cids)]
+            for a, b in pairwise(bounds):
+                if b < len(cids):
+                    until: int | None = int(times[b])
+                else:
+                    until = int(current[1][1][0]) if current is not None else None
+                e_topics, e_datas, e_times = pending.before(until)
+                ids = {t: self.channel_id(t) for t in dict.fromkeys(e_topics)}
+                block = spliced(records, (cids[a:b], times[a:b], offsets[a:b], sizes[a:b]),
+                                keep[a:b], framed_records([ids[t] for t in e_topics], e_times,
+                                                          e_datas))
+                if len(block[1]):
+                    w.add_records(*block)
+                self.message_count += len(block[1])
+        rest = pending.before(None)
+        if rest[0]:
+            self.write_encoded_many(*rest)
+        return copied
 
     def write_config(self, config: Config) -> None:
         """Store the effective configuration as the metadata record 'config'."""
@@ -318,6 +389,35 @@ class LogWriter:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self.close()
+
+
+class _Pending:
+    """Further messages (batches sorted by time, the batches in increasing time) handed out
+    up to a time as a merge reaches it, the batches taken as they are needed."""
+
+    def __init__(self, batches: Iterator[_Batch]) -> None:
+        self._batches = batches
+        self._more = True
+        self._topics: list[str] = []
+        self._datas: list[bytes] = []
+        self._times: list[int] = []
+
+    def before(self, t: int | None) -> tuple[list[str], list[bytes], list[int]]:
+        """The messages before log time ``t`` (ns; None: all that are left), removed."""
+        import bisect
+
+        while self._more and (t is None or not self._times or self._times[-1] < t):
+            nxt = next(self._batches, None)
+            if nxt is None:
+                self._more = False
+                break
+            self._topics.extend(nxt[0])
+            self._datas.extend(nxt[1])
+            self._times.extend(int(x) for x in nxt[2])
+        k = len(self._times) if t is None else bisect.bisect_left(self._times, t)
+        out = (self._topics[:k], self._datas[:k], self._times[:k])
+        del self._topics[:k], self._datas[:k], self._times[:k]
+        return out
 
 
 class _Merge:
