@@ -903,6 +903,24 @@ class CorruptChunkError(ValueError):
 OnCorrupt = Callable[[ChunkIndex, str], None]
 
 
+def _records_of(records: bytes) -> Iterator[tuple[int, int, int]]:
+    """``(offset, opcode, length)`` of every record in a chunk's uncompressed ``records``.
+
+    :raises CorruptChunkError: a record runs past the end of ``records`` (or a message record
+        is too short for its fields).
+    """
+    pos, n = 0, len(records)
+    rec_head = _REC_HEAD.unpack_from
+    while pos + 9 <= n:
+        opcode, length = rec_head(records, pos)
+        if pos + 9 + length > n or (opcode == OP_MESSAGE and length < 22):
+            raise CorruptChunkError(-1, f"a record at byte {pos} of the chunk runs past its end")
+        yield pos, opcode, length
+        pos += 9 + length
+    if pos != n:
+        raise CorruptChunkError(-1, "the chunk ends inside a record")
+
+
 def chunk_messages(records: bytes, wanted: set[int] | None) -> list[tuple[int, int, int, bytes]]:
     """The message records in a chunk's uncompressed ``records``, as
     (log_time, channel_id, publish_time, data), in stored order; only ``wanted`` channels.
@@ -910,20 +928,12 @@ def chunk_messages(records: bytes, wanted: set[int] | None) -> list[tuple[int, i
     :raises CorruptChunkError: a record runs past the end of ``records``.
     """
     out = []
-    pos, n = 0, len(records)
-    rec_head, fields = _REC_HEAD.unpack_from, _MSG_FIELDS.unpack_from
-    while pos + 9 <= n:
-        opcode, length = rec_head(records, pos)
-        body = pos + 9
-        if body + length > n or (opcode == OP_MESSAGE and length < 22):
-            raise CorruptChunkError(-1, f"a record at byte {pos} of the chunk runs past its end")
+    fields = _MSG_FIELDS.unpack_from
+    for pos, opcode, length in _records_of(records):
         if opcode == OP_MESSAGE:
-            cid, _seq, log_time, pub = fields(records, body)
+            cid, _seq, log_time, pub = fields(records, pos + 9)
             if wanted is None or cid in wanted:
-                out.append((log_time, cid, pub, records[body + 22 : body + length]))
-        pos = body + length
-    if pos != n:
-        raise CorruptChunkError(-1, "the chunk ends inside a record")
+                out.append((log_time, cid, pub, records[pos + 31 : pos + 9 + length]))
     return out
 
 
@@ -1079,22 +1089,14 @@ def _walked_columns(records: bytes) -> RecordColumns:
     times: list[int] = []
     offsets: list[int] = []
     sizes: list[int] = []
-    pos, n = 0, len(records)
-    rec_head, fields = _REC_HEAD.unpack_from, _MSG_FIELDS.unpack_from
-    while pos + 9 <= n:
-        opcode, length = rec_head(records, pos)
-        body = pos + 9
-        if body + length > n or (opcode == OP_MESSAGE and length < 22):
-            raise CorruptChunkError(-1, f"a record at byte {pos} of the chunk runs past its end")
+    fields = _MSG_FIELDS.unpack_from
+    for pos, opcode, length in _records_of(records):
         if opcode == OP_MESSAGE:
-            cid, _seq, log_time, _pub = fields(records, body)
+            cid, _seq, log_time, _pub = fields(records, pos + 9)
             cids.append(cid)
             times.append(log_time)
             offsets.append(pos)
             sizes.append(9 + length)
-        pos = body + length
-    if pos != n:
-        raise CorruptChunkError(-1, "the chunk ends inside a record")
     return (np.array(cids, dtype=np.uint16), np.array(times, dtype=np.uint64).astype(np.int64),
             np.array(offsets, dtype=np.int64), np.array(sizes, dtype=np.int64))
 
