@@ -58,11 +58,11 @@ def _dumps(data: Any) -> bytes:
 
 
 COPY_BATCH = 65536
+"""Messages :meth:`LogWriter.copy_from` writes at a time."""
 
 SPLICE_BYTES = 1 << 20
 """Bytes of a copied log's records spliced with the further messages at a time (with them,
 about 4 MiB for a replay of the five estimators and the view)."""
-"""Messages :meth:`LogWriter.copy_from` writes at a time."""
 
 
 class LogWriter:
@@ -329,9 +329,8 @@ class LogWriter:
                 if len(block[1]):
                     w.add_records(*block)
                 self.message_count += len(block[1])
-        rest = pending.before(None)
-        if rest[0]:
-            self.write_encoded_many(*rest)
+        for batch in pending.left():
+            self.write_encoded_many(*batch)
         return copied
 
     def write_config(self, config: Config) -> None:
@@ -419,6 +418,17 @@ class _Pending:
         del self._topics[:k], self._datas[:k], self._times[:k]
         return out
 
+    def left(self) -> Iterator[_Batch]:
+        """Every message left: those pulled already, then the remaining batches one at a
+        time."""
+        if self._times:
+            held = (self._topics, self._datas, self._times)
+            self._topics, self._datas, self._times = [], [], []
+            yield held
+        if self._more:
+            self._more = False
+            yield from self._batches
+
 
 class _Merge:
     """Merges a log's messages, a block at a time, with batches of further messages (sorted
@@ -430,41 +440,22 @@ class _Merge:
     def __init__(self, writer: LogWriter, batches: Iterator[_Batch],
                  own: dict[str, tuple[str, bytes]]) -> None:
         self._w = writer
-        self._batches = batches
         self._own = own
-        self._more = True
         # further messages not yet placed
-        self._e: tuple[list[str], list[bytes], list[int]] = ([], [], [])
+        self._pending = _Pending(batches)
         # the batch being gathered, and the log topics registered
         self._batch: tuple[list[str], list[bytes], list[int]] = ([], [], [])
         self._inputs: list[tuple[str, str]] = []
         self._registered: set[str] = set()
         self._names: dict[int, tuple[str, str]] = {}
 
-    def _extras_before(self, t: int) -> int:
-        """Pull batches until one ends at or after ``t`` (or none is left); the number of
-        pending further messages before ``t``."""
-        import bisect
-
-        e_t = self._e[2]
-        while self._more and (not e_t or e_t[-1] < t):
-            nxt = next(self._batches, None)
-            if nxt is None:
-                self._more = False
-                break
-            for dst, src in zip(self._e, nxt, strict=True):
-                dst.extend(src)  # type: ignore[attr-defined]
-        return bisect.bisect_left(e_t, t)
-
     def add(self, block: list[tuple[int, int, int, bytes]], reader: Any) -> None:
         """Merge one block of log messages ``(log time, channel id, publish time, data)`` (in
         log-time order) with the further messages before its last time."""
         import numpy as np
 
-        k = self._extras_before(block[-1][0])
-        e_topics, e_datas, e_times = (c[:k] for c in self._e)
-        for c in self._e:
-            del c[:k]
+        e_topics, e_datas, e_times = self._pending.before(block[-1][0])
+        k = len(e_times)
         cache = self._names
         for cid in {m[1] for m in block} - cache.keys():
             cache[cid] = reader.channel_topic(cid)
@@ -529,9 +520,9 @@ class _Merge:
 
     def finish(self) -> None:
         """Write the batch with every further message left, then the remaining batches."""
-        for dst, src in zip(self._batch, self._e, strict=True):
+        rest = self._pending.left()
+        for dst, src in zip(self._batch, next(rest, ([], [], [])), strict=True):
             dst.extend(src)  # type: ignore[attr-defined]
-        self._e = ([], [], [])
         self._flush()
-        for rest in self._batches:
-            self._w.write_encoded_many(*rest)
+        for batch in rest:
+            self._w.write_encoded_many(*batch)
