@@ -1009,12 +1009,10 @@ def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
     chunk is then walked instead)."""
     import numpy as np
 
-    if off < 0 or off + 15 > len(buf) or buf[off] != OP_MESSAGE_INDEX:
+    entries = _index_entries(buf, off, cid)
+    if entries is None:
         return None
-    (nbytes,) = _U32.unpack_from(buf, off + 11)
-    if nbytes % 16 or off + 15 + nbytes > len(buf):
-        return None
-    pairs = np.frombuffer(buf, dtype="<u8", count=nbytes // 8, offset=off + 15)
+    pairs = np.frombuffer(entries, dtype="<u8")
     times = pairs[0::2].copy()
     ats = pairs[1::2].tolist()
     del pairs
@@ -1101,6 +1099,18 @@ def _walked_columns(records: bytes) -> RecordColumns:
             np.array(offsets, dtype=np.int64), np.array(sizes, dtype=np.int64))
 
 
+def _index_entries(buf: Any, at: int, cid: int) -> bytes | None:
+    """The (log time, offset) pairs, as bytes (u64 each, 16 a pair), of the Message Index
+    record of channel ``cid`` at ``at`` in ``buf``; None when no such record is there."""
+    if at < 0 or at + 15 > len(buf) or buf[at] != OP_MESSAGE_INDEX:
+        return None
+    (got,) = _U16.unpack_from(buf, at + 9)
+    (nbytes,) = _U32.unpack_from(buf, at + 11)
+    if got != cid or nbytes % 16 or at + 15 + nbytes > len(buf):
+        return None
+    return bytes(buf[at + 15:at + 15 + nbytes])
+
+
 def _indexed_columns(chunks: Sequence[tuple[Any, ChunkIndex, int]], records: bytes
                      ) -> RecordColumns | None:
     """:func:`record_columns` from the chunks' message indexes (``chunks``: buffer, index and
@@ -1114,22 +1124,18 @@ def _indexed_columns(chunks: Sequence[tuple[Any, ChunkIndex, int]], records: byt
     ids: list[int] = []
     counts: list[int] = []
     bases: list[int] = []
-    u16, u32 = _U16.unpack_from, _U32.unpack_from
     for buf, ci, base in chunks:
         if not ci.message_index_offsets:
             if ci.uncompressed_size:
                 return None
             continue
         for cid, off in ci.message_index_offsets.items():
-            if off < 0 or off + 15 > len(buf) or buf[off] != OP_MESSAGE_INDEX:
+            entries = _index_entries(buf, off, cid)
+            if entries is None:
                 return None
-            (got,) = u16(buf, off + 9)
-            (nbytes,) = u32(buf, off + 11)
-            if got != cid or nbytes % 16 or off + 15 + nbytes > len(buf):
-                return None
-            pairs.append(bytes(buf[off + 15:off + 15 + nbytes]))
+            pairs.append(entries)
             ids.append(cid)
-            counts.append(nbytes // 16)
+            counts.append(len(entries) // 16)
             bases.append(base)
     if not sum(counts):
         return None
@@ -1180,7 +1186,6 @@ def indexed_times(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex]
     import numpy as np
 
     parts: dict[int, list[bytes]] = {}
-    u16, u32 = _U16.unpack_from, _U32.unpack_from
     for ci in chunk_indexes:
         if not ci.message_index_offsets and ci.uncompressed_size:
             return None
@@ -1190,14 +1195,10 @@ def indexed_times(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex]
         f.seek(lo)
         buf = f.read(ci.message_index_length)
         for cid, off in ci.message_index_offsets.items():
-            at = off - lo
-            if at < 0 or at + 15 > len(buf) or buf[at] != OP_MESSAGE_INDEX:
+            entries = _index_entries(buf, off - lo, cid)
+            if entries is None:
                 return None
-            (got,) = u16(buf, at + 9)
-            (nbytes,) = u32(buf, at + 11)
-            if got != cid or nbytes % 16 or at + 15 + nbytes > len(buf):
-                return None
-            parts.setdefault(cid, []).append(buf[at + 15:at + 15 + nbytes])
+            parts.setdefault(cid, []).append(entries)
     out: dict[int, NDArray[np.int64]] = {}
     for cid, chunks in parts.items():
         t = np.frombuffer(b"".join(chunks), dtype="<u8")[0::2].astype(np.int64)
