@@ -1065,13 +1065,11 @@ def record_columns(chunks: Sequence[tuple[Any, ChunkIndex, bytes]],
                 if on_corrupt is None:
                     raise
                 on_corrupt(k, exc.reason)
-        records, bases = joined([r for r, _c in good])
-        parts = [c for _r, c in good]
-        cols = (np.concatenate([c[0] for c in parts] or [np.zeros(0, np.uint16)]),
-                np.concatenate([c[1] for c in parts] or [np.zeros(0, np.int64)]),
-                np.concatenate([c[2] + base for c, base in zip(parts, bases, strict=True)]
-                               or [np.zeros(0, np.int64)]),
-                np.concatenate([c[3] for c in parts] or [np.zeros(0, np.int64)]))
+        records, bases = joined([r for r, _c in good] or [b""])
+        parts = [c for _r, c in good] or [_walked_columns(b"")]
+        cols = (np.concatenate([c[0] for c in parts]), np.concatenate([c[1] for c in parts]),
+                np.concatenate([c[2] + base for c, base in zip(parts, bases, strict=True)]),
+                np.concatenate([c[3] for c in parts]))
     cids, times, offsets, sizes = cols
     if len(times) > 1 and bool((np.diff(times) < 0).any()):
         order = np.lexsort((offsets, times))
@@ -1167,14 +1165,12 @@ def _indexed_columns(chunks: Sequence[tuple[Any, ChunkIndex, int]], records: byt
     ends = np.concatenate(([0], offsets + sizes))
     starts = np.concatenate((offsets, [n]))
     for g in gaps.tolist():
-        pos, stop = int(ends[g]), int(starts[g])
-        while pos < stop:
-            if pos + 9 > stop:
+        try:
+            if any(op == OP_MESSAGE for _at, op, _n in
+                   _records_of(records[int(ends[g]):int(starts[g])])):
                 return None
-            opcode, length = _REC_HEAD.unpack_from(records, pos)
-            if opcode == OP_MESSAGE or pos + 9 + length > stop:
-                return None
-            pos += 9 + length
+        except CorruptChunkError:
+            return None
     return cids, times, offsets, sizes
 
 

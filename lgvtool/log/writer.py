@@ -309,8 +309,8 @@ class LogWriter:
         while current is not None:
             records, (cids, times, offsets, sizes) = current
             current = next(full, None)
-            keep = ~np.isin(cids, skip) if len(skip) else np.ones(len(cids), dtype=bool)
-            copied += int(np.count_nonzero(keep))
+            keep = ~np.isin(cids, skip) if len(skip) else None
+            copied += len(cids) if keep is None else int(np.count_nonzero(keep))
             # about SPLICE_BYTES of the input at a time, with the further messages before the
             # next part's first message (they outweigh the input: the estimates, the view)
             cuts = np.searchsorted(np.cumsum(sizes), np.arange(SPLICE_BYTES, int(sizes.sum()),
@@ -323,9 +323,9 @@ class LogWriter:
                     until = int(current[1][1][0]) if current is not None else None
                 e_topics, e_datas, e_times = pending.before(until)
                 ids = {t: self.channel_id(t) for t in dict.fromkeys(e_topics)}
+                added = framed_records([ids[t] for t in e_topics], e_times, e_datas)
                 block = spliced(records, (cids[a:b], times[a:b], offsets[a:b], sizes[a:b]),
-                                keep[a:b], framed_records([ids[t] for t in e_topics], e_times,
-                                                          e_datas))
+                                None if keep is None else keep[a:b], added)
                 if len(block[1]):
                     w.add_records(*block)
                 self.message_count += len(block[1])
