@@ -62,43 +62,45 @@ landmark fix weighted by the camera noise (:mod:`lgvtool.localize.camera_fix`), 
 its position standard deviation exceeds 1.5 m (two landmarks of one cluster fix nothing)."""
 
 _PF: dict[str, Any] = {
-    "sigma_range_m": 0.1,
-    "sigma_range_per_m": 0.2,
-    "sigma_bearing_rad": 0.0125,
-    "noise_dist": 0.1,
-    "noise_lat": 0.1,
-    "noise_rot": 0.2,
-    "noise_rot_per_m": 0.4,
+    "sigma_range_m": _EKF["sigma_range_m"],
+    "sigma_range_per_m": _EKF["sigma_range_per_m"],
+    "sigma_bearing_rad": _EKF["sigma_bearing_rad"],
+    "noise_dist": _EKF["noise_dist"],
+    "noise_lat": _EKF["noise_lat"],
+    "noise_rot": _EKF["noise_rot"],
+    "noise_rot_per_m": _EKF["noise_rot_per_m"],
     "particles": 2000,
     "kld": False,
     "init": "laser",
     "init_sigma_xy_m": 0.5,
     "init_sigma_heading_rad": 0.3,
-    "reset_likelihood": 0.01,
+    "reset_likelihood": 0.0,
     "alpha_slow": 0.0,
     "init_fix": "weighted",
     "init_max_sigma_xy_m": 1.5,
     "odometry_scales": True,
-    "scale_sigma_v": 0.05,
-    "scale_sigma_w": 0.05,
-    "scale_walk_v": 0.003,
-    "scale_walk_w": 0.003,
+    "scale_sigma_v": _EKF["scale_sigma_v"],
+    "scale_sigma_w": _EKF["scale_sigma_w"],
+    "scale_walk_v": _EKF["scale_walk_v"],
+    "scale_walk_w": _EKF["scale_walk_w"],
     "start_particles": 20000,
     "start_updates": 10,
     "fix_reset_probability": 0.99,
-    "proposal": "ekf",
+    "proposal": "marginal",
 }
-"""``pf``: camera noise (the EKF's bearing noise: the EKF proposal draws each particle from its
-motion Gaussian updated by the frame's landmarks, so the likelihood may be sharper than the
-particles' spread), motion noise, a fixed 2000 particles, a start around the
-first landmark fix (two landmarks in one frame) with a spread (m, rad) that covers the error of a
-camera fix, sensor resetting only when the mean likelihood per landmark falls below 0.01 per m^2
-(the camera's peak density is a few per m^2, a lost filter's the outlier floor, 0.016 per m^2),
-no augmented-MCL injection (``alpha_slow`` 0): with one landmark in view, which is common,
-the injected particles would be uniform over the room and pull the mean; the weighted landmark
-fix of the EKF for its start and its sensor resets (particles drawn from the fix's covariance
-plus the spread), and per-particle odometry scales (prior 1 +- 0.05, a random walk of 0.003 per
-sqrt(m) and per sqrt(rad)). A uniform start (``init = uniform``, global localisation) weighs
+"""``pf``: Rao-Blackwellised over the pose (``proposal = marginal``): each of 2000 particles is
+an EKF of the pose given its own odometry scales, started at the first weighted landmark fix
+(two landmarks in one frame) with the fix's covariance plus a spread (m, rad), moved by the
+noise-free odometry scaled by its own scales, updated by each camera frame with one Kalman step
+and weighted by the frame's evidence. Its camera and motion noise and its scales' prior
+(1 +- 0.075 and 1 +- 0.15) and random walk (0.01 per sqrt(m) and per sqrt(rad)) are the
+``ekf``'s: a particle's Gaussian is linearised as the EKF's state is, so the EKF's values
+describe it; the particles sample the scales, which the EKF linearises. No likelihood-based
+sensor reset (``reset_likelihood`` 0: the evidence of a frame is spread by each particle's
+Gaussian, which the EKF's heading noise makes wide, so a mean evidence per landmark below a
+fixed density is no sign of a lost filter), no augmented-MCL injection (``alpha_slow`` 0):
+with one landmark in view, which is common, the injected particles would be uniform over the
+room and pull the mean. A uniform start (``init = uniform``, global localisation) weighs
 20 000 particles for its first 10 camera frames before it shrinks to 2000 (2000 over the arena
 leave about one particle per 0.25 m x 0.25 m x 1.5 rad, too few for a 0.0125 rad bearing), and a
 frame that the cloud's mean does not explain, whose landmark fix fits its own measurements but
@@ -109,10 +111,10 @@ _PF_PAPER: dict[str, Any] = {
     "use_ids": True,
     "heading_spread_rad": 0.03,
     "scans": "all",
-    "noise_dist": _PF["noise_dist"],
-    "noise_lat": _PF["noise_lat"],
-    "noise_rot": _PF["noise_rot"],
-    "noise_rot_per_m": _PF["noise_rot_per_m"],
+    "noise_dist": 0.1,
+    "noise_lat": 0.1,
+    "noise_rot": 0.2,
+    "noise_rot_per_m": 0.4,
 }
 """``pf-paper``: the paper's constants (150 particles, eq. 10 with sigma 1 m, 95 % redistributed
 within +-25 cm around the top 25 %, uniform start) with only what this sensor and odometry
@@ -120,8 +122,10 @@ change: the camera reads each landmark's barcode, so landmarks are associated by
 nearest-landmark association mixes up the landmarks of a cluster, 0.18-0.25 m apart, with the
 camera's range errors of 0.1-1 m); the heading spread follows the paper's own rule (a landmark
 at the sensor's range, 8 m here instead of 25 m, moves by the 25 cm position spread); every
-camera frame weighs the particles (there is no NAV poll); and the commanded velocities get the
-``pf``'s motion noise, which the paper's encoder odometry did not need."""
+camera frame weighs the particles (there is no NAV poll); and the commanded velocities get a
+motion noise (m/m, m/m, rad/rad, rad/m), which the paper's encoder odometry did not need (the
+values ``pf`` had while its particles were drawn from its motion model, with which
+``pf-paper``'s figures in docs/mrclam.md were measured)."""
 
 _DEAD_RECKONING: dict[str, Any] = {
     "noise_dist": _EKF["noise_dist"],

@@ -31,6 +31,13 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
   that posterior and weighted by prior x likelihood / proposal
   (:mod:`lgvtool.localize.pf_proposal`), so that a broad prediction (a large heading noise)
   needs no particle in every heading it spans.
+- ``proposal = marginal`` (off by default): Rao-Blackwellised over the pose. As with ``ekf``,
+  each particle carries a Gaussian over its pose, moved by the noise-free odometry (its own
+  odometry scales); a frame's Kalman step moves it to the posterior mean and keeps the
+  posterior covariance instead of drawing from it, and weighs it by the evidence of the
+  frame (the linearised marginal likelihood, corrected at the mean by the outlier mixture).
+  Each particle is then an EKF of the pose conditioned on its own odometry-scale trajectory,
+  and the particles sample what the EKF linearises least well: the scales.
 - pose-only observations: with no reflector scans in the log (or ``observations = poses``) the
   particles are weighed against the NAV head pose with ``sigma_pose_xy_m`` and
   ``sigma_pose_heading_rad`` (and the same outlier mixture).
@@ -159,10 +166,12 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams):
                                       "reset re-draws around the fix", minimum=0.0,
                                       maximum=1.0)
     proposal: str = param("prior", "where a reflector scan's particles are drawn from: prior "
-                          "(the motion model, the particles moved with motion noise) or ekf "
+                          "(the motion model, the particles moved with motion noise), ekf "
                           "(each particle's motion Gaussian updated by the scan's landmarks "
-                          "with one Kalman step, weighted by prior x likelihood / proposal)",
-                          choices=("prior", "ekf"))
+                          "with one Kalman step, weighted by prior x likelihood / proposal) "
+                          "or marginal (that Gaussian kept, not drawn from: each particle an "
+                          "EKF of the pose given its odometry scales, weighted by the scan's "
+                          "evidence)", choices=("prior", "ekf", "marginal"))
     proposal_gate_probability: float = param(0.999, "ekf proposal: a landmark whose squared "
                                              "Mahalanobis distance from a particle's "
                                              "prediction exceeds the chi-square quantile (2 "
@@ -196,8 +205,9 @@ class ParticleFilter(ParticleSet):
         self.s_w = np.zeros(0)
         #: updates left before a large uniform start set shrinks to ``particles``
         self._start_left = 0
-        #: ``proposal = ekf``: each particle's motion noise since its last draw, (N, 3, 3) in
-        #: x m, y m, heading rad (None: zero, the particles are draws)
+        #: ``proposal = ekf``: each particle's motion noise since its last draw; ``marginal``:
+        #: the covariance of each particle's pose Gaussian; (N, 3, 3) in x m, y m, heading rad
+        #: (None: zero, the particles are draws)
         self._pcov: FloatArray | None = None
         #: KLD-sampling's bound for 1, 2, ... occupied bins (the kernels' resampling)
         self._need: FloatArray | None = None
@@ -277,10 +287,13 @@ class ParticleFilter(ParticleSet):
             fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
             if fix is None:
                 return False
-            self.set_particles(*self._around(fix[0], fix[1], p.particles))
+            if p.proposal == "marginal":
+                self._start_gaussian(fix[0], fix[1], p.particles)
+            else:
+                self.set_particles(*self._around(fix[0], fix[1], p.particles))
             self.logw = np.full(len(self.z), -math.log(len(self.z)))
             return True
-        ekf = p.proposal == "ekf"
+        ekf = p.proposal != "prior"
         if isinstance(obs, PoseObservation):
             if ekf:
                 self._draw_prior()
@@ -324,7 +337,7 @@ class ParticleFilter(ParticleSet):
         self._track_likelihood(kind, per_obs)
         n = len(self.z)
         self.last_ess = effective_sample_size(self.w) if ess is None else ess
-        self._cached = self.weighted_pose(self.w) if pose is None else pose
+        self._cached = self._with_spread(self.weighted_pose(self.w) if pose is None else pose)
         self._ref = self._cached[:3]
         lost = 0.0
         if p.recovery and p.reset_likelihood > 0.0:
@@ -342,7 +355,7 @@ class ParticleFilter(ParticleSet):
             self._resample(kind, obs, lost)
             if self.injected != injected:
                 # recovery re-drew particles: the belief, and so the estimate, is the new set
-                self._cached = self.weighted_pose(self.w)
+                self._cached = self._with_spread(self.weighted_pose(self.w))
                 self._ref = self._cached[:3]
         return True
 
@@ -362,25 +375,32 @@ class ParticleFilter(ParticleSet):
     def proposal_loglik(self, obs: ScanObservation) -> tuple[FloatArray, int]:
         """``proposal = ekf``: move every particle to a draw of its :meth:`ekf_proposal`, and
         return the log of its importance weight's factor (prior x likelihood / proposal) and
-        the number of reflectors used."""
+        the number of reflectors used. ``proposal = marginal``: move it to the posterior
+        mean and keep the posterior covariance; the factor is then the frame's evidence
+        (corrected at the mean by the true likelihood over the linearised one)."""
         n = len(self.z)
+        marginal = self.params.proposal == "marginal"
+        post: FloatArray
         if self._kern is not None:
             # the Kalman step, the draw and the correction in one pass
             cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
                 np.zeros((n, 3, 3))
             landmarks = self.scan_residuals(obs, self.params.use_ids) + self.world_points(obs)
             sr, st = self.ray_sigmas(obs)
-            g = self.rng.standard_normal((n, 3))
-            dx, corr = np.empty((n, 3)), np.empty(n)
+            g = np.zeros((n, 3)) if marginal else self.rng.standard_normal((n, 3))
+            dx, corr, post = np.empty((n, 3)), np.empty(n), np.empty((n, 3, 3))
             self._kern.pf_ekf_proposal(
                 self.z, self.rot, np.ascontiguousarray(cov), np.ascontiguousarray(landmarks),
                 np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u.conj()), sr, st,
-                chi2_quantile(self.params.proposal_gate_probability, 2), g, dx, corr)
+                chi2_quantile(self.params.proposal_gate_probability, 2), g, dx, corr, post)
         else:
             prop, _ = self.ekf_proposal(obs)
-            dx = draw(prop, self.rng.standard_normal((n, 3)))
+            dx = prop.d if marginal else draw(prop, self.rng.standard_normal((n, 3)))
             corr = log_weight_correction(prop, dx)
+            post = prop.cov
         self._shift(dx)
+        if marginal:
+            self._pcov = post
         ll, count = self.scan_loglik(obs)
         return ll + corr, count
 
@@ -391,8 +411,18 @@ class ParticleFilter(ParticleSet):
         self._set_headings(self.th + dx[:, 2])
         self._pcov = None
 
+    def _with_spread(self, pose: tuple[float, float, float, FloatArray]
+                     ) -> tuple[float, float, float, FloatArray]:
+        """The weighted ``pose`` of the particles with the weighted mean of their Gaussians'
+        covariances added to its covariance, when the particles are the means of Gaussians
+        (``proposal`` ekf between frames, marginal always)."""
+        if self._pcov is None or len(self._pcov) != len(self.z):
+            return pose
+        x, y, t, c = pose
+        return x, y, t, c + np.einsum("n,nij->ij", self.w, self._pcov)
+
     def _draw_prior(self) -> None:
-        """``proposal = ekf``: draw every particle from its motion Gaussian (for an
+        """``proposal`` ekf or marginal: draw every particle from its Gaussian (for an
         observation the proposal does not use)."""
         if self._pcov is not None and len(self._pcov) == len(self.z):
             self._shift(gaussian_offsets(self._pcov, self.rng.standard_normal((len(self.z), 3))))
@@ -446,17 +476,38 @@ class ParticleFilter(ParticleSet):
             g = self.rng.standard_normal((3, n))
             return (pose[0] + p.init_sigma_xy_m * g[0], pose[1] + p.init_sigma_xy_m * g[1],
                     pose[2] + p.init_sigma_heading_rad * g[2])
-        full = cov + np.diag([p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2,
-                              p.init_sigma_heading_rad ** 2])
+        full = self._start_covariance(cov)
         d = self.rng.multivariate_normal(np.asarray(pose, dtype=np.float64), full, n,
                                          method="cholesky")
         return d[:, 0], d[:, 1], d[:, 2]
+
+    def _start_covariance(self, cov: FloatArray | None) -> FloatArray:
+        """The start spread (``init_sigma_xy_m``, ``init_sigma_heading_rad``) as a covariance
+        (3 x 3: m^2, rad^2), plus the fix's covariance ``cov`` when given."""
+        p = self.params
+        spread = np.diag([p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2,
+                          p.init_sigma_heading_rad ** 2])
+        return spread if cov is None else cov + spread
+
+    def _start_around(self, pose: tuple[float, float, float], n: int) -> None:
+        if self.params.proposal == "marginal":
+            self._start_gaussian(pose, None, n)
+        else:
+            super()._start_around(pose, n)
+
+    def _start_gaussian(self, pose: tuple[float, float, float], cov: FloatArray | None,
+                        n: int) -> None:
+        """``proposal = marginal``: ``n`` particles at ``pose`` (m, m, rad), each carrying the
+        start's Gaussian (:meth:`_start_covariance`) as its own: the EKF's start, the
+        particles differing only in their odometry scales."""
+        self.set_particles(np.full(n, pose[0]), np.full(n, pose[1]), np.full(n, pose[2]))
+        self._pcov = np.repeat(self._start_covariance(cov)[None], n, axis=0)
 
     def predict(self, motion: Motion) -> None:
         p = self.params
         n = len(self.z)
         sigmas = p.noise_sigmas(motion.dist, motion.rot)
-        if p.proposal == "ekf" and n > 0:
+        if p.proposal != "prior" and n > 0:
             self._predict_mean(motion, sigmas)
         elif p.odometry_scales and n > 0:
             self._predict_scaled(motion)
@@ -508,7 +559,7 @@ class ParticleFilter(ParticleSet):
         self._move_ref(motion)
 
     def _predict_mean(self, motion: Motion, sigmas: tuple[float, float, float]) -> None:
-        """``proposal = ekf``: each particle moved by the noise-free odometry motion (scaled by
+        """``proposal`` ekf or marginal: each particle moved by the noise-free odometry motion (scaled by
         its own ``s_v``, ``s_w`` with ``odometry_scales``, then the scales' random walk), its
         motion Gaussian's covariance carried along and the motion noise ``sigmas`` (along m,
         across m, heading rad) added."""
@@ -619,12 +670,19 @@ class ParticleFilter(ParticleSet):
         scaled = p.odometry_scales and len(self.s_v) == len(self.z)
         if scaled:
             self.s_v, self.s_w = self.s_v[idx], self.s_w[idx]
+        gaussians = self._pcov is not None and len(self._pcov) == len(self.z)
+        if gaussians:
+            assert self._pcov is not None
+            self._pcov = self._pcov[idx]
         if n_inject > 0:
             gx, gy, gt = self._recovery_poses(obs, n_inject)
             z[:n_inject] = gx + 1j * gy
             th[:n_inject] = gt
             if scaled:
                 self.s_v[:n_inject], self.s_w[:n_inject] = self._prior_scales(n_inject)
+            if gaussians:
+                assert self._pcov is not None
+                self._pcov[:n_inject] = 0.0   # draws: no spread of their own
             self.injected += n_inject
             self.w_slow[kind] = self.w_fast[kind] = 0.0
         if rot is not None and n_inject == 0:
@@ -659,9 +717,6 @@ class ParticleFilter(ParticleSet):
         if not self.initialized:
             return None
         if self._cached is None:
-            self._cached = self.weighted_pose(self.w)
-            if self._pcov is not None and len(self._pcov) == len(self.z):
-                # the particles are the means of Gaussians: their spread adds
-                x, y, t, c = self._cached
-                self._cached = (x, y, t, c + np.einsum("n,nij->ij", self.w, self._pcov))
+            # the particles may be the means of Gaussians: their spread adds
+            self._cached = self._with_spread(self.weighted_pose(self.w))
         return self._as_estimate(self._cached)

@@ -961,13 +961,15 @@ def _ray_row(z: complex, rot: complex, lm: complex, q: complex, u_conj: complex
 @_jit
 def pf_ekf_proposal(z: ComplexArray, rot: ComplexArray, cov: FloatArray, lm: ComplexArray,
                     q: ComplexArray, u_conj: ComplexArray, sr: FloatArray, st: FloatArray,
-                    gate: float, g: FloatArray, dx: FloatArray, corr: FloatArray) -> None:
+                    gate: float, g: FloatArray, dx: FloatArray, corr: FloatArray,
+                    post: FloatArray) -> None:
     """The EKF proposal of every particle and its draw in one pass
     (:func:`lgvtool.localize.pf_proposal.kalman_proposal`, :func:`~.draw` and
     :func:`~.log_weight_correction`): the Kalman step from ``N(0, cov[n])`` with the ray
     residuals of the landmarks ``lm[n, k]`` inside the chi-square ``gate``, the draw's offset
-    ``dx[n]`` (x m, y m, heading rad) with the standard normals ``g[n]``, and the weight's
-    correction ``corr[n]``."""
+    ``dx[n]`` (x m, y m, heading rad) with the standard normals ``g[n]`` (zeros: the
+    posterior mean), the weight's correction ``corr[n]`` and the posterior covariance
+    ``post[n]`` (3 x 3)."""
     k_n = q.shape[0]
     used = np.empty(k_n, dtype=np.bool_)
     for n in range(z.shape[0]):
@@ -1044,6 +1046,12 @@ def pf_ekf_proposal(z: ComplexArray, rot: ComplexArray, cov: FloatArray, lm: Com
         q01 = 0.5 * (q01 + q10)
         q02 = 0.5 * (q02 + q20)
         q12 = 0.5 * (q12 + q21)
+        post[n, 0, 0] = q00
+        post[n, 1, 1] = q11
+        post[n, 2, 2] = q22
+        post[n, 0, 1] = post[n, 1, 0] = q01
+        post[n, 0, 2] = post[n, 2, 0] = q02
+        post[n, 1, 2] = post[n, 2, 1] = q12
         d0 = -(q00 * b0 + q01 * b1 + q02 * b2)
         d1 = -(q01 * b0 + q11 * b1 + q12 * b2)
         d2 = -(q02 * b0 + q12 * b1 + q22 * b2)

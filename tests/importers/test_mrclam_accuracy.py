@@ -34,9 +34,9 @@ ground truth and from its own start, m: 1.3 x the reference EKF. Measured with s
 
 REFERENCE_EKF_ALL_M = {1: 0.214, 2: 0.233, 3: 0.193, 4: 0.322, 5: 0.185}
 """The dataset's reference EKF position RMSE per robot, m (its README)."""
-TARGET_RATIO = 0.8
-"""The target: the recommended estimator at most this times the reference EKF, on every
-robot."""
+TARGET_RATIO = {"ekf": 0.8, "pf": 0.9}
+"""The targets: the recommended estimator (``ekf``) at most 0.8 times the reference EKF, and
+``pf`` at most 0.9 times, on every robot."""
 
 
 def _metrics() -> ModuleType:
@@ -136,12 +136,13 @@ def test_rmse_only_where_the_ground_truth_exists() -> None:
 @pytest.mark.mrclam
 @pytest.mark.slow
 @pytest.mark.parametrize("start", ["truth", None], ids=["from-truth", "own-start"])
-def test_ekf_meets_the_target_on_every_robot(mrclam_data: Path, tmp_path: Path,
-                                             start: str | None) -> None:
-    """``ekf`` with the profile the importer stores (odometry scales in the state, odometry
-    delayed as the camera shows, a weighted landmark fix to start from), started at the ground
-    truth or from its own start (no truth used), at most 0.8 x the reference EKF at every
-    odometry step on all five robots of Dataset 6."""
+@pytest.mark.parametrize("name", ["ekf", "pf"])
+def test_the_estimator_meets_its_target_on_every_robot(mrclam_data: Path, tmp_path: Path,
+                                                       start: str | None, name: str) -> None:
+    """``ekf`` (and ``pf``) with the profile the importer stores (odometry scales in the
+    state, odometry delayed as the camera shows, a weighted landmark fix to start from),
+    started at the ground truth or from its own start (no truth used), at most 0.8 x (``pf``:
+    0.9 x) the reference EKF at every odometry step on all five robots of Dataset 6."""
     from lgvtool.importers.mrclam_log import import_robot
     from lgvtool.localize import run_replay
     from lgvtool.log import LogReader, topics
@@ -155,15 +156,18 @@ def test_ekf_meets_the_target_on_every_robot(mrclam_data: Path, tmp_path: Path,
         assert 0.15 <= summary.timing["odometry_delay_s"] <= 0.3
         reader = LogReader(log)
         cfg = reader.config()
-        assert cfg.estimators["ekf"]["odometry_scales"] is True
+        assert cfg.estimators[name]["odometry_scales"] is True
         truth = reader.dataframe(topics.TRUTH)[["t", "x", "y", "heading"]]
         odometry = reader.dataframe(topics.ODOM)[["t", "v", "omega"]]
-        assert cfg.estimators["ekf"]["init_fix"] == "weighted"
-        out = run_replay(reader, ["ekf"], seed=0, initial_pose=start, cloud_size=0)
-        traj = acc.calibrated_trajectory(reader, "ekf", out.trajectories["ekf"], config=cfg,
+        assert cfg.estimators[name]["init_fix"] == "weighted"
+        out = run_replay(reader, [name], seed=0, initial_pose=start, cloud_size=0)
+        traj = acc.calibrated_trajectory(reader, name, out.trajectories[name], config=cfg,
                                          seed=0, settings={}, initial_pose=start)
         assert {"scale_v", "scale_w"} <= set(traj.columns)
-        assert traj["scale_v"].between(0.8, 1.1).all() and traj["scale_w"].between(0.8, 1.2).all()
+        # the weighted mean of the pf's turn scales wanders further (Robot2: 0.73-1.25, the
+        # EKF's within 0.8-1.2) while few landmarks are in view: two sigma of its prior
+        low, high = (0.8, 1.2) if name == "ekf" else (0.7, 1.3)
+        assert traj["scale_v"].between(0.8, 1.1).all() and traj["scale_w"].between(low, high).all()
         rmse, steps = m.position_rmse(m.estimates_at_odometry(traj, odometry), truth)
         assert steps > 0.75 * len(odometry)
         # the own start comes within seconds of the first camera frame except on Robot4,
@@ -171,7 +175,7 @@ def test_ekf_meets_the_target_on_every_robot(mrclam_data: Path, tmp_path: Path,
         first_frame = float(reader.dataframe(topics.NAV_REFLECTORS)["t"].iloc[0])
         assert traj["t"].iloc[0] - first_frame <= (60.0 if robot == 4 else 15.0)
         ratios[robot] = rmse / reference
-    assert max(ratios.values()) <= TARGET_RATIO, ratios
+    assert max(ratios.values()) <= TARGET_RATIO[name], ratios
 
 
 
