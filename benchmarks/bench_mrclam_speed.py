@@ -38,7 +38,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-BUDGET_S = 10.0
+BUDGET_S = 5.0
 """Target: import + replay + evaluate of one robot with ``pf`` within this many seconds."""
 
 
