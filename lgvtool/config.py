@@ -87,6 +87,10 @@ class Vehicle:
     """Generic odometry (/odom/twist): the vehicle travels ``odom_scale_v * v``, dimensionless."""
     odom_scale_w: float = 1.0
     """Generic odometry: the vehicle turns ``odom_scale_w * omega``, dimensionless."""
+    odom_yaw_per_m: float = 0.0
+    """Generic odometry: the vehicle also turns this much per metre of reported travel
+    (``odom_yaw_per_m * v`` on top of ``odom_scale_w * omega``), rad/m; positive to the left. A
+    drift to one side while driving straight, as wheels of unequal size give."""
 
     def circle_radius(self, steering_angle: float) -> float:
         """Radius of the circle that O drives at a fixed steering angle, m: R = h / tan(delta)."""

@@ -16,10 +16,10 @@ def calibrate_logs(logs: Sequence[str], output: str, *, config_path: str | None 
                    show_progress: bool = True) -> JobOutput:
     """Estimate the installation (NAV mounting nav_x, nav_y mm and nav_yaw deg, wheel radii
     and track mm, gyro scale and bias deg/s, NAV time offset and pose age ms, or the generic
-    odometry's two scales) from ``logs`` by a batch least squares over the whole drives, and
-    write the starting configuration (``config_path``, default: the first log's) with the
-    calibrated vehicle into ``output`` (TOML; an existing file is replaced only with
-    ``force``, an input never). ``estimate``: the quantities to estimate (default: all the
+    odometry's two scales and its drift deg/m) from ``logs`` by a batch least squares over the
+    whole drives, and write the starting configuration (``config_path``, default: the first
+    log's) with the calibrated vehicle into ``output`` (TOML; an existing file is replaced only
+    with ``force``, an input never). ``estimate``: the quantities to estimate (default: all the
     data has), ``fix``: those held at their starting values, ``observations``: auto, scans or
     poses, ``allow_unobservable``: hold what the drives cannot observe (a warning) instead of
     refusing. ``compare_with`` estimators are replayed (``seed``, ``start_at_truth``) with

@@ -28,10 +28,12 @@ TIME_FLOOR_S = 1e-3
 which no log shows (:mod:`lgvtool.calibrate.drive`), s."""
 
 SCALE_PRIORS: dict[str, dict[str, str]] = {
-    "ekf": {"odom_scale_v": "scale_sigma_v", "odom_scale_w": "scale_sigma_w"}}
+    "ekf": {"odom_scale_v": "scale_sigma_v", "odom_scale_w": "scale_sigma_w"},
+    "pf": {"odom_scale_v": "scale_sigma_v", "odom_scale_w": "scale_sigma_w"}}
 """Estimator -> {calibrated odometry scale: the parameter of its prior's 1-sigma}: the estimators
-whose odometry scales in the state (``odometry_scales``) start from the calibration's
-uncertainty once the odometry is calibrated (:func:`scale_priors`)."""
+whose odometry scales in the state (``odometry_scales``: the EKF's state, each of pf's
+particles) start from the calibration's uncertainty once the odometry is calibrated
+(:func:`scale_priors`)."""
 
 
 @dataclass

@@ -273,14 +273,15 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                 rows.add((b - start["gyro_bias"]) / sp0, -1, np.full(nb, drive.t[0]), d,
                          [(layout.bias_offset[d] + np.arange(nb), 1.0 / sp0)])
         else:
-            sw = _get(layout, "odom_scale_w")
-            pred = sw * drive.turn
+            sw, yaw_m = _get(layout, "odom_scale_w"), _get(layout, "odom_yaw_per_m")
+            pred = sw * drive.turn + yaw_m * drive.dist
             sig3 = (0.005 + noise.odom_turn_per_rad * np.abs(start["odom_scale_w"] * drive.turn)
                     + 0.02 * dist0) * sc["turn"]
             e3 = (dth - pred) / sig3
             rows.add(e3, g["turn"], t_mid, d, [
                 (tk, -1.0 / sig3), (tk1, 1.0 / sig3),
-                (col("odom_scale_w"), -drive.turn / sig3)])
+                (col("odom_scale_w"), -drive.turn / sig3),
+                (col("odom_yaw_per_m"), -drive.dist / sig3)])
         # ---------------------------------------------------------------- observations
         acc = factors.acc[d]
         for kind in ("scan", "pose"):

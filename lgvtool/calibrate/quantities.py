@@ -52,11 +52,13 @@ QUANTITIES: dict[str, Quantity] = {q.name: q for q in (
              "NAV poses beside reflector scans, and turning"),
     Quantity("odom_scale_v", "", 1.0, "twist", 0.05, 1.0, "travel"),
     Quantity("odom_scale_w", "", 1.0, "twist", 0.05, 1.0, "turning"),
+    Quantity("odom_yaw_per_m", "deg/m", 180.0 / math.pi, "twist", math.radians(2.0),
+             math.radians(30.0), "travel, with straight stretches beside the turns"),
 )}
 """Every quantity by name, in the order of the tables."""
 
 GLOBAL = ("nav_x", "nav_y", "nav_yaw", "wheel_radius_left", "wheel_radius_right", "track",
-          "gyro_scale", "nav_time_offset", "odom_scale_v", "odom_scale_w")
+          "gyro_scale", "nav_time_offset", "odom_scale_v", "odom_scale_w", "odom_yaw_per_m")
 """Quantities that are one unknown of the least squares each (``gyro_bias`` is one unknown per
 stretch of each log, ``nav_pose_age`` is fitted after the drive, :mod:`lgvtool.calibrate.solve`)."""
 

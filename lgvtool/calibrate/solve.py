@@ -105,7 +105,7 @@ def odometry_steps(drive: Drive, v: dict[str, float], ppr: int) -> tuple[FloatAr
         dth = np.where(drive.gyro_ok, dth_g, (dr - dl) / v["track"])
     else:
         ds = v["odom_scale_v"] * drive.dist
-        dth = v["odom_scale_w"] * drive.turn
+        dth = v["odom_scale_w"] * drive.turn + v["odom_yaw_per_m"] * drive.dist
     return ds, dth
 
 

@@ -48,9 +48,9 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
               as_json: bool, force: bool, show_progress: bool = True) -> None:
     """Estimate the NAV mounting (nav_x, nav_y mm; nav_yaw deg), the wheel radii and the track
     (mm), the gyro's scale and bias (deg/s), the NAV-to-host time offset and the NAV poses' age
-    (ms), or, with generic odometry, its two scales, from one or more LOGS by a batch least
-    squares over the whole drives, each with its 1-sigma; write them into VEHICLE.toml (the
-    starting configuration with the calibrated vehicle).
+    (ms), or, with generic odometry, its two scales and its drift (deg/m), from one or more
+    LOGS by a batch least squares over the whole drives, each with its 1-sigma; write them
+    into VEHICLE.toml (the starting configuration with the calibrated vehicle).
 
     Prints the estimates and a before/after table of the estimators' errors. Exit 2 for bad
     input, a drive that cannot observe what is asked (unless --allow-unobservable), or an

@@ -3,7 +3,8 @@
 A vehicle configuration may say that the NAV head is turned on its mount (``nav_yaw``, rad),
 that its data reaches the host late (``nav_time_offset``, s), that the gyro has a scale factor
 and a bias (``gyro_scale``, ``gyro_bias`` rad/s) and that generic odometry travels and turns by
-a factor of what it reports (``odom_scale_v``, ``odom_scale_w``). :func:`apply_installation`
+a factor of what it reports (``odom_scale_v``, ``odom_scale_w``) and drifts to one side by
+``odom_yaw_per_m`` rad per metre it reports. :func:`apply_installation`
 turns the logged data into what an ideal installation would have logged:
 
 - NAV poses and scans: their times minus ``nav_time_offset`` (poses also minus
@@ -11,7 +12,7 @@ turns the logged data into what an ideal installation would have logged:
   ``nav_yaw`` (the heading of the vehicle's axes at the head) and every bearing plus ``nav_yaw``
   (bearings from the vehicle's x axis), so that every estimator needs only ``nav_x``, ``nav_y``;
 - MCU gyro rates: ``(rate - gyro_bias) / gyro_scale``;
-- generic odometry: ``v * odom_scale_v``, ``omega * odom_scale_w``.
+- generic odometry: ``v * odom_scale_v``, ``omega * odom_scale_w + v * odom_yaw_per_m``.
 
 With every value at its default the data is returned as it is.
 """
@@ -36,7 +37,8 @@ def is_nominal(vehicle: Vehicle) -> bool:
     return (vehicle.nav_yaw == 0.0 and vehicle.nav_time_offset == 0.0
             and vehicle.nav_pose_age == 0.0
             and vehicle.gyro_scale == 1.0 and vehicle.gyro_bias == 0.0
-            and vehicle.odom_scale_v == 1.0 and vehicle.odom_scale_w == 1.0)
+            and vehicle.odom_scale_v == 1.0 and vehicle.odom_scale_w == 1.0
+            and vehicle.odom_yaw_per_m == 0.0)
 
 
 class CorrectedScans(LazyScans):
@@ -89,9 +91,11 @@ def apply_installation(data: LogData, vehicle: Vehicle) -> LogData:
         mcu = dict(mcu, gyro_rate=(np.asarray(mcu["gyro_rate"], dtype=np.float64)
                                    - vehicle.gyro_bias) / vehicle.gyro_scale)
     twist = data.twist
-    if twist is not None and (vehicle.odom_scale_v != 1.0 or vehicle.odom_scale_w != 1.0):
+    if twist is not None and (vehicle.odom_scale_v != 1.0 or vehicle.odom_scale_w != 1.0
+                              or vehicle.odom_yaw_per_m != 0.0):
         twist = dict(twist, v=twist["v"] * vehicle.odom_scale_v,
-                     omega=twist["omega"] * vehicle.odom_scale_w)
+                     omega=(twist["omega"] * vehicle.odom_scale_w
+                            + twist["v"] * vehicle.odom_yaw_per_m))
     nav = data.nav
     age = off + vehicle.nav_pose_age
     if nav is not None and (age != 0.0 or yaw != 0.0):

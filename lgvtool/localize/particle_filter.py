@@ -559,10 +559,10 @@ class ParticleFilter(ParticleSet):
         self._move_ref(motion)
 
     def _predict_mean(self, motion: Motion, sigmas: tuple[float, float, float]) -> None:
-        """``proposal`` ekf or marginal: each particle moved by the noise-free odometry motion (scaled by
-        its own ``s_v``, ``s_w`` with ``odometry_scales``, then the scales' random walk), its
-        motion Gaussian's covariance carried along and the motion noise ``sigmas`` (along m,
-        across m, heading rad) added."""
+        """``proposal`` ekf or marginal: each particle moved by the noise-free odometry motion
+        (scaled by its own ``s_v``, ``s_w`` with ``odometry_scales``, then the scales' random
+        walk), its Gaussian's covariance carried along and the motion noise ``sigmas`` (along
+        m, across m, heading rad) added."""
         p = self.params
         n = len(self.z)
         body: complex | ComplexArray

@@ -1,9 +1,9 @@
 """Accuracy on real data: ``ekf`` with the log's profile meets the target (at most 0.8 x the
 dataset's reference EKF) on every robot, from the truth and from its own start, ``pf`` (the
 profile's marginal filter, odometry scales per particle) at most 0.9 x on every robot, the
-default ``pf`` on one full MRCLAM robot stays under its bound through ``evaluate``, and the metric of the accuracy benchmark
-(estimates carried through the odometry to every odometry step, with the estimator's odometry
-scales when it has them) is exact on constructed cases.
+default ``pf`` on one full MRCLAM robot stays under its bound through ``evaluate``, and the
+metric of the accuracy benchmark (estimates carried through the odometry to every odometry
+step, with the estimator's odometry scales when it has them) is exact on constructed cases.
 
 Dataset: K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, "The UTIAS multi-robot
 cooperative localization and mapping dataset", IJRR 30(8):969-974, 2011.
