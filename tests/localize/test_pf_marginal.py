@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from localize_synth import small_config
 from test_ekf_scales import TRUE_SCALE_V, TRUE_SCALE_W, run_biased
-from test_pf_proposal import Traced, run_turning, scan_from
+from test_pf_proposal import run_both_paths, run_turning, scan_from
 
 from lgvtool.localize.estimator import Motion
 from lgvtool.localize.particle_filter import ParticleFilter
@@ -144,23 +144,10 @@ def test_the_compiled_marginal_step_matches_the_numpy_path(
     """Same seed: the kernels' Kalman step and posterior covariance give the numpy path's
     estimates within 1e-9 m (rad) and covariances within 1e-12, with the same random
     stream."""
-    pytest.importorskip("numba")
-    from lgvtool.localize.kernel_choice import KERNELS_ENV
-
-    got = {}
-    for mode in ("numpy", "numba"):
-        monkeypatch.setenv(KERNELS_ENV, mode)
-        cfg = small_config(nav_x=0.0)
-        start = (5.0, 5.0, 0.3)
-        pf = Traced(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                    initial_pose=start, rng=np.random.default_rng(8), particles=100,
-                    kld=False, proposal="marginal", odometry_scales=True,
-                    sigma_range_m=0.05, sigma_bearing_rad=0.005, noise_rot=1.0)
-        assert (pf._kern is None) == (mode == "numpy")
-        run_biased(pf, start, 40.0, np.random.default_rng(9), every=8)
-        assert len(pf.trace) > 100 and pf.resamplings > 0
-        assert pf._pcov is not None
-        got[mode] = (np.array(pf.trace), pf._pcov.copy(), pf.rng.bit_generator.state)
-    np.testing.assert_allclose(got["numba"][0], got["numpy"][0], rtol=0.0, atol=1e-9)
-    np.testing.assert_allclose(got["numba"][1], got["numpy"][1], rtol=0.0, atol=1e-12)
-    assert got["numba"][2] == got["numpy"][2]
+    got = run_both_paths(monkeypatch, "marginal", 100)
+    a, b = got["numba"], got["numpy"]
+    assert b.resamplings > 0
+    np.testing.assert_allclose(np.array(a.trace), np.array(b.trace), rtol=0.0, atol=1e-9)
+    assert a._pcov is not None and b._pcov is not None
+    np.testing.assert_allclose(a._pcov, b._pcov, rtol=0.0, atol=1e-12)
+    assert a.rng.bit_generator.state == b.rng.bit_generator.state

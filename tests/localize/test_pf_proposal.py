@@ -246,9 +246,10 @@ class Traced(ParticleFilter):
         return e
 
 
-def test_the_compiled_proposal_matches_the_numpy_path(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Same seed: the kernels' Kalman step, draw and correction give the numpy path's
-    estimates within 1e-9 m (rad), with the same random stream."""
+def run_both_paths(monkeypatch: pytest.MonkeyPatch, proposal: str,
+                   particles: int) -> dict[str, Traced]:
+    """The biased drive of ``test_ekf_scales`` (40 s, a frame every 8 steps) with ``proposal``,
+    seed 8, once on the numpy path and once on the kernels: the two filters by path."""
     pytest.importorskip("numba")
     from lgvtool.localize.kernel_choice import KERNELS_ENV
 
@@ -258,12 +259,20 @@ def test_the_compiled_proposal_matches_the_numpy_path(monkeypatch: pytest.Monkey
         cfg = small_config(nav_x=0.0)
         start = (5.0, 5.0, 0.3)
         pf = Traced(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                    initial_pose=start, rng=np.random.default_rng(8), particles=200,
-                    kld=False, proposal="ekf", odometry_scales=True, sigma_range_m=0.05,
+                    initial_pose=start, rng=np.random.default_rng(8), particles=particles,
+                    kld=False, proposal=proposal, odometry_scales=True, sigma_range_m=0.05,
                     sigma_bearing_rad=0.005, noise_rot=1.0)
         assert (pf._kern is None) == (mode == "numpy")
         run_biased(pf, start, 40.0, np.random.default_rng(9), every=8)
         assert len(pf.trace) > 100
-        got[mode] = (np.array(pf.trace), pf.rng.bit_generator.state)
-    np.testing.assert_allclose(got["numba"][0], got["numpy"][0], rtol=0.0, atol=1e-9)
-    assert got["numba"][1] == got["numpy"][1]
+        got[mode] = pf
+    return got
+
+
+def test_the_compiled_proposal_matches_the_numpy_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Same seed: the kernels' Kalman step, draw and correction give the numpy path's
+    estimates within 1e-9 m (rad), with the same random stream."""
+    got = run_both_paths(monkeypatch, "ekf", 200)
+    np.testing.assert_allclose(np.array(got["numba"].trace), np.array(got["numpy"].trace),
+                               rtol=0.0, atol=1e-9)
+    assert got["numba"].rng.bit_generator.state == got["numpy"].rng.bit_generator.state
