@@ -287,10 +287,7 @@ class ParticleFilter(ParticleSet):
             fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
             if fix is None:
                 return False
-            if p.proposal == "marginal":
-                self._start_gaussian(fix[0], fix[1], p.particles)
-            else:
-                self.set_particles(*self._around(fix[0], fix[1], p.particles))
+            self._start_at(fix[0], fix[1], p.particles)
             self.logw = np.full(len(self.z), -math.log(len(self.z)))
             return True
         ekf = p.proposal != "prior"
@@ -490,16 +487,17 @@ class ParticleFilter(ParticleSet):
         return spread if cov is None else cov + spread
 
     def _start_around(self, pose: tuple[float, float, float], n: int) -> None:
-        if self.params.proposal == "marginal":
-            self._start_gaussian(pose, None, n)
-        else:
-            super()._start_around(pose, n)
+        self._start_at(pose, None, n)
 
-    def _start_gaussian(self, pose: tuple[float, float, float], cov: FloatArray | None,
-                        n: int) -> None:
-        """``proposal = marginal``: ``n`` particles at ``pose`` (m, m, rad), each carrying the
-        start's Gaussian (:meth:`_start_covariance`) as its own: the EKF's start, the
-        particles differing only in their odometry scales."""
+    def _start_at(self, pose: tuple[float, float, float], cov: FloatArray | None,
+                  n: int) -> None:
+        """``n`` particles around ``pose`` (m, m, rad) with the start's Gaussian
+        (:meth:`_start_covariance`, the fix's covariance ``cov`` included when given): drawn
+        from it, or with ``proposal = marginal`` all at ``pose``, each carrying it as its own
+        (the EKF's start; the particles then differ only in their odometry scales)."""
+        if self.params.proposal != "marginal":
+            self.set_particles(*self._around(pose, cov, n))
+            return
         self.set_particles(np.full(n, pose[0]), np.full(n, pose[1]), np.full(n, pose[2]))
         self._pcov = np.repeat(self._start_covariance(cov)[None], n, axis=0)
 
