@@ -290,15 +290,16 @@ class ParticleFilter(ParticleSet):
             self._start_at(fix[0], fix[1], p.particles)
             self.logw = np.full(len(self.z), -math.log(len(self.z)))
             return True
-        ekf = p.proposal != "prior"
+        # ekf or marginal: the particles are the means of Gaussians
+        gaussian = p.proposal != "prior"
         if isinstance(obs, PoseObservation):
-            if ekf:
+            if gaussian:
                 self._draw_prior()
             ll, kind, count = self.pose_loglik(obs), "pose", 1
         else:
             if len(obs) == 0 or len(self.map) == 0:
                 return False
-            ll, count = self.proposal_loglik(obs) if ekf else self.scan_loglik(obs)
+            ll, count = self.proposal_loglik(obs) if gaussian else self.scan_loglik(obs)
             kind = "scan"
         ess: float | None = None
         pose: tuple[float, float, float, FloatArray] | None = None
@@ -668,19 +669,19 @@ class ParticleFilter(ParticleSet):
         scaled = p.odometry_scales and len(self.s_v) == len(self.z)
         if scaled:
             self.s_v, self.s_w = self.s_v[idx], self.s_w[idx]
-        gaussians = self._pcov is not None and len(self._pcov) == len(self.z)
-        if gaussians:
-            assert self._pcov is not None
-            self._pcov = self._pcov[idx]
+        pcov = self._pcov
+        if pcov is not None and len(pcov) == len(self.z):
+            pcov = self._pcov = pcov[idx]
+        else:
+            pcov = None
         if n_inject > 0:
             gx, gy, gt = self._recovery_poses(obs, n_inject)
             z[:n_inject] = gx + 1j * gy
             th[:n_inject] = gt
             if scaled:
                 self.s_v[:n_inject], self.s_w[:n_inject] = self._prior_scales(n_inject)
-            if gaussians:
-                assert self._pcov is not None
-                self._pcov[:n_inject] = 0.0   # draws: no spread of their own
+            if pcov is not None:
+                pcov[:n_inject] = 0.0   # draws: no spread of their own
             self.injected += n_inject
             self.w_slow[kind] = self.w_fast[kind] = 0.0
         if rot is not None and n_inject == 0:
