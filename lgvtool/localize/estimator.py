@@ -173,45 +173,82 @@ class Estimator(ABC):
         """
         n = len(observations)
         moves = _Moves(steps) if steps is not None and self.uses_motion and n > 1 else None
-        ts = np.asarray(times, dtype=np.float64).tolist()
-        # the estimate after each observation, filled in place (no Python object per row)
-        cols = [np.empty(n, dtype=np.float64) for _ in range(4)]  # t, x, y, heading
-        ct, cx, cy, ch = cols
-        covs = np.empty((n, 9), dtype=np.float64)
-        counts = np.empty(n, dtype=np.int64)
-        ess = np.empty(n, dtype=np.float64)
-        k = 0
-        clouds: list[Cloud] = []
-        next_cloud = -math.inf
+        rec = RowRecorder(times, cloud_period_s, cloud_size)
         report = 0
         for i, o in enumerate(observations):
-            if i > 0 and moves is not None:
-                self.predict(Motion(*moves[i - 1]))
-            if o is not None:
-                self.update(o)
-            e = self.estimate()
-            if e is not None:
-                t = ts[i]
-                ct[k], cx[k], cy[k], ch[k] = t, e.x, e.y, e.heading
-                covs[k] = np.asarray(e.covariance, dtype=np.float64).reshape(9)
-                counts[k] = e.particles
-                ess[k] = e.ess
-                k += 1
-                if cloud_size > 0 and t >= next_cloud:
-                    c = self.cloud()
-                    if c is not None:
-                        sel = cloud_sample(len(c[0]), cloud_size)
-                        clouds.append((t, c[0][sel], c[1][sel], c[2][sel]))
-                        next_cloud = t + cloud_period_s
+            self.step(i, o, moves, rec)
             if progress is not None and i - report >= 500:
                 progress(i - report)
                 report = i
         if progress is not None:
             progress(n - report)
-        if k < n:  # rows only from the first estimate on: trim (copies, the rest is freed)
-            ct, cx, cy, ch = (c[:k].copy() for c in cols)
-            covs, counts, ess = covs[:k].copy(), counts[:k].copy(), ess[:k].copy()
-        return EstimateRows(ct, cx, cy, ch, covs, counts, ess, clouds)
+        return rec.rows()
+
+    def step(self, i: int, o: Observation | None, moves: _Moves | None,
+             rec: RowRecorder) -> None:
+        """One step of :meth:`run`: the motion to observation ``i`` (from ``moves``, none for
+        the first), the update with ``o`` (None: none) and the estimate recorded in ``rec``."""
+        if i > 0 and moves is not None:
+            self.predict(Motion(*moves[i - 1]))
+        if o is not None:
+            self.update(o)
+        e = self.estimate()
+        if e is not None:
+            rec.add(i, e)
+            rec.maybe_cloud(i, self)
+
+
+class RowRecorder:
+    """The rows of :meth:`Estimator.run` as they are made: one per observation time with an
+    estimate (at most ``len(times)``), filled in place (no Python object per row), and one
+    particle cloud of at most ``cloud_size`` particles per ``cloud_period_s`` s. The compiled
+    loops write the row arrays themselves from row :attr:`k` on."""
+
+    def __init__(self, times: FloatArray, cloud_period_s: float, cloud_size: int) -> None:
+        n = len(times)
+        f64 = np.float64
+        #: the observation times, s
+        self.times = np.ascontiguousarray(times, dtype=f64)
+        self._tl: list[float] = self.times.tolist()
+        self.t, self.x, self.y, self.heading = (np.empty(n, dtype=f64) for _ in range(4))
+        self.covariance = np.empty((n, 9), dtype=f64)
+        self.particles = np.empty(n, dtype=np.int64)
+        self.ess = np.empty(n, dtype=f64)
+        #: rows filled so far
+        self.k = 0
+        self.clouds: list[Cloud] = []
+        self.cloud_period_s = cloud_period_s
+        self.cloud_size = cloud_size
+        #: the time (s) from which the next cloud is kept (infinite: none is)
+        self.next_cloud = -math.inf if cloud_size > 0 else math.inf
+
+    def add(self, i: int, e: Estimate) -> None:
+        """The row of estimate ``e`` at observation ``i``."""
+        k = self.k
+        self.t[k], self.x[k], self.y[k], self.heading[k] = self._tl[i], e.x, e.y, e.heading
+        self.covariance[k] = np.asarray(e.covariance, dtype=np.float64).reshape(9)
+        self.particles[k] = e.particles
+        self.ess[k] = e.ess
+        self.k = k + 1
+
+    def maybe_cloud(self, i: int, est: Estimator) -> None:
+        """Keep ``est``'s particle cloud at observation ``i`` if one is due."""
+        t = self._tl[i]
+        if t >= self.next_cloud:
+            c = est.cloud()
+            if c is not None:
+                sel = cloud_sample(len(c[0]), self.cloud_size)
+                self.clouds.append((t, c[0][sel], c[1][sel], c[2][sel]))
+                self.next_cloud = t + self.cloud_period_s
+
+    def rows(self) -> EstimateRows:
+        """The rows filled (from the first estimate on: trimmed copies, the rest freed)."""
+        k = self.k
+        cols = (self.t, self.x, self.y, self.heading, self.covariance, self.particles,
+                self.ess)
+        if k < len(self.t):
+            cols = tuple(c[:k].copy() for c in cols)
+        return EstimateRows(*cols, self.clouds)
 
 
 class _Moves:

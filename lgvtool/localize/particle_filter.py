@@ -49,13 +49,15 @@ independent measurements (the likelihood is the product of the per-reflector ter
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.localize.camera_fix import residual_chi2, start_fix
-from lgvtool.localize.estimator import Estimate, Motion, Observation
+from lgvtool.localize.estimator import Estimate, EstimateRows, Motion, Observation
 from lgvtool.localize.kld import bin_keys, kld_bound, kld_count
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
@@ -77,6 +79,9 @@ from lgvtool.localize.resampling import (
     uniform_poses,
 )
 from lgvtool.quantiles import chi2_quantile
+
+if TYPE_CHECKING:
+    from lgvtool.localize.motion import Deltas
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -333,10 +338,18 @@ class ParticleFilter(ParticleSet):
             self.logw = np.log(np.maximum(self.w, 1e-300))
         per_obs = log_avg / count
         self._track_likelihood(kind, per_obs)
-        n = len(self.z)
         self.last_ess = effective_sample_size(self.w) if ess is None else ess
         self._cached = self._with_spread(self.weighted_pose(self.w) if pose is None else pose)
         self._ref = self._cached[:3]
+        self._after_weigh(kind, obs, per_obs)
+        return True
+
+    def _after_weigh(self, kind: str, obs: Observation, per_obs: float) -> None:
+        """The end of :meth:`update` once the particles are weighed (the log-likelihood
+        ``per_obs`` per measurement): the resampling when due, with recovery's re-drawn
+        particles."""
+        p = self.params
+        n = len(self.z)
         lost = 0.0
         if p.recovery and p.reset_likelihood > 0.0:
             lost = max(0.0, 1.0 - math.exp(min(per_obs, 700.0)) / p.reset_likelihood)
@@ -355,7 +368,6 @@ class ParticleFilter(ParticleSet):
                 # recovery re-drew particles: the belief, and so the estimate, is the new set
                 self._cached = self._with_spread(self.weighted_pose(self.w))
                 self._ref = self._cached[:3]
-        return True
 
     def ekf_proposal(self, obs: ScanObservation) -> tuple[Proposal, FloatArray]:
         """Every particle's motion Gaussian updated by the landmarks of ``obs`` (linearised at
@@ -501,6 +513,19 @@ class ParticleFilter(ParticleSet):
             return
         self.set_particles(np.full(n, pose[0]), np.full(n, pose[1]), np.full(n, pose[2]))
         self._pcov = np.repeat(self._start_covariance(cov)[None], n, axis=0)
+
+    def run(self, times: FloatArray, observations: Sequence[Observation | None],
+            steps: Deltas | None, *, progress: Callable[[int], None] | None = None,
+            cloud_period_s: float = 2.0, cloud_size: int = 50) -> EstimateRows:
+        """:meth:`Estimator.run`, its tracking of reflector scans in compiled chunks when the
+        settings allow (:mod:`lgvtool.localize.pf_run`: the same rows and random stream)."""
+        from lgvtool.localize import pf_run
+
+        if not pf_run.tracks_in_kernel(self):
+            return super().run(times, observations, steps, progress=progress,
+                               cloud_period_s=cloud_period_s, cloud_size=cloud_size)
+        return pf_run.track(self, times, observations, steps, progress=progress,
+                            cloud_period_s=cloud_period_s, cloud_size=cloud_size)
 
     def predict(self, motion: Motion) -> None:
         p = self.params

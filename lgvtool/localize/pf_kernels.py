@@ -29,6 +29,7 @@ import numba
 import numba.extending
 import numpy as np
 from llvmlite import ir as llvm_ir
+from numba.np.random.generator_core import next_uint32
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
@@ -915,6 +916,254 @@ def pf_kld_resample(w: FloatArray, u0: float, perm: IntArray, need: FloatArray, 
         th_out[i] = _wrap_pi(th[s])
         rot_out[i] = rot[s]
     return int(n)
+
+
+# ---------------------------------------------------------------------------- pf, a run of scans
+#: why :func:`pf_track` returned: every observation of the chunk done
+TRACK_DONE = 0
+#: observation ``j`` needs the filter's own step (not a scan)
+TRACK_STEP = 1
+#: observation ``j`` moved and weighed; its resampling may re-draw particles (recovery), which
+#: the filter does itself
+TRACK_RESAMPLE = 2
+#: the row of observation ``j - 1`` recorded and a particle cloud due
+TRACK_CLOUD = 3
+
+#: entries of :func:`pf_track`'s ``state``: the likelihood averages, whether they were
+#: updated, the last ESS, the reference pose (a flag, x m, y m, heading rad), the cached
+#: estimate (a flag, x m, y m, heading rad, its covariance row-major), the resamplings done and
+#: the last update's log-likelihood per measurement
+ST_SLOW, ST_FAST, ST_TRACKED, ST_ESS = 0, 1, 2, 3
+ST_REF = 4
+ST_CACHED = 8
+ST_RESAMPLINGS = 21
+ST_PER_OBS = 22
+ST_SIZE = 23
+#: entries of ``prm``
+PRM_SIZE = 12
+#: entries of ``flags``: use_ids, outlier, recovery, resample always, kld, min particles,
+#: particles
+FLAGS_SIZE = 7
+
+
+@_jit
+def _permutation(rng: np.random.Generator, n: int) -> IntArray:
+    """``rng.permutation(n)`` for ``n < 2^32``: the same numbers, drawn the same way (NumPy's
+    Fisher-Yates shuffle of ``arange(n)`` from the end, each index by ``random_interval``:
+    the masked 32-bit draws of the bit generator, rejected above the bound), in a sixth of the
+    time of numba's own method (which swaps through array views)."""
+    p = np.arange(n)
+    bg = rng.bit_generator
+    for i in range(n - 1, 0, -1):
+        bound = np.uint64(i)
+        mask = bound
+        for shift in (1, 2, 4, 8, 16, 32):
+            mask |= mask >> np.uint64(shift)
+        v = np.uint64(next_uint32(bg)) & mask
+        while v > bound:
+            v = np.uint64(next_uint32(bg)) & mask
+        j = np.intp(v)
+        t = p[i]
+        p[i] = p[j]
+        p[j] = t
+    return p
+
+
+@_jit
+def _motion_step(rng: np.random.Generator, z: ComplexArray, th: FloatArray, rot: ComplexArray,
+                 dx: float, dy: float, dth: float, sa: float, sl: float, st: float,
+                 z_out: ComplexArray, th_out: FloatArray, rot_out: ComplexArray) -> None:
+    """``pf``'s prediction of one motion (body frame: ``dx``, ``dy`` m, ``dth`` rad; noise
+    ``sa``, ``sl`` m, ``st`` rad) from ``z``, ``th``, ``rot`` into the outputs: with noise
+    :func:`pf_predict` with the numpy path's ``rng.standard_normal((3, n))``; without, the
+    numpy path's noise-free step (the headings not wrapped)."""
+    n = z.shape[0]
+    if sa != 0.0 or sl != 0.0 or st != 0.0:
+        g = rng.standard_normal((3, n))
+        pf_predict(z, th, rot, g, dx, dy, dth, sa, sl, st, z_out, th_out, rot_out)
+        return
+    step = complex(dx, dy)
+    turn = complex(math.cos(dth), math.sin(dth))
+    for i in range(n):
+        z_out[i] = z[i] + rot[i] * step
+        th_out[i] = th[i] + dth
+        rot_out[i] = rot[i] * turn
+
+
+@_jit
+def _reference(state: FloatArray, z: ComplexArray, th: FloatArray, w: FloatArray
+               ) -> tuple[float, float, float]:
+    """The reference pose of the association (x m, y m, heading rad): the state's, else the
+    heaviest particle's (the first of equals, as ``np.argmax``)."""
+    if state[ST_REF] != 0.0:
+        return state[ST_REF + 1], state[ST_REF + 2], state[ST_REF + 3]
+    best = 0
+    for i in range(w.shape[0]):
+        if w[i] > w[best]:
+            best = i
+    return z[best].real, z[best].imag, th[best]
+
+
+@_jit
+def _cache(state: FloatArray, x: float, y: float, t: float, cov: FloatArray) -> None:
+    """Store the estimate (x, y m, heading rad, covariance 3 x 3) in ``state``."""
+    state[ST_CACHED] = 1.0
+    state[ST_CACHED + 1] = x
+    state[ST_CACHED + 2] = y
+    state[ST_CACHED + 3] = t
+    for r in range(3):
+        for c in range(3):
+            state[ST_CACHED + 4 + 3 * r + c] = cov[r, c]
+
+
+@_jit
+def pf_track(rng: np.random.Generator, z: ComplexArray, th: FloatArray, rot: ComplexArray,
+             w: FloatArray, logw: FloatArray, cap: int, state: FloatArray,
+             kinds: NDArray[np.int8], offs: IntArray, q: ComplexArray, u: ComplexArray,
+             ranges: FloatArray, jidx: IntArray, j0: int, i0: int, moving: bool,
+             times: FloatArray, mdx: FloatArray, mdy: FloatArray, mdth: FloatArray,
+             msa: FloatArray, msl: FloatArray, mst: FloatArray, map_z: ComplexArray,
+             half_sep: FloatArray, prm: FloatArray, flags: IntArray, need: FloatArray,
+             next_cloud: float, rows_t: FloatArray, rows_x: FloatArray, rows_y: FloatArray,
+             rows_h: FloatArray, rows_cov: FloatArray, rows_n: IntArray, rows_ess: FloatArray,
+             k: int) -> tuple[int, int, int, ComplexArray, FloatArray, ComplexArray,
+                              FloatArray, FloatArray]:
+    """``pf``'s predict, update and estimate over a chunk of observations in one call, from
+    chunk entry ``j0`` (observation ``i0 + j0`` of the run): the same steps, with the same
+    random numbers drawn from ``rng`` in the same order, as the filter's ``predict``,
+    ``update`` (reflector scans; log weights, low-variance resampling with or without
+    KLD-sampling, recovery's likelihood averages) and ``estimate``.
+
+    Chunk entry ``j``: ``kinds[j]`` 0 (no observation: only move), 1 (a scan: points
+    ``offs[j]:offs[j + 1]`` of ``q``, ``u`` (body frame), ``ranges`` (m) and ``jidx`` (map
+    index, -1 unknown)) or 2 (anything else: returns :data:`TRACK_STEP`). The motion into
+    observation ``i`` is entry ``i - 1`` of ``mdx``, ``mdy`` (m), ``mdth`` (rad) and of its
+    noise ``msa``, ``msl`` (m), ``mst`` (rad) when ``moving``. ``prm``: sigma_range,
+    its square, sigma_range_per_m, sigma_bearing, the outlier mixture's two log weights,
+    alpha_slow, alpha_fast, reset_likelihood, ess_threshold, the KLD bins (m, rad);
+    ``flags``: :data:`FLAGS_SIZE`; ``need``: KLD's bound for 1 to ``cap`` bins; ``state``:
+    :data:`ST_SIZE` entries, read and updated. Each estimate is written as row ``k`` on of the
+    ``rows_*`` arrays (time s, pose m m rad, covariance row-major, count, ESS).
+
+    Returns why it stopped (``TRACK_*``), the chunk entry to go on with, the next row and the
+    particles and weights (``z``, ``th``, ``rot``, ``w``, ``logw``, new arrays)."""
+    size = max(cap, z.shape[0])
+    n = z.shape[0]
+    za, zb = np.empty(size, dtype=np.complex128), np.empty(size, dtype=np.complex128)
+    ra, rb = np.empty(size, dtype=np.complex128), np.empty(size, dtype=np.complex128)
+    tha, thb = np.empty(size), np.empty(size)
+    wa, wb = np.empty(size), np.empty(size)
+    la, lb = np.empty(size), np.empty(size)
+    idx = np.empty(size, dtype=np.intp)
+    ll = np.empty(size)
+    cov = np.empty((3, 3))
+    za[:n] = z
+    ra[:n] = rot
+    tha[:n] = th
+    wa[:n] = w
+    la[:n] = logw
+    use_ids = flags[0] != 0
+    outlier = flags[1] != 0
+    recovery = flags[2] != 0
+    always = flags[3] != 0
+    kld = flags[4] != 0
+    n_min = flags[5]
+    particles = flags[6]
+    status = TRACK_DONE
+    j = j0
+    while j < kinds.shape[0]:
+        kind = kinds[j]
+        if kind == 2:
+            status = TRACK_STEP
+            break
+        i = i0 + j
+        if i > 0 and moving:
+            s = i - 1
+            _motion_step(rng, za[:n], tha[:n], ra[:n], mdx[s], mdy[s], mdth[s], msa[s],
+                         msl[s], mst[s], zb[:n], thb[:n], rb[:n])
+            za, zb = zb, za
+            tha, thb = thb, tha
+            ra, rb = rb, ra
+            if state[ST_REF] != 0.0:
+                x = state[ST_REF + 1]
+                y = state[ST_REF + 2]
+                t = state[ST_REF + 3]
+                c0 = math.cos(t)
+                s0 = math.sin(t)
+                state[ST_REF + 1] = x + c0 * mdx[s] - s0 * mdy[s]
+                state[ST_REF + 2] = y + s0 * mdx[s] + c0 * mdy[s]
+                state[ST_REF + 3] = t + mdth[s]
+            state[ST_CACHED] = 0.0
+        a = offs[j]
+        b = offs[j + 1]
+        if kind == 1 and b > a:
+            rx, ry, rt = _reference(state, za[:n], tha[:n], wa[:n])
+            pf_scan(za[:n], ra[:n], q[a:b], u[a:b], ranges[a:b], jidx[a:b], complex(rx, ry),
+                    complex(math.cos(rt), math.sin(rt)), map_z, half_sep, prm[0], prm[1],
+                    prm[2], prm[3], use_ids, outlier, prm[4], prm[5], ll[:n])
+            log_avg, ess, x, y, t = pf_weigh(la[:n], ll[:n], za[:n], ra[:n], wb[:n], lb[:n],
+                                             cov)
+            if math.isfinite(log_avg):
+                wa, wb = wb, wa
+                la, lb = lb, la
+                per_obs = log_avg / (b - a)
+                w_avg = math.exp(max(per_obs, -700.0))
+                slow = state[ST_SLOW]
+                fast = state[ST_FAST]
+                state[ST_SLOW] = slow + prm[6] * (w_avg - slow)
+                state[ST_FAST] = fast + prm[7] * (w_avg - fast)
+                state[ST_TRACKED] = 1.0
+                state[ST_ESS] = ess
+                _cache(state, x, y, t, cov)
+                state[ST_REF] = 1.0
+                state[ST_REF + 1] = x
+                state[ST_REF + 2] = y
+                state[ST_REF + 3] = t
+                lost = 0.0
+                if recovery and prm[8] > 0.0:
+                    lost = max(0.0, 1.0 - math.exp(min(per_obs, 700.0)) / prm[8])
+                if lost > 0.0 or always or ess < prm[9] * n:
+                    if recovery:
+                        frac = lost
+                        if state[ST_SLOW] > 0.0:
+                            frac = max(frac, 1.0 - state[ST_FAST] / state[ST_SLOW])
+                        if frac * (cap if kld else particles) >= 0.5:
+                            # some particles may be re-drawn: the filter resamples itself
+                            state[ST_PER_OBS] = per_obs
+                            status = TRACK_RESAMPLE
+                            break
+                    if kld:
+                        u0 = rng.random()
+                        perm = _permutation(rng, cap)
+                        n = pf_kld_resample(wa[:n], u0, perm, need, n_min, prm[10], prm[11],
+                                            za[:n], tha[:n], ra[:n], zb, thb, rb, idx)
+                    else:
+                        low_variance_gather(wa[:n], rng.random(), particles, za[:n], tha[:n],
+                                            ra[:n], zb, thb, rb, idx, True)
+                        n = particles
+                    za, zb = zb, za
+                    tha, thb = thb, tha
+                    ra, rb = rb, ra
+                    wa[:n] = 1.0 / n
+                    la[:n] = -math.log(n)
+                    state[ST_RESAMPLINGS] += 1.0
+        if state[ST_CACHED] == 0.0:
+            x, y, t = weighted_pose(za[:n], ra[:n], wa[:n], cov)
+            _cache(state, x, y, t, cov)
+        rows_t[k] = times[i]
+        rows_x[k] = state[ST_CACHED + 1]
+        rows_y[k] = state[ST_CACHED + 2]
+        rows_h[k] = state[ST_CACHED + 3]
+        for c in range(9):
+            rows_cov[k, c] = state[ST_CACHED + 4 + c]
+        rows_n[k] = n
+        rows_ess[k] = state[ST_ESS]
+        k += 1
+        j += 1
+        if times[i] >= next_cloud:
+            status = TRACK_CLOUD
+            break
+    return status, j, k, za[:n], tha[:n], ra[:n], wa[:n], la[:n]
 
 
 # ---------------------------------------------------------------------------- pf, ekf proposal

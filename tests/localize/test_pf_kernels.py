@@ -1,5 +1,6 @@
-"""The particle filters' compiled kernels against their numpy path (the reference), and the
-paper filter's block path against its predict / update / estimate steps (pf has one path).
+"""The particle filters' compiled kernels against their numpy path (the reference), and both
+filters' compiled runs (the paper filter's blocks, pf's chunks) against their predict /
+update / estimate steps.
 
 Same seed, same machine: the random stream is the same on both paths (checked on the
 generator's state after the run), the estimates agree within 1e-9 m (rad), and the paper
@@ -116,6 +117,82 @@ def test_kernels_match_the_numpy_path(monkeypatch: pytest.MonkeyPatch, name: str
     if name == "pf":
         assert fast_est.resamplings == ref_est.resamplings > 0  # type: ignore[attr-defined]
     _close(fast, ref)
+
+
+PF_RUN_SETTINGS = [
+    *PF_SETTINGS[:3],
+    # recovery re-draws particles at most resamplings here: the kernel hands them back
+    {"alpha_fast": 0.5, "alpha_slow": 0.01, "particles": 400},
+    {"init": "uniform", "start_particles": 3000, "start_updates": 5},
+]
+
+
+@pytest.mark.parametrize("settings", PF_RUN_SETTINGS)
+def test_pf_run_equals_its_steps(monkeypatch: pytest.MonkeyPatch,
+                                 settings: dict[str, Any]) -> None:
+    """pf's run with its tracking in compiled chunks against predict / update / estimate in
+    turn (the kernels in both): bit for bit, the same random stream, the same resamplings and
+    re-drawn particles."""
+    from lgvtool.localize import pf_run
+
+    chunks, chunks_state, chunks_est = _run(monkeypatch, "numba", "pf", settings)
+    assert pf_run.tracks_in_kernel(chunks_est)
+    steps, steps_state, steps_est = _run(monkeypatch, "numba", "pf", settings, steps_only=True)
+    assert chunks_state == steps_state
+    assert chunks_est.resamplings == steps_est.resamplings > 0  # type: ignore[attr-defined]
+    assert chunks_est.injected == steps_est.injected  # type: ignore[attr-defined]
+    assert chunks_est.w_slow == steps_est.w_slow  # type: ignore[attr-defined]
+    assert len(chunks.x) > 50
+    _same(chunks, steps)
+
+
+def test_pf_run_hands_back_what_it_does_not_track(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The chunks hand recovery's resamplings to the filter (some particles re-drawn on this
+    drive), and a run over NAV poses and scans mixed (``observations = both``) goes step by
+    step for the poses: the rows and random stream of the step-by-step loop."""
+    settings = {"alpha_fast": 0.5, "alpha_slow": 0.01, "particles": 400}
+    _, _, est = _run(monkeypatch, "numba", "pf", settings)
+    assert est.injected > 0  # type: ignore[attr-defined]
+    monkeypatch.setenv(KERNELS_ENV, "numba")
+    data, _, cfg = circle_log(30.0, ids=True)
+    cls = ESTIMATORS["pf"]
+    params = resolve_params("pf", {}, {"observations": "both"})
+    ms = params.motion_settings()
+    track = MotionTrack(data.increments(ms, cfg.vehicle), ms.step_form)
+    obs, _ = _observations(data, cls, params, track, cfg.vehicle, start_poses=False)
+    kinds = {type(o).__name__ for o in obs}
+    assert kinds == {"PoseObservation", "ScanObservation"}
+    times = np.array([o.t for o in obs])
+    steps = track.deltas(times[:-1], times[1:])
+    out = []
+    for run in (cls.run, Estimator.run):
+        est = cls(params, vehicle=cfg.vehicle, reflectors=data.reflectors, area=cfg.area,
+                  rng=estimator_rng(5, "pf"))
+        out.append((run(est, times, list(obs), steps, cloud_size=20),
+                    est.rng.bit_generator.state))
+    assert out[0][1] == out[1][1]
+    _same(out[0][0], out[1][0])
+
+
+def test_pf_run_without_motion_noise(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Motions without noise (a vehicle standing still: every sigma 0) are the filter's
+    noise-free step in the chunks too (within :data:`TOL`: NumPy's complex product may fuse
+    its multiply-adds)."""
+    settings = {"noise_dist": 0.0, "noise_lat": 0.0, "noise_rot": 0.0, "noise_rot_per_m": 0.0}
+    chunks, chunks_state, _ = _run(monkeypatch, "numba", "pf", settings)
+    steps, steps_state, _ = _run(monkeypatch, "numba", "pf", settings, steps_only=True)
+    assert chunks_state == steps_state
+    _close(chunks, steps)
+
+
+def test_permutation_kernel_is_numpys() -> None:
+    """The kernels' permutation: NumPy's numbers, and the generator left in NumPy's state."""
+    from lgvtool.localize import pf_kernels as k
+
+    for n in (1, 2, 3, 255, 256, 2000, 70_000):
+        a, b = np.random.default_rng(n), np.random.default_rng(n)
+        assert np.array_equal(k._permutation(a, n), b.permutation(n))
+        assert a.bit_generator.state == b.bit_generator.state
 
 
 def test_pf_draws_in_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
