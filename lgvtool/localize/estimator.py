@@ -244,11 +244,12 @@ class RowRecorder:
     def rows(self) -> EstimateRows:
         """The rows filled (from the first estimate on: trimmed copies, the rest freed)."""
         k = self.k
-        cols = (self.t, self.x, self.y, self.heading, self.covariance, self.particles,
-                self.ess)
-        if k < len(self.t):
-            cols = tuple(c[:k].copy() for c in cols)
-        return EstimateRows(*cols, self.clouds)
+        if k == len(self.t):
+            return EstimateRows(self.t, self.x, self.y, self.heading, self.covariance,
+                                self.particles, self.ess, self.clouds)
+        return EstimateRows(self.t[:k].copy(), self.x[:k].copy(), self.y[:k].copy(),
+                            self.heading[:k].copy(), self.covariance[:k].copy(),
+                            self.particles[:k].copy(), self.ess[:k].copy(), self.clouds)
 
 
 class _Moves:

@@ -353,8 +353,9 @@ class ParticleFilter(ParticleSet):
         lost = 0.0
         if p.recovery and p.reset_likelihood > 0.0:
             lost = max(0.0, 1.0 - math.exp(min(per_obs, 700.0)) / p.reset_likelihood)
+        cloud = self._cached
         if p.recovery and p.fix_reset_probability > 0.0 and kind == "scan" and \
-                self._fix_disagrees(obs, self._cached):
+                cloud is not None and self._fix_disagrees(obs, cloud):
             lost = max(lost, p.fix_reset_fraction)
         shrink = False
         if self._start_left > 0:

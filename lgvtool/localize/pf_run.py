@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from itertools import islice
-from types import ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -100,7 +99,8 @@ def track(pf: ParticleFilter, times: FloatArray,
             if status == kern.TRACK_RESAMPLE:
                 # moved and weighed: the filter resamples (recovery may re-draw particles),
                 # then the row as the step records it
-                assert isinstance(o := chunk[j], ScanObservation)
+                o = chunk[j]
+                assert isinstance(o, ScanObservation)
                 pf._after_weigh("scan", o, float(state[kern.ST_PER_OBS]))
                 e = pf.estimate()
                 assert e is not None
