@@ -35,6 +35,7 @@ import numpy as np
 
 from lgvtool.angles import wrap_angle, wrap_scalar
 from lgvtool.localize.camera_fix import start_fix
+from lgvtool.localize.chunks import KIND_OTHER, chunks, scan_chunk
 from lgvtool.localize.estimator import Estimate, EstimateRows, Estimator, Motion, Observation
 from lgvtool.localize.kernel_choice import compiled
 from lgvtool.localize.noise import MotionParams
@@ -262,37 +263,44 @@ class GaussianPoseEstimator(Estimator):
         counts = np.zeros(2, dtype=np.int64)
         mx, my = np.ascontiguousarray(self.map.x), np.ascontiguousarray(self.map.y)
         mids = np.ascontiguousarray(self.map.ids, dtype=np.int64)
-        no_c, no_f, no_i = np.zeros(0, np.complex128), np.zeros(0, f64), np.zeros(0, np.int64)
         rows = (ct, cx, cy, ch, covs)
-        k = report = 0
+        k = report = i0 = 0
         tl = ts.tolist()
-        for i, o in enumerate(observations):
-            if progress is not None and i - report >= 500:
-                progress(i - report)
-                report = i
-            if self.mu is None:  # not started: predictions are no-ops until then
-                if o is not None:
-                    self.update(o)
-                if self.mu is not None:
+        coasted = False
+        for chunk in chunks(observations):
+            c = scan_chunk(chunk, lambda o: o.ids)
+            j = 0
+            while j < len(chunk) and not coasted:
+                i = i0 + j
+                o = chunk[j]
+                if self.mu is None:  # not started: predictions are no-ops until then
+                    if o is not None:
+                        self.update(o)
+                    if self.mu is not None:
+                        kern._record(self.mu, self.P, tl[i], k, *rows)
+                        k += 1
+                    j += 1
+                elif not self.corrects:
+                    k = kern.coast(self.mu, self.P, i, *moves, prm, ts, k, *rows)
+                    coasted = True
+                elif c.kinds[j] == KIND_OTHER:
+                    if moving and i > 0:
+                        kern._predict(self.mu, self.P, *(float(a[i - 1]) for a in moves), prm)
+                    self.update(o)  # type: ignore[arg-type]
                     kern._record(self.mu, self.P, tl[i], k, *rows)
                     k += 1
-                continue
-            if not self.corrects:
-                k = kern.coast(self.mu, self.P, i, *moves, prm, ts, k, *rows)
+                    j += 1
+                else:
+                    # the scans and times without an observation from here, in one call
+                    j, k = kern.track(self.mu, self.P, j, i0, *moves, c.kinds, c.offs, c.q,
+                                      c.u, c.ranges, c.ints, mx, my, mids, prm, counts, ts, k,
+                                      *rows)
+            i0 += len(chunk)
+            if progress is not None and i0 - report >= 500:
+                progress(i0 - report)
+                report = i0
+            if coasted:
                 break
-            move = i - 1 if moving and i > 0 else -1
-            if isinstance(o, ScanObservation):
-                kern.step(self.mu, self.P, move, *moves, True, o.q, o.u, o.ranges, o.ids, mx,
-                          my, mids, prm, counts, tl[i], k, *rows)
-            elif o is None:
-                kern.step(self.mu, self.P, move, *moves, False, no_c, no_c, no_f, no_i, mx,
-                          my, mids, prm, counts, tl[i], k, *rows)
-            else:
-                if move >= 0:
-                    kern._predict(self.mu, self.P, *(float(a[move]) for a in moves), prm)
-                self.update(o)
-                kern._record(self.mu, self.P, tl[i], k, *rows)
-            k += 1
         self._count_kernel_updates(int(counts[0]), int(counts[1]))
         if progress is not None:
             progress(n - report)

@@ -283,6 +283,34 @@ def step(mu: FloatArray, P: FloatArray, i_move: int, dx: FloatArray, dy: FloatAr
 
 
 @_jit
+def track(mu: FloatArray, P: FloatArray, j0: int, i0: int, dx: FloatArray, dy: FloatArray,
+          dth: FloatArray, dist: FloatArray, rot: FloatArray, kinds: NDArray[np.int8],
+          offs: IntArray, q: ComplexArray, u: ComplexArray, ranges: FloatArray,
+          ids: IntArray, map_x: FloatArray, map_y: FloatArray, map_ids: IntArray,
+          prm: FloatArray, counts: IntArray, times: FloatArray, k: int, ct: FloatArray,
+          cx: FloatArray, cy: FloatArray, ch: FloatArray, covs: FloatArray
+          ) -> tuple[int, int]:
+    """:func:`step` for the entries of a chunk (:func:`lgvtool.localize.chunks.scan_chunk`)
+    from ``j0`` on (observation ``i0 + j0`` of the run; ``dx[i - 1]`` moves to observation
+    ``i``, no motion when ``dx`` is empty), as long as they are scans (kind 1: points
+    ``offs[j]:offs[j + 1]`` of ``q``, ``u``, ``ranges`` m and reflector ``ids``) or times
+    without one (kind 0). Returns the entry it stopped at (another kind, or the chunk's end)
+    and the next free row."""
+    moving = dx.shape[0] > 0
+    j = j0
+    while j < kinds.shape[0] and kinds[j] != 2:
+        i = i0 + j
+        a = offs[j]
+        b = offs[j + 1]
+        step(mu, P, i - 1 if moving and i > 0 else -1, dx, dy, dth, dist, rot, kinds[j] == 1,
+             q[a:b], u[a:b], ranges[a:b], ids[a:b], map_x, map_y, map_ids, prm, counts,
+             times[i], k, ct, cx, cy, ch, covs)
+        k += 1
+        j += 1
+    return j, k
+
+
+@_jit
 def coast(mu: FloatArray, P: FloatArray, first: int, dx: FloatArray, dy: FloatArray,
           dth: FloatArray, dist: FloatArray, rot: FloatArray, prm: FloatArray,
           times: FloatArray, k: int, ct: FloatArray, cx: FloatArray, cy: FloatArray,

@@ -2,13 +2,14 @@
 
 The filter's ``predict``, ``update`` and ``estimate`` cost about 40 us of Python per
 observation around kernels of about 10 us. Here the observations go a chunk at a time
-(:data:`CHUNK`) to one kernel call (:func:`lgvtool.localize.pf_kernels.pf_track`) that moves,
-weighs, resamples and records the estimate of each in turn, drawing the same random numbers
-in the same order. The kernel hands an observation back to the filter's own step when that
-step needs what only the Python side does: an observation other than a reflector scan, the
-start, a uniform start set still shrinking, or a resampling that recovery may use to re-draw
-particles (about 1 in 500 resamplings on the paper's drive). It returns too whenever a
-particle cloud is due. The rows, clouds and random stream are those of the step-by-step loop
+(:mod:`lgvtool.localize.chunks`) to one kernel call
+(:func:`lgvtool.localize.pf_kernels.pf_track`) that moves, weighs, resamples and records the
+estimate of each in turn, drawing the same random numbers in the same order. The kernel hands
+an observation back to the filter's own step when that step needs what only the Python side
+does: an observation other than a reflector scan, the start, a uniform start set still
+shrinking, or a resampling that recovery may use to re-draw particles (about 1 in 500
+resamplings on the paper's drive). It returns too whenever a particle cloud is due. The rows,
+clouds and random stream are those of the step-by-step loop
 (``tests/localize/test_pf_kernels.py``).
 """
 
@@ -16,12 +17,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from itertools import islice
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.localize.chunks import KIND_OTHER, chunks, scan_chunk
 from lgvtool.localize.estimator import EstimateRows, Observation, RowRecorder, _Moves
 from lgvtool.localize.observations import ScanObservation
 
@@ -30,10 +31,6 @@ if TYPE_CHECKING:
     from lgvtool.localize.particle_filter import ParticleFilter
 
 FloatArray = NDArray[np.float64]
-
-#: observations handed to one kernel call
-CHUNK = 512
-
 
 def tracks_in_kernel(pf: ParticleFilter) -> bool:
     """Whether ``pf``'s settings are those :func:`track` runs in the kernel: the compiled
@@ -75,23 +72,21 @@ def track(pf: ParticleFilter, times: FloatArray,
                       p.min_particles, p.particles], dtype=np.intp)
     need = pf._kld_need(cap)
     state = np.zeros(kern.ST_SIZE)
-    it = iter(observations)
     i0 = 0
     reported = 0
-    while i0 < n:
-        chunk = list(islice(it, CHUNK))
-        kinds, offs, q, u, ranges, jidx = _chunk_arrays(chunk, pf)
+    for chunk in chunks(observations):
+        c = scan_chunk(chunk, lambda o: o.map_index(pf.map))
         j = 0
         while j < len(chunk):
             o = chunk[j]
-            if kinds[j] == 2 or not pf.initialized or pf._start_left > 0:
+            if c.kinds[j] == KIND_OTHER or not pf.initialized or pf._start_left > 0:
                 pf.step(i0 + j, o, moves, rec)
                 j += 1
                 continue
             _to_state(pf, state)
             status, j, rec.k, z, th, rot, w, logw = kern.pf_track(
-                pf.rng, pf.z, pf.th, pf.rot, pf.w, pf.logw, cap, state, kinds, offs, q, u,
-                ranges, jidx, j, i0, moving, rec.times, *motion, *noise, pf.map.z,
+                pf.rng, pf.z, pf.th, pf.rot, pf.w, pf.logw, cap, state, c.kinds, c.offs, c.q,
+                c.u, c.ranges, c.ints, j, i0, moving, rec.times, *motion, *noise, pf.map.z,
                 pf.map.half_sep, prm, flags, need, rec.next_cloud, rec.t, rec.x, rec.y,
                 rec.heading, rec.covariance, rec.particles, rec.ess, rec.k)
             pf.z, pf.th, pf.rot, pf.w, pf.logw = z, th, rot, w, logw
@@ -116,34 +111,6 @@ def track(pf: ParticleFilter, times: FloatArray,
     if progress is not None:
         progress(n - reported)
     return rec.rows()
-
-
-def _chunk_arrays(chunk: list[Observation | None], pf: ParticleFilter
-                  ) -> tuple[NDArray[np.int8], NDArray[np.intp], NDArray[np.complex128],
-                             NDArray[np.complex128], FloatArray, NDArray[np.intp]]:
-    """The chunk as the kernel takes it: per entry its kind (0 none, 1 a scan, 2 other) and
-    the offsets of its points in the scans' concatenated points, rays, ranges (m) and map
-    indices."""
-    kinds = np.empty(len(chunk), dtype=np.int8)
-    lens = np.zeros(len(chunk) + 1, dtype=np.intp)
-    scans: list[ScanObservation] = []
-    for c, o in enumerate(chunk):
-        if o is None:
-            kinds[c] = 0
-        elif isinstance(o, ScanObservation):
-            kinds[c] = 1
-            lens[c + 1] = len(o)
-            scans.append(o)
-        else:
-            kinds[c] = 2
-    offs = np.cumsum(lens)
-    if not scans:
-        e = np.zeros(0, dtype=np.complex128)
-        return kinds, offs, e, e, np.zeros(0), np.zeros(0, dtype=np.intp)
-    return (kinds, offs, np.concatenate([o.q for o in scans]).astype(np.complex128, copy=False),
-            np.concatenate([o.u for o in scans]).astype(np.complex128, copy=False),
-            np.concatenate([o.ranges for o in scans]).astype(np.float64, copy=False),
-            np.concatenate([o.map_index(pf.map) for o in scans]).astype(np.intp, copy=False))
 
 
 def _to_state(pf: ParticleFilter, state: FloatArray) -> None:

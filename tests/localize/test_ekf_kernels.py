@@ -49,6 +49,27 @@ def test_poses_and_scans_match(monkeypatch: pytest.MonkeyPatch) -> None:
     assert np.allclose(a.covariance, b.covariance, rtol=1e-9, atol=1e-15)
 
 
+@pytest.mark.parametrize("settings", [{}, {"ekf.observations": "both"}])
+def test_chunks_across_their_bounds(monkeypatch: pytest.MonkeyPatch,
+                                    settings: dict[str, str]) -> None:
+    """A drive of several chunks of observations (:data:`lgvtool.localize.chunks.CHUNK`),
+    scans alone or with NAV poses between them: the numpy path's rows."""
+    from lgvtool.localize.chunks import CHUNK
+
+    data, _, cfg = circle_log(150.0, ids=True)
+    tables = []
+    for mode in ("numpy", "numba"):
+        monkeypatch.setenv(KERNELS_ENV, mode)
+        tables.append(replay_data(data, NAMES, config=cfg, seed=3, settings=settings).tables)
+    for name in NAMES:
+        a, b = tables[0][name], tables[1][name]
+        assert len(a.x) == len(b.x) > 2 * CHUNK
+        assert np.array_equal(a.t_ns, b.t_ns)
+        for col in ("x", "y", "heading"):
+            assert np.allclose(getattr(a, col), getattr(b, col), rtol=0, atol=1e-9), col
+        assert np.allclose(a.covariance, b.covariance, rtol=1e-9, atol=1e-15)
+
+
 def test_kernel_wrap_is_the_one_convention() -> None:
     """The EKF kernel's copy of the wrap gives lgvtool.angles' bits, -pi mapped to +pi."""
     import math
