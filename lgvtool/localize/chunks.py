@@ -11,12 +11,12 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from itertools import islice
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.localize.observations import ScanObservation
+from lgvtool.localize.observations import ScanObservation, ScanPoints
 
 #: kinds of chunk entries: no observation (only move), a reflector scan, anything else (the
 #: estimator's own step)
@@ -49,26 +49,49 @@ def chunks(observations: Sequence[_T], size: int = CHUNK) -> Iterator[list[_T]]:
         yield chunk
 
 
-def scan_chunk(chunk: Sequence[object], ints: Callable[[ScanObservation], NDArray[np.int64]]
+def scan_chunk(chunk: Sequence[object],
+               ints: Callable[[ScanObservation | ScanPoints], NDArray[np.int64]]
                ) -> ScanChunk:
-    """Lay ``chunk`` out for a kernel; ``ints(scan)``: the integer column of its points."""
+    """Lay ``chunk`` out for a kernel; ``ints(points)``: the integer column of a scan's points
+    (or of a :class:`ScanPoints` block's). Consecutive scans of one block are taken from the
+    block as one slice (no copy per scan)."""
     kinds = np.full(len(chunk), KIND_OTHER, dtype=np.int8)
     lens = np.zeros(len(chunk) + 1, dtype=np.intp)
-    scans: list[ScanObservation] = []
+    # runs of points: [block or scan, first scan index, end scan index] (-1: a lone scan)
+    runs: list[list[Any]] = []
     for c, o in enumerate(chunk):
         if o is None:
             kinds[c] = KIND_NONE
         elif isinstance(o, ScanObservation):
             kinds[c] = KIND_SCAN
             lens[c + 1] = len(o)
-            scans.append(o)
+            last = runs[-1] if runs else None
+            if o.block is None:
+                runs.append([o, -1, -1])
+            elif last is not None and last[0] is o.block and last[2] == o.index:
+                last[2] = o.index + 1
+            else:
+                runs.append([o.block, o.index, o.index + 1])
     offs = np.cumsum(lens)
-    if not scans:
+    if not runs:
         e = np.zeros(0, dtype=np.complex128)
         return ScanChunk(kinds, offs, e, e, np.zeros(0), np.zeros(0, dtype=np.int64))
-    return ScanChunk(
-        kinds, offs,
-        np.concatenate([o.q for o in scans]).astype(np.complex128, copy=False),
-        np.concatenate([o.u for o in scans]).astype(np.complex128, copy=False),
-        np.concatenate([o.ranges for o in scans]).astype(np.float64, copy=False),
-        np.concatenate([ints(o) for o in scans]).astype(np.int64, copy=False))
+    parts: list[tuple[Any, ...]] = []
+    for src, a, b in runs:
+        ints_of = ints(src)
+        if a < 0:
+            parts.append((src.q, src.u, src.ranges, ints_of))
+        else:
+            lo, hi = src.bounds[a], src.bounds[b]
+            parts.append((src.q[lo:hi], src.u[lo:hi], src.ranges[lo:hi], ints_of[lo:hi]))
+    if len(parts) == 1:
+        q, u, r, i = parts[0]
+        return ScanChunk(kinds, offs, np.ascontiguousarray(q, dtype=np.complex128),
+                         np.ascontiguousarray(u, dtype=np.complex128),
+                         np.ascontiguousarray(r, dtype=np.float64),
+                         np.ascontiguousarray(i, dtype=np.int64))
+    cols = list(zip(*parts, strict=True))
+    return ScanChunk(kinds, offs, np.concatenate(cols[0]).astype(np.complex128, copy=False),
+                     np.concatenate(cols[1]).astype(np.complex128, copy=False),
+                     np.concatenate(cols[2]).astype(np.float64, copy=False),
+                     np.concatenate(cols[3]).astype(np.int64, copy=False))

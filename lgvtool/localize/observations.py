@@ -88,20 +88,14 @@ class ScanBatch:
                    np.concatenate([s.ids for s in scans]).astype(np.int64))
 
 
-class ScanObservation:
-    """Reflectors measured by a sensor, in the vehicle body frame at time ``t`` (s).
+class _Points:
+    """Measured reflectors: per reflector the point ``q`` (complex ``x + iy``, m, body frame),
+    the unit ray ``u`` (complex, body frame), the range (m) and the map id (-1 unknown)."""
 
-    Per reflector ``k``: the measured point ``q`` (complex ``x + iy``, m, body frame), the unit
-    ray ``u`` from the sensor towards it (complex, body frame), the measured range (m) and the
-    map id (-1 unknown). The sensor pose per reflector (mounting offset and, when de-skewed,
-    the vehicle's own motion since the reflector was measured) is folded into ``q`` and ``u``.
-    """
+    __slots__ = ("_map_index", "ids", "q", "ranges", "u")
 
-    __slots__ = ("_map_index", "ids", "q", "ranges", "t", "u")
-
-    def __init__(self, t: float, q: NDArray[np.complex128], u: NDArray[np.complex128],
+    def __init__(self, q: NDArray[np.complex128], u: NDArray[np.complex128],
                  ranges: NDArray[np.float64], ids: NDArray[np.int64]) -> None:
-        self.t = float(t)
         self.q = q
         self.u = u
         self.ranges = ranges
@@ -119,6 +113,47 @@ class ScanObservation:
         idx = rmap.index_of(self.ids)
         self._map_index = (rmap, idx)
         return idx
+
+
+class ScanPoints(_Points):
+    """The reflectors of consecutive scans one after the other (those of scan ``k`` are
+    ``bounds[k]:bounds[k + 1]``), as :func:`scan_observations` builds them; each of its
+    :class:`ScanObservation` holds a view of its own part."""
+
+    __slots__ = ("bounds",)
+
+    def __init__(self, q: NDArray[np.complex128], u: NDArray[np.complex128],
+                 ranges: NDArray[np.float64], ids: NDArray[np.int64], bounds: list[int]
+                 ) -> None:
+        super().__init__(q, u, ranges, ids)
+        self.bounds = bounds
+
+
+class ScanObservation(_Points):
+    """Reflectors measured by a sensor, in the vehicle body frame at time ``t`` (s).
+
+    Per reflector ``k``: the measured point ``q`` (complex ``x + iy``, m, body frame), the unit
+    ray ``u`` from the sensor towards it (complex, body frame), the measured range (m) and the
+    map id (-1 unknown). The sensor pose per reflector (mounting offset and, when de-skewed,
+    the vehicle's own motion since the reflector was measured) is folded into ``q`` and ``u``.
+    ``block``, ``index``: the :class:`ScanPoints` it is part ``index`` of (None when made
+    alone).
+    """
+
+    __slots__ = ("block", "index", "t")
+
+    def __init__(self, t: float, q: NDArray[np.complex128], u: NDArray[np.complex128],
+                 ranges: NDArray[np.float64], ids: NDArray[np.int64],
+                 block: ScanPoints | None = None, index: int = -1) -> None:
+        # (the fields set here rather than by the base's __init__: one call less per scan)
+        self.q = q
+        self.u = u
+        self.ranges = ranges
+        self.ids = ids
+        self._map_index = None
+        self.t = float(t)
+        self.block = block
+        self.index = index
 
     @property
     def qx(self) -> NDArray[np.float64]:
@@ -203,8 +238,10 @@ def scan_observations(scans: ScanBatch, nav_x: float, nav_y: float, *,
         counts = np.bincount(owner[keep], minlength=len(start))
         q, u, r, ids = q[keep], u[keep], r[keep], ids[keep]
     bounds = np.concatenate([[0], np.cumsum(counts)]).tolist()
-    return [ScanObservation(ts, q[a:e], u[a:e], r[a:e], ids[a:e])
-            for ts, a, e in zip(t_obs.tolist(), bounds[:-1], bounds[1:], strict=True)]
+    block = ScanPoints(q, u, r, ids, bounds)
+    return [ScanObservation(ts, q[a:e], u[a:e], r[a:e], ids[a:e], block, k)
+            for k, (ts, a, e) in enumerate(zip(t_obs.tolist(), bounds[:-1], bounds[1:],
+                                                strict=True))]
 
 
 class ReflectorMap:
