@@ -36,7 +36,14 @@ import numpy as np
 from lgvtool.angles import wrap_angle, wrap_scalar
 from lgvtool.localize.camera_fix import start_fix
 from lgvtool.localize.chunks import KIND_OTHER, chunks, scan_chunk
-from lgvtool.localize.estimator import Estimate, EstimateRows, Estimator, Motion, Observation
+from lgvtool.localize.estimator import (
+    Estimate,
+    EstimateRows,
+    Estimator,
+    Motion,
+    Observation,
+    Reporter,
+)
 from lgvtool.localize.kernel_choice import compiled
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
@@ -264,7 +271,8 @@ class GaussianPoseEstimator(Estimator):
         mx, my = np.ascontiguousarray(self.map.x), np.ascontiguousarray(self.map.y)
         mids = np.ascontiguousarray(self.map.ids, dtype=np.int64)
         rows = (ct, cx, cy, ch, covs)
-        k = report = i0 = 0
+        k = i0 = 0
+        report = Reporter(progress)
         tl = ts.tolist()
         coasted = False
         for chunk in chunks(observations):
@@ -296,14 +304,11 @@ class GaussianPoseEstimator(Estimator):
                                       c.u, c.ranges, c.ints, mx, my, mids, prm, counts, ts, k,
                                       *rows)
             i0 += len(chunk)
-            if progress is not None and i0 - report >= 500:
-                progress(i0 - report)
-                report = i0
+            report.at(i0)
             if coasted:
                 break
         self._count_kernel_updates(int(counts[0]), int(counts[1]))
-        if progress is not None:
-            progress(n - report)
+        report.at(n, last=True)
         if k < n:
             ct, cx, cy, ch, covs = (c[:k].copy() for c in rows)
         zeros = np.zeros(k, dtype=f64)

@@ -174,14 +174,11 @@ class Estimator(ABC):
         n = len(observations)
         moves = _Moves(steps) if steps is not None and self.uses_motion and n > 1 else None
         rec = RowRecorder(times, cloud_period_s, cloud_size)
-        report = 0
+        report = Reporter(progress)
         for i, o in enumerate(observations):
             self.step(i, o, moves, rec)
-            if progress is not None and i - report >= 500:
-                progress(i - report)
-                report = i
-        if progress is not None:
-            progress(n - report)
+            report.at(i)
+        report.at(n, last=True)
         return rec.rows()
 
     def step(self, i: int, o: Observation | None, moves: _Moves | None,
@@ -196,6 +193,23 @@ class Estimator(ABC):
         if e is not None:
             rec.add(i, e)
             rec.maybe_cloud(i, self)
+
+
+class Reporter:
+    """Hands ``progress`` the observations done since its last call, at least every
+    :attr:`EVERY` of them (None: nothing is reported)."""
+
+    EVERY = 500
+
+    def __init__(self, progress: Callable[[int], None] | None) -> None:
+        self._progress = progress
+        self._done = 0
+
+    def at(self, i: int, *, last: bool = False) -> None:
+        """``i`` observations are done (``last``: all of them; reported whatever the count)."""
+        if self._progress is not None and (last or i - self._done >= self.EVERY):
+            self._progress(i - self._done)
+            self._done = i
 
 
 class RowRecorder:

@@ -23,7 +23,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.localize.chunks import KIND_OTHER, chunks, scan_chunk
-from lgvtool.localize.estimator import EstimateRows, Observation, RowRecorder, _Moves
+from lgvtool.localize.estimator import (
+    EstimateRows,
+    Observation,
+    Reporter,
+    RowRecorder,
+    _Moves,
+)
 from lgvtool.localize.observations import ScanObservation
 
 if TYPE_CHECKING:
@@ -73,7 +79,7 @@ def track(pf: ParticleFilter, times: FloatArray,
     need = pf._kld_need(cap)
     state = np.zeros(kern.ST_SIZE)
     i0 = 0
-    reported = 0
+    report = Reporter(progress)
     for chunk in chunks(observations):
         c = scan_chunk(chunk, lambda o: o.map_index(pf.map))
         j = 0
@@ -105,11 +111,8 @@ def track(pf: ParticleFilter, times: FloatArray,
             elif status == kern.TRACK_CLOUD:
                 rec.maybe_cloud(i0 + j - 1, pf)
         i0 += len(chunk)
-        if progress is not None and i0 - reported >= 500:
-            progress(i0 - reported)
-            reported = i0
-    if progress is not None:
-        progress(n - reported)
+        report.at(i0)
+    report.at(n, last=True)
     return rec.rows()
 
 
