@@ -290,6 +290,43 @@ def test_paper_weigh_is_its_parts() -> None:
         assert e.max() == 0.0
 
 
+def test_paper_exponents_search_the_map_for_far_particles() -> None:
+    """Eq. 10's exponents of a set whose far particles (uniform over the hall: every point
+    searched in the whole map, more of them than a chunk) are weighed together: bit for bit
+    the summed distances to the nearest map reflector of every point, found by brute force."""
+    from lgvtool.localize import pf_kernels as kern
+    from lgvtool.localize.paper_pf import _kernel_scan
+
+    rng = np.random.default_rng(12)
+    map_z = rng.uniform(0, 25, 30) + 1j * rng.uniform(0, 20, 30)
+    sep = np.abs(map_z[:, None] - map_z[None, :])
+    np.fill_diagonal(sep, np.inf)
+    half = 0.5 * sep.min(axis=1)
+    pose, turn = 12 + 9j, np.exp(0.4j)
+    j = rng.choice(30, 11, replace=False)
+    q = (map_z[j] - pose) / turn + rng.normal(0, 0.03, 11)
+    scan = _kernel_scan(q, map_z[j], half[j])
+    m = 3000
+    s = np.empty((m, 2), dtype=np.complex128)
+    s[:, 0] = pose + rng.normal(0, 0.1, m) + 1j * rng.normal(0, 0.1, m)
+    s[:, 1] = turn * np.exp(1j * rng.normal(0, 0.01, m))
+    far = rng.random(m) < 0.2  # about 600 far particles, in every chunk
+    s[far, 0] = rng.uniform(0, 25, far.sum()) + 1j * rng.uniform(0, 20, far.sum())
+    s[far, 1] = np.exp(1j * rng.uniform(-math.pi, math.pi, far.sum()))
+    e = np.empty(m)
+    top = kern.paper_exponents(s, s, 0j, 1 + 0j, scan, map_z, -0.5, e, kern.paper_scratch())
+    zr, zi, rr, ri = s[:, 0].real, s[:, 0].imag, s[:, 1].real, s[:, 1].imag
+    px = zr[:, None] + (rr[:, None] * q.real - ri[:, None] * q.imag)
+    py = zi[:, None] + (rr[:, None] * q.imag + ri[:, None] * q.real)
+    ex = map_z.real[None, None, :] - px[:, :, None]
+    ey = map_z.imag[None, None, :] - py[:, :, None]
+    d = np.sqrt((ex * ex + ey * ey).min(axis=2))
+    total = np.cumsum(d, axis=1)[:, -1]  # summed in point order
+    ref = total * total * -0.5
+    assert np.array_equal(e, ref)
+    assert top == ref.max()
+
+
 def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(KERNELS_ENV, "numpy")
     assert fused_kernels() is None
