@@ -104,5 +104,5 @@ class WindowedMerge:
             t_all = np.concatenate(times)
             order = np.lexsort((np.concatenate(ranks), t_all)).tolist()
             self.count += len(order)
-            yield ([names[i] for i in order], [datas[i] for i in order],
+            yield (list(map(names.__getitem__, order)), list(map(datas.__getitem__, order)),
                    t_all[order].tolist())

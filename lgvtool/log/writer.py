@@ -412,7 +412,9 @@ class _Pending:
                 break
             self._topics.extend(nxt[0])
             self._datas.extend(nxt[1])
-            self._times.extend(int(x) for x in nxt[2])
+            times = nxt[2]
+            # (a list of ints as the merges give it is taken as it is)
+            self._times.extend(times if isinstance(times, list) else map(int, times))
         k = len(self._times) if t is None else bisect.bisect_left(self._times, t)
         out = (self._topics[:k], self._datas[:k], self._times[:k])
         del self._topics[:k], self._datas[:k], self._times[:k]
