@@ -29,7 +29,7 @@ import numba
 import numba.extending
 import numpy as np
 from llvmlite import ir as llvm_ir
-from numba.np.random.generator_core import next_uint32
+from numba.np.random import generator_core
 from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
@@ -37,6 +37,10 @@ ComplexArray = NDArray[np.complex128]
 IntArray = NDArray[np.intp]
 
 _F = TypeVar("_F", bound=Callable[..., Any])
+
+#: the next 32 random bits of a generator's bit generator (numba's binding of NumPy's
+#: ``next_uint32``, which ``random_interval`` draws from)
+_next_uint32 = cast(Callable[[Any], int], generator_core.next_uint32)
 
 _TWO_PI = 2.0 * math.pi
 
@@ -1017,9 +1021,9 @@ def _permutation(rng: np.random.Generator, n: int) -> IntArray:
         mask = bound
         for shift in (1, 2, 4, 8, 16, 32):
             mask |= mask >> np.uint64(shift)
-        v = np.uint64(next_uint32(bg)) & mask
+        v = np.uint64(_next_uint32(bg)) & mask
         while v > bound:
-            v = np.uint64(next_uint32(bg)) & mask
+            v = np.uint64(_next_uint32(bg)) & mask
         j = np.intp(v)
         t = p[i]
         p[i] = p[j]

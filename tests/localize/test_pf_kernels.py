@@ -134,14 +134,16 @@ def test_pf_run_equals_its_steps(monkeypatch: pytest.MonkeyPatch,
     turn (the kernels in both): bit for bit, the same random stream, the same resamplings and
     re-drawn particles."""
     from lgvtool.localize import pf_run
+    from lgvtool.localize.particle_filter import ParticleFilter
 
     chunks, chunks_state, chunks_est = _run(monkeypatch, "numba", "pf", settings)
-    assert pf_run.tracks_in_kernel(chunks_est)
     steps, steps_state, steps_est = _run(monkeypatch, "numba", "pf", settings, steps_only=True)
+    assert isinstance(chunks_est, ParticleFilter) and isinstance(steps_est, ParticleFilter)
+    assert pf_run.tracks_in_kernel(chunks_est)
     assert chunks_state == steps_state
-    assert chunks_est.resamplings == steps_est.resamplings > 0  # type: ignore[attr-defined]
-    assert chunks_est.injected == steps_est.injected  # type: ignore[attr-defined]
-    assert chunks_est.w_slow == steps_est.w_slow  # type: ignore[attr-defined]
+    assert chunks_est.resamplings == steps_est.resamplings > 0
+    assert chunks_est.injected == steps_est.injected
+    assert chunks_est.w_slow == steps_est.w_slow
     assert len(chunks.x) > 50
     _same(chunks, steps)
 
