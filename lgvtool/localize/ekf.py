@@ -294,7 +294,8 @@ class GaussianPoseEstimator(Estimator):
                 elif c.kinds[j] == KIND_OTHER:
                     if moving and i > 0:
                         kern._predict(self.mu, self.P, *(float(a[i - 1]) for a in moves), prm)
-                    self.update(o)  # type: ignore[arg-type]
+                    assert o is not None
+                    self.update(o)
                     kern._record(self.mu, self.P, tl[i], k, *rows)
                     k += 1
                     j += 1

@@ -172,7 +172,7 @@ class Estimator(ABC):
         the number of observations processed since its last call.
         """
         n = len(observations)
-        moves = _Moves(steps) if steps is not None and self.uses_motion and n > 1 else None
+        moves = Moves(steps) if steps is not None and self.uses_motion and n > 1 else None
         rec = RowRecorder(times, cloud_period_s, cloud_size)
         report = Reporter(progress)
         for i, o in enumerate(observations):
@@ -181,7 +181,7 @@ class Estimator(ABC):
         report.at(n, last=True)
         return rec.rows()
 
-    def step(self, i: int, o: Observation | None, moves: _Moves | None,
+    def step(self, i: int, o: Observation | None, moves: Moves | None,
              rec: RowRecorder) -> None:
         """One step of :meth:`run`: the motion to observation ``i`` (from ``moves``, none for
         the first), the update with ``o`` (None: none) and the estimate recorded in ``rec``."""
@@ -266,7 +266,7 @@ class RowRecorder:
                             self.particles[:k].copy(), self.ess[:k].copy(), self.clouds)
 
 
-class _Moves:
+class Moves:
     """The motions between consecutive observation times as tuples ``(dx, dy, dth, dist,
     rot)``, made from the arrays of a :class:`Deltas` a block at a time (instead of one list of
     tuples for the whole log)."""

@@ -4,12 +4,14 @@ Each kernel makes one pass over the particles doing what the numpy path of the f
 several array operations (one temporary array each): the motion, the transform of every
 measured reflector into the world, its association with the nearest map reflector, the
 weight, the weighted sums of the estimate and the redistribution or resampling. The random
-numbers are never drawn here: the filters draw them in bulk from their
-``numpy.random.Generator`` exactly as the numpy path does and hand them in, so a seed gives
-the same random stream on both paths. Where the numpy path's arithmetic is elementwise, the
-kernels repeat it operation for operation (the same bits); where numpy sums through BLAS or
-pairwise summation, the kernels sum in order, which differs in the last bits (docs/filter.md:
-within 1e-9 m).
+numbers are those of the numpy path, in its order: the filters draw them in bulk from their
+``numpy.random.Generator`` and hand them in, or (``pf_predict_drawn``, pf's ``pf_track``)
+hand in the generator itself, whose methods numba implements with NumPy's algorithms (and
+:func:`_permutation`, NumPy's shuffle), so a seed gives the same random stream on both
+paths. Where the numpy path's arithmetic is elementwise, the kernels repeat it operation for
+operation (the same bits); where numpy sums through BLAS or pairwise summation, the kernels
+sum in order, and a few library functions are replaced by series, which differs in the last
+bits (docs/filter.md: within 1e-9 m).
 
 Importing this module imports numba; the filters import it only when they run
 (:func:`lgvtool.localize.particles.fused_kernels`). The compiled code is cached on disk
@@ -59,20 +61,6 @@ def _jit_inline(f: _F) -> _F:
 
 
 # ---------------------------------------------------------------------------- shared pieces
-@_jit
-def _nearest_distance(px: float, py: float, map_z: ComplexArray) -> float:
-    """Distance from the point ``(px, py)`` to the nearest map reflector, m (the square root
-    of the least squared distance: the same number as the least distance)."""
-    best = math.inf
-    for r in range(map_z.shape[0]):
-        ex = map_z[r].real - px
-        ey = map_z[r].imag - py
-        e = ex * ex + ey * ey
-        if e < best:
-            best = e
-    return math.sqrt(best)
-
-
 @_jit
 def _nearest_index(p: complex, map_z: ComplexArray) -> int:
     """Index of the map reflector nearest to ``p`` (the first of equals, as ``np.argmin``),

@@ -25,10 +25,10 @@ from numpy.typing import NDArray
 from lgvtool.localize.chunks import KIND_OTHER, chunks, scan_chunk
 from lgvtool.localize.estimator import (
     EstimateRows,
+    Moves,
     Observation,
     Reporter,
     RowRecorder,
-    _Moves,
 )
 from lgvtool.localize.observations import ScanObservation
 
@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from lgvtool.localize.particle_filter import ParticleFilter
 
 FloatArray = NDArray[np.float64]
+
 
 def tracks_in_kernel(pf: ParticleFilter) -> bool:
     """Whether ``pf``'s settings are those :func:`track` runs in the kernel: the compiled
@@ -59,7 +60,7 @@ def track(pf: ParticleFilter, times: FloatArray,
     p = pf.params
     n = len(observations)
     moving = steps is not None and n > 1
-    moves = _Moves(steps) if moving and steps is not None else None
+    moves = Moves(steps) if moving and steps is not None else None
     rec = RowRecorder(times, cloud_period_s, cloud_size)
     f64 = np.float64
     if moving and steps is not None:
