@@ -989,11 +989,6 @@ ST_CACHED = 8
 ST_RESAMPLINGS = 21
 ST_PER_OBS = 22
 ST_SIZE = 23
-#: entries of ``prm``
-PRM_SIZE = 12
-#: entries of ``flags``: use_ids, outlier, recovery, resample always, kld, min particles,
-#: particles
-FLAGS_SIZE = 7
 
 
 @_jit
@@ -1091,7 +1086,8 @@ def pf_track(rng: np.random.Generator, z: ComplexArray, th: FloatArray, rot: Com
     noise ``msa``, ``msl`` (m), ``mst`` (rad) when ``moving``. ``prm``: sigma_range,
     its square, sigma_range_per_m, sigma_bearing, the outlier mixture's two log weights,
     alpha_slow, alpha_fast, reset_likelihood, ess_threshold, the KLD bins (m, rad);
-    ``flags``: :data:`FLAGS_SIZE`; ``need``: KLD's bound for 1 to ``cap`` bins; ``state``:
+    ``flags``: use_ids, outlier, recovery, resample always, kld, min_particles, particles;
+    ``need``: KLD's bound for 1 to ``cap`` bins; ``state``:
     :data:`ST_SIZE` entries, read and updated. Each estimate is written as row ``k`` on of the
     ``rows_*`` arrays (time s, pose m m rad, covariance row-major, count, ESS).
 
