@@ -67,6 +67,16 @@ def _same(a: EstimateRows, b: EstimateRows) -> None:
             assert np.array_equal(u, v)
 
 
+def _same_clouds(a: EstimateRows, b: EstimateRows) -> None:
+    """The same clouds: their times and particle counts, and the particles within
+    :data:`TOL`."""
+    assert [c[0] for c in a.clouds] == [c[0] for c in b.clouds]
+    for ca, cb in zip(a.clouds, b.clouds, strict=True):
+        for u, v in zip(ca[1:], cb[1:], strict=True):
+            assert len(u) == len(v)
+            np.testing.assert_allclose(u, v, rtol=0, atol=TOL)
+
+
 def _close(a: EstimateRows, b: EstimateRows) -> None:
     """Within :data:`TOL` (the covariance and ESS relatively)."""
     assert np.array_equal(a.t, b.t)
@@ -131,8 +141,10 @@ PF_RUN_SETTINGS = [
 def test_pf_run_equals_its_steps(monkeypatch: pytest.MonkeyPatch,
                                  settings: dict[str, Any]) -> None:
     """pf's run with its tracking in compiled chunks against predict / update / estimate in
-    turn (the kernels in both): bit for bit, the same random stream, the same resamplings and
-    re-drawn particles."""
+    turn (the kernels in both): the same random stream, resamplings and re-drawn particles,
+    the estimates within :data:`TOL` (the same kernels, compiled into one loop: bit for bit
+    on the machines measured, but a compiler may vectorise a loop differently once
+    inlined)."""
     from lgvtool.localize import pf_run
     from lgvtool.localize.particle_filter import ParticleFilter
 
@@ -143,15 +155,17 @@ def test_pf_run_equals_its_steps(monkeypatch: pytest.MonkeyPatch,
     assert chunks_state == steps_state
     assert chunks_est.resamplings == steps_est.resamplings > 0
     assert chunks_est.injected == steps_est.injected
-    assert chunks_est.w_slow == steps_est.w_slow
+    assert chunks_est.w_slow == pytest.approx(steps_est.w_slow, rel=1e-9)
     assert len(chunks.x) > 50
-    _same(chunks, steps)
+    _close(chunks, steps)
+    _same_clouds(chunks, steps)
 
 
 def test_pf_run_hands_back_what_it_does_not_track(monkeypatch: pytest.MonkeyPatch) -> None:
     """The chunks hand recovery's resamplings to the filter (some particles re-drawn on this
     drive), and a run over NAV poses and scans mixed (``observations = both``) goes step by
-    step for the poses: the rows and random stream of the step-by-step loop."""
+    step for the poses: the random stream of the step-by-step loop, its rows within
+    :data:`TOL`."""
     settings = {"alpha_fast": 0.5, "alpha_slow": 0.01, "particles": 400}
     _, _, est = _run(monkeypatch, "numba", "pf", settings)
     assert est.injected > 0  # type: ignore[attr-defined]
@@ -173,7 +187,8 @@ def test_pf_run_hands_back_what_it_does_not_track(monkeypatch: pytest.MonkeyPatc
         out.append((run(est, times, list(obs), steps, cloud_size=20),
                     est.rng.bit_generator.state))
     assert out[0][1] == out[1][1]
-    _same(out[0][0], out[1][0])
+    _close(out[0][0], out[1][0])
+    _same_clouds(out[0][0], out[1][0])
 
 
 def test_pf_run_without_motion_noise(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -294,8 +309,8 @@ def test_paper_weigh_is_its_parts() -> None:
 
 def test_paper_exponents_search_the_map_for_far_particles() -> None:
     """Eq. 10's exponents of a set whose far particles (uniform over the hall: every point
-    searched in the whole map, more of them than a chunk) are weighed together: bit for bit
-    the summed distances to the nearest map reflector of every point, found by brute force."""
+    searched in the whole map, more of them than a chunk) are weighed together: the summed
+    distances to the nearest map reflector of every point, found by brute force."""
     from lgvtool.localize import pf_kernels as kern
     from lgvtool.localize.paper_pf import _kernel_scan
 
@@ -325,8 +340,10 @@ def test_paper_exponents_search_the_map_for_far_particles() -> None:
     d = np.sqrt((ex * ex + ey * ey).min(axis=2))
     total = np.cumsum(d, axis=1)[:, -1]  # summed in point order
     ref = total * total * -0.5
-    assert np.array_equal(e, ref)
-    assert top == ref.max()
+    # (elementwise IEEE arithmetic and square roots on both sides: equal here; a tolerance
+    # for another compiler's choices)
+    np.testing.assert_allclose(e, ref, rtol=1e-13, atol=0)
+    assert top == pytest.approx(ref.max(), rel=1e-13)
 
 
 def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
