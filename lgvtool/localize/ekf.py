@@ -43,6 +43,7 @@ from lgvtool.localize.estimator import (
     Motion,
     Observation,
     Reporter,
+    RowRecorder,
 )
 from lgvtool.localize.kernel_choice import compiled
 from lgvtool.localize.noise import MotionParams
@@ -264,13 +265,15 @@ class GaussianPoseEstimator(Estimator):
         moves = tuple(np.ascontiguousarray(a, dtype=f64) for a in (
             (steps.dx, steps.dy, steps.dth, steps.dist, steps.rot) if steps is not None
             and moving else ((),) * 5))
-        ct, cx, cy, ch = (np.empty(n, dtype=f64) for _ in range(4))
-        covs = np.empty((n, 9), dtype=f64)
+        # the rows (no particles: counts and ESS 0), written by the kernels
+        rec = RowRecorder(ts, cloud_period_s, 0)
+        rec.particles[:] = 0
+        rec.ess[:] = 0.0
         prm = self._kernel_params()
         counts = np.zeros(2, dtype=np.int64)
         mx, my = np.ascontiguousarray(self.map.x), np.ascontiguousarray(self.map.y)
         mids = np.ascontiguousarray(self.map.ids, dtype=np.int64)
-        rows = (ct, cx, cy, ch, covs)
+        rows = (rec.t, rec.x, rec.y, rec.heading, rec.covariance)
         k = i0 = 0
         report = Reporter(progress)
         tl = ts.tolist()
@@ -310,10 +313,8 @@ class GaussianPoseEstimator(Estimator):
                 break
         self._count_kernel_updates(int(counts[0]), int(counts[1]))
         report.at(n, last=True)
-        if k < n:
-            ct, cx, cy, ch, covs = (c[:k].copy() for c in rows)
-        zeros = np.zeros(k, dtype=f64)
-        return EstimateRows(ct, cx, cy, ch, covs, np.zeros(k, dtype=np.int64), zeros, [])
+        rec.k = k
+        return rec.rows()
 
     def _count_kernel_updates(self, accepted: int, rejected: int) -> None:
         """Add the reflectors the compiled loop accepted and rejected (:class:`Ekf`)."""
