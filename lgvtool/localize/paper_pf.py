@@ -40,6 +40,7 @@ from lgvtool.localize.estimator import (
     EstimateRows,
     Motion,
     Observation,
+    Reporter,
     cloud_sample,
 )
 from lgvtool.localize.fix import pose_fix
@@ -436,7 +437,7 @@ class PaperParticleFilter(ParticleSet):
             rec.fixed(*self._spread())
         clouds: list[Cloud] = []
         next_cloud = -math.inf
-        report = 0
+        report = Reporter(progress)
         block = self._block()
         m = len(self.z)
         rows, which = rec.rows, rec.which
@@ -537,11 +538,8 @@ class PaperParticleFilter(ParticleSet):
                     clouds.append((t, c[:, 0].real.copy(), c[:, 0].imag.copy(),
                                    np.angle(c[:, 1])))
                     next_cloud = t + cloud_period_s
-            if progress is not None and i - report >= 500:
-                progress(i - report)
-                report = i
-        if progress is not None:
-            progress(n - report)
+            report.at(i)
+        report.at(n, last=True)
         self._leave(block, rec, pending)
         out = rec.finish(clouds)
         if len(out.covariance):
