@@ -105,6 +105,16 @@ def workers_type() -> Number:
     return Number(int, 1, max_workers())
 
 
+def threads_option(f: F) -> F:
+    """``--threads N``: threads the estimators run on at once."""
+    from lgvtool.values import MAX_THREADS
+
+    return click.option("--threads", type=Number(int, 1, MAX_THREADS), default=None,
+                        help="Threads the estimators run on at once (default: one per "
+                             "estimator, at most one per CPU); the results are the same for "
+                             "any count.")(f)
+
+
 def scheduler_options(f: F) -> F:
     """``--scheduler URL`` and the TLS options of a remote Dask scheduler (docs/fleet.md)."""
     f = click.option("--tls-key", type=click.Path(exists=True, dir_okay=False), metavar="PEM",

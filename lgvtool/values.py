@@ -51,6 +51,8 @@ MAX_SEED = 2**63 - 1
 """Largest seed (seeds are non-negative)."""
 MAX_WORKERS_CAP = 256
 """Most worker processes, whatever the memory."""
+MAX_THREADS = 256
+"""Most threads the estimators of one log run on."""
 WORKER_MEMORY_BYTES = 200_000_000
 """Memory one worker process needs at least (a Python process with numpy, pandas, a log)."""
 

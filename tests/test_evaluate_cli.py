@@ -215,7 +215,7 @@ def fake_replay(monkeypatch: pytest.MonkeyPatch, df: pd.DataFrame) -> list[dict]
     calls: list[dict] = []
 
     def run_replay(reader, names, *, config=None, seed=0, settings=None, progress=None,
-                   tap=None):
+                   tap=None, threads=None):
         calls.append({"names": list(names), "seed": seed})
         if tap is not None:  # the log read as load_log reads it, for the tap
             for block in reader.raw_column_chunks(tap.topics):

@@ -72,10 +72,11 @@ def test_replay_output_is_complete_and_valid(logs: dict[str, Path], tmp_path: Pa
 def test_same_seed_gives_identical_output(logs: dict[str, Path], tmp_path: Path,
                                           run_cli) -> None:
     outs = []
-    for i, seed in enumerate(("5", "5", "6")):
+    # the second run on one thread: the same output as the estimators side by side
+    for i, (seed, threads) in enumerate((("5", "2"), ("5", "1"), ("6", "2"))):
         out = tmp_path / f"o{i}.mcap"
         res = run_cli("replay", logs["full"], "-o", out, "-e", "pf", "-e", "pf-paper",
-                      "--seed", seed, "--particles", "80")
+                      "--seed", seed, "--particles", "80", "--threads", threads)
         assert res.returncode == 0, res.stderr
         outs.append([(m.topic, m.log_time_ns, m.data) for m in LogReader(out).raw_messages()
                      if m.topic.startswith(topics.ESTIMATE_PREFIX)])
@@ -96,6 +97,7 @@ def test_same_seed_gives_identical_output(logs: dict[str, Path], tmp_path: Path,
     (["--set", "bogus.x=1"], "unknown estimator 'bogus'"),
     (["-e", "laser", "--particles", "10"], "--particles applies to the particle filters"),
     (["-e", "laser", "--set", "pf.particles=10"], "'pf' is not run"),
+    (["--threads", "0"], "--threads"),
 ])
 def test_bad_options_exit_2_with_one_line(logs: dict[str, Path], tmp_path: Path, run_cli,
                                           args: list[str], message: str) -> None:

@@ -53,6 +53,7 @@ def _run_estimators(
     reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
     settings: Mapping[str, Any] | None, warnings: list[str], start_at_truth: bool = False,
     progress: Progress | None = None, read: EvaluationInputs | None = None,
+    threads: int | None = None,
 ) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
     from lgvtool.log import topics
@@ -66,7 +67,7 @@ def _run_estimators(
         progress.stage(f"{Path(str(reader.path)).name}: estimators", len(chosen) * per)
         start["progress"] = progress.advance
     out = run_replay(reader, chosen, config=cfg, seed=seed, settings=dict(settings or {}),
-                     tap=read, **start)
+                     tap=read, threads=threads, **start)
     for name, reason in (getattr(out, "skipped", None) or {}).items():
         warnings.append(f"estimator '{name}' left out: {reason}")
     return dict(out.trajectories), dict(out.settings)
@@ -86,6 +87,7 @@ def evaluate_log(
     replay: bool = False,
     trajectories: Mapping[str, pd.DataFrame] | None = None,
     progress: Progress | None = None,
+    threads: int | None = None,
 ) -> EvaluationResult:
     """Evaluate one log.
 
@@ -102,7 +104,9 @@ def evaluate_log(
     the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
     ``trajectories`` (name -> DataFrame t, x, y, heading of O) are scored beside them
     (``--trajectory``, :mod:`lgvtool.interop.foreign_trajectories`).
-    ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress.
+    ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress;
+    ``threads``: threads the estimators run on at once (default: one per estimator, at most one
+    per CPU; the same results for any count).
     """
     from lgvtool.circle import median_steering
     from lgvtool.evaluate.evaluation import evaluate_trajectories
@@ -122,7 +126,7 @@ def evaluate_log(
         # the truth, the steering and the data quality from the estimators' reading
         read = EvaluationInputs(reader)
         trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
-                                      start_at_truth, progress, read)
+                                      start_at_truth, progress, read, threads)
         source = "replay"
     else:
         if start_at_truth:
@@ -180,7 +184,8 @@ def _evaluate_task(task: _LogTask) -> EvaluationResult:
 
     with pywarnings.catch_warnings():
         pywarnings.simplefilter("ignore")
-        return evaluate_log(task.path, **task.options)
+        # one thread per log unless asked: the engine runs the logs side by side
+        return evaluate_log(task.path, **{"threads": 1, **task.options})
 
 
 def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: Any,
@@ -253,6 +258,7 @@ def evaluate_logs(
     free_radius: bool = False,
     png: bool = False,
     workers: int | None = None,
+    threads: int | None = None,
     scheduler: str | None = None,
     tls: tuple[str | None, str | None, str | None] = (None, None, None),
     force: bool = False,
@@ -264,10 +270,12 @@ def evaluate_logs(
 
     Every log goes through :func:`evaluate_log` (in this process for one log, else on a local
     Dask cluster of ``workers`` processes or on ``scheduler`` with the ``tls`` (CA file,
-    certificate, key) files). ``maxima``/``minima`` are ``KEY=VALUE`` bounds on the
-    document's figures (``pf.circle.rmse_mm=25``); ``baseline`` a previous ``table1.json``,
-    worse by at most ``tolerance`` (``"10%"``). ``sets`` are ``KEY=VALUE`` estimator
-    settings, ``config_path`` a configuration TOML used instead of the logs' own, ``foreign``
+    certificate, key) files); a log's estimators run on ``threads`` threads (default: one per
+    estimator, at most one per CPU, in this process; one on the Dask workers).
+    ``maxima``/``minima`` are ``KEY=VALUE`` bounds on the document's figures
+    (``pf.circle.rmse_mm=25``); ``baseline`` a previous ``table1.json``, worse by at most
+    ``tolerance`` (``"10%"``). ``sets`` are ``KEY=VALUE`` estimator settings,
+    ``config_path`` a configuration TOML used instead of the logs' own, ``foreign``
     ``NAME=FILE`` trajectories of other tools (one log only). With ``outdir`` the files
     :data:`OUTPUT_FILES` (and PNGs with ``png``) are written there; an existing one is
     replaced only with ``force``. ``fmt``: text, md, csv, tex or json.
@@ -320,6 +328,8 @@ def evaluate_logs(
     options = {"estimators": list(estimators) if estimators else None, "config": cfg,
                "seed": seed, "shared_centre": shared_centre, "free_radius": free_radius,
                "start_at_truth": start_at_truth, "settings": settings or None}
+    if threads is not None:
+        options["threads"] = threads
     if foreign:
         from lgvtool.interop.foreign_trajectories import load_trajectories
 

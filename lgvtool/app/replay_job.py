@@ -26,8 +26,9 @@ def replay_log(log: str, output: str, *, estimators: Sequence[str] = (),
                particles: int | None = None, seed: int = 0, sets: Sequence[str] = (),
                config_path: str | None = None, start_at_truth: bool = False,
                cloud_period: float = 2.0, cloud_size: int = 50, compression: str = "zstd",
-               view: bool = True, force: bool = False, show_progress: bool = True,
-               warn: Callable[[str], None] = _ignore) -> dict[str, Any]:
+               view: bool = True, force: bool = False, threads: int | None = None,
+               show_progress: bool = True, warn: Callable[[str], None] = _ignore
+               ) -> dict[str, Any]:
     """Replay ``log`` through ``estimators`` (default: all five) and write ``output``.
 
     ``particles`` sets the particle count of the particle filters chosen; ``sets`` are
@@ -36,7 +37,9 @@ def replay_log(log: str, output: str, *, estimators: Sequence[str] = (),
     every estimator at the log's ground truth. One particle cloud of at most ``cloud_size``
     particles is kept per ``cloud_period`` s. ``output`` replaces an existing file only with
     ``force`` and never an input; it is written through a temporary file. ``warn`` receives
-    each warning (corrupt chunks of the input, estimators left out) as it is met.
+    each warning (corrupt chunks of the input, estimators left out) as it is met. The
+    estimators run on ``threads`` threads at once (default: one per estimator, at most one
+    per CPU; the same output for any count).
 
     Returns the summary ``lgvtool replay --json`` prints: output, seed, per estimator its
     estimates, clouds and seconds, skipped estimators with the reason, messages written and
@@ -57,7 +60,7 @@ def replay_log(log: str, output: str, *, estimators: Sequence[str] = (),
     try:
         return _replay(log, output, list(estimators), particles, seed, sets, config_path,
                        start_at_truth, cloud_period, cloud_size, compression, show_progress,
-                       view, warn)
+                       view, warn, threads)
     finally:
         if collecting:
             gc.enable()
@@ -66,7 +69,8 @@ def replay_log(log: str, output: str, *, estimators: Sequence[str] = (),
 def _replay(log: str, output: str, estimators: list[str], particles: int | None,
             seed: int, sets: Sequence[str], config_path: str | None, start_at_truth: bool,
             cloud_period: float, cloud_size: int, compression: str,
-            show_progress: bool, view: bool, warn: Callable[[str], None]) -> dict[str, Any]:
+            show_progress: bool, view: bool, warn: Callable[[str], None],
+            threads: int | None) -> dict[str, Any]:
     """The replay (see :func:`replay_log`)."""
     import time
     import warnings
@@ -110,7 +114,7 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
         result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
                              initial_pose="truth" if start_at_truth else None,
                              progress=bar.advance, cloud_period_s=cloud_period,
-                             cloud_size=cloud_size)
+                             cloud_size=cloud_size, threads=threads)
         bar.set(max(total, 1))
     t_filter = time.perf_counter() - t0
     if estimators:

@@ -13,6 +13,7 @@ from lgvtool.options import (
     seed_option,
     set_option,
     split_names,
+    threads_option,
     warn,
     workers_type,
 )
@@ -51,6 +52,7 @@ from lgvtool.options import (
 @click.option("--workers", type=workers_type(), default=None,
               help="Evaluate several logs on a local Dask cluster of this many processes "
                    "(default with several logs: one per CPU).")
+@threads_option
 @scheduler_options
 @force_option
 @click.option("--start-at-truth", is_flag=True,
@@ -65,7 +67,8 @@ def evaluate(
     fmt: str, maxima: tuple[str, ...], minima: tuple[str, ...], baseline: str | None,
     tolerance: str, seed: int, sets: tuple[str, ...], config_path: str | None,
     shared_centre: bool, free_radius: bool, png: bool, workers: int | None,
-    scheduler: str | None, tls_ca_file: str | None, tls_cert: str | None, tls_key: str | None,
+    threads: int | None, scheduler: str | None, tls_ca_file: str | None,
+    tls_cert: str | None, tls_key: str | None,
     force: bool, start_at_truth: bool, foreign: tuple[str, ...] = (),
     show_progress: bool = True,
 ) -> None:
@@ -90,7 +93,7 @@ def evaluate(
         logs, outdir=outdir, fmt=fmt, estimators=split_names(estimators) or None,
         maxima=maxima, minima=minima, baseline=baseline, tolerance=tolerance, seed=seed,
         sets=sets, config_path=config_path, shared_centre=shared_centre,
-        free_radius=free_radius, png=png, workers=workers, scheduler=scheduler,
+        free_radius=free_radius, png=png, workers=workers, threads=threads, scheduler=scheduler,
         tls=(tls_ca_file, tls_cert, tls_key), force=force, start_at_truth=start_at_truth,
         foreign=foreign, show_progress=show_progress)
     for w in run.warnings:

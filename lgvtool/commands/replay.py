@@ -14,6 +14,7 @@ from lgvtool.options import (
     seed_option,
     set_option,
     split_names,
+    threads_option,
     warn,
 )
 from lgvtool.values import MAX_COUNT, MAX_WALL_S
@@ -42,13 +43,15 @@ from lgvtool.values import MAX_COUNT, MAX_WALL_S
 @click.option("--view/--no-view", default=True, show_default=True,
               help="Also write the channels Foxglove draws: frames, NAV head and scans, "
                    "covariance ellipses, reference circle (docs/log-format.md).")
+@threads_option
 @force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @progress_option("Progress on stderr once the replay takes over a second.")
 def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | None,
            seed: int, sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
            cloud_period: float, cloud_size: int, compression: str, view: bool,
-           as_json: bool, force: bool, show_progress: bool = True) -> None:
+           threads: int | None, as_json: bool, force: bool, show_progress: bool = True
+           ) -> None:
     """Replay LOG through the localisation estimators and write OUTPUT.
 
     OUTPUT is a complete log: every message of LOG, plus per estimator NAME the pose of the
@@ -66,7 +69,7 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
                          seed=seed, sets=sets, config_path=config_path,
                          start_at_truth=start_at_truth, cloud_period=cloud_period,
                          cloud_size=cloud_size, compression=compression, view=view, force=force,
-                         show_progress=show_progress, warn=warn)
+                         threads=threads, show_progress=show_progress, warn=warn)
     if as_json:
         import json
 

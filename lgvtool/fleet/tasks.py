@@ -269,5 +269,5 @@ def evaluate_task(task: SweepTask) -> dict[str, Any]:
         # a log written by replay holds estimates: the sweep runs the estimators afresh anyway
         result = evaluate_log(reader, estimators=list(task.estimators) or None,
                               config=task.config, seed=task.seed, settings=dict(task.settings),
-                              replay=True)
+                              replay=True, threads=1)  # the sweep runs tasks side by side
     return document_metrics(build_document([result]))

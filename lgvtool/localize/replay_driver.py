@@ -14,11 +14,12 @@ trajectories returned carry absolute log time in s, like :meth:`LogReader.datafr
 from __future__ import annotations
 
 import math
+import threading
 import time
 import zlib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,6 +54,8 @@ if TYPE_CHECKING:
     from lgvtool.log import LogReader
 
 FloatArray = NDArray[np.float64]
+_J = TypeVar("_J")
+_T = TypeVar("_T")
 
 __all__ = ["EstimateTable", "LazyScans", "LogData", "ReplayResult", "load_log", "replay_data",
            "run_replay"]
@@ -217,8 +220,11 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
                 settings: Mapping[str, Any] | None = None,
                 initial_pose: tuple[float, float, float] | str | None = None,
                 progress: Callable[[int], None] | None = None,
-                cloud_period_s: float = 2.0, cloud_size: int = 50) -> ReplayResult:
-    """Run the estimators ``names`` over ``data`` (see :func:`run_replay`)."""
+                cloud_period_s: float = 2.0, cloud_size: int = 50,
+                threads: int | None = None) -> ReplayResult:
+    """Run the estimators ``names`` over ``data`` (see :func:`run_replay`) on ``threads``
+    threads (default: one per estimator, at most one per CPU; see :func:`run_side_by_side`):
+    the same result for any count."""
     cfg = config or default_config()
     data = apply_installation(data, cfg.vehicle)
     chosen = check_names(list(names) if names is not None else list(DEFAULT_ESTIMATORS))
@@ -238,8 +244,8 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
     tracks: dict[MotionSettings, MotionTrack] = {}
     result = ReplayResult({}, {}, {}, {}, {}, data.t0_ns, seed)
     result.gated = apply_pose_gate(data, vehicle, tracks)
+    runs: list[_Run] = []
     for name in chosen:
-        started = time.perf_counter()
         cls = ESTIMATORS[name]
         p = params[name]
         result.settings[name] = params_dict(p)
@@ -249,35 +255,137 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
             track = tracks.get(ms)
             if track is None:
                 track = tracks[ms] = MotionTrack(data.increments(ms, vehicle), ms.step_form)
-        obs, _ = _observations(data, cls, p, track, vehicle, start_poses=False)
+        if isinstance(data.scans, LazyScans) and data.has_scans and cls.uses_scans:
+            data.scans.decoded()  # once, here: the estimators then share the arrays
+        runs.append(_Run(name, cls, p, track))
+    construct = threading.Lock()
+
+    def run(job: _Run, report: Callable[[int], None] | None) -> _Done | None:
+        started = time.perf_counter()
+        obs, _ = _observations(data, job.cls, job.params, job.track, vehicle,
+                               start_poses=False)
         if not obs:
-            result.skipped[name] = (f"{name} has no usable observations in this log")
-            continue
-        start_pose: tuple[float, float, float] | None = None
-        if initial_pose == "truth":
-            start_pose = truth_pose_at(data, obs[0].t)
-            if start_pose is None:
-                raise MissingDataError("initial pose 'truth' asked for, but the log has no "
-                                       "/truth/pose")
-        elif initial_pose is not None and not isinstance(initial_pose, str):
-            start_pose = tuple(float(v) for v in initial_pose)  # type: ignore[assignment]
-        elif isinstance(initial_pose, str):
-            raise InputError(f"initial pose must be (x, y, heading) or 'truth', "
-                             f"got {initial_pose!r}")
-        est = cls(p, vehicle=vehicle, reflectors=data.reflectors, area=cfg.area,
-                  rng=estimator_rng(seed, name), initial_pose=start_pose)
+            return None
+        with construct:  # one at a time: a constructor may import the compiled kernels
+            est = job.cls(job.params, vehicle=vehicle, reflectors=data.reflectors,
+                          area=cfg.area, rng=estimator_rng(seed, job.name),
+                          initial_pose=_start_pose(data, initial_pose, obs[0].t))
         todo: Sequence[PoseObservation | ScanObservation | _Mark] = obs
         if not est.initialized:
-            start_only = _start_poses(data, cls, p)
+            start_only = _start_poses(data, job.cls, job.params)
             if start_only:
-                todo = _start(est, obs, start_only, track)
-        table, clouds = _run_one(est, todo, track, data.t0_ns, progress, cloud_period_s,
+                todo = _start(est, obs, start_only, job.track)
+        table, clouds = _run_one(est, todo, job.track, data.t0_ns, report, cloud_period_s,
                                  cloud_size)
-        result.tables[name] = table
+        return table, clouds, time.perf_counter() - started
+
+    costs = [_cost(data, r.cls, r.params) for r in runs]
+    for job, done in zip(runs, run_side_by_side(runs, run, costs, threads, progress),
+                         strict=True):
+        if done is None:
+            result.skipped[job.name] = f"{job.name} has no usable observations in this log"
+            continue
+        result.tables[job.name], clouds, result.timings[job.name] = done
         if clouds:
-            result.clouds[name] = clouds
-        result.timings[name] = time.perf_counter() - started
+            result.clouds[job.name] = clouds
     return result
+
+
+_Clouds = list[tuple[int, FloatArray, FloatArray, FloatArray]]
+#: what one estimator's run gives: its estimates, particle clouds and seconds
+_Done = tuple[EstimateTable, _Clouds, float]
+
+
+@dataclass
+class _Run:
+    """One estimator to run: its class, parameters and odometry track (None: no motion)."""
+
+    name: str
+    cls: type[Estimator]
+    params: Any
+    track: MotionTrack | None
+
+
+def _cost(data: LogData, cls: type[Estimator], params: Any) -> float:
+    """Rough work of running ``cls``: the observations it may use times its particles."""
+    n = 0
+    if cls.uses_scans and data.has_scans:
+        n += len(data.scans)
+    if cls.uses_poses and data.has_poses and data.nav is not None:
+        n += len(data.nav["t"])
+    return float(n) * max(1, int(getattr(params, "particles", 1)))
+
+
+def _start_pose(data: LogData, initial_pose: tuple[float, float, float] | str | None,
+                t: float) -> tuple[float, float, float] | None:
+    """The start pose ``initial_pose`` asks for at the first observation time ``t`` (s)."""
+    if initial_pose == "truth":
+        pose = truth_pose_at(data, t)
+        if pose is None:
+            raise MissingDataError("initial pose 'truth' asked for, but the log has no "
+                                   "/truth/pose")
+        return pose
+    if isinstance(initial_pose, str):
+        raise InputError(f"initial pose must be (x, y, heading) or 'truth', "
+                         f"got {initial_pose!r}")
+    if initial_pose is not None:
+        return (float(initial_pose[0]), float(initial_pose[1]), float(initial_pose[2]))
+    return None
+
+
+class _Stopped(Exception):
+    """Raised in a run still going once another has failed (its next progress report)."""
+
+
+def run_side_by_side(jobs: Sequence[_J], run: Callable[[_J, Callable[[int], None] | None], _T],
+                     costs: Sequence[float], threads: int | None = None,
+                     progress: Callable[[int], None] | None = None) -> list[_T]:
+    """``[run(job, progress) for job in jobs]``, on ``threads`` threads (default: one per job,
+    at most one per CPU), the costliest jobs started first.
+
+    The filters' compiled kernels release the interpreter, so one filter's kernel runs while
+    another thread does its Python work. In threads, ``run`` is handed a ``report`` that passes
+    counts on to ``progress`` one call at a time; once a job has failed the others stop at
+    their next report, and the first failure in job order is raised (after every thread has
+    ended). The jobs must not share mutable state.
+    """
+    import os
+    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
+
+    n = min(len(jobs), os.cpu_count() or 1) if threads is None else min(int(threads), len(jobs))
+    if n <= 1:
+        return [run(job, progress) for job in jobs]
+    stop = threading.Event()
+    lock = threading.Lock()
+
+    def report(k: int) -> None:
+        if stop.is_set():
+            raise _Stopped
+        if progress is not None:
+            with lock:
+                progress(k)
+
+    def guarded(job: _J) -> _T:
+        try:
+            return run(job, report)
+        except BaseException:
+            stop.set()
+            raise
+
+    with ThreadPoolExecutor(n, thread_name_prefix="estimator") as pool:
+        futures = {k: pool.submit(guarded, jobs[k])
+                   for k in sorted(range(len(jobs)), key=lambda k: -costs[k])}
+        try:
+            wait(futures.values(), return_when=FIRST_EXCEPTION)
+        except BaseException:  # interrupted while waiting: the runs stop at their next report
+            stop.set()
+            raise
+    failures = [futures[k].exception() for k in range(len(jobs))]
+    first = next((e for e in failures if e is not None and not isinstance(e, _Stopped)),
+                 next((e for e in failures if e is not None), None))
+    if first is not None:
+        raise first
+    return [futures[k].result() for k in range(len(jobs))]
 
 
 def apply_pose_gate(data: LogData, vehicle: Any,
@@ -395,7 +503,7 @@ def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
                initial_pose: tuple[float, float, float] | str | None = None,
                progress: Callable[[int], None] | None = None,
                cloud_period_s: float = 2.0, cloud_size: int = 50,
-               tap: Tap | None = None) -> ReplayResult:
+               tap: Tap | None = None, threads: int | None = None) -> ReplayResult:
     """Run estimators over a log.
 
     :param reader: an open :class:`lgvtool.log.LogReader`.
@@ -412,6 +520,8 @@ def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
     :param cloud_size: at most this many particles per kept cloud (0: none).
     :param tap: handed the log's chunks as they are read
         (:func:`lgvtool.localize.logdata.load_log`), for a caller that takes more from them.
+    :param threads: threads the estimators run on at once (default: one per estimator, at
+        most one per CPU); the results are the same for any count.
     :raises MissingDataError: no motion data, or no observation source.
     :raises InputError: an unknown estimator or parameter.
     """
@@ -421,6 +531,6 @@ def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
     read_s = time.perf_counter() - started
     result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
                          initial_pose=initial_pose, progress=progress,
-                         cloud_period_s=cloud_period_s, cloud_size=cloud_size)
+                         cloud_period_s=cloud_period_s, cloud_size=cloud_size, threads=threads)
     result.timings["read"] = read_s
     return result

@@ -1,0 +1,109 @@
+"""The estimators run side by side on threads: the same results as one after the other, a
+failure stops the others and is the one raised, and a log's scans are decoded once."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from simlogs import simulate_log
+
+from lgvtool.errors import InputError
+from lgvtool.localize.replay_driver import (
+    ReplayResult,
+    load_log,
+    replay_data,
+    run_side_by_side,
+)
+from lgvtool.log import LogReader
+
+ALL = ["laser", "deadreckoning", "ekf", "pf-paper", "pf"]
+
+
+@pytest.fixture(scope="module")
+def sim_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return simulate_log(tmp_path_factory.mktemp("side") / "circle.mcap", 30.0, seed=4)
+
+
+def _replay(log: Path, threads: int) -> tuple[ReplayResult, int]:
+    """The replay of ``log`` on ``threads`` threads, and the observations it reported."""
+    reader = LogReader(log)
+    cfg = reader.config()
+    data = load_log(reader, cfg.reflectors or None)
+    counted: list[int] = []
+    res = replay_data(data, ALL, config=cfg, seed=3, threads=threads,
+                      progress=counted.append, settings={"pf.particles": 300})
+    return res, sum(counted)
+
+
+def test_threads_give_the_same_results_as_one(sim_log: Path) -> None:
+    one, one_count = _replay(sim_log, 1)
+    many, many_count = _replay(sim_log, 4)
+    assert list(many.tables) == ALL == list(one.tables)
+    for name in ALL:
+        a, b = one.tables[name], many.tables[name]
+        # the same arithmetic in the same order on every thread: identical, not close
+        for field in ("t_ns", "x", "y", "heading", "covariance", "particles", "ess"):
+            assert np.array_equal(getattr(a, field), getattr(b, field), equal_nan=True), \
+                (name, field)
+    for name in ("pf-paper", "pf"):
+        ca, cb = one.clouds[name], many.clouds[name]
+        assert len(ca) == len(cb) > 0
+        assert all(p[0] == q[0] and np.array_equal(p[1], q[1]) for p, q in zip(ca, cb, strict=True))
+    assert one.settings == many.settings
+    # every observation counted once, whichever thread ran it
+    assert one_count == many_count > 0
+
+
+def test_jobs_run_at_once_costliest_first() -> None:
+    started: list[str] = []
+    both = threading.Barrier(2, timeout=10)
+
+    def run(job: str, report: Callable[[int], None] | None) -> str:
+        started.append(job)
+        if job in ("big", "small"):
+            both.wait()  # returns only when the two run at the same time
+        return job.upper()
+
+    out = run_side_by_side(["small", "big", "tiny"], run, [1.0, 5.0, 0.5], threads=2)
+    assert out == ["SMALL", "BIG", "TINY"]  # in job order
+    assert started[0] == "big"
+
+
+def test_a_failure_stops_the_others_and_is_raised() -> None:
+    stopped: list[str] = []
+
+    def run(job: str, report: Callable[[int], None] | None) -> str:
+        if job == "bad":
+            time.sleep(0.05)
+            raise InputError("bad estimator")
+        try:
+            for _ in range(1000):  # a long run that reports as the estimators do
+                assert report is not None
+                report(1)
+                time.sleep(0.01)
+        except BaseException:
+            stopped.append(job)
+            raise
+        return job
+
+    t0 = time.monotonic()
+    with pytest.raises(InputError, match="bad estimator"):
+        run_side_by_side(["long", "bad"], run, [2.0, 1.0], threads=2)
+    assert stopped == ["long"]
+    assert time.monotonic() - t0 < 5.0  # not the 10 s the long run would take
+
+
+def test_one_thread_runs_in_the_caller() -> None:
+    seen: list[threading.Thread] = []
+
+    def run(job: int, report: Callable[[int], None] | None) -> int:
+        seen.append(threading.current_thread())
+        return job * 2
+
+    assert run_side_by_side([1, 2, 3], run, [1.0, 2.0, 3.0], threads=1) == [2, 4, 6]
+    assert set(seen) == {threading.current_thread()}
