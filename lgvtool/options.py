@@ -105,14 +105,14 @@ def workers_type() -> Number:
     return Number(int, 1, max_workers())
 
 
-def threads_option(f: F) -> F:
-    """``--threads N``: threads the estimators run on at once."""
+def threads_option(default_text: str) -> Callable[[F], F]:
+    """``--threads N``: threads the estimators run on at once (``default_text``: the default
+    when the option is not given)."""
     from lgvtool.values import MAX_THREADS
 
     return click.option("--threads", type=Number(int, 1, MAX_THREADS), default=None,
-                        help="Threads the estimators run on at once (default: one per "
-                             "estimator, at most one per CPU); the results are the same for "
-                             "any count.")(f)
+                        help=f"Threads the estimators run on at once (default: {default_text});"
+                             " the results are the same for any count.")
 
 
 def scheduler_options(f: F) -> F:

@@ -87,7 +87,7 @@ def evaluate_log(
     replay: bool = False,
     trajectories: Mapping[str, pd.DataFrame] | None = None,
     progress: Progress | None = None,
-    threads: int | None = None,
+    threads: int | None = 1,
 ) -> EvaluationResult:
     """Evaluate one log.
 
@@ -105,8 +105,9 @@ def evaluate_log(
     ``trajectories`` (name -> DataFrame t, x, y, heading of O) are scored beside them
     (``--trajectory``, :mod:`lgvtool.interop.foreign_trajectories`).
     ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress;
-    ``threads``: threads the estimators run on at once (default: one per estimator, at most one
-    per CPU; the same results for any count).
+    ``threads``: threads the estimators run on at once (None: one per estimator, at most one
+    per CPU; the same results for any count); one by default, as two filters side by side hold
+    their working memory at once (docs/performance.md).
     """
     from lgvtool.circle import median_steering
     from lgvtool.evaluate.evaluation import evaluate_trajectories
@@ -184,8 +185,7 @@ def _evaluate_task(task: _LogTask) -> EvaluationResult:
 
     with pywarnings.catch_warnings():
         pywarnings.simplefilter("ignore")
-        # one thread per log unless asked: the engine runs the logs side by side
-        return evaluate_log(task.path, **{"threads": 1, **task.options})
+        return evaluate_log(task.path, **task.options)
 
 
 def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: Any,
@@ -270,8 +270,7 @@ def evaluate_logs(
 
     Every log goes through :func:`evaluate_log` (in this process for one log, else on a local
     Dask cluster of ``workers`` processes or on ``scheduler`` with the ``tls`` (CA file,
-    certificate, key) files); a log's estimators run on ``threads`` threads (default: one per
-    estimator, at most one per CPU, in this process; one on the Dask workers).
+    certificate, key) files); a log's estimators run on ``threads`` threads (default one).
     ``maxima``/``minima`` are ``KEY=VALUE`` bounds on the document's figures
     (``pf.circle.rmse_mm=25``); ``baseline`` a previous ``table1.json``, worse by at most
     ``tolerance`` (``"10%"``). ``sets`` are ``KEY=VALUE`` estimator settings,

@@ -52,7 +52,7 @@ from lgvtool.options import (
 @click.option("--workers", type=workers_type(), default=None,
               help="Evaluate several logs on a local Dask cluster of this many processes "
                    "(default with several logs: one per CPU).")
-@threads_option
+@threads_option("1, which keeps a long log within its memory; more are faster")
 @scheduler_options
 @force_option
 @click.option("--start-at-truth", is_flag=True,

@@ -3,6 +3,7 @@ failure stops the others and is the one raised, and a log's scans are decoded on
 
 from __future__ import annotations
 
+import json
 import threading
 import time
 from collections.abc import Callable
@@ -107,3 +108,13 @@ def test_one_thread_runs_in_the_caller() -> None:
 
     assert run_side_by_side([1, 2, 3], run, [1.0, 2.0, 3.0], threads=1) == [2, 4, 6]
     assert set(seen) == {threading.current_thread()}
+
+
+def test_evaluate_on_threads_prints_the_same_document(sim_log: Path, run_cli) -> None:
+    docs = []
+    for threads in ("1", "3"):
+        res = run_cli("evaluate", sim_log, "--json", "--seed", "2", "--threads", threads)
+        assert res.returncode == 0, res.stderr
+        docs.append(json.loads(res.stdout))
+    assert list(docs[0]["estimators"]) == ALL
+    assert docs[0] == docs[1]
