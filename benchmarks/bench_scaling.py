@@ -12,10 +12,13 @@ channels: "replay five estimators"), ``lgvtool evaluate LOG -o DIR --seed 0`` on
 (it runs the five estimators and writes Table 1 and report.html: "evaluate raw"), and on the
 one-hour log ``lgvtool replay LOG -o OUT --estimator pf-paper --particles 150 --seed 0 --json``
 ("replay pf-paper end to end", with the command's own split into reading, filtering and
-writing). The logs are simulated once (``lgvtool simulate --scenario paper-circle --seed 1``)
-and kept in ``--cache``. ``--tree`` runs the lgvtool of another checkout (its folder is put on
-``PYTHONPATH``), so that the code before and after a change can be measured alternately in the
-same minutes; the load average is printed before and after the runs.
+writing); ``floor`` times ``lgvtool replay LOG --estimator laser`` on the one-hour log with and
+without ``--no-view``: reading the log and writing the output with almost no filtering and no
+compiled kernel, the floor under the end-to-end rows. The logs are simulated once
+(``lgvtool simulate --scenario paper-circle --seed 1``) and kept in ``--cache``. ``--tree``
+runs the lgvtool of another checkout (its folder is put on ``PYTHONPATH``), so that the code
+before and after a change can be measured alternately in the same minutes; the load average
+is printed before and after the runs.
 """
 
 from __future__ import annotations
@@ -61,7 +64,7 @@ def main() -> None:
                     help="checkout whose lgvtool is run (default: this one)")
     ap.add_argument("--repeat", type=int, default=1, help="runs per cell (the median is shown)")
     ap.add_argument("--commands", default="pf-paper,replay,evaluate",
-                    help="which runs: pf-paper (one hour), replay, evaluate")
+                    help="which runs: pf-paper (one hour), floor (one hour), replay, evaluate")
     opts = ap.parse_args()
     hours = [float(h) for h in opts.hours.split(",")]
     wanted = set(opts.commands.split(","))
@@ -84,6 +87,16 @@ def main() -> None:
                   f"{TARGETS['replay pf-paper end to end']} s), peak {r['peak_mb']:.0f} MB; "
                   f"inside: read {sec['read']:.2f} s, filter {sec['filter']:.2f} s, write "
                   f"{sec['write']:.2f} s", flush=True)
+        if "floor" in wanted:
+            log = opts.cache / "paper-circle-1h.mcap"
+            simulate(log, 1.0, tree)
+            for view in ("--view", "--no-view"):
+                r = median_run(tree, ["replay", str(log), "-o", str(out), "--estimator", "laser",
+                                      view, "--seed", "0", "--force", "--no-progress"],
+                               opts.repeat)
+                print(f"replay laser {view}, 1 h (the output's floor): {r['wall_s']:.2f} s wall "
+                      f"(walls {', '.join(f'{w:.2f}' for w in r['walls'])}), peak "
+                      f"{r['peak_mb']:.0f} MB", flush=True)
         rows: list[tuple[str, float, dict[str, Any]]] = []
         for h in hours:
             log = opts.cache / f"paper-circle-{h:g}h.mcap"
