@@ -142,6 +142,7 @@ def scaled_motion(dx: float, dy: float, dth: float, s_v: float, s_w: float
 class GaussianPoseEstimator(Estimator):
     """Shared state and prediction of the Gaussian estimators (EKF, dead reckoning)."""
 
+    kernel_modules: ClassVar[tuple[str, ...]] = ("lgvtool.localize.ekf_kernels",)
     #: False when observations after the start never change the state (dead reckoning)
     corrects: ClassVar[bool] = True
 

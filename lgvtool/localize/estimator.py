@@ -114,6 +114,8 @@ class Estimator(ABC):
     uses_motion: ClassVar[bool] = True
     uses_scans: ClassVar[bool] = True
     uses_poses: ClassVar[bool] = True
+    #: the compiled-kernel modules the estimator may run (:mod:`lgvtool.localize.kernel_choice`)
+    kernel_modules: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, params: Any = None, *, vehicle: Vehicle | None = None,
                  reflectors: tuple[Reflector, ...] | list[Reflector] = (),

@@ -26,3 +26,14 @@ def compiled(module: str) -> ModuleType | None:
         if mode == "numba":
             raise
         return None
+
+
+def ready(module: str) -> None:
+    """Import the kernel module ``module`` (when the kernels are used) and start numba's
+    compiler machinery in this thread, by running the module's trivial cached kernel
+    ``ready``: numba's first call imports its typing registries (about 0.15 s), and estimators
+    run side by side must not import at once (an import that waits for the interpreter behind
+    a busy thread is many times slower)."""
+    kernels = compiled(module)
+    if kernels is not None:
+        kernels.ready()

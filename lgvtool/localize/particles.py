@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from types import ModuleType
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,6 +51,8 @@ class ParticleInitParams:
 
 class ParticleSet(Estimator):
     """Particles (positions ``z`` m, headings ``th`` rad) and their normalised weights ``w``."""
+
+    kernel_modules: ClassVar[tuple[str, ...]] = ("lgvtool.localize.pf_kernels",)
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]

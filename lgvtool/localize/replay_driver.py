@@ -29,6 +29,7 @@ from lgvtool.config import Config, default_config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
 from lgvtool.localize.installation import apply_installation
+from lgvtool.localize.kernel_choice import ready
 from lgvtool.localize.logdata import LazyScans, LogData, Tap, load_log, scan_batch
 from lgvtool.localize.motion import Deltas, MotionSettings, MotionTrack
 from lgvtool.localize.observations import (
@@ -279,8 +280,12 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
                                  cloud_size)
         return table, clouds, time.perf_counter() - started
 
+    def prepare() -> None:
+        for module in dict.fromkeys(m for r in runs for m in r.cls.kernel_modules):
+            ready(module)
+
     costs = [_cost(data, r.cls, r.params) for r in runs]
-    for job, done in zip(runs, run_side_by_side(runs, run, costs, threads, progress),
+    for job, done in zip(runs, run_side_by_side(runs, run, costs, threads, progress, prepare),
                          strict=True):
         if done is None:
             result.skipped[job.name] = f"{job.name} has no usable observations in this log"
@@ -339,9 +344,11 @@ class _Stopped(Exception):
 
 def run_side_by_side(jobs: Sequence[_J], run: Callable[[_J, Callable[[int], None] | None], _T],
                      costs: Sequence[float], threads: int | None = None,
-                     progress: Callable[[int], None] | None = None) -> list[_T]:
+                     progress: Callable[[int], None] | None = None,
+                     prepare: Callable[[], None] | None = None) -> list[_T]:
     """``[run(job, progress) for job in jobs]``, on ``threads`` threads (default: one per job,
-    at most one per CPU), the costliest jobs started first.
+    at most one per CPU), the costliest jobs started first; ``prepare`` is called before the
+    threads start (e.g. to import what every job would import).
 
     The filters' compiled kernels release the interpreter, so one filter's kernel runs while
     another thread does its Python work. In threads, ``run`` is handed a ``report`` that passes
@@ -355,6 +362,8 @@ def run_side_by_side(jobs: Sequence[_J], run: Callable[[_J, Callable[[int], None
     n = min(len(jobs), os.cpu_count() or 1) if threads is None else min(int(threads), len(jobs))
     if n <= 1:
         return [run(job, progress) for job in jobs]
+    if prepare is not None:
+        prepare()
     stop = threading.Event()
     lock = threading.Lock()
 

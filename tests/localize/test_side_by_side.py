@@ -118,3 +118,47 @@ def test_evaluate_on_threads_prints_the_same_document(sim_log: Path, run_cli) ->
         docs.append(json.loads(res.stdout))
     assert list(docs[0]["estimators"]) == ALL
     assert docs[0] == docs[1]
+
+
+def test_prepare_runs_once_before_the_threads_only() -> None:
+    events: list[str] = []
+
+    def run(job: str, report: Callable[[int], None] | None) -> str:
+        events.append(job)
+        return job
+
+    run_side_by_side(["a", "b"], run, [1.0, 2.0], threads=1,
+                     prepare=lambda: events.append("prepare"))
+    assert events == ["a", "b"]  # in the caller: nothing to prepare
+    events.clear()
+    run_side_by_side(["a", "b"], run, [1.0, 2.0], threads=2,
+                     prepare=lambda: events.append("prepare"))
+    assert events[0] == "prepare" and sorted(events[1:]) == ["a", "b"]
+
+
+_READY = """
+import sys
+from lgvtool.localize.kernel_choice import ready
+ready(sys.argv[1])
+kernels = sys.modules.get(sys.argv[1])
+print("numba" in sys.modules, kernels is not None and bool(kernels._one.signatures))
+"""
+
+
+@pytest.mark.parametrize("module", ["lgvtool.localize.pf_kernels",
+                                    "lgvtool.localize.ekf_kernels"])
+def test_kernels_made_ready_in_the_caller(module: str) -> None:
+    import os
+    import subprocess
+    import sys
+
+    from lgvtool.localize.kernel_choice import KERNELS_ENV
+
+    def fresh(mode: str) -> str:
+        env = {**os.environ, KERNELS_ENV: mode}
+        return subprocess.run([sys.executable, "-c", _READY, module], env=env, check=True,
+                              capture_output=True, text=True).stdout.strip()
+
+    assert fresh("numpy") == "False False"  # the numpy path: numba never imported
+    pytest.importorskip("numba")
+    assert fresh("numba") == "True True"  # the trivial kernel loaded: numba's machinery up
