@@ -39,7 +39,7 @@ def replay_log(log: str, output: str, *, estimators: Sequence[str] = (),
     ``force`` and never an input; it is written through a temporary file. ``warn`` receives
     each warning (corrupt chunks of the input, estimators left out) as it is met. The
     estimators run on ``threads`` threads at once (default: one per estimator, at most one
-    per CPU; the same output for any count).
+    per CPU, with the compiled kernels, else one; the same output for any count).
 
     Returns the summary ``lgvtool replay --json`` prints: output, seed, per estimator its
     estimates, clouds and seconds, skipped estimators with the reason, messages written and

@@ -43,7 +43,7 @@ from lgvtool.values import MAX_COUNT, MAX_WALL_S
 @click.option("--view/--no-view", default=True, show_default=True,
               help="Also write the channels Foxglove draws: frames, NAV head and scans, "
                    "covariance ellipses, reference circle (docs/log-format.md).")
-@threads_option("one per estimator, at most one per CPU")
+@threads_option("one per estimator, at most one per CPU, with the compiled kernels of the fast extra; else 1")
 @force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @progress_option("Progress on stderr once the replay takes over a second.")

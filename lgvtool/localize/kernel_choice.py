@@ -28,12 +28,14 @@ def compiled(module: str) -> ModuleType | None:
         return None
 
 
-def ready(module: str) -> None:
+def ready(module: str) -> bool:
     """Import the kernel module ``module`` (when the kernels are used) and start numba's
     compiler machinery in this thread, by running the module's trivial cached kernel
     ``ready``: numba's first call imports its typing registries (about 0.15 s), and estimators
     run side by side must not import at once (an import that waits for the interpreter behind
-    a busy thread is many times slower)."""
+    a busy thread is many times slower). Returns whether the compiled kernels are used."""
     kernels = compiled(module)
-    if kernels is not None:
-        kernels.ready()
+    if kernels is None:
+        return False
+    kernels.ready()
+    return True

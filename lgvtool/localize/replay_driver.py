@@ -224,8 +224,8 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
                 cloud_period_s: float = 2.0, cloud_size: int = 50,
                 threads: int | None = None) -> ReplayResult:
     """Run the estimators ``names`` over ``data`` (see :func:`run_replay`) on ``threads``
-    threads (default: one per estimator, at most one per CPU; see :func:`run_side_by_side`):
-    the same result for any count."""
+    threads (default: one per estimator, at most one per CPU, when the compiled kernels are
+    used, else one; see :func:`run_side_by_side`): the same result for any count."""
     cfg = config or default_config()
     data = apply_installation(data, cfg.vehicle)
     chosen = check_names(list(names) if names is not None else list(DEFAULT_ESTIMATORS))
@@ -280,10 +280,14 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
                                  cloud_size)
         return table, clouds, time.perf_counter() - started
 
-    def prepare() -> None:
-        for module in dict.fromkeys(m for r in runs for m in r.cls.kernel_modules):
-            ready(module)
+    def prepare() -> bool:
+        """Make the estimators' compiled kernels ready; whether there are any."""
+        return any([ready(m) for m in dict.fromkeys(m for r in runs for m in r.cls.kernel_modules)])
 
+    if threads is None and len(runs) > 1 and not prepare():
+        # side by side only where the compiled kernels release the interpreter: the numpy
+        # path's short array operations hold it, and two threads of them are slower than one
+        threads = 1
     costs = [_cost(data, r.cls, r.params) for r in runs]
     for job, done in zip(runs, run_side_by_side(runs, run, costs, threads, progress, prepare),
                          strict=True):
@@ -345,7 +349,7 @@ class _Stopped(Exception):
 def run_side_by_side(jobs: Sequence[_J], run: Callable[[_J, Callable[[int], None] | None], _T],
                      costs: Sequence[float], threads: int | None = None,
                      progress: Callable[[int], None] | None = None,
-                     prepare: Callable[[], None] | None = None) -> list[_T]:
+                     prepare: Callable[[], object] | None = None) -> list[_T]:
     """``[run(job, progress) for job in jobs]``, on ``threads`` threads (default: one per job,
     at most one per CPU), the costliest jobs started first; ``prepare`` is called before the
     threads start (e.g. to import what every job would import).
@@ -530,7 +534,8 @@ def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
     :param tap: handed the log's chunks as they are read
         (:func:`lgvtool.localize.logdata.load_log`), for a caller that takes more from them.
     :param threads: threads the estimators run on at once (default: one per estimator, at
-        most one per CPU); the results are the same for any count.
+        most one per CPU, when the compiled kernels are used, else one); the results are the
+        same for any count.
     :raises MissingDataError: no motion data, or no observation source.
     :raises InputError: an unknown estimator or parameter.
     """

@@ -162,3 +162,30 @@ def test_kernels_made_ready_in_the_caller(module: str) -> None:
     assert fresh("numpy") == "False False"  # the numpy path: numba never imported
     pytest.importorskip("numba")
     assert fresh("numba") == "True True"  # the trivial kernel loaded: numba's machinery up
+
+
+@pytest.mark.parametrize(("mode", "expected"), [("numpy", 1), ("numba", None)])
+def test_side_by_side_by_default_only_with_compiled_kernels(
+        sim_log: Path, monkeypatch: pytest.MonkeyPatch, mode: str, expected: int | None) -> None:
+    """The numpy path's short array operations hold the interpreter: two threads of them are
+    slower than one (docs/performance.md), so its default is one thread."""
+    import lgvtool.localize.replay_driver as driver
+    from lgvtool.localize.kernel_choice import KERNELS_ENV
+
+    if mode == "numba":
+        pytest.importorskip("numba")
+    monkeypatch.setenv(KERNELS_ENV, mode)
+    asked: list[int | None] = []
+    real = driver.run_side_by_side
+
+    def spy(jobs, run, costs, threads=None, progress=None, prepare=None):
+        asked.append(threads)
+        return real(jobs, run, costs, threads, progress, prepare)
+
+    monkeypatch.setattr(driver, "run_side_by_side", spy)
+    reader = LogReader(sim_log)
+    cfg = reader.config()
+    data = load_log(reader, cfg.reflectors or None)
+    replay_data(data, ["laser", "ekf"], config=cfg)
+    replay_data(data, ["laser", "ekf"], config=cfg, threads=2)  # asked for: as asked
+    assert asked == [expected, 2]
