@@ -282,7 +282,8 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
 
     def prepare() -> bool:
         """Make the estimators' compiled kernels ready; whether there are any."""
-        return any([ready(m) for m in dict.fromkeys(m for r in runs for m in r.cls.kernel_modules)])
+        modules = dict.fromkeys(m for r in runs for m in r.cls.kernel_modules)
+        return any([ready(m) for m in modules])  # every module made ready, not the first only
 
     if threads is None and len(runs) > 1 and not prepare():
         # side by side only where the compiled kernels release the interpreter: the numpy
