@@ -324,15 +324,3 @@ def coast(mu: FloatArray, P: FloatArray, first: int, dx: FloatArray, dy: FloatAr
         _record(mu, P, times[i], k, ct, cx, cy, ch, covs)
         k += 1
     return k
-
-
-@_jit
-def _one(x: float) -> float:
-    """``x + 1`` (a kernel that only loads)."""
-    return x + 1.0
-
-
-def ready() -> None:
-    """Load numba's compiler machinery now: one call of a trivial cached kernel
-    (:func:`lgvtool.localize.kernel_choice.ready`)."""
-    _one(0.0)

@@ -3,6 +3,7 @@ the numpy array operations (the reference)."""
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
 from types import ModuleType
@@ -30,12 +31,24 @@ def compiled(module: str) -> ModuleType | None:
 
 def ready(module: str) -> bool:
     """Import the kernel module ``module`` (when the kernels are used) and start numba's
-    compiler machinery in this thread, by running the module's trivial cached kernel
-    ``ready``: numba's first call imports its typing registries (about 0.15 s), and estimators
-    run side by side must not import at once (an import that waits for the interpreter behind
-    a busy thread is many times slower). Returns whether the compiled kernels are used."""
-    kernels = compiled(module)
-    if kernels is None:
+    compiler machinery in this thread: numba's first call of a compiled function imports its
+    typing registries (about 0.15 s), and estimators run side by side must not import at once
+    (an import that waits for the interpreter behind a busy thread is many times slower).
+    Returns whether the compiled kernels are used."""
+    if compiled(module) is None:
         return False
-    kernels.ready()
+    _machinery()
     return True
+
+
+@functools.cache
+def _machinery() -> None:
+    """One call of a trivial compiled function (cached on disk): numba's machinery loaded."""
+    import numba
+
+    numba.njit(cache=True)(_plus_one)(0.0)
+
+
+def _plus_one(x: float) -> float:
+    """``x + 1`` (compiled by :func:`_machinery` only to load numba)."""
+    return x + 1.0

@@ -1378,15 +1378,3 @@ def pf_ekf_proposal(z: ComplexArray, rot: ComplexArray, cov: FloatArray, lm: Com
             f0 = r1 + (j10 * x + j11 * y + j12 * t)
             lin += e0 * e0 / (sr[k] * sr[k]) + f0 * f0 / (st[k] * st[k])
         corr[n] = log_ev + 0.5 * lin
-
-
-@_jit
-def _one(x: float) -> float:
-    """``x + 1`` (a kernel that only loads)."""
-    return x + 1.0
-
-
-def ready() -> None:
-    """Load numba's compiler machinery now: one call of a trivial cached kernel
-    (:func:`lgvtool.localize.kernel_choice.ready`)."""
-    _one(0.0)
