@@ -285,13 +285,15 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
         modules = dict.fromkeys(m for r in runs for m in r.cls.kernel_modules)
         return any([ready(m) for m in modules])  # every module made ready, not the first only
 
-    if threads is None and len(runs) > 1 and not prepare():
+    prepared = threads is None and len(runs) > 1
+    if prepared and not prepare():
         # side by side only where the compiled kernels release the interpreter: the numpy
         # path's short array operations hold it, and two threads of them are slower than one
         threads = 1
     costs = [_cost(data, r.cls, r.params) for r in runs]
-    for job, done in zip(runs, run_side_by_side(runs, run, costs, threads, progress, prepare),
-                         strict=True):
+    done_all = run_side_by_side(runs, run, costs, threads, progress,
+                                None if prepared else prepare)
+    for job, done in zip(runs, done_all, strict=True):
         if done is None:
             result.skipped[job.name] = f"{job.name} has no usable observations in this log"
             continue
