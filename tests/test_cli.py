@@ -42,3 +42,26 @@ def test_unknown_command_and_option_are_one_line_exit_2(run_cli) -> None:
     out = run_cli("info", "--bogus", "x.mcap")
     assert out.returncode == 2
     assert len(out.stderr.strip().splitlines()) == 1 and "bogus" in out.stderr
+
+
+def test_only_the_process_entry_spares_its_exit_the_final_collection(monkeypatch) -> None:
+    """``main()`` run as the process (no argv) freezes the objects left once its command has
+    ended, on success and on failure alike, so the interpreter's last collection skips them;
+    ``main(argv)`` run inside another program (these tests) leaves its collector alone."""
+    import gc
+
+    from lgvtool.cli import main
+
+    frozen: list[int] = []
+    monkeypatch.setattr(gc, "freeze", lambda: frozen.append(1))
+    monkeypatch.setattr(sys, "argv", ["lgvtool", "--version"])
+    main()
+    assert frozen == [1]
+    monkeypatch.setattr(sys, "argv", ["lgvtool", "frobnicate"])
+    with pytest.raises(SystemExit) as exc:
+        main()
+    assert exc.value.code == 2 and frozen == [1, 1]
+    main(["--version"])
+    with pytest.raises(SystemExit):
+        main(["frobnicate"])
+    assert frozen == [1, 1]

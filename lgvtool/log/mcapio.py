@@ -32,6 +32,9 @@ if TYPE_CHECKING:
 
 MAGIC = b"\x89MCAP0\r\n"
 _MSG_HEAD = struct.Struct("<BQHIQQ")  # opcode, record length, channel, sequence, log, publish
+#: the same head as a packed numpy record (31 bytes), to pack many at once
+_MSG_HEAD_DTYPE = [("opcode", "u1"), ("length", "<u8"), ("channel", "<u2"), ("sequence", "<u4"),
+                   ("log_time", "<u8"), ("publish_time", "<u8")]
 _REC_HEAD = struct.Struct("<BQ")
 _MSG_FIELDS = struct.Struct("<HIQQ")
 _CHUNK_HEAD = struct.Struct("<QQQI")  # start, end, uncompressed size, crc
@@ -514,18 +517,28 @@ FramedRecords = tuple[bytes, "NDArray[np.uint16]", "NDArray[np.int64]", "NDArray
 def framed_records(channel_ids: Sequence[int], log_times: Sequence[int],
                    datas: Sequence[bytes]) -> FramedRecords:
     """The message records of ``datas`` (publish time = log time, sequence 0), one after the
-    other, with their columns."""
+    other, with their columns. The records' heads are packed as one array (the bytes of
+    ``_MSG_HEAD.pack`` each; times must lie in 0 .. 2**63 - 1 ns)."""
     import numpy as np
 
     n = len(datas)
-    pack = _MSG_HEAD.pack
+    sizes = np.fromiter(map(len, datas), np.int64, n)
+    cids = np.asarray(channel_ids, dtype=np.uint16).reshape(n)
+    times = np.asarray(log_times, dtype=np.int64).reshape(n)
+    if n and int(times.min()) < 0:
+        raise ValueError("a message's log time is before 1970 (negative ns)")
+    heads = np.zeros(n, _MSG_HEAD_DTYPE)
+    heads["opcode"] = OP_MESSAGE
+    heads["length"] = sizes + (_MSG_HEAD.size - 9)
+    heads["channel"] = cids
+    heads["log_time"] = times
+    heads["publish_time"] = times
+    packed = heads.tobytes()
+    k = _MSG_HEAD.size
     parts: list[bytes] = [b""] * (2 * n)
-    parts[0::2] = [pack(OP_MESSAGE, 22 + len(d), c, 0, t, t)
-                   for c, t, d in zip(channel_ids, log_times, datas, strict=True)]
+    parts[0::2] = [packed[i:i + k] for i in range(0, k * n, k)]
     parts[1::2] = datas
-    return (b"".join(parts), np.asarray(channel_ids, dtype=np.uint16).reshape(n),
-            np.asarray(log_times, dtype=np.int64).reshape(n),
-            np.fromiter(map(len, datas), np.int64, n) + _MSG_HEAD.size)
+    return b"".join(parts), cids, times, sizes + k
 
 
 class McapWriter:

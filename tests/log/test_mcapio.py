@@ -90,6 +90,26 @@ def test_messages_written_out_of_order_come_back_sorted(tmp_path: Path) -> None:
     assert [m.log_time_ns for m in LogReader(path).raw_messages()] == times
 
 
+def test_framed_records_pack_each_head_as_struct_does() -> None:
+    """The heads packed as one array are ``struct``'s, at the ends of each field's range
+    (channel 0 and 65535, times 0 and 2**63 - 1 ns, empty and long payloads); a time before
+    1970 is refused, never wrapped."""
+    import struct
+
+    from lgvtool.log.mcapio import framed_records
+
+    cases = [(0, 0, b""), (65535, 2**63 - 1, b"x" * 70_000), (7, T0, b'{"a":1}'),
+             (1, T0, b"")]
+    blob, cids, times, sizes = framed_records(*map(list, zip(*cases, strict=True)))
+    head = struct.Struct("<BQHIQQ")
+    assert blob == b"".join(head.pack(5, 22 + len(d), c, 0, t, t) + d for c, t, d in cases)
+    assert cids.tolist() == [c for c, _, _ in cases]
+    assert times.tolist() == [t for _, t, _ in cases]
+    assert sizes.tolist() == [31 + len(d) for _, _, d in cases]
+    with pytest.raises(ValueError, match="before 1970"):
+        framed_records([1, 1], [T0, -1], [b"", b""])
+
+
 @pytest.mark.parametrize("chunk_bytes", [20_000, 400_000])
 def test_many_messages_at_once_write_the_file_of_one_at_a_time(chunk_bytes: int) -> None:
     """``add_messages`` (headers packed as an array, chunk boundaries from cumulative sizes)
