@@ -112,6 +112,7 @@ def evaluate_log(
     from lgvtool.circle import median_steering
     from lgvtool.evaluate.evaluation import evaluate_trajectories
     from lgvtool.evaluate.log_inputs import EvaluationInputs
+    from lgvtool.gc_pause import collector_paused
     from lgvtool.log import LogReader, topics
     from lgvtool.log.frames import steering_columns
 
@@ -126,8 +127,9 @@ def evaluate_log(
     if trajs is None:
         # the truth, the steering and the data quality from the estimators' reading
         read = EvaluationInputs(reader)
-        trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
-                                      start_at_truth, progress, read, threads)
+        with collector_paused():
+            trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
+                                          start_at_truth, progress, read, threads)
         source = "replay"
     else:
         if start_at_truth:

@@ -48,22 +48,14 @@ def replay_log(log: str, output: str, *, estimators: Sequence[str] = (),
     :raises InputError: (or a subclass; exit 2) a bad option, log or configuration, or an
         estimator asked for by name that cannot run on the log.
     """
-    import gc
-
-    # Reading, filtering and writing allocate millions of objects that form no cycles: the
-    # collector's passes over them cost tens of ms and free nothing.
-    collecting = gc.isenabled()
-    gc.disable()
+    from lgvtool.gc_pause import collector_paused
     from lgvtool.outputs import guard_output
 
     guard_output(output, [log, config_path], force=force)
-    try:
+    with collector_paused():
         return _replay(log, output, list(estimators), particles, seed, sets, config_path,
                        start_at_truth, cloud_period, cloud_size, compression, show_progress,
                        view, warn, threads)
-    finally:
-        if collecting:
-            gc.enable()
 
 
 def _replay(log: str, output: str, estimators: list[str], particles: int | None,

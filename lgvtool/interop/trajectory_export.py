@@ -97,12 +97,14 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
                             "exported")
         return {n: reader.dataframe(topics.estimate_pose(n)) for n in chosen}, "log"
     from lgvtool.errors import MissingDataError
+    from lgvtool.gc_pause import collector_paused
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
 
     try:
-        run = run_replay(reader, list(names) if names else list(DEFAULT_ESTIMATORS), config=cfg,
-                         seed=seed, settings=dict(settings),
-                         initial_pose="truth" if start_at_truth else None)
+        with collector_paused():
+            run = run_replay(reader, list(names) if names else list(DEFAULT_ESTIMATORS),
+                             config=cfg, seed=seed, settings=dict(settings),
+                             initial_pose="truth" if start_at_truth else None)
     except MissingDataError as exc:
         if names:
             raise MissingDataError(f"{reader.path}: {exc}") from None
