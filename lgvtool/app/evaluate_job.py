@@ -24,16 +24,11 @@ if TYPE_CHECKING:
     from lgvtool.log import LogReader
     from lgvtool.progress import Progress
 
-def _pose_frame(reader: LogReader, topic: str) -> pd.DataFrame:
-    df = reader.dataframe(topic)
-    if df.empty:
-        return df
-    return df[["t", "x", "y", "heading"]]
-
-
 def _estimates_from_log(
-    reader: LogReader, names: Sequence[str] | None
+    reader: LogReader, names: Sequence[str] | None, read: EvaluationInputs
 ) -> dict[str, pd.DataFrame] | None:
+    """The log's own estimates of O (t, x, y, heading), read in one pass with what ``read``
+    takes (the truth, the steering, the data quality); None when the log holds none."""
     from lgvtool.errors import InputError
     from lgvtool.log import topics
 
@@ -46,7 +41,12 @@ def _estimates_from_log(
             raise InputError(f"{reader.path}: no estimates of {', '.join(missing)} in the log "
                              f"(it holds {', '.join(present)}); run lgvtool replay first")
         present = list(names)
-    return {n: _pose_frame(reader, topics.estimate_pose(n)) for n in present}
+    tables = reader.dataframes([topics.estimate_pose(n) for n in present], tap=read)
+    return {n: _pose_columns(tables[topics.estimate_pose(n)]) for n in present}
+
+
+def _pose_columns(df: pd.DataFrame) -> pd.DataFrame:
+    return df if df.empty else df[["t", "x", "y", "heading"]]
 
 
 def _run_estimators(
@@ -114,19 +114,18 @@ def evaluate_log(
     from lgvtool.evaluate.log_inputs import EvaluationInputs
     from lgvtool.gc_pause import collector_paused
     from lgvtool.log import LogReader, topics
-    from lgvtool.log.frames import steering_columns
 
     reader = (path_or_reader if isinstance(path_or_reader, LogReader)
               else LogReader(path_or_reader))
     cfg = config if config is not None else reader.config()
     warnings: list[str] = list(reader.warnings)
-    trajs = None if replay else _estimates_from_log(reader, estimators)
+    # the truth, the steering and the data quality, taken in the pass that reads the log's
+    # estimates or in the estimators' reading
+    read = EvaluationInputs(reader)
+    trajs = None if replay else _estimates_from_log(reader, estimators, read)
     source = "log"
     used: dict[str, Any] = {}
-    read = None
     if trajs is None:
-        # the truth, the steering and the data quality from the estimators' reading
-        read = EvaluationInputs(reader)
         with collector_paused():
             trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
                                           start_at_truth, progress, read, threads)
@@ -138,10 +137,7 @@ def evaluate_log(
         if settings:
             warnings.append("--set has no effect: the log's own estimates are scored (evaluate a "
                             "log without /estimate/* channels to run the estimators)")
-    if read is not None:
-        truth = read.truth_table()
-    else:
-        truth = _pose_frame(reader, topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
+    truth: pd.DataFrame | None = read.truth_table()
     if truth is not None and truth.empty:
         truth = None
     if trajectories:
@@ -151,8 +147,7 @@ def evaluate_log(
     steering = None
     steering_source = "none"
     if reader.has_topic(topics.MCU_FRAME):
-        steering = median_steering(*(read.steering_columns() if read is not None
-                                     else steering_columns(reader)))
+        steering = median_steering(*read.steering_columns())
         steering_source = "log" if steering is not None else "none"
     if steering is None and cfg.reference.steering_angle_deg is not None:
         steering = math.radians(cfg.reference.steering_angle_deg)
@@ -164,8 +159,7 @@ def evaluate_log(
         lap_source=lap_source,
     )
     result.path = str(reader.path)
-    if read is not None:
-        result.quality = read.quality(result.t0)
+    result.quality = read.quality(result.t0)
     result.source = source
     result.settings = used
     late = [w for w in reader.warnings if w not in warnings]  # corrupt chunks met in reading

@@ -1,6 +1,6 @@
 """What the evaluation reads from a raw log besides running the estimators: the ground truth's
 poses, the MCU frames' steering and the data-quality inputs, taken in the same pass as the
-estimators' reading (:class:`EvaluationInputs`, a :class:`lgvtool.localize.logdata.Tap`), so
+estimators' reading (:class:`EvaluationInputs`, a :class:`lgvtool.log.reader.Tap`), so
 that evaluating a log reads its chunks once.
 
 Times in s since the epoch (the log time), positions in m, headings and steering in rad,
@@ -49,7 +49,7 @@ class EvaluationInputs:
         self.topics = [t for t in (T.TRUTH, T.MCU_FRAME, *quality_topics) if reader.has_topic(t)]
 
     def add(self, block: Mapping[str, tuple[NDArray[np.int64], list[bytes]]]) -> None:
-        """Take one chunk's messages (:data:`lgvtool.localize.logdata.RawBlock`)."""
+        """Take one chunk's messages (:data:`lgvtool.log.reader.RawBlock`)."""
         loads = orjson.loads
         if T.TRUTH in block:
             ns, raw = block[T.TRUTH]
@@ -80,8 +80,8 @@ class EvaluationInputs:
         return table[["t", "x", "y", "heading"]]
 
     def steering_columns(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Steering angle and absolute drive speed of every MCU frame, as
-        :func:`lgvtool.log.frames.steering_columns` gives them."""
+        """Steering angle (rad, NaN where a frame has none) and absolute drive speed (m/s, 0
+        where a frame has none) of every MCU frame, in stored order."""
         return self._steering.arrays()
 
     def quality(self, t0: float) -> DataQuality | None:

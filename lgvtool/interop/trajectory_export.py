@@ -81,9 +81,12 @@ class ExportSummary:
 
 def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
                settings: Mapping[str, Any], start_at_truth: bool, warnings: list[str]
-               ) -> tuple[dict[str, pd.DataFrame], str]:
-    """The estimates of the log (source 'log'), else those of the estimators run over it."""
+               ) -> tuple[dict[str, pd.DataFrame], str, pd.DataFrame | None]:
+    """The estimates of the log (source 'log'), else those of the estimators run over it, and
+    the log's ground truth (None without): read with the log's estimates in one pass."""
     from lgvtool.log import topics
+
+    truth = [topics.TRUTH] if reader.has_topic(topics.TRUTH) else []
 
     present = topics.estimator_names(reader.topic_names())
     if present:
@@ -95,7 +98,9 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
         if start_at_truth:
             warnings.append("--start-at-truth has no effect: the log's own estimates are "
                             "exported")
-        return {n: reader.dataframe(topics.estimate_pose(n)) for n in chosen}, "log"
+        tables = reader.dataframes([*(topics.estimate_pose(n) for n in chosen), *truth])
+        return ({n: tables[topics.estimate_pose(n)] for n in chosen}, "log",
+                tables[topics.TRUTH] if truth else None)
     from lgvtool.errors import MissingDataError
     from lgvtool.gc_pause import collector_paused
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
@@ -109,12 +114,12 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
         if names:
             raise MissingDataError(f"{reader.path}: {exc}") from None
         warnings.append(f"no estimator exported: {exc}")
-        return {}, "none"
+        return {}, "none", reader.dataframe(topics.TRUTH) if truth else None
     for name, reason in run.skipped.items():
         if names:
             raise InputError(f"{reader.path}: {reason}")
         warnings.append(f"estimator '{name}' left out: {reason}")
-    return dict(run.trajectories), "replay"
+    return dict(run.trajectories), "replay", reader.dataframe(topics.TRUTH) if truth else None
 
 
 def nav_at_o(reader: LogReader, cfg: Config) -> pd.DataFrame | None:
@@ -143,12 +148,11 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
     """Every trajectory of the log to export, the estimates' source and warnings."""
     from lgvtool.evaluate.evaluation import clean_trajectory
     from lgvtool.evaluate.metrics import associate_truth
-    from lgvtool.log import topics
 
     cfg = config if config is not None else reader.config()
     warnings: list[str] = list(reader.warnings)
-    estimates, source = _estimates(reader, estimators, cfg, seed, settings or {},
-                                   start_at_truth, warnings)
+    estimates, source, truth = _estimates(reader, estimators, cfg, seed, settings or {},
+                                          start_at_truth, warnings)
     for name in estimates:
         if not SAFE_NAME.match(name):
             raise InputError(f"estimator name '{name}' cannot name a file (letters, digits and "
@@ -164,7 +168,6 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
         out.append(Trajectory(NAV, clean_trajectory(nav, NAV),
                               f"NAV head pose converted to O (nav_x {cfg.vehicle.nav_x} m, "
                               f"nav_y {cfg.vehicle.nav_y} m)"))
-    truth = reader.dataframe(topics.TRUTH) if reader.has_topic(topics.TRUTH) else None
     if truth is not None and len(truth):
         true_df = clean_trajectory(truth, TRUTH)
         resampled = []

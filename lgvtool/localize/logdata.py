@@ -7,10 +7,10 @@ kept as their JSON bytes (:class:`LazyScans`) until an estimator uses them, then
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from operator import itemgetter
-from typing import TYPE_CHECKING, Any, Protocol, overload
+from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,6 +29,7 @@ from lgvtool.timestamps import message_stamps_ns
 
 if TYPE_CHECKING:
     from lgvtool.log import LogReader
+    from lgvtool.log.reader import RawBlock, Tap
 
 FloatArray = NDArray[np.float64]
 
@@ -318,26 +319,6 @@ class _Topic:
             o = np.argsort(log_ns, kind="stable")
             log_ns, stamps, cols = log_ns[o], stamps[o], [c[..., o] for c in cols]
         return log_ns, stamps, cols
-
-
-#: one chunk's messages of some topics, undecoded: per topic, the log times (ns since the
-#: epoch) and the JSON bytes in stored order (:meth:`LogReader.raw_column_chunks`)
-RawBlock = Mapping[str, tuple[NDArray[np.int64], list[bytes]]]
-
-
-class Tap(Protocol):
-    """Another reader of the chunks :func:`load_log` reads, so that a caller takes more from
-    the log in the same pass: it names its ``topics`` and is handed each chunk's messages of
-    them (with those of load_log's own topics) before load_log decodes them."""
-
-    @property
-    def topics(self) -> Sequence[str]:
-        """The topics to be read for this tap (those the log has)."""
-        ...
-
-    def add(self, block: RawBlock) -> None:
-        """Take one chunk's messages."""
-        ...
 
 
 def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *,

@@ -30,7 +30,7 @@ from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
 from lgvtool.localize.installation import apply_installation
 from lgvtool.localize.kernel_choice import ready
-from lgvtool.localize.logdata import LazyScans, LogData, Tap, load_log, scan_batch
+from lgvtool.localize.logdata import LazyScans, LogData, load_log, scan_batch
 from lgvtool.localize.motion import Deltas, MotionSettings, MotionTrack
 from lgvtool.localize.observations import (
     PoseObservation,
@@ -53,6 +53,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from lgvtool.log import LogReader
+    from lgvtool.log.reader import Tap
 
 FloatArray = NDArray[np.float64]
 _J = TypeVar("_J")

@@ -16,9 +16,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from lgvtool.errors import decoding_error
 from lgvtool.log.messages import steering_fields, yaw_from_quaternion
-from lgvtool.log.reader import LogMessage, LogReader
+from lgvtool.log.reader import LogMessage
 from lgvtool.timestamps import stamp_seconds
 
 
@@ -34,9 +33,10 @@ ROWS_PER_BLOCK = 8192
 
 
 class PoseColumns:
-    """The columns of :func:`pose_table` (t, stamp in s; x, y, z in m; heading in rad), filled
-    a few messages at a time; every :data:`ROWS_PER_BLOCK` rows become arrays (few, large
-    blocks however small the pieces added)."""
+    """The table of foxglove.PoseInFrame messages (t, stamp in s; x, y, z in m; heading in
+    rad; the values of :func:`_pose_row`), built column by column a few messages at a time;
+    every :data:`ROWS_PER_BLOCK` rows become arrays (few, large blocks however small the
+    pieces added)."""
 
     NAMES = ("t", "stamp", "x", "y", "z", "heading")
 
@@ -80,14 +80,6 @@ class PoseColumns:
         return pd.DataFrame(cols.T, columns=list(self.NAMES))
 
 
-def pose_table(messages: Iterable[tuple[int, dict[str, Any]]]) -> pd.DataFrame:
-    """The table of foxglove.PoseInFrame messages ``(log time ns, decoded message)``, built
-    column by column (the same values as :func:`_pose_row` per message)."""
-    cols = PoseColumns()
-    cols.add(messages)
-    return cols.table()
-
-
 class SteeringColumns:
     """Steering angle (rad, NaN where a frame has none) and absolute drive speed (m/s, 0 where
     a frame has none) of MCU frames, filled a block of decoded frames at a time."""
@@ -118,79 +110,82 @@ class SteeringColumns:
         return both[0].copy(), both[1].copy()
 
 
-def steering_columns(reader: LogReader) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Steering angle (rad, NaN where a frame has none) and absolute drive speed (m/s, 0 where
-    a frame has none) of every MCU frame of the log, in stored order (read a chunk at a time,
-    two fields decoded; empty without /mcu/frame)."""
-    import orjson
 
-    from lgvtool.log import topics as T
+class RowTable:
+    """The table of :func:`to_dataframe` for a schema other than foxglove.PoseInFrame, filled
+    a few messages at a time: rows are built as dicts and turned into a DataFrame
+    :data:`ROWS_PER_BLOCK` at a time, so that memory holds the table's columns, not a dict per
+    row of a long log."""
 
-    cols = SteeringColumns()
-    if reader.has_topic(T.MCU_FRAME):
-        loads = orjson.loads
-        try:
-            for block in reader.raw_column_chunks([T.MCU_FRAME]):
-                cols.add([loads(x) for x in (block[T.MCU_FRAME][1] if T.MCU_FRAME in block
-                                             else ())])
-        except (TypeError, ValueError, AttributeError) as exc:
-            raise decoding_error(reader.path, T.MCU_FRAME, "lgvtool.McuFrame", exc) from None
-    return cols.arrays()
+    def __init__(self, schema: str) -> None:
+        self.schema = schema
+        self._rows: list[dict[str, Any]] = []
+        self._parts: list[pd.DataFrame] = []
+
+    def add(self, messages: Iterable[tuple[int, dict[str, Any]]]) -> None:
+        """Add messages ``(log time ns, decoded message)`` of the schema."""
+        schema = self.schema
+        rows = self._rows
+        for ns, d in messages:
+            if len(rows) >= ROWS_PER_BLOCK:
+                self._parts.append(pd.DataFrame(rows))
+                rows = self._rows = []
+            t = ns * 1e-9
+            if schema == "foxglove.PosesInFrame":
+                for i, p in enumerate(d["poses"]):
+                    rows.append(_pose_row(t, {"timestamp": d["timestamp"], "pose": p})
+                                | {"index": i})
+            elif schema == "lgvtool.ReflectorScan":
+                base = {"t": t, "stamp": stamp_seconds(d.get("timestamp")),
+                        "scan_period": d["scan_period"]}
+                for o in d["observations"]:
+                    rows.append(base | {"range": o["range"], "bearing": o["bearing"],
+                                        "time_in_scan": o["time_in_scan"], "id": o["id"]})
+            elif schema == "lgvtool.ReflectorMap":
+                for r in d["reflectors"]:
+                    rows.append({"t": t, "stamp": stamp_seconds(d.get("timestamp"))} | r)
+            elif schema == "lgvtool.RawBytes":
+                data = base64.b64decode(d["data"])
+                rows.append({"t": t, "stamp": stamp_seconds(d.get("timestamp")),
+                             "device": d["device"], "direction": d["direction"],
+                             "size": len(data), "data": data})
+            elif schema == "lgvtool.McuFrame":
+                row = {"t": t, "stamp": stamp_seconds(d.get("timestamp"))}
+                row.update({k: v for k, v in d.items() if k != "timestamp"})
+                row["mcu_time"] = row.pop("mcu_time_ms") * 1e-3
+                row["gyro_scale"] = math.radians(row["gyro_scale"])
+                rows.append(row)
+            else:
+                row = {"t": t, "stamp": stamp_seconds(d.get("timestamp"))}
+                for k, v in d.items():
+                    if k == "timestamp":
+                        continue
+                    row[k] = v
+                rows.append(row)
+
+    def table(self) -> pd.DataFrame:
+        """The table of every message added, in the order added; call it once."""
+        rows, parts = self._rows, self._parts
+        self._rows, self._parts = [], []
+        if parts:
+            if rows:
+                parts.append(pd.DataFrame(rows))
+            return pd.concat(parts, ignore_index=True, sort=False)
+        if not rows and self.schema == "lgvtool.ReflectorScan":
+            return pd.DataFrame(columns=["t", "stamp", "scan_period", "range", "bearing",
+                                         "time_in_scan", "id"])
+        return pd.DataFrame(rows)
+
+
+def table_builder(schema: str) -> PoseColumns | RowTable:
+    """What fills the table of messages of ``schema`` a few at a time (``add``, then
+    ``table``): the poses column by column, any other schema row by row."""
+    return PoseColumns() if schema == "foxglove.PoseInFrame" else RowTable(schema)
 
 
 def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:
-    """Flatten messages of one schema into a DataFrame (see the module docstring).
-
-    Rows are built as dicts and turned into a DataFrame :data:`ROWS_PER_BLOCK` at a time, so
-    that memory holds the table's columns, not a dict per row of a long log; poses (the
-    largest tables) are built column by column."""
-    if schema == "foxglove.PoseInFrame":
-        return pose_table((m.log_time_ns, m.data) for m in messages)
-    rows: list[dict[str, Any]] = []
-    parts: list[pd.DataFrame] = []
-    for m in messages:
-        if len(rows) >= ROWS_PER_BLOCK:
-            parts.append(pd.DataFrame(rows))
-            rows = []
-        t = m.log_time_ns * 1e-9
-        d = m.data
-        if schema == "foxglove.PoseInFrame":
-            rows.append(_pose_row(t, d))
-        elif schema == "foxglove.PosesInFrame":
-            for i, p in enumerate(d["poses"]):
-                rows.append(_pose_row(t, {"timestamp": d["timestamp"], "pose": p}) | {"index": i})
-        elif schema == "lgvtool.ReflectorScan":
-            base = {"t": t, "stamp": stamp_seconds(d.get("timestamp")), "scan_period": d["scan_period"]}
-            for o in d["observations"]:
-                rows.append(base | {"range": o["range"], "bearing": o["bearing"],
-                                    "time_in_scan": o["time_in_scan"], "id": o["id"]})
-        elif schema == "lgvtool.ReflectorMap":
-            for r in d["reflectors"]:
-                rows.append({"t": t, "stamp": stamp_seconds(d.get("timestamp"))} | r)
-        elif schema == "lgvtool.RawBytes":
-            data = base64.b64decode(d["data"])
-            rows.append({"t": t, "stamp": stamp_seconds(d.get("timestamp")), "device": d["device"],
-                         "direction": d["direction"], "size": len(data), "data": data})
-        elif schema == "lgvtool.McuFrame":
-            row = {"t": t, "stamp": stamp_seconds(d.get("timestamp"))}
-            row.update({k: v for k, v in d.items() if k != "timestamp"})
-            row["mcu_time"] = row.pop("mcu_time_ms") * 1e-3
-            row["gyro_scale"] = math.radians(row["gyro_scale"])
-            rows.append(row)
-        else:
-            row = {"t": t, "stamp": stamp_seconds(d.get("timestamp"))}
-            for k, v in d.items():
-                if k == "timestamp":
-                    continue
-                row[k] = v
-            rows.append(row)
-    columns = {
-        "foxglove.PoseInFrame": ["t", "stamp", "x", "y", "z", "heading"],
-        "lgvtool.ReflectorScan": ["t", "stamp", "scan_period", "range", "bearing",
-                                  "time_in_scan", "id"],
-    }.get(schema)
-    if parts:
-        if rows:
-            parts.append(pd.DataFrame(rows))
-        return pd.concat(parts, ignore_index=True, sort=False)
-    return pd.DataFrame(rows, columns=columns) if columns and not rows else pd.DataFrame(rows)
+    """Flatten messages of one schema into a DataFrame (see the module docstring), built a
+    block of rows at a time (:func:`table_builder`)."""
+    builder = table_builder(schema)
+    builder.add((m.log_time_ns, m.data) for m in messages)
+    return builder.table()

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import json
 import warnings as _warnings
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from itertools import pairwise
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import orjson
 
@@ -67,6 +67,27 @@ class RawMessage(NamedTuple):
     log_time_ns: int
     publish_time_ns: int
     data: bytes
+
+
+#: one chunk's messages of some topics, undecoded: per topic, the log times (ns since the
+#: epoch) and the JSON bytes in stored order (:meth:`LogReader.raw_column_chunks`)
+RawBlock = Mapping[str, tuple["NDArray[np.int64]", list[bytes]]]
+
+
+class Tap(Protocol):
+    """Another reader of the chunks a reading pass goes through, so that a caller takes more
+    from the log in the same pass: it names its ``topics`` and is handed each chunk's messages
+    of them (with those of the pass's own topics) before the pass decodes them
+    (:meth:`LogReader.dataframes`, :func:`lgvtool.localize.logdata.load_log`)."""
+
+    @property
+    def topics(self) -> Sequence[str]:
+        """The topics to be read for this tap (those the log has)."""
+        ...
+
+    def add(self, block: RawBlock) -> None:
+        """Take one chunk's messages."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -569,51 +590,83 @@ class LogReader:
         """Whether the log has a channel for ``topic`` (it may hold no messages)."""
         return any(c.topic == topic for c in self._channels.values())
 
+    def _schema_of(self, topic: str) -> str:
+        """The schema name of ``topic``'s channel (else the log contract's for it, else "")."""
+        return next((self._schemas[c.schema_id].name for c in self._channels.values()
+                     if c.topic == topic and c.schema_id in self._schemas),
+                    T.schema_for_topic(topic) or "")
+
     def dataframe(self, topic: str) -> pd.DataFrame:
         """One table of ``topic`` with SI-unit columns; ``t`` is the log time in s."""
+        return self.dataframes([topic])[topic]
+
+    def dataframes(self, topics: Iterable[str], tap: Tap | None = None
+                   ) -> dict[str, pd.DataFrame]:
+        """:meth:`dataframe` of each of ``topics``, read in one pass over the chunks, in which
+        ``tap`` is handed each chunk's messages of its own topics too: a log that holds many
+        topics in every chunk (one written by ``replay``) is decompressed once, not once per
+        topic. A topic whose chunks hold its messages out of log-time order is read again, in
+        that order."""
         from lgvtool.errors import decoding_error
         from lgvtool.log.frames import to_dataframe
 
-        schema = next((self._schemas[c.schema_id].name for c in self._channels.values()
-                       if c.topic == topic and c.schema_id in self._schemas),
-                      T.schema_for_topic(topic) or "")
-        try:
-            if schema == "foxglove.PoseInFrame":
-                table = self._pose_table(topic)
-                if table is not None:
-                    return table
-            return to_dataframe(schema, self.messages([topic]))
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise decoding_error(self.path, topic, schema, exc) from None
+        wanted = list(dict.fromkeys(topics))
+        schemas = {t: self._schema_of(t) for t in wanted}
+        tables = self._tables(schemas, tap)
+        out: dict[str, pd.DataFrame] = {}
+        for topic in wanted:
+            table = tables[topic]
+            if table is None:
+                try:
+                    table = to_dataframe(schemas[topic], self.messages([topic]))
+                except (KeyError, TypeError, ValueError, AttributeError) as exc:
+                    raise decoding_error(self.path, topic, schemas[topic], exc) from None
+            out[topic] = table
+        return out
 
-    def _pose_table(self, topic: str) -> pd.DataFrame | None:
-        """The table of a foxglove.PoseInFrame topic read a chunk at a time through the chunk
-        indexes (:func:`lgvtool.log.frames.pose_table`); None when the chunks hold its
-        messages out of log-time order (:meth:`messages` then merges them)."""
+    def _tables(self, schemas: Mapping[str, str], tap: Tap | None = None
+                ) -> dict[str, pd.DataFrame | None]:
+        """The tables of the topics of ``schemas`` (topic -> schema name), read in one pass a
+        chunk at a time through the chunk indexes (:func:`lgvtool.log.frames.table_builder`);
+        None for a topic whose chunks hold its messages out of log-time order. ``tap`` is
+        handed every chunk's messages of its topics in the same pass."""
         import numpy as np
 
-        from lgvtool.log.frames import pose_table
+        from lgvtool.errors import decoding_error
+        from lgvtool.log.frames import PoseColumns, RowTable, table_builder
 
-        last = [-1 << 63]
-        ordered = [True]
+        builders: dict[str, PoseColumns | RowTable | None] = {
+            t: table_builder(s) for t, s in schemas.items()}
+        last = dict.fromkeys(schemas, -1 << 63)
         loads = orjson.loads
 
-        def rows() -> Iterator[tuple[int, dict[str, Any]]]:
-            for block in self.raw_column_chunks([topic]):
+        def fail(topic: str, exc: Exception) -> LogFormatError:
+            return decoding_error(self.path, topic, schemas[topic], exc)
+
+        for block in self.raw_column_chunks([*schemas, *(tap.topics if tap else ())]):
+            if tap is not None:
+                tap.add(block)
+            for topic in schemas:
                 found = block.get(topic)
-                if found is None:
+                into = builders[topic]
+                if found is None or into is None or not len(found[0]):
                     continue
                 t = found[0]
-                if not len(t):
+                if int(t[0]) < last[topic] or bool((np.diff(t) < 0).any()):
+                    builders[topic] = None  # read again in log-time order
                     continue
-                if int(t[0]) < last[0] or bool((np.diff(t) < 0).any()):
-                    ordered[0] = False
-                    return
-                last[0] = int(t[-1])
-                yield from zip(t.tolist(), map(loads, found[1]), strict=True)
-
-        table = pose_table(rows())
-        return table if ordered[0] else None
+                last[topic] = int(t[-1])
+                try:
+                    into.add(zip(t.tolist(), map(loads, found[1]), strict=True))
+                except (KeyError, TypeError, ValueError, AttributeError) as exc:
+                    raise fail(topic, exc) from None
+        out: dict[str, pd.DataFrame | None] = {}
+        for topic, b in builders.items():
+            try:
+                out[topic] = None if b is None else b.table()
+            except (KeyError, TypeError, ValueError, AttributeError) as exc:
+                raise fail(topic, exc) from None
+        return out
 
     # ------------------------------------------------------------------ run facts
     def config(self) -> Config:

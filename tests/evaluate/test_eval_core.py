@@ -116,14 +116,22 @@ def test_steering_median_over_the_drive() -> None:
     assert steering_from_frames(frames.drop(columns="drive_speed")) == pytest.approx(0.52)
 
 
+def _steering_read(reader):
+    """The steering columns as the evaluation reads them (in a pass over the chunks)."""
+    from lgvtool.evaluate.log_inputs import EvaluationInputs
+
+    read = EvaluationInputs(reader)
+    reader.dataframes([], tap=read)
+    return read.steering_columns()
+
+
 def test_logged_steering_read_as_two_columns_is_the_frames_table_median() -> None:
     from lgvtool.circle import median_steering
     from lgvtool.evaluate.reference import steering_from_frames
     from lgvtool.log import LogReader, topics
-    from lgvtool.log.frames import steering_columns
 
     reader = LogReader(Path(__file__).resolve().parents[2] / "sample_logs" / "degraded.mcap")
-    angle, speed = steering_columns(reader)
+    angle, speed = _steering_read(reader)
     frames = reader.dataframe(topics.MCU_FRAME)
     assert len(angle) == len(frames) > 100
     np.testing.assert_array_equal(angle, frames["steering_angle"].to_numpy(dtype=float))
@@ -138,7 +146,6 @@ def test_a_steering_angle_that_is_not_a_number_is_one_clear_error(tmp_path: Path
 
     from lgvtool.errors import LogFormatError
     from lgvtool.log import LogReader, topics
-    from lgvtool.log.frames import steering_columns
     from lgvtool.log.reader import LogWarning
 
     log = write_topic_log(tmp_path / "steer.mcap", topics.MCU_FRAME, "lgvtool.McuFrame",
@@ -147,7 +154,7 @@ def test_a_steering_angle_that_is_not_a_number_is_one_clear_error(tmp_path: Path
     with pytest.warns(LogWarning, match="no lgvtool metadata"):
         reader = LogReader(log)
     with pytest.raises(LogFormatError, match="/mcu/frame"):
-        steering_columns(reader)
+        _steering_read(reader)
 
 
 def test_truth_or_steering_that_do_not_match_their_schema_stop_the_evaluations_read() -> None:

@@ -157,19 +157,57 @@ def test_evaluating_a_raw_log_reads_its_chunks_once(chunk_passes: list[list[str]
     steering and its data quality: one pass over the chunks, and the same figures as reading
     each of them on its own."""
     from lgvtool.app import evaluate_job
-    from lgvtool.circle import median_steering
-    from lgvtool.log.frames import steering_columns
 
     result = evaluate_job.evaluate_log(SAMPLE, estimators=["laser"])
     assert len(chunk_passes) == 1
     assert topics.TRUTH in chunk_passes[0] and topics.DIAGNOSTICS in chunk_passes[0]
-    reader = LogReader(SAMPLE)
+    _same_as_read_alone(result, LogReader(SAMPLE))
+
+
+def _same_as_read_alone(result, reader: LogReader) -> None:
+    """The truth, steering angle and data quality of an evaluation are those of the log's
+    topics read one at a time, each in log-time order."""
+    from lgvtool.evaluate.reference import steering_from_frames
+
     assert result.quality == read_quality(reader, result.t0) and result.quality.any
-    truth = evaluate_job._pose_frame(reader, topics.TRUTH)
-    assert result.truth is not None and len(truth) > 100
-    np.testing.assert_array_equal(result.truth[["t", "x", "y", "heading"]].to_numpy(),
-                                  truth.to_numpy())
-    assert result.reference.steering_angle == median_steering(*steering_columns(reader))
+    truth = reader.messages([topics.TRUTH])
+    want = np.array([[m.log_time_ns * 1e-9, m.data["pose"]["position"]["x"],
+                      m.data["pose"]["position"]["y"]] for m in truth])
+    assert result.truth is not None and len(want) > 100
+    np.testing.assert_allclose(result.truth[["t", "x", "y"]].to_numpy(), want, rtol=0,
+                               atol=1e-12)
+    assert result.reference.steering_angle == steering_from_frames(
+        reader.dataframe(topics.MCU_FRAME))
+
+
+def test_evaluating_a_replayed_log_reads_its_chunks_once(tmp_path: Path,
+                                                          chunk_passes: list[list[str]]) -> None:
+    """A log written by ``replay`` holds every topic in every chunk: its estimates, truth,
+    steering and data quality are read in one pass (not one per topic), with the same tables
+    as each topic read on its own."""
+    from lgvtool.app import evaluate_job
+    from lgvtool.app.replay_job import replay_log
+    from lgvtool.evaluate.evaluation import clean_trajectory
+    from lgvtool.log.frames import to_dataframe
+
+    out = tmp_path / "replayed.mcap"
+    replay_log(str(SAMPLE), str(out), estimators=["laser", "deadreckoning"],
+               show_progress=False)
+    chunk_passes.clear()
+    result = evaluate_job.evaluate_log(out)
+    assert len(chunk_passes) == 1, chunk_passes
+    assert {topics.estimate_pose("laser"), topics.estimate_pose("deadreckoning"), topics.TRUTH,
+            topics.MCU_FRAME, topics.DIAGNOSTICS} <= set(chunk_passes[0])
+    assert result.source == "log"
+    reader = LogReader(out)
+    _same_as_read_alone(result, reader)
+    for name in ("laser", "deadreckoning"):
+        alone = to_dataframe("foxglove.PoseInFrame",
+                             reader.messages([topics.estimate_pose(name)]))
+        want = clean_trajectory(alone[["t", "x", "y", "heading"]], name)
+        assert len(want) > 100
+        np.testing.assert_array_equal(result.estimators[name].trajectory.to_numpy(),
+                                      want.to_numpy())
 
 
 def test_diagnostics_that_are_not_objects_leave_the_quality_out(tmp_path: Path) -> None:

@@ -13,11 +13,12 @@ from simlogs import simulate_log
 
 from lgvtool.localize import obsstream
 from lgvtool.localize import replay_driver as R
-from lgvtool.localize.logdata import RawBlock, load_log, scan_batch
+from lgvtool.localize.logdata import load_log, scan_batch
 from lgvtool.localize.motion import Increments, MotionSettings, MotionTrack
 from lgvtool.localize.observations import scan_observations
 from lgvtool.localize.packed import PackedBytes
 from lgvtool.log import LogReader
+from lgvtool.log.reader import RawBlock
 
 
 def _packed(rng: np.random.Generator, longest: int) -> tuple[list[bytes], PackedBytes]:
