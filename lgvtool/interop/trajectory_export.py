@@ -81,12 +81,13 @@ class ExportSummary:
 
 def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
                settings: Mapping[str, Any], start_at_truth: bool, warnings: list[str]
-               ) -> tuple[dict[str, pd.DataFrame], str, pd.DataFrame | None]:
+               ) -> tuple[dict[str, pd.DataFrame], str, dict[str, pd.DataFrame]]:
     """The estimates of the log (source 'log'), else those of the estimators run over it, and
-    the log's ground truth (None without): read with the log's estimates in one pass."""
+    the tables of the log's ground truth and NAV poses (those it has), read with the log's
+    estimates in one pass."""
     from lgvtool.log import topics
 
-    truth = [topics.TRUTH] if reader.has_topic(topics.TRUTH) else []
+    others = [t for t in (topics.TRUTH, topics.NAV_POSE) if reader.has_topic(t)]
 
     present = topics.estimator_names(reader.topic_names())
     if present:
@@ -98,9 +99,9 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
         if start_at_truth:
             warnings.append("--start-at-truth has no effect: the log's own estimates are "
                             "exported")
-        tables = reader.dataframes([*(topics.estimate_pose(n) for n in chosen), *truth])
+        tables = reader.dataframes([*(topics.estimate_pose(n) for n in chosen), *others])
         return ({n: tables[topics.estimate_pose(n)] for n in chosen}, "log",
-                tables[topics.TRUTH] if truth else None)
+                {t: tables[t] for t in others})
     from lgvtool.errors import MissingDataError
     from lgvtool.gc_pause import collector_paused
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
@@ -114,26 +115,23 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
         if names:
             raise MissingDataError(f"{reader.path}: {exc}") from None
         warnings.append(f"no estimator exported: {exc}")
-        return {}, "none", reader.dataframe(topics.TRUTH) if truth else None
+        return {}, "none", reader.dataframes(others)
     for name, reason in run.skipped.items():
         if names:
             raise InputError(f"{reader.path}: {reason}")
         warnings.append(f"estimator '{name}' left out: {reason}")
-    return dict(run.trajectories), "replay", reader.dataframe(topics.TRUTH) if truth else None
+    return dict(run.trajectories), "replay", reader.dataframes(others)
 
 
-def nav_at_o(reader: LogReader, cfg: Config) -> pd.DataFrame | None:
-    """The valid NAV poses of the head converted to O (t s, x m, y m, heading rad)."""
+def nav_at_o(df: pd.DataFrame | None, cfg: Config) -> pd.DataFrame | None:
+    """The valid NAV poses of the head (the table of /nav/pose, None without) converted to O
+    (t s, x m, y m, heading rad)."""
     import numpy as np
     import pandas as pd
 
     from lgvtool.localize.geometry import nav_to_o
-    from lgvtool.log import topics
 
-    if not reader.has_topic(topics.NAV_POSE):
-        return None
-    df = reader.dataframe(topics.NAV_POSE)
-    if df.empty:
+    if df is None or df.empty:
         return None
     df = df[df["valid"].astype(bool)]
     x, y, h = nav_to_o(df["x"], df["y"], df["heading"], cfg.vehicle.nav_x, cfg.vehicle.nav_y)
@@ -148,11 +146,12 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
     """Every trajectory of the log to export, the estimates' source and warnings."""
     from lgvtool.evaluate.evaluation import clean_trajectory
     from lgvtool.evaluate.metrics import associate_truth
+    from lgvtool.log import topics
 
     cfg = config if config is not None else reader.config()
     warnings: list[str] = list(reader.warnings)
-    estimates, source, truth = _estimates(reader, estimators, cfg, seed, settings or {},
-                                          start_at_truth, warnings)
+    estimates, source, tables = _estimates(reader, estimators, cfg, seed, settings or {},
+                                           start_at_truth, warnings)
     for name in estimates:
         if not SAFE_NAME.match(name):
             raise InputError(f"estimator name '{name}' cannot name a file (letters, digits and "
@@ -163,11 +162,12 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
     how = "read from the log" if source == "log" else f"run by lgvtool export, seed {seed}"
     out = [Trajectory(n, clean_trajectory(df, n), f"estimator '{n}' ({how})")
            for n, df in estimates.items()]
-    nav = nav_at_o(reader, cfg)
+    nav = nav_at_o(tables.get(topics.NAV_POSE), cfg)
     if nav is not None and len(nav):
         out.append(Trajectory(NAV, clean_trajectory(nav, NAV),
                               f"NAV head pose converted to O (nav_x {cfg.vehicle.nav_x} m, "
                               f"nav_y {cfg.vehicle.nav_y} m)"))
+    truth = tables.get(topics.TRUTH)
     if truth is not None and len(truth):
         true_df = clean_trajectory(truth, TRUTH)
         resampled = []

@@ -193,3 +193,24 @@ def test_csv_reader_takes_spreadsheet_exports_and_tells_the_bad_row(tmp_path: Pa
     p.write_text("t_s,x_m,y_m\n1,2\n")
     with pytest.raises(InputError, match=r"sheet\.csv:2: 2 field\(s\), the header has 3"):
         trajfile.read_trajectory(p)
+
+
+def test_a_replayed_log_is_exported_in_one_pass_with_the_same_files(
+        sim_log: Path, exported: Path, tmp_path: Path, chunk_passes: list[list[str]]) -> None:
+    """A log written by ``replay`` holds every topic in every chunk: its estimates, truth and
+    NAV poses are read in one pass, and the files are those of the estimators run by export
+    (the same seed: the same estimates)."""
+    from lgvtool.app.replay_job import replay_log
+    from lgvtool.log import topics
+
+    replayed = tmp_path / "replayed.mcap"
+    replay_log(str(sim_log), str(replayed), estimators=FAST, show_progress=False)
+    chunk_passes.clear()
+    out = tmp_path / "tum"
+    export_log(replayed, out, "tum")
+    assert chunk_passes == [sorted([*(topics.estimate_pose(n) for n in FAST), topics.TRUTH,
+                                    topics.NAV_POSE])]
+    for path in sorted(exported.iterdir()):
+        mine = trajfile.read_trajectory(out / path.name)
+        theirs = trajfile.read_trajectory(path)
+        pd.testing.assert_frame_equal(mine, theirs, check_exact=False, rtol=0, atol=1e-9)
