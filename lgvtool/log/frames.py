@@ -110,7 +110,6 @@ class SteeringColumns:
         return both[0].copy(), both[1].copy()
 
 
-
 class RowTable:
     """The table of :func:`to_dataframe` for a schema other than foxglove.PoseInFrame, filled
     a few messages at a time: rows are built as dicts and turned into a DataFrame
