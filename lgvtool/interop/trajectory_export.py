@@ -83,8 +83,8 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
                settings: Mapping[str, Any], start_at_truth: bool, warnings: list[str]
                ) -> tuple[dict[str, pd.DataFrame], str, dict[str, pd.DataFrame]]:
     """The estimates of the log (source 'log'), else those of the estimators run over it, and
-    the tables of the log's ground truth and NAV poses (those it has), read with the log's
-    estimates in one pass."""
+    the tables of the log's ground truth and NAV poses (those it has), read in the same pass
+    as the log's estimates or as the estimators' reading."""
     from lgvtool.log import topics
 
     others = [t for t in (topics.TRUTH, topics.NAV_POSE) if reader.has_topic(t)]
@@ -105,12 +105,14 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
     from lgvtool.errors import MissingDataError
     from lgvtool.gc_pause import collector_paused
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
+    from lgvtool.log.frames import TopicTables
 
+    side = TopicTables(reader, others)
     try:
         with collector_paused():
             run = run_replay(reader, list(names) if names else list(DEFAULT_ESTIMATORS),
                              config=cfg, seed=seed, settings=dict(settings),
-                             initial_pose="truth" if start_at_truth else None)
+                             initial_pose="truth" if start_at_truth else None, tap=side)
     except MissingDataError as exc:
         if names:
             raise MissingDataError(f"{reader.path}: {exc}") from None
@@ -120,7 +122,7 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
         if names:
             raise InputError(f"{reader.path}: {reason}")
         warnings.append(f"estimator '{name}' left out: {reason}")
-    return dict(run.trajectories), "replay", reader.dataframes(others)
+    return dict(run.trajectories), "replay", side.tables()
 
 
 def nav_at_o(df: pd.DataFrame | None, cfg: Config) -> pd.DataFrame | None:

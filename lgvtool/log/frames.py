@@ -16,8 +16,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
+from lgvtool.errors import decoding_error
 from lgvtool.log.messages import steering_fields, yaw_from_quaternion
-from lgvtool.log.reader import LogMessage
+from lgvtool.log.reader import LogMessage, LogReader, RawBlock
 from lgvtool.timestamps import stamp_seconds
 
 
@@ -180,6 +181,57 @@ def table_builder(schema: str) -> PoseColumns | RowTable:
     """What fills the table of messages of ``schema`` a few at a time (``add``, then
     ``table``): the poses column by column, any other schema row by row."""
     return PoseColumns() if schema == "foxglove.PoseInFrame" else RowTable(schema)
+
+
+class TopicTables:
+    """The tables of some topics of a log (:meth:`LogReader.dataframe`'s), built from the
+    chunks of a reading pass as they go by: a tap (:class:`lgvtool.log.reader.Tap`) of
+    :meth:`LogReader.dataframes` or of the estimators' reading, so that a caller takes them
+    in a pass it makes anyway. A topic whose chunks hold its messages out of log-time order is
+    read again, in that order, by :meth:`tables`."""
+
+    def __init__(self, reader: LogReader, topics: Iterable[str]) -> None:
+        self.reader = reader
+        #: the topics to be read (each once, in the order given)
+        self.topics = list(dict.fromkeys(topics))
+        self._schemas = {t: reader.schema_of(t) for t in self.topics}
+        self._builders: dict[str, PoseColumns | RowTable | None] = {
+            t: table_builder(s) for t, s in self._schemas.items()}
+        self._last = dict.fromkeys(self.topics, -1 << 63)
+
+    def add(self, block: RawBlock) -> None:
+        """Take one chunk's messages (those of other topics are ignored).
+
+        :raises LogFormatError: a message that does not match its topic's schema."""
+        import orjson
+
+        for topic in self.topics:
+            found = block.get(topic)
+            into = self._builders[topic]
+            if found is None or into is None or not len(found[0]):
+                continue
+            t = found[0]
+            if int(t[0]) < self._last[topic] or bool((np.diff(t) < 0).any()):
+                self._builders[topic] = None  # read again in log-time order
+                continue
+            self._last[topic] = int(t[-1])
+            try:
+                into.add(zip(t.tolist(), map(orjson.loads, found[1]), strict=True))
+            except (KeyError, TypeError, ValueError, AttributeError) as exc:
+                raise decoding_error(self.reader.path, topic, self._schemas[topic],
+                                     exc) from None
+
+    def tables(self) -> dict[str, pd.DataFrame]:
+        """Every topic's table (empty for a topic without messages); call it once."""
+        out: dict[str, pd.DataFrame] = {}
+        for topic, builder in self._builders.items():
+            schema = self._schemas[topic]
+            try:
+                out[topic] = (to_dataframe(schema, self.reader.messages([topic]))
+                              if builder is None else builder.table())
+            except (KeyError, TypeError, ValueError, AttributeError) as exc:
+                raise decoding_error(self.reader.path, topic, schema, exc) from None
+        return out
 
 
 def to_dataframe(schema: str, messages: Iterable[LogMessage]) -> pd.DataFrame:

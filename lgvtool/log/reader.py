@@ -78,7 +78,8 @@ class Tap(Protocol):
     """Another reader of the chunks a reading pass goes through, so that a caller takes more
     from the log in the same pass: it names its ``topics`` and is handed each chunk's messages
     of them (with those of the pass's own topics) before the pass decodes them
-    (:meth:`LogReader.dataframes`, :func:`lgvtool.localize.logdata.load_log`)."""
+    (:meth:`LogReader.dataframes`, :func:`lgvtool.localize.logdata.load_log`; a
+    :class:`lgvtool.log.frames.TopicTables` is one)."""
 
     @property
     def topics(self) -> Sequence[str]:
@@ -590,7 +591,7 @@ class LogReader:
         """Whether the log has a channel for ``topic`` (it may hold no messages)."""
         return any(c.topic == topic for c in self._channels.values())
 
-    def _schema_of(self, topic: str) -> str:
+    def schema_of(self, topic: str) -> str:
         """The schema name of ``topic``'s channel (else the log contract's for it, else "")."""
         return next((self._schemas[c.schema_id].name for c in self._channels.values()
                      if c.topic == topic and c.schema_id in self._schemas),
@@ -605,68 +606,15 @@ class LogReader:
         """:meth:`dataframe` of each of ``topics``, read in one pass over the chunks, in which
         ``tap`` is handed each chunk's messages of its own topics too: a log that holds many
         topics in every chunk (one written by ``replay``) is decompressed once, not once per
-        topic. A topic whose chunks hold its messages out of log-time order is read again, in
-        that order."""
-        from lgvtool.errors import decoding_error
-        from lgvtool.log.frames import to_dataframe
+        topic (:class:`lgvtool.log.frames.TopicTables`)."""
+        from lgvtool.log.frames import TopicTables
 
-        wanted = list(dict.fromkeys(topics))
-        schemas = {t: self._schema_of(t) for t in wanted}
-        tables = self._tables(schemas, tap)
-        out: dict[str, pd.DataFrame] = {}
-        for topic in wanted:
-            table = tables[topic]
-            if table is None:
-                try:
-                    table = to_dataframe(schemas[topic], self.messages([topic]))
-                except (KeyError, TypeError, ValueError, AttributeError) as exc:
-                    raise decoding_error(self.path, topic, schemas[topic], exc) from None
-            out[topic] = table
-        return out
-
-    def _tables(self, schemas: Mapping[str, str], tap: Tap | None = None
-                ) -> dict[str, pd.DataFrame | None]:
-        """The tables of the topics of ``schemas`` (topic -> schema name), read in one pass a
-        chunk at a time through the chunk indexes (:func:`lgvtool.log.frames.table_builder`);
-        None for a topic whose chunks hold its messages out of log-time order. ``tap`` is
-        handed every chunk's messages of its topics in the same pass."""
-        import numpy as np
-
-        from lgvtool.errors import decoding_error
-        from lgvtool.log.frames import PoseColumns, RowTable, table_builder
-
-        builders: dict[str, PoseColumns | RowTable | None] = {
-            t: table_builder(s) for t, s in schemas.items()}
-        last = dict.fromkeys(schemas, -1 << 63)
-        loads = orjson.loads
-
-        def fail(topic: str, exc: Exception) -> LogFormatError:
-            return decoding_error(self.path, topic, schemas[topic], exc)
-
-        for block in self.raw_column_chunks([*schemas, *(tap.topics if tap else ())]):
+        tables = TopicTables(self, topics)
+        for block in self.raw_column_chunks([*tables.topics, *(tap.topics if tap else ())]):
+            tables.add(block)
             if tap is not None:
                 tap.add(block)
-            for topic in schemas:
-                found = block.get(topic)
-                into = builders[topic]
-                if found is None or into is None or not len(found[0]):
-                    continue
-                t = found[0]
-                if int(t[0]) < last[topic] or bool((np.diff(t) < 0).any()):
-                    builders[topic] = None  # read again in log-time order
-                    continue
-                last[topic] = int(t[-1])
-                try:
-                    into.add(zip(t.tolist(), map(loads, found[1]), strict=True))
-                except (KeyError, TypeError, ValueError, AttributeError) as exc:
-                    raise fail(topic, exc) from None
-        out: dict[str, pd.DataFrame | None] = {}
-        for topic, b in builders.items():
-            try:
-                out[topic] = None if b is None else b.table()
-            except (KeyError, TypeError, ValueError, AttributeError) as exc:
-                raise fail(topic, exc) from None
-        return out
+        return tables.tables()
 
     # ------------------------------------------------------------------ run facts
     def config(self) -> Config:

@@ -214,3 +214,17 @@ def test_a_replayed_log_is_exported_in_one_pass_with_the_same_files(
         mine = trajfile.read_trajectory(out / path.name)
         theirs = trajfile.read_trajectory(path)
         pd.testing.assert_frame_equal(mine, theirs, check_exact=False, rtol=0, atol=1e-9)
+
+
+def test_a_raw_log_is_exported_in_the_estimators_pass(
+        sim_log: Path, exported: Path, tmp_path: Path, chunk_passes: list[list[str]]) -> None:
+    """The truth and NAV poses a raw log's export writes beside the estimates are taken in the
+    estimators' reading of it: one pass over the chunks, the same files."""
+    from lgvtool.log import topics
+
+    out = tmp_path / "tum"
+    export_log(sim_log, out, "tum", estimators=FAST)
+    assert len(chunk_passes) == 1
+    assert {topics.TRUTH, topics.NAV_POSE, topics.NAV_REFLECTORS} <= set(chunk_passes[0])
+    for path in sorted(exported.iterdir()):
+        assert (out / path.name).read_bytes() == path.read_bytes(), path.name

@@ -12,7 +12,7 @@ import pytest
 
 from lgvtool.log import LogReader, topics
 from lgvtool.log.foxglove import pose_in_frame_many
-from lgvtool.log.frames import to_dataframe
+from lgvtool.log.frames import TopicTables, to_dataframe
 from lgvtool.log.reader import LogWarning, RawBlock
 
 SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs" / "degraded.mcap"
@@ -82,8 +82,10 @@ def test_a_pose_topic_stored_out_of_order_is_read_again_in_order(tmp_path: Path)
         w.finish()
     with pytest.warns(LogWarning, match="no lgvtool metadata"):
         reader = LogReader(path)
-    single = reader._tables({A: "foxglove.PoseInFrame", B: "foxglove.PoseInFrame"})
-    assert single[A] is not None and single[B] is None  # the premise: b is read again
+    single = TopicTables(reader, [A, B])
+    for block in reader.raw_column_chunks([A, B]):
+        single.add(block)
+    assert single._builders[A] is not None and single._builders[B] is None  # b read again
     tables = reader.dataframes([A, B])
     for topic in (A, B):
         want = _alone(reader, topic)
