@@ -1,7 +1,8 @@
-"""What the evaluation reads from a raw log besides running the estimators: the ground truth's
-poses, the MCU frames' steering and the data-quality inputs, taken in the same pass as the
-estimators' reading (:class:`EvaluationInputs`, a :class:`lgvtool.log.reader.Tap`), so
-that evaluating a log reads its chunks once.
+"""What the evaluation reads from a log besides the estimates: the ground truth's poses, the
+MCU frames' steering and the data-quality inputs, taken in the same pass as the estimators'
+reading of a raw log or the reading of a replayed log's own estimates
+(:class:`EvaluationInputs`, a :class:`lgvtool.log.reader.Tap`), so that evaluating a log
+reads its chunks once.
 
 Times in s since the epoch (the log time), positions in m, headings and steering in rad,
 speeds in m/s.
@@ -9,7 +10,6 @@ speeds in m/s.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -19,12 +19,13 @@ from numpy.typing import NDArray
 from lgvtool.errors import LgvError, LogFormatError, decoding_error
 from lgvtool.evaluate.quality import DataQuality, QualityInputs
 from lgvtool.log import topics as T
-from lgvtool.log.frames import PoseColumns, SteeringColumns
+from lgvtool.log.frames import SteeringColumns, TopicTables
 
 if TYPE_CHECKING:
     import pandas as pd
 
     from lgvtool.log import LogReader
+    from lgvtool.log.reader import RawBlock
 
 __all__ = ["EvaluationInputs"]
 
@@ -37,7 +38,7 @@ class EvaluationInputs:
 
     def __init__(self, reader: LogReader) -> None:
         self.reader = reader
-        self._truth = PoseColumns()
+        self._truth = TopicTables(reader, [T.TRUTH] if reader.has_topic(T.TRUTH) else [])
         self._steering = SteeringColumns()
         self._inputs: QualityInputs | None = QualityInputs(reader)
         try:
@@ -48,16 +49,10 @@ class EvaluationInputs:
         #: the topics to read (those of the log)
         self.topics = [t for t in (T.TRUTH, T.MCU_FRAME, *quality_topics) if reader.has_topic(t)]
 
-    def add(self, block: Mapping[str, tuple[NDArray[np.int64], list[bytes]]]) -> None:
+    def add(self, block: RawBlock) -> None:
         """Take one chunk's messages (:data:`lgvtool.log.reader.RawBlock`)."""
         loads = orjson.loads
-        if T.TRUTH in block:
-            ns, raw = block[T.TRUTH]
-            try:
-                self._truth.add(zip(ns.tolist(), map(loads, raw), strict=True))
-            except (KeyError, TypeError, ValueError, AttributeError) as exc:
-                raise decoding_error(self.reader.path, T.TRUTH, "foxglove.PoseInFrame",
-                                     exc) from None
+        self._truth.add(block)
         if T.MCU_FRAME in block:
             try:
                 self._steering.add([loads(x) for x in block[T.MCU_FRAME][1]])
@@ -71,12 +66,13 @@ class EvaluationInputs:
                 self._inputs = None
 
     def truth_table(self) -> pd.DataFrame:
-        """The truth's t, x, y, heading in log-time order (ties in stored order), as
-        :meth:`LogReader.dataframe` gives them; empty without truth. Call it once."""
-        table = self._truth.table()
-        t = table["t"].to_numpy()
-        if len(t) > 1 and not bool((t[1:] >= t[:-1]).all()):
-            table = table.iloc[np.argsort(t, kind="stable")].reset_index(drop=True)
+        """The truth's t, x, y, heading in log-time order, as :meth:`LogReader.dataframe`
+        gives them; empty without truth. Call it once."""
+        import pandas as pd
+
+        table = self._truth.tables().get(T.TRUTH)
+        if table is None:
+            return pd.DataFrame(columns=["t", "x", "y", "heading"], dtype=float)
         return table[["t", "x", "y", "heading"]]
 
     def steering_columns(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
