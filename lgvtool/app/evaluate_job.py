@@ -42,11 +42,7 @@ def _estimates_from_log(
                              f"(it holds {', '.join(present)}); run lgvtool replay first")
         present = list(names)
     tables = reader.dataframes([topics.estimate_pose(n) for n in present], tap=read)
-    return {n: _pose_columns(tables[topics.estimate_pose(n)]) for n in present}
-
-
-def _pose_columns(df: pd.DataFrame) -> pd.DataFrame:
-    return df if df.empty else df[["t", "x", "y", "heading"]]
+    return {n: tables[topics.estimate_pose(n)][["t", "x", "y", "heading"]] for n in present}
 
 
 def _run_estimators(
