@@ -179,46 +179,68 @@ def carry_to_start(t_start: Any, t_obs: Any, px: Any, py: Any, track: Track
     frame as it was at ``t_start`` (ns), with the head's ``track`` interpolated linearly
     (the heading unwrapped; held at the track's ends), as Foxglove's 3D panel carries a
     frame between two of its transforms. Unchanged without a track."""
-    import numpy as np
+    return Carrier(track)(t_start, t_obs, px, py)
 
-    px, py = np.asarray(px, dtype=np.float64), np.asarray(py, dtype=np.float64)
-    tt, x, y, h = track
-    if not len(tt):
-        return px, py
-    h = np.unwrap(h)
 
-    def at(t: Any) -> tuple[Any, Any, Any]:
-        rel = (np.asarray(t, dtype=np.int64) - tt[0]).astype(np.float64)
-        grid = (tt - tt[0]).astype(np.float64)
-        return np.interp(rel, grid, x), np.interp(rel, grid, y), np.interp(rel, grid, h)
+class Carrier:
+    """:func:`carry_to_start` along one ``track``, prepared once (its heading unwrapped, its
+    time grid) for many calls, e.g. one per window of scans."""
 
-    xs, ys, hs = at(t_start)
-    xo, yo, ho = at(t_obs)
-    co, so = np.cos(ho), np.sin(ho)
-    dx, dy = xo + co * px - so * py - xs, yo + so * px + co * py - ys
-    cs, ss = np.cos(hs), np.sin(hs)
-    return cs * dx + ss * dy, cs * dy - ss * dx
+    def __init__(self, track: Track) -> None:
+        import numpy as np
+
+        tt, x, y, h = track
+        self._t0 = int(tt[0]) if len(tt) else 0
+        self._grid = (np.asarray(tt, dtype=np.int64) - self._t0).astype(np.float64)
+        self._x, self._y = x, y
+        self._h = np.unwrap(h) if len(tt) else h
+
+    def _at(self, t: Any) -> tuple[Any, Any, Any]:
+        """The head's pose (x, y m, unwrapped heading rad) at ``t`` (ns)."""
+        import numpy as np
+
+        rel = (np.asarray(t, dtype=np.int64) - self._t0).astype(np.float64)
+        return (np.interp(rel, self._grid, self._x), np.interp(rel, self._grid, self._y),
+                np.interp(rel, self._grid, self._h))
+
+    def __call__(self, t_start: Any, t_obs: Any, px: Any, py: Any
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """See :func:`carry_to_start`."""
+        import numpy as np
+
+        px, py = np.asarray(px, dtype=np.float64), np.asarray(py, dtype=np.float64)
+        if not len(self._grid):
+            return px, py
+        xs, ys, hs = self._at(t_start)
+        xo, yo, ho = self._at(t_obs)
+        co, so = np.cos(ho), np.sin(ho)
+        dx, dy = xo + co * px - so * py - xs, yo + so * px + co * py - ys
+        cs, ss = np.cos(hs), np.sin(hs)
+        return cs * dx + ss * dy, cs * dy - ss * dx
 
 
 def _scan_encoder(rows: LogRows, track: Track, source_name: str) -> Any:
     """The encoder of /nav/scan: each scan one foxglove.PointCloud in the head frame at its
-    start, every observation carried there from its own instant along ``track``."""
+    start, every observation carried there from its own instant along ``track``. The points
+    are computed for the scans of each call only (one window), never for the whole log."""
     import numpy as np
 
     from lgvtool.timestamps import seconds_to_ns_array
 
     times, (start, counts, rng, brg, ids, dts) = rows.columns(T.NAV_REFLECTORS)
     offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    first = np.repeat(start, counts)
-    qx, qy = carry_to_start(first, first + seconds_to_ns_array(dts), rng * np.cos(brg),
-                            rng * np.sin(brg), track)
+    carry = Carrier(track)
 
     def encode(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
         n = offsets[idx + 1] - offsets[idx]
         sub = np.concatenate([[0], np.cumsum(n)]).astype(np.int64)
         flat = np.repeat(offsets[idx] - sub[:-1], n) + np.arange(sub[-1])
-        return times[idx].tolist(), fx.scan_clouds_many(start[idx], sub, qx[flat], qy[flat],
-                                                      ids[flat], source_name)
+        first = np.repeat(start[idx], n)
+        r, b = rng[flat], brg[flat]
+        qx, qy = carry(first, first + seconds_to_ns_array(dts[flat]), r * np.cos(b),
+                       r * np.sin(b))
+        return times[idx].tolist(), fx.scan_clouds_many(start[idx], sub, qx, qy, ids[flat],
+                                                      source_name)
     return encode
 
 
