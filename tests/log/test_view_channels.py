@@ -4,12 +4,13 @@ head frame at the scan's start, as Foxglove's 3D panel would carry them between 
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
 import numpy as np
 import pytest
 
 from lgvtool.log import foxglove as fx
-from lgvtool.log.view_channels import carry_to_start, head_track
+from lgvtool.log.view_channels import Carrier, carry_to_start, head_track
 
 T0 = 1_704_067_200_000_000_000
 
@@ -49,6 +50,26 @@ def test_heading_is_interpolated_across_the_wrap() -> None:
     # half way, the head has turned 0.05 rad: a point straight ahead at 10 m then
     qx, qy = carry_to_start([T0], [T0 + 50_000_000], [10.0], [0.0], track)
     assert (qx[0], qy[0]) == pytest.approx((10 * math.cos(0.05), 10 * math.sin(0.05)), abs=1e-9)
+
+
+def test_a_prepared_carrier_gives_each_window_what_the_whole_log_gives() -> None:
+    # a head circling several times (its heading wraps), scans carried in windows of any cut:
+    # the view computes each window's points alone, the unwrapped track shared
+    rng = np.random.default_rng(3)
+    t = T0 + 50_000_000 * np.arange(400)
+    dt = (t - T0) * 1e-9
+    track = head_track(t, 4.0 * np.cos(dt), 4.0 * np.sin(dt), np.pi / 2 + 1.3 * dt,
+                       fx.Mounting(0.2, -0.1, 0.05))
+    start = np.sort(rng.integers(int(t[0]), int(t[-1]), 300))
+    obs = start + rng.integers(0, 120_000_000, 300)
+    px, py = rng.uniform(-20, 20, 300), rng.uniform(-20, 20, 300)
+    whole = carry_to_start(start, obs, px, py, track)
+    carry = Carrier(track)
+    for cut in ([0, 300], [0, 1, 150, 299, 300], [*range(0, 301, 7), 300]):
+        parts = [carry(start[a:b], obs[a:b], px[a:b], py[a:b]) for a, b in pairwise(cut)]
+        for k in (0, 1):
+            got = np.concatenate([p[k] for p in parts])
+            assert got == pytest.approx(whole[k], abs=1e-12)
 
 
 def test_without_a_track_points_stay_as_measured() -> None:
