@@ -95,7 +95,9 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
     cfg = load_config(config_path) if config_path else reader.config()
     # the view's rows (NAV poses, truth, MCU frames) gathered in the estimators' reading
     collector = RowCollector(reader, skip_scans=True) if view else None
-    data = load_log(reader, cfg.reflectors or None, truth=start_at_truth, tap=collector)
+    # decoded as they are read when they will all be: by an estimator or by the view
+    data = load_log(reader, cfg.reflectors or None, truth=start_at_truth, tap=collector,
+                    decode_scans=view or any(ESTIMATORS[n].uses_scans for n in names))
     t_read = time.perf_counter() - started
 
     from lgvtool.progress import Progress

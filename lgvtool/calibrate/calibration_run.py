@@ -157,7 +157,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         raise MissingDataError("no reflector map: neither the configuration nor the log has one")
     drives = []
     for path, reader in zip(paths, readers, strict=True):
-        data = load_log(reader, reflectors)
+        data = load_log(reader, reflectors, decode_scans=observations != "poses")
         drives.append(prepare(path, data, reflectors, observations=observations,
                               mcu_baud=log_mcu_baud(reader.metadata)))
         if progress is not None:

@@ -59,6 +59,16 @@ class LazyScans(Sequence[RawScan]):
         #: receive (log) time of each scan, s after ``t0_ns``
         self.received = _seconds(self.received_ns, t0_ns)
 
+    @classmethod
+    def of_columns(cls, t0_ns: int, received_ns: NDArray[np.int64], columns: ScanColumns,
+                   source: str = "log") -> LazyScans:
+        """Scans decoded already (:func:`load_log` asked to decode them as it reads), in
+        the order of ``received_ns``: ``columns`` as :func:`scan_columns` gives them."""
+        scans = cls(t0_ns, received_ns, [], source)
+        scans._raw, scans._n = None, len(received_ns)
+        scans._set(*scans._batch(columns))
+        return scans
+
     def decoded(self) -> tuple[ScanBatch, NDArray[np.int64]]:
         """Every scan as flat read-only arrays, with the offset of each scan's first reflector
         (``len + 1`` entries); decoded on the first call."""
@@ -66,14 +76,17 @@ class LazyScans(Sequence[RawScan]):
             if self._raw is None:
                 raise LogFormatError(f"{self.source}: reflector scans could not be decoded")
             raw, self._raw = self._raw, None  # the bytes are consumed by the decoding
-            b, self._start_ns = self._decode(raw.consume() if isinstance(raw, PackedBytes)
-                                             else [raw])
-            for a in (b.t, b.period, b.counts, b.ranges, b.bearings, b.times, b.ids,
-                      self._start_ns):
-                a.setflags(write=False)
-            offsets = np.concatenate(([0], np.cumsum(b.counts))).astype(np.int64)
-            self._all = (b, offsets)
+            self._set(*self._decode(raw.consume() if isinstance(raw, PackedBytes)
+                                    else [raw]))
+        assert self._all is not None
         return self._all
+
+    def _set(self, b: ScanBatch, start_ns: NDArray[np.int64]) -> None:
+        """Keep the decoded scans ``b`` (their start times ``start_ns``) as read-only."""
+        for a in (b.t, b.period, b.counts, b.ranges, b.bearings, b.times, b.ids, start_ns):
+            a.setflags(write=False)
+        offsets = np.concatenate(([0], np.cumsum(b.counts))).astype(np.int64)
+        self._all, self._start_ns = (b, offsets), start_ns
 
     def decoded_columns(self) -> tuple[NDArray[Any], ...] | None:
         """The scans as the view channels draw them (:class:`lgvtool.log.view_channels.LogRows`)
@@ -89,22 +102,17 @@ class LazyScans(Sequence[RawScan]):
                 ) -> tuple[ScanBatch, NDArray[np.int64]]:
         """Flat arrays of the JSON scans of ``blocks`` (one after the other), and their start
         times (ns)."""
-        stamps: list[NDArray[np.int64]] = []
-        parts: list[Sequence[NDArray[Any]]] = []
         try:
-            for chosen in blocks:
-                t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64),
-                                          _scan_fields)
-                if cols:
-                    stamps.append(t)
-                    parts.append(cols)
-            if not parts:
-                return ScanBatch.from_scans([]), np.zeros(0, dtype=np.int64)
-            t, cols = np.concatenate(stamps), _joined(parts)
-            _checked("/nav/reflectors", t[t != 0], ranges=cols[2], bearings=cols[3],
-                     time_in_scan=cols[4])
+            return self._batch(scan_columns(blocks))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise LogFormatError(f"{self.source}: {_what(exc)}") from None
+
+    def _batch(self, columns: ScanColumns) -> tuple[ScanBatch, NDArray[np.int64]]:
+        """The scans ``columns`` as a batch (times in s after ``t0_ns``), and their start
+        times (ns)."""
+        t, cols = columns
+        if not cols:
+            return ScanBatch.from_scans([]), np.zeros(0, dtype=np.int64)
         period, counts, ranges, bearings, times, ids = cols
         return ScanBatch(_seconds(t, self._t0), period, counts, ranges, bearings, times,
                          ids), t
@@ -141,12 +149,61 @@ class LazyScans(Sequence[RawScan]):
             raise IndexError("scan index out of range")
         idx = np.where(idx < 0, idx + self._n, idx)
         counts = b.counts[idx]
-        # the reflectors of each chosen scan: its first offset, then one after the other
-        ends = np.cumsum(counts)
-        flat = np.repeat(offsets[idx] - (ends - counts), counts) + np.arange(
-            int(ends[-1]) if len(ends) else 0)
+        flat = _reflectors_of(offsets, counts, idx)
         return ScanBatch(b.t[idx], b.period[idx], counts, b.ranges[flat], b.bearings[flat],
                          b.times[flat], b.ids[flat])
+
+
+def _reflectors_of(offsets: NDArray[np.int64], counts: NDArray[np.int64],
+                   idx: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The flat indices of the reflectors of the scans ``idx`` (``counts`` theirs, in that
+    order), given each scan's first offset ``offsets``: each scan's first, then one after the
+    other."""
+    ends = np.cumsum(counts)
+    return np.repeat(offsets[idx] - (ends - counts), counts) + np.arange(
+        int(ends[-1]) if len(ends) else 0)
+
+
+def _scans_in_order(columns: ScanColumns, order: NDArray[np.int64]) -> ScanColumns:
+    """The scans ``columns`` put in the order ``order`` (a permutation of the scans)."""
+    t, cols = columns
+    period, counts, ranges, bearings, times, ids = cols
+    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    chosen = counts[order]
+    flat = _reflectors_of(offsets, chosen, order)
+    return t[order], [period[order], chosen, ranges[flat], bearings[flat], times[flat],
+                      ids[flat]]
+
+
+#: decoded scans: their own start times (ns since the epoch; 0 for a scan without one), then
+#: per scan its period (s) and count, per reflector range (m), bearing (rad), time in scan (s)
+#: and id (no columns when there is no scan)
+ScanColumns = tuple[NDArray[np.int64], list[NDArray[Any]]]
+
+
+def scan_columns(blocks: Iterable[Sequence[bytes]]) -> ScanColumns:
+    """Decode the JSON scans of ``blocks`` (lists of messages, one after the other) and check
+    their ranges; raises KeyError, TypeError or ValueError when they do not match the
+    contract."""
+    stamps: list[NDArray[np.int64]] = []
+    parts: list[Sequence[NDArray[Any]]] = []
+    for chosen in blocks:
+        t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64), _scan_fields)
+        if cols:
+            stamps.append(t)
+            parts.append(cols)
+    return _scans_joined(stamps, parts)
+
+
+def _scans_joined(stamps: list[NDArray[np.int64]], parts: list[Sequence[NDArray[Any]]]
+                  ) -> ScanColumns:
+    """Blocks of decoded scans joined (``parts`` emptied) and range-checked."""
+    if not parts:
+        return np.zeros(0, dtype=np.int64), []
+    t, cols = np.concatenate(stamps), _joined(parts)
+    _checked("/nav/reflectors", t[t != 0], ranges=cols[2], bearings=cols[3],
+             time_in_scan=cols[4])
+    return t, cols
 
 
 def _scan_fields(docs: list[dict[str, Any]]) -> tuple[NDArray[Any], ...]:
@@ -322,10 +379,13 @@ class _Topic:
 
 
 def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *,
-             truth: bool = False, tap: Tap | None = None) -> LogData:
+             truth: bool = False, tap: Tap | None = None,
+             decode_scans: bool = False) -> LogData:
     """Read the motion and observation topics of a log (and the ground truth if ``truth``)
     into arrays; reflector scans are kept undecoded (compressed) until first used, then
-    decoded once (:class:`LazyScans`).
+    decoded once (:class:`LazyScans`), or, with ``decode_scans`` (for a caller that will use
+    them all: the scans decoded as they are read cost neither the compression nor the
+    decompression) and a reflector map to match them against, decoded as they are read.
 
     The log is read one chunk at a time and each chunk's messages are decoded before the next
     is read, so memory holds the arrays, not the messages. ``tap`` is handed every chunk's
@@ -341,7 +401,7 @@ def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *
         reader.raw_column_chunks(wanted) if tap is None
         else _tapped(reader.raw_column_chunks([*wanted, *tap.topics]), tap, own))
     try:
-        return _log_data(reader, chunks, reflectors)
+        return _log_data(reader, chunks, reflectors, decode_scans)
     except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
         from lgvtool.errors import LogFormatError
 
@@ -384,19 +444,31 @@ def _checked(topic: str, ti: NDArray[np.int64], **columns: NDArray[Any]) -> None
 
 
 def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
-              reflectors: Sequence[Reflector] | None) -> LogData:
+              reflectors: Sequence[Reflector] | None, decode_scans: bool) -> LogData:
     """:func:`load_log` from the raw messages of each chunk; raises KeyError, TypeError or
     ValueError when they do not match the contract."""
     from lgvtool.log import topics as T
 
+    refl = tuple(reflectors) if reflectors is not None else reader.reflector_map()
+    eager = decode_scans and bool(refl)
     acc: dict[str, _Topic] = {}
     scan_ns: list[NDArray[np.int64]] = []
     packed = PackedBytes()
+    # the scans decoded so far (eager): their start times and blocks of columns
+    scan_stamps: list[NDArray[np.int64]] = []
+    scan_parts: list[Sequence[NDArray[Any]]] = []
     # raw messages of the chunks read so far, decoded once a block's worth is pending
     pending: dict[str, tuple[list[NDArray[np.int64]], list[bytes]]] = {}
 
     def decode(topic: str) -> None:
         times, raw = pending.pop(topic)
+        if topic == T.NAV_REFLECTORS:  # their start times are their own stamps, else 0
+            with _about(topic):
+                stamps, cols = _decode_columns(raw, np.zeros(len(raw), dtype=np.int64),
+                                               _scan_fields)
+            scan_stamps.append(stamps)
+            scan_parts.append(cols)
+            return
         log_ns = np.concatenate(times)
         with _about(topic):
             stamps, cols = _decode_columns(raw, log_ns, _FIELDS[topic])
@@ -406,8 +478,9 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
         for topic, (log_ns, raw) in block.items():
             if topic == T.NAV_REFLECTORS:
                 scan_ns.append(log_ns)
-                packed.append_block(raw)
-                continue
+                if not eager:
+                    packed.append_block(raw)
+                    continue
             times, msgs = pending.setdefault(topic, ([], []))
             times.append(log_ns)
             msgs.extend(raw)
@@ -422,7 +495,6 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
     if len(scans_log_ns):
         firsts.append(int(scans_log_ns.min()))
     t0 = min(firsts, default=0)
-    refl = tuple(reflectors) if reflectors is not None else reader.reflector_map()
     data = LogData(t0, refl)
     if T.MCU_FRAME in done:
         with _about(T.MCU_FRAME):
@@ -450,11 +522,19 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
     if len(scan_ns):
         with _about(T.NAV_REFLECTORS):
             _checked(T.NAV_REFLECTORS, scans_log_ns)
+            o = None
             if len(scans_log_ns) > 1 and not bool(np.all(scans_log_ns[1:] >= scans_log_ns[:-1])):
                 o = np.argsort(scans_log_ns, kind="stable")
                 scans_log_ns = scans_log_ns[o]
-                packed.reorder(o)
-            data.scans = LazyScans(t0, scans_log_ns, packed, str(reader.path))
+            if eager:
+                cols = _scans_joined(scan_stamps, scan_parts)
+                data.scans = LazyScans.of_columns(
+                    t0, scans_log_ns, cols if o is None else _scans_in_order(cols, o),
+                    str(reader.path))
+            else:
+                if o is not None:
+                    packed.reorder(o)
+                data.scans = LazyScans(t0, scans_log_ns, packed, str(reader.path))
     if T.TRUTH in done:
         with _about(T.TRUTH):
             _, ti, (a,) = done[T.TRUTH]

@@ -545,7 +545,10 @@ def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
     """
     started = time.perf_counter()
     cfg = config if config is not None else reader.config()
-    data = load_log(reader, cfg.reflectors or None, truth=initial_pose == "truth", tap=tap)
+    chosen = list(names) if names is not None else list(DEFAULT_ESTIMATORS)
+    data = load_log(reader, cfg.reflectors or None, truth=initial_pose == "truth", tap=tap,
+                    decode_scans=any(getattr(ESTIMATORS.get(n), "uses_scans", False)
+                                     for n in chosen))
     read_s = time.perf_counter() - started
     result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
                          initial_pose=initial_pose, progress=progress,

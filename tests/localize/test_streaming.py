@@ -13,7 +13,7 @@ from simlogs import simulate_log
 
 from lgvtool.localize import obsstream
 from lgvtool.localize import replay_driver as R
-from lgvtool.localize.logdata import load_log, scan_batch
+from lgvtool.localize.logdata import LazyScans, LogData, load_log, scan_batch
 from lgvtool.localize.motion import Increments, MotionSettings, MotionTrack
 from lgvtool.localize.observations import scan_observations
 from lgvtool.localize.packed import PackedBytes
@@ -237,3 +237,64 @@ def test_a_tap_sees_every_message_of_its_topics_and_changes_nothing(data, run_lo
     with_truth = load_log(reader, cfg.reflectors or None, truth=True)
     assert with_truth.t0_ns == plain.t0_ns
     np.testing.assert_array_equal(with_truth.mcu["t"], plain.mcu["t"])
+
+
+def _lazy(d: LogData) -> LazyScans:
+    """The scans of ``d`` as load_log keeps them."""
+    assert isinstance(d.scans, LazyScans)
+    return d.scans
+
+
+def _same_scans(a: LogData, b: LogData) -> None:
+    """Two LogData's scans hold the same arrays (receive times, batch, start times)."""
+    p, q = _lazy(a), _lazy(b)
+    np.testing.assert_array_equal(p.received_ns, q.received_ns)
+    np.testing.assert_array_equal(p.received, q.received)
+    x, y = p.batch(), q.batch()
+    for f in ("t", "period", "counts", "ranges", "bearings", "times", "ids"):
+        u, v = getattr(x, f), getattr(y, f)
+        assert u.dtype == v.dtype and not v.flags.writeable, f
+        np.testing.assert_array_equal(u, v, err_msg=f)
+    for u, v in zip(p.decoded_columns() or (), q.decoded_columns() or (), strict=True):
+        np.testing.assert_array_equal(u, v)
+
+
+def test_scans_decoded_as_they_are_read_equal_those_decoded_later(data, run_log,
+                                                                  tmp_path) -> None:
+    """``decode_scans``: the scans decoded chunk by chunk in the reading are the arrays the
+    lazy store decodes later (none compressed on the way), also for scans stored out of log
+    time order (put in order as the store reorders them), and the other topics are read as
+    before."""
+    from lgvtool.log import LogWriter
+    from lgvtool.log import topics as T
+
+    cfg, lazy = data
+    reader = _reader(run_log)
+    eager = load_log(reader, cfg.reflectors or None, decode_scans=True)
+    assert _lazy(eager)._raw is None and _lazy(eager)._all is not None  # decoded in the read
+    _lazy(lazy).decoded()
+    _same_scans(lazy, eager)
+    assert eager.t0_ns == lazy.t0_ns
+    for k in lazy.mcu:
+        np.testing.assert_array_equal(lazy.mcu[k], eager.mcu[k])
+    # the same scans stored with neighbours swapped in time (log times out of order), the
+    # motion and map as they are: every 7th scan and its next exchange log times
+    msgs = list(reader.raw_messages([T.NAV_REFLECTORS, T.MCU_FRAME, T.MAP]))
+    scans = [k for k, m in enumerate(msgs) if m.topic == T.NAV_REFLECTORS]
+    times = [m.log_time_ns for m in msgs]
+    for a, b in zip(scans[::7], scans[1::7], strict=False):
+        times[a], times[b] = times[b], times[a]
+    shuffled = tmp_path / "shuffled.mcap"
+    with LogWriter(shuffled, source="test") as w:
+        w.add_metadata("config", cfg.to_dict())
+        w.write_encoded_many([m.topic for m in msgs], [m.data for m in msgs], times)
+    r = _reader(shuffled)
+    later = load_log(r, cfg.reflectors or None)
+    now = load_log(r, cfg.reflectors or None, decode_scans=True)
+    assert _lazy(later)._raw is not None and _lazy(now)._raw is None
+    assert np.all(np.diff(_lazy(now).received_ns) >= 0)
+    assert not np.array_equal(_lazy(now).batch().ranges[:200],
+                              _lazy(eager).batch().ranges[:200])
+    _same_scans(later, now)
+    # without a map to match them against, the scans are left for later
+    assert _lazy(load_log(r, (), decode_scans=True))._raw is not None
