@@ -1,7 +1,8 @@
 """What the estimators need from a log, read into arrays (:func:`load_log`).
 
 Times are seconds relative to the first message read (``LogData.t0_ns``). Reflector scans are
-kept as their JSON bytes (:class:`LazyScans`) until an estimator uses them, then decoded once.
+kept as their JSON bytes (:class:`LazyScans`) until an estimator uses them, then decoded once,
+or decoded as they are read when the caller says it will use them all.
 """
 
 from __future__ import annotations

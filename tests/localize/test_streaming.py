@@ -298,3 +298,28 @@ def test_scans_decoded_as_they_are_read_equal_those_decoded_later(data, run_log,
     _same_scans(later, now)
     # without a map to match them against, the scans are left for later
     assert _lazy(load_log(r, (), decode_scans=True))._raw is not None
+
+
+def test_a_scan_that_breaks_the_contract_is_one_error_naming_its_topic(data, run_log,
+                                                                       tmp_path) -> None:
+    """Decoded as it is read, a scan whose observations are not a list is one LogFormatError
+    naming the log and /nav/reflectors; left for later, the same scan fails when decoded."""
+    from lgvtool.errors import LogFormatError
+    from lgvtool.log import LogWriter
+    from lgvtool.log import topics as T
+
+    cfg, _ = data
+    msgs = list(_reader(run_log).raw_messages([T.NAV_REFLECTORS, T.MCU_FRAME]))
+    bad = [k for k, m in enumerate(msgs) if m.topic == T.NAV_REFLECTORS][30]
+    path = tmp_path / "bad-scan.mcap"
+    with LogWriter(path, source="test") as w:
+        w.write_encoded_many([m.topic for m in msgs],
+                             [b'{"observations":"x"}' if k == bad else m.data
+                              for k, m in enumerate(msgs)], [m.log_time_ns for m in msgs])
+    r = _reader(path)
+    with pytest.raises(LogFormatError, match=r"bad-scan\.mcap: topic /nav/reflectors: .*"
+                                             r"TypeError"):
+        load_log(r, cfg.reflectors, decode_scans=True)
+    later = load_log(r, cfg.reflectors)
+    with pytest.raises(LogFormatError, match=r"bad-scan\.mcap: .*TypeError"):
+        _lazy(later).decoded()
