@@ -206,7 +206,8 @@ def test_report_draws_each_varying_figure_against_each_swept_parameter(tmp_path)
     page = render_report(tidy, grid=grid, metrics=metric_columns(tidy, list(grid)),
                          facts={"tasks": len(tasks)})
     assert page.count("plotly.js v") == 1
-    assert page.count("Plotly.newPlot(") == 2          # circle.rmse_mm against both parameters
+    body = page.split("</head>", 1)[1]                 # the page's own, not plotly.js's
+    assert body.count("Plotly.newPlot(") == 2          # circle.rmse_mm against both parameters
     assert "circle.rmse_mm against pf.particles" in page
     assert "circle.rmse_mm against pf.init" in page
     assert "rotations.complete against" not in page    # the same for every task of a log

@@ -4,7 +4,10 @@ update / estimate steps.
 
 Same seed, same machine: the random stream is the same on both paths (checked on the
 generator's state after the run), the estimates agree within 1e-9 m (rad), and the paper
-filter's ``run`` equals the step-by-step loop bit for bit on either path."""
+filter's ``run`` equals the step-by-step loop within the same tolerance on either path (bit
+for bit with numpy 2 on this machine, but the run perturbs a block of motions at once, and
+numpy's vectorised trigonometry may round the last bit otherwise than per step on another
+numpy version or processor: numpy 1.26 differs by 4e-15 m)."""
 
 from __future__ import annotations
 
@@ -57,16 +60,6 @@ def _run(monkeypatch: pytest.MonkeyPatch, mode: str, name: str, settings: dict[s
     return rows, est.rng.bit_generator.state, est
 
 
-def _same(a: EstimateRows, b: EstimateRows) -> None:
-    """Bit for bit."""
-    for f in ("t", "x", "y", "heading", "covariance", "particles", "ess"):
-        assert np.array_equal(getattr(a, f), getattr(b, f)), f
-    assert len(a.clouds) == len(b.clouds)
-    for ca, cb in zip(a.clouds, b.clouds, strict=True):
-        for u, v in zip(ca[1:], cb[1:], strict=True):
-            assert np.array_equal(u, v)
-
-
 def _same_clouds(a: EstimateRows, b: EstimateRows) -> None:
     """The same clouds: their times and particle counts, and the particles within
     :data:`TOL`."""
@@ -101,11 +94,13 @@ PAPER_SETTINGS = [
 @pytest.mark.parametrize("settings", PAPER_SETTINGS)
 def test_paper_run_equals_its_steps(monkeypatch: pytest.MonkeyPatch, mode: str,
                                     settings: dict[str, Any]) -> None:
-    """PaperParticleFilter.run (packed blocks) against predict / update / estimate."""
+    """PaperParticleFilter.run (packed blocks) against predict / update / estimate: the same
+    random numbers, the estimates and clouds within :data:`TOL`."""
     block, block_state, _ = _run(monkeypatch, mode, "pf-paper", settings)
     steps, steps_state, _ = _run(monkeypatch, mode, "pf-paper", settings, steps_only=True)
     assert block_state == steps_state
-    _same(block, steps)
+    _close(block, steps)
+    _same_clouds(block, steps)
 
 
 PF_SETTINGS = [
