@@ -189,11 +189,17 @@ def scan_columns(blocks: Iterable[Sequence[bytes]]) -> ScanColumns:
     stamps: list[NDArray[np.int64]] = []
     parts: list[Sequence[NDArray[Any]]] = []
     for chosen in blocks:
-        t, cols = _decode_columns(chosen, np.zeros(len(chosen), dtype=np.int64), _scan_fields)
+        t, cols = _scan_block(chosen)
         if cols:
             stamps.append(t)
             parts.append(cols)
     return _scans_joined(stamps, parts)
+
+
+def _scan_block(raw: Sequence[bytes]) -> tuple[NDArray[np.int64], list[NDArray[Any]]]:
+    """One block of JSON scans decoded: their own start stamps (ns, 0 where a scan has none)
+    and the columns of :func:`_scan_fields`."""
+    return _decode_columns(raw, np.zeros(len(raw), dtype=np.int64), _scan_fields)
 
 
 def _scans_joined(stamps: list[NDArray[np.int64]], parts: list[Sequence[NDArray[Any]]]
@@ -463,10 +469,9 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
 
     def decode(topic: str) -> None:
         times, raw = pending.pop(topic)
-        if topic == T.NAV_REFLECTORS:  # their start times are their own stamps, else 0
+        if topic == T.NAV_REFLECTORS:
             with _about(topic):
-                stamps, cols = _decode_columns(raw, np.zeros(len(raw), dtype=np.int64),
-                                               _scan_fields)
+                stamps, cols = _scan_block(raw)
             scan_stamps.append(stamps)
             scan_parts.append(cols)
             return
