@@ -4,10 +4,9 @@ update / estimate steps.
 
 Same seed, same machine: the random stream is the same on both paths (checked on the
 generator's state after the run), the estimates agree within 1e-9 m (rad), and the paper
-filter's ``run`` equals the step-by-step loop within the same tolerance on either path (bit
-for bit with numpy 2 on this machine, but the run perturbs a block of motions at once, and
-numpy's vectorised trigonometry may round the last bit otherwise than per step on another
-numpy version or processor: numpy 1.26 differs by 4e-15 m)."""
+filter's ``run`` equals the step-by-step loop within the same tolerance on either path: the
+run perturbs a block of motions at once, and numpy's vectorised trigonometry may round the
+last bit otherwise than per step on another numpy version or processor (numpy 1.26: 4e-15 m)."""
 
 from __future__ import annotations
 
