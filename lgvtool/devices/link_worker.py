@@ -150,7 +150,7 @@ class SessionWorker(LinkWorker):
     ``feed``, ``next_deadline``, ``link_up``/``link_down``, ``set_speed``, all with the time
     passed in) over the link, logs the traffic as /DEVICE/tx and /DEVICE/rx, and sends the
     MCU worker's latest motion as speed input when the session's settings ask for it.
-    Subclasses implement ``_handle`` (the session's events at host time ``t`` ns)."""
+    Subclasses implement ``_handle_events`` (the session's events at host time ``t`` ns)."""
 
     def __init__(self, link: Link, sink: LogSink, stop: threading.Event, timing: LinkTiming,
                  session: Any, *, vehicle: Vehicle, mcu: Any = None, warn: Any = None) -> None:
@@ -173,14 +173,14 @@ class SessionWorker(LinkWorker):
             data = request.encode()
             self.link.write(data)
             self.sink.raw(self.device, "tx", data, time.time_ns())
-        self._handle(time.time_ns())
+        self._handle_events(time.time_ns())
         wait = min(READ_SLICE, max(0.0, self.session.next_deadline(now) - time.monotonic()))
         data = self.link.read(wait)
         if data:
             t = time.time_ns()
             self.sink.raw(self.device, "rx", data, t)
             self.session.feed(data, time.monotonic())
-            self._handle(t)
+            self._handle_events(t)
         self.state = self.session.state
 
     def _speed_input(self, now: float) -> None:
@@ -193,6 +193,6 @@ class SessionWorker(LinkWorker):
         vx, vy = head_velocity(motion, self.vehicle)
         self.session.set_speed(vx, vy, motion.omega, at)
 
-    def _handle(self, t: int) -> None:
+    def _handle_events(self, t: int) -> None:
         """The session's events since the last call, at host time ``t`` ns."""
         raise NotImplementedError

@@ -361,24 +361,33 @@ class LogWriter:
 
     # ------------------------------------------------------------------ lifecycle
     def close(self) -> None:
-        """Finish the file: last chunk, summary, indexes, footer."""
+        """Finish the file: last chunk, summary, indexes, footer. When that fails (a full
+        disk), the file is closed all the same and the error raised."""
         if self._closed:
             return
         self._closed = True
-        self._writer.finish()
+        try:
+            self._writer.finish()
+            if self._owns_stream:
+                self._stream.flush()
+                if self._fsync:
+                    os.fsync(self._stream.fileno())
+        except BaseException:
+            self._release()
+            raise
         if self._owns_stream:
-            self._stream.flush()
-            if self._fsync:
-                os.fsync(self._stream.fileno())
             self._stream.close()
 
     def abort(self) -> None:
         """Close the file without finishing it (after a write error such as a full disk): what
         was written stays readable as a salvaged log; nothing more is attempted."""
-        if self._closed:
-            return
         self._closed = True
-        if self._owns_stream:
+        self._release()
+
+    def _release(self) -> None:
+        """Close the file this writer opened, if it is still open, whatever its buffer's last
+        write does (a file left open would report its failed flush when collected)."""
+        if self._owns_stream and not self._stream.closed:
             with contextlib.suppress(OSError, ValueError):
                 self._stream.close()
 

@@ -115,3 +115,38 @@ def test_simulator_and_decode_write_the_same_decoded_messages(tmp_path: Path,
     assert any(t == topics.MCU_FRAME for t, _, _ in written)
     assert any(t == topics.NAV_POSE for t, _, _ in written)
     assert sorted(written, key=repr) == sorted(messages(out), key=repr)
+
+
+#: private attributes that ``threading.Thread`` sets on itself in Python versions newer than
+#: the one a test may run on (3.13 made ``_handle`` the thread's handle, which shadowed a
+#: recorder worker's method of that name and broke ``record``)
+THREAD_INTERNALS = frozenset({"_handle", "_os_thread_handle", "_tstate_lock", "_is_stopped",
+                              "_started", "_ident", "_native_id", "_name", "_target", "_args",
+                              "_kwargs", "_daemonic", "_stderr", "_invoke_excepthook"})
+
+
+def test_no_recorder_worker_shadows_a_name_of_its_thread() -> None:
+    """Every family's recorder worker is a ``threading.Thread``: none of its own private
+    attributes may take a name the thread uses for itself, in this Python or a newer one
+    (``run`` is the thread's to override)."""
+    import importlib
+    import pkgutil
+    import threading
+
+    import lgvtool.devices
+    from lgvtool.devices.link_worker import LinkWorker
+
+    taken = set(THREAD_INTERNALS) | set(dir(threading.Thread)) | set(vars(threading.Thread()))
+    for mod in pkgutil.walk_packages(lgvtool.devices.__path__, "lgvtool.devices."):
+        if mod.name.endswith("_worker"):
+            importlib.import_module(mod.name)
+    workers: list[type] = []
+    todo: list[type] = [LinkWorker]
+    while todo:
+        cls = todo.pop()
+        workers.append(cls)
+        todo.extend(cls.__subclasses__())
+    assert len(workers) >= 5  # the base, the session base, the MCU, NAV200 and NAV350
+    clashes = {(cls.__name__, n) for cls in workers for n in vars(cls)
+               if n in taken and n.startswith("_") and not n.startswith("__")}
+    assert not clashes, clashes

@@ -225,6 +225,24 @@ def test_crash_loses_at_most_about_one_second(tmp_path: Path) -> None:
     w._stream.close()
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
+@pytest.mark.parametrize("then_abort", [False, True])
+def test_a_writer_whose_disk_is_full_closes_its_file(then_abort: bool) -> None:
+    """A close that cannot finish the file (every write fails with ENOSPC, as on a full disk)
+    raises, and the file is closed all the same, also when abort follows (as the recorder
+    does): a file left open would report its failed flush when collected, a traceback on
+    stderr after the one-line error."""
+    w = LogWriter("/dev/full", chunk_seconds=1.0)
+    for i in range(5):  # within one chunk: nothing reaches the file before close
+        t = T0 + i * 100 * MS
+        w.write(topics.ODOM, {"timestamp": stamp(t), "v": 0.1, "omega": 0.0}, t)
+    with pytest.raises(OSError):
+        w.close()
+    if then_abort:
+        w.abort()
+    assert w._stream.closed
+
+
 def test_recover_writes_complete_indexed_log(tmp_path: Path) -> None:
     path = tmp_path / "full.mcap"
     build_log(path, seconds=20)

@@ -43,7 +43,7 @@ class Nav200Worker(SessionWorker):
         self.applied: dict[str, Any] = {}
         self.map: tuple[Reflector, ...] | None = None
 
-    def _handle(self, t: int) -> None:
+    def _handle_events(self, t: int) -> None:
         for event in self.session.pop_events():
             if isinstance(event, PoseReceived):
                 self.sink.message(topics.NAV_POSE,

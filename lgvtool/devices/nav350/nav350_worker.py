@@ -69,9 +69,9 @@ class Nav350Worker(SessionWorker):
 
     def _lost(self) -> None:
         self.session.link_down(time.monotonic())
-        self._handle(time.time_ns())
+        self._handle_events(time.time_ns())
 
-    def _handle(self, t: int) -> None:
+    def _handle_events(self, t: int) -> None:
         for event in self.session.pop_events():
             if isinstance(event, PoseDataReceived):
                 rx = self._host_ns(event.received)
