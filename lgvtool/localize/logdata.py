@@ -469,7 +469,7 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
 
     def decode(topic: str) -> None:
         times, raw = pending.pop(topic)
-        if topic == T.NAV_REFLECTORS:
+        if topic == T.NAV_REFLECTORS:  # their start times are their own stamps
             with _about(topic):
                 stamps, cols = _scan_block(raw)
             scan_stamps.append(stamps)
@@ -488,7 +488,8 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
                     packed.append_block(raw)
                     continue
             times, msgs = pending.setdefault(topic, ([], []))
-            times.append(log_ns)
+            if topic != T.NAV_REFLECTORS:  # the scans' log times are kept in scan_ns
+                times.append(log_ns)
             msgs.extend(raw)
             if len(msgs) >= _DECODE_BLOCK:
                 decode(topic)
