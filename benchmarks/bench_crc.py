@@ -28,12 +28,8 @@ import zstandard  # noqa: E402
 
 from lgvtool.localize.logdata import load_log  # noqa: E402
 from lgvtool.log import LogReader  # noqa: E402
-from lgvtool.log.mcapio import (  # noqa: E402
-    _chunk_frame,
-    chunk_window,
-    decompress,
-    verified_records,
-)
+from lgvtool.log.mcap_chunks import _chunk_frame, chunk_window, verified_records  # noqa: E402
+from lgvtool.log.mcap_records import decompress  # noqa: E402
 
 
 def best(fn, repeat: int) -> float:

@@ -16,7 +16,10 @@ bits (docs/filter.md: within 1e-9 m).
 Importing this module imports numba; the filters import it only when they run
 (:func:`lgvtool.localize.particles.fused_kernels`). The compiled code is cached on disk
 (``cache=True``, in ``__pycache__`` beside this file), so only the first run on a machine pays
-the compilation.
+the compilation. The kernels of both filters and the pieces they share stay in this one module
+on purpose: numba checks a cached kernel against its own source file only, so a kernel calling
+a compiled function of another module would keep running the old code from the cache after
+that other module changed (numba's documented cache limitation).
 
 Units: positions m (complex ``x + iy``), headings as rotors ``exp(i th)`` or rad.
 """

@@ -20,26 +20,28 @@ import orjson
 from lgvtool.config import Config, Reflector, config_from_dict, default_config
 from lgvtool.errors import ConfigError, LogFormatError
 from lgvtool.log import topics as T
-from lgvtool.log.mcapio import (
-    MAGIC,
-    Channel,
-    ChunkIndex,
+from lgvtool.log.mcap_chunks import (
     CorruptChunkError,
-    Metadata,
     RecordColumns,
-    Schema,
     checked_records,
     chunk_messages,
     chunk_window,
-    data_section_crc,
     iter_channel_chunks,
     iter_indexed,
     iter_indexed_blocks,
     read_channels,
-    read_metadata,
-    read_summary,
     record_columns,
     verified_records,
+)
+from lgvtool.log.mcap_records import (
+    MAGIC,
+    Channel,
+    ChunkIndex,
+    Metadata,
+    Schema,
+    data_section_crc,
+    read_metadata,
+    read_summary,
 )
 from lgvtool.log.validate import check_channel
 from lgvtool.log.writer import FORMAT_VERSION
@@ -176,7 +178,7 @@ class LogReader:
 
     # ------------------------------------------------------------------ opening
     def _open_indexed(self) -> bool:
-        from lgvtool.log.mcapio import CorruptSummaryError
+        from lgvtool.log.mcap_records import CorruptSummaryError
 
         try:
             with open(self.path, "rb") as f:
@@ -335,7 +337,7 @@ class LogReader:
     def record_chunks(self) -> Iterator[tuple[bytes, RecordColumns]] | None:
         """The log's message records in log-time order, as the uncompressed records of runs of
         consecutive chunks (at least :data:`RECORD_GROUP_BYTES` each, but the last) with the
-        columns of their message records (:func:`lgvtool.log.mcapio.record_columns`);
+        columns of their message records (:func:`lgvtool.log.mcap_chunks.record_columns`);
         corrupt chunks skipped with a warning as :meth:`raw_blocks` skips them: the same
         messages in the same order as :meth:`raw_blocks`. None when that order is not the
         chunks' (a salvaged file, chunks whose times overlap)."""
@@ -503,7 +505,7 @@ class LogReader:
             return not self.corrupt_chunks
         import zstandard
 
-        from lgvtool.log.mcapio import chunk_window, verified_records
+        from lgvtool.log.mcap_chunks import chunk_window, verified_records
 
         zstd = zstandard.ZstdDecompressor()
         with open(self.path, "rb") as f:
@@ -550,7 +552,7 @@ class LogReader:
         chunks; None for a salvaged file or one whose chunks lack indexes."""
         import numpy as np
 
-        from lgvtool.log.mcapio import indexed_times
+        from lgvtool.log.mcap_chunks import indexed_times
 
         if self._salvaged is not None:
             return None

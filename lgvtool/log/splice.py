@@ -2,12 +2,12 @@
 
 ``replay`` copies its input log and adds the estimates and the view channels, all in log-time
 order. :func:`spliced` takes one input chunk's records as they are stored (the columns of
-:func:`lgvtool.log.mcapio.record_columns`: channel, log time, offset and size of each record)
+:func:`lgvtool.log.mcap_chunks.record_columns`: channel, log time, offset and size of each record)
 and the added messages that fall before the next chunk, and returns the merged records as one
-block with its columns, for :meth:`lgvtool.log.mcapio.McapWriter.add_records`. The input's
+block with its columns, for :meth:`lgvtool.log.mcap_writer.McapWriter.add_records`. The input's
 records are not unpacked and packed again: runs of them that stay together are copied as
 slices of the chunk, so the cost per input message is a few numpy element operations (the
-added messages are framed by :func:`lgvtool.log.mcapio.framed_records`).
+added messages are framed by :func:`lgvtool.log.mcap_writer.framed_records`).
 
 The order is the one of a message-by-message merge: by log time, an input message before an
 added one at the same time, each side in its own order. Times in integer ns.
@@ -21,7 +21,8 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
-    from lgvtool.log.mcapio import FramedRecords, RecordColumns
+    from lgvtool.log.mcap_chunks import RecordColumns
+    from lgvtool.log.mcap_writer import FramedRecords
 
 
 def spliced(records: bytes, columns: RecordColumns, keep: NDArray[np.bool_] | None,

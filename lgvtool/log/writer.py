@@ -26,12 +26,12 @@ from lgvtool import __version__
 from lgvtool.config import Config, Reflector
 from lgvtool.errors import InputError
 from lgvtool.log import messages, topics
-from lgvtool.log.mcapio import McapWriter
+from lgvtool.log.mcap_writer import McapWriter
 from lgvtool.log.schemas import schema_bytes
 from lgvtool.timestamps import stamp
 
 if TYPE_CHECKING:
-    from lgvtool.log.mcapio import RecordColumns
+    from lgvtool.log.mcap_chunks import RecordColumns
     from lgvtool.log.reader import LogReader
 
 FORMAT_VERSION = "1.0"
@@ -280,7 +280,7 @@ class LogWriter:
         (:func:`lgvtool.log.splice.spliced`), the further messages framed and merged in."""
         import numpy as np
 
-        from lgvtool.log.mcapio import framed_records
+        from lgvtool.log.mcap_writer import framed_records
         from lgvtool.log.splice import spliced
 
         w = self._writer

@@ -18,7 +18,7 @@ from mcap_doctor import (
 )
 
 from lgvtool.log import LogReader, LogWriter, topics
-from lgvtool.log.mcapio import McapWriter
+from lgvtool.log.mcap_writer import McapWriter
 from lgvtool.log.messages import pose_in_frame
 
 T0 = 1_704_067_200_000_000_000

@@ -17,18 +17,15 @@ from simlogs import simulate_log
 
 from lgvtool.log import LogReader, LogWriter, topics
 from lgvtool.log.foxglove import pose_in_frame_many
-from lgvtool.log.mcapio import (
-    OP_MESSAGE,
-    ChunkIndex,
+from lgvtool.log.mcap_chunks import (
     CorruptChunkError,
-    McapWriter,
     RecordColumns,
     chunk_window,
-    framed_records,
-    read_summary,
     record_columns,
     verified_records,
 )
+from lgvtool.log.mcap_records import OP_MESSAGE, ChunkIndex, read_summary
+from lgvtool.log.mcap_writer import McapWriter, framed_records
 from lgvtool.log.splice import spliced
 
 T0 = 1_700_000_000_000_000_000

@@ -14,7 +14,7 @@ from simlogs import simulate_log
 from lgvtool.errors import LogFormatError
 from lgvtool.localize.logdata import load_log
 from lgvtool.log import LogReader, LogWriter, topics
-from lgvtool.log.mcapio import read_summary
+from lgvtool.log.mcap_records import read_summary
 from lgvtool.timestamps import stamp
 
 pytestmark = pytest.mark.filterwarnings("ignore::lgvtool.log.reader.LogWarning")

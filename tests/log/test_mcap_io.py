@@ -96,7 +96,7 @@ def test_framed_records_pack_each_head_as_struct_does() -> None:
     1970 is refused, never wrapped."""
     import struct
 
-    from lgvtool.log.mcapio import framed_records
+    from lgvtool.log.mcap_writer import framed_records
 
     cases = [(0, 0, b""), (65535, 2**63 - 1, b"x" * 70_000), (7, T0, b'{"a":1}'),
              (1, T0, b"")]
@@ -120,7 +120,7 @@ def test_many_messages_at_once_write_the_file_of_one_at_a_time(chunk_bytes: int)
     two thousand messages each)."""
     import io
 
-    from lgvtool.log.mcapio import McapWriter
+    from lgvtool.log.mcap_writer import McapWriter
 
     rng = random.Random(5)
     msgs = []
@@ -157,7 +157,7 @@ def test_many_messages_close_chunks_where_one_at_a_time_does() -> None:
     after the record that reaches it, as with ``add_message``."""
     import io
 
-    from lgvtool.log.mcapio import McapWriter
+    from lgvtool.log.mcap_writer import McapWriter
 
     def build(size: int, batched: bool) -> bytes:
         buf = io.BytesIO()
@@ -182,7 +182,7 @@ def test_background_compression_writes_the_same_file() -> None:
     chunk goes first), the summary."""
     import io
 
-    from lgvtool.log.mcapio import McapWriter
+    from lgvtool.log.mcap_writer import McapWriter
 
     rng = random.Random(3)
     payloads = [bytes(rng.randrange(256) for _ in range(rng.randrange(50, 400)))
