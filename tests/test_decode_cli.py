@@ -69,7 +69,12 @@ def build_log(path: Path) -> None:
             T0,
         )
         w.write_diagnostic("mcu", "bad_checksum", "stale", T0)
+        w.write_diagnostic("nav200", "unanswered", "stale", T0)
         w.write_diagnostic("recorder", "link_down", "NAV200 link lost", T0 + 1)
+        # the recorder's own events of a device, which no decoding of its bytes gives again
+        w.write_diagnostic("nav200", "link_down", "link lost", T0 + 2)
+        w.write_diagnostic("nav200", "device_silent", "no reply for 2.0 s", T0 + 3)
+        w.write_diagnostic("mcu", "link_up", "link back", T0 + 4)
         w.write(topics.TRUTH, pose_in_frame(T0, 1.0, 2.0, 0.5), T0)
         for k in range(10):
             t = T0 + k * 200_000_000
@@ -116,7 +121,12 @@ def test_decode_rebuilds_channels(tmp_path: Path) -> None:
     assert ("mcu", "seq_gap") in kinds
     assert ("nav200", "device_error") in kinds
     assert ("recorder", "link_down") in kinds
+    assert {("nav200", "link_down"), ("nav200", "device_silent"), ("mcu", "link_up")} <= kinds
     assert all(d["message"] != "stale" for d in diags)
+    mirrored = [m.data["message"] for m in reader.messages([topics.DIAGNOSTICS_LOG])]
+    assert len(mirrored) == len(diags)
+    assert "[device_silent] no reply for 2.0 s" in mirrored
+    assert all("stale" not in text for text in mirrored)
     gap = next(d for d in diags if d["kind"] == "seq_gap")
     assert gap["details"]["first_missing_seq"] == 3 and gap["count"] == 3
     assert reader.topics()[topics.TRUTH].count == 1

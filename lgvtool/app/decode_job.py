@@ -7,6 +7,7 @@ path the simulator's log writer and the recorder use).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -30,6 +31,7 @@ class DecodeReport:
     input: str
     output: str
     diagnostics: int = 0
+    #: the input's messages written unchanged (the raw traffic among them)
     copied: int = 0
     sections: dict[str, dict[str, Any]] = field(default_factory=dict)
     lines: list[str] = field(default_factory=list)
@@ -95,7 +97,10 @@ def _raw_bytes(data: bytes) -> bytes:
         raise LogFormatError(f"unreadable raw-bytes message: {exc}") from None
 
 
-def _is_decoder_diagnostic(topic: str, data: bytes, sources: set[str]) -> bool:
+def _is_decoder_diagnostic(topic: str, data: bytes,
+                           regenerated: Mapping[str, frozenset[str]]) -> bool:
+    """Whether ``data`` on ``topic`` is a diagnostic (or its foxglove.Log mirror, whose text
+    starts with ``[kind]``) of a source and kind in ``regenerated`` (source -> kinds)."""
     import orjson
 
     from lgvtool.log import topics
@@ -106,8 +111,16 @@ def _is_decoder_diagnostic(topic: str, data: bytes, sources: set[str]) -> bool:
         msg = orjson.loads(data)
     except orjson.JSONDecodeError:
         return False
-    source = msg.get("source" if topic == topics.DIAGNOSTICS else "name")
-    return isinstance(source, str) and source in sources
+    if not isinstance(msg, dict):
+        return False
+    if topic == topics.DIAGNOSTICS:
+        source, kind = msg.get("source"), msg.get("kind")
+    else:
+        source, text = msg.get("name"), msg.get("message")
+        kind = (text[1:text.find("]")] if isinstance(text, str) and text.startswith("[")
+                and "]" in text else None)
+    return isinstance(source, str) and isinstance(kind, str) and kind in regenerated.get(
+        source, frozenset())
 
 
 def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd") -> DecodeReport:
@@ -116,10 +129,12 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
     Each device family with raw traffic in the log is decoded by its log decoder: ``/mcu/rx``
     into ``/mcu/frame``; ``/nav200/tx`` and ``/nav200/rx`` into ``/nav/pose``; ``/nav350/tx``
     and ``/nav350/rx`` into ``/nav/pose`` and ``/nav/reflectors``; the decoders' errors and gaps
-    go to ``/diagnostics``. A family's old decoded channels and old decoder diagnostics are
-    dropped only when its raw traffic is in the log. Every other message and the metadata are
-    copied. Decoded messages get the log time of the raw chunk that completed them (what the
-    end of the log completes: the time of the family's last chunk).
+    go to ``/diagnostics``. A family's old decoded channels and the old diagnostics its decoder
+    writes anew (its sources' diagnostics of the kinds its events have) are dropped only when
+    its raw traffic is in the log. Every other message (the raw traffic, the recorder's link
+    and session events among them) and the metadata are copied. Decoded messages get the log
+    time of the raw chunk that completed them (what the end of the log completes: the time of
+    the family's last chunk).
 
     :raises MissingDataError: the log has no raw device traffic.
     """
@@ -140,7 +155,10 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
     by_topic = {t: decoders[reg.DEVICE] for reg in regs if reg.DEVICE in decoders
                 for t in reg.RAW_TOPICS}
     replaced: set[str] = set().union(*(d.decoded_topics for d in decoders.values()))
-    sources: set[str] = set().union(*(d.sources for d in decoders.values()))
+    regenerated: dict[str, frozenset[str]] = {}
+    for d in decoders.values():
+        for source in d.sources:
+            regenerated[source] = regenerated.get(source, frozenset()) | d.event_kinds
 
     report = DecodeReport(str(reader.path), str(output))
     with LogWriter(output, source="decode", compression=compression) as writer:
@@ -149,15 +167,14 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
             if name != "lgvtool":
                 writer.add_metadata(name, record)
         for m in reader.raw_messages():
-            if m.topic in replaced or _is_decoder_diagnostic(m.topic, m.data, sources):
+            if m.topic in replaced or _is_decoder_diagnostic(m.topic, m.data, regenerated):
                 continue
             if m.schema:
                 writer.channel_id(m.topic, m.schema)
             writer.write_encoded(m.topic, m.data, m.log_time_ns, m.publish_time_ns)
+            report.copied += 1
             decoder = by_topic.get(m.topic)
-            if decoder is None:
-                report.copied += 1
-            else:
+            if decoder is not None:
                 report.diagnostics += decode_chunk(decoder, m.topic, _raw_bytes(m.data),
                                                    m.log_time_ns, out)
         metadata: dict[str, Any] = {}

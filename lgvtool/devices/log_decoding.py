@@ -29,8 +29,13 @@ class LogDecoder(Protocol):
 
     #: topics whose messages this decoder writes; a re-decode drops their old messages
     decoded_topics: frozenset[str]
-    #: diagnostic sources of its events; a re-decode drops their old diagnostics
+    #: diagnostic sources of its events
     sources: frozenset[str]
+    #: the kinds its events can have: a re-decode drops the old diagnostics of ``sources``
+    #: with these kinds (it writes them anew) and keeps the others, which no decoding of the
+    #: raw bytes can give again (the recorder's link and session events: link_down,
+    #: device_silent, positioning_lost, clock, ...)
+    event_kinds: frozenset[str]
     #: log time of the last chunk fed, ns (0 before the first)
     last_ns: int
 

@@ -94,6 +94,14 @@ class DecoderStats:
         )
 
 
+#: The kinds of the events a stream decoder reports (:class:`DecodeEvent`): the error counters
+#: of :class:`DecoderStats` it raises, skipped bytes, the MCU's sequence checks and a device's
+#: error reply. A re-decode of a log writes these anew (``lgvtool decode``).
+STREAM_EVENT_KINDS = frozenset({
+    "bad_checksum", "bad_length", "unknown_version", "unknown_command", "truncated",
+    "bytes_skipped", "seq_gap", "seq_repeat", "seq_reset", "mcu_reset", "device_error"})
+
+
 @dataclass(frozen=True)
 class DecodeEvent:
     """Something a decoder reports: an error, a resynchronisation, a sequence gap.

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import json
+from collections import Counter
 from itertools import pairwise
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from lgvtool.devices.nav350.nav350_loopback import loopback
 from lgvtool.log import LogReader
 from lgvtool.log.schemas import schema_json
 from lgvtool.sim.emulate.emulator_playback import playback_from_scenario
+from lgvtool.wire.decode_events import STREAM_EVENT_KINDS
 
 FAULTS = ("garbage:nav350:2:400", "badsum:nav350:3:2", "sfa:nav350:4:13",
           "error:nav350:8.5:0.5:7", "drop:nav350:5.5:1.5")
@@ -75,6 +77,19 @@ def test_decode_info_and_replay_work_on_the_recording(recorded, run_cli, tmp_pat
     assert dec.returncode == 0, dec.stderr
     report = json.loads(dec.stdout)
     assert report["nav350"]["landmarks"] == r.log_landmarks
+    # the recorder's link and session events cannot be decoded again from the bytes: they are
+    # kept, the decoder's own are written anew (as many as the recording's live decoder wrote)
+    before = Counter((d["source"], d["kind"])
+                     for d in (m.data for m in LogReader(out).messages(["/diagnostics"])))
+    after_reader = LogReader(tmp_path / "dec.mcap")
+    after = Counter((d["source"], d["kind"])
+                    for d in (m.data for m in after_reader.messages(["/diagnostics"])))
+    session = {k for k in before if k[1] not in STREAM_EVENT_KINDS}
+    assert {("nav350", "link_down"), ("nav350", "device_error_code")} <= session
+    assert {k: after[k] for k in session} == {k: before[k] for k in session}
+    assert after == before
+    mirrored = Counter(m.data["message"] for m in after_reader.messages(["/diagnostics/log"]))
+    assert sum(mirrored.values()) == sum(after.values())
     info = run_cli("info", tmp_path / "dec.mcap", "--json")
     assert info.returncode == 0, info.stderr
     rep = run_cli("replay", out, "-o", tmp_path / "rep.mcap", "-e", "laser", "-e", "pf-paper",

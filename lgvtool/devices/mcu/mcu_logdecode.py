@@ -17,7 +17,7 @@ from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
 from lgvtool.log import topics
 from lgvtool.log.messages import mcu_frame_message
 from lgvtool.timestamps import stamp
-from lgvtool.wire.decode_events import DecodeEvent
+from lgvtool.wire.decode_events import STREAM_EVENT_KINDS, DecodeEvent
 
 __all__ = ["McuLogDecoder"]
 
@@ -31,6 +31,7 @@ class McuLogDecoder(DecodedQueue):
 
     decoded_topics = frozenset({topics.MCU_FRAME})
     sources = frozenset({"mcu"})
+    event_kinds = STREAM_EVENT_KINDS
 
     def __init__(self, stream: McuStreamDecoder | McuLink | None = None) -> None:
         super().__init__()

@@ -19,7 +19,7 @@ from lgvtool.devices.nav200.nav200_payloads import Pose
 from lgvtool.log import topics
 from lgvtool.log.messages import nav_pose_message
 from lgvtool.timestamps import stamp
-from lgvtool.wire.decode_events import DecodeEvent
+from lgvtool.wire.decode_events import STREAM_EVENT_KINDS, DecodeEvent
 
 __all__ = ["Nav200LogDecoder"]
 
@@ -33,6 +33,9 @@ class Nav200LogDecoder(DecodedQueue):
 
     decoded_topics = frozenset({topics.NAV_POSE})
     sources = frozenset({"nav200"})
+    #: the stream's, and the reply matcher's requests left unanswered and replies that answer
+    #: none
+    event_kinds = STREAM_EVENT_KINDS | {"unanswered", "unexpected_reply"}
 
     def __init__(self) -> None:
         super().__init__()

@@ -18,7 +18,7 @@ from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 from lgvtool.devices.nav350.nav350_telegrams import PoseData, Telegram
 from lgvtool.log import topics
 from lgvtool.log.messages import nav350_pose_message, nav350_scan_message
-from lgvtool.wire.decode_events import DecodeEvent, DecoderStats
+from lgvtool.wire.decode_events import STREAM_EVENT_KINDS, DecodeEvent, DecoderStats
 
 __all__ = ["Nav350LogDecoder"]
 
@@ -35,6 +35,7 @@ class Nav350LogDecoder:
     decoded_topics: ClassVar[frozenset[str]] = frozenset({topics.NAV_POSE,
                                                           topics.NAV_REFLECTORS})
     sources: ClassVar[frozenset[str]] = frozenset({"nav350"})
+    event_kinds: ClassVar[frozenset[str]] = STREAM_EVENT_KINDS
 
     map_id: Mapping[int, int] | None = None
     requests: Nav350StreamDecoder = field(default_factory=Nav350StreamDecoder)
