@@ -79,6 +79,25 @@ def test_config_cli(tmp_path: Path, run_cli) -> None:
     assert out.stderr.strip().count("\n") == 0 and "vehicle.h must be positive" in out.stderr
 
 
+def test_config_of_a_log_is_the_one_its_replay_uses(tmp_path: Path, run_cli) -> None:
+    from lgvtool.log import LogReader
+
+    log = Path(__file__).resolve().parent.parent / "sample_logs" / "paper-circle.mcap"
+    out = run_cli("config", log)
+    assert out.returncode == 0, out.stderr
+    (tmp_path / "run.toml").write_text(out.stdout)
+    back, stored = load_config(tmp_path / "run.toml"), LogReader(log).config()
+    # TOML has no null: the simulator's unset values (None) are left out, the rest is the same
+    assert (back.vehicle, back.area, back.reference, back.reflectors, back.estimators) == (
+        stored.vehicle, stored.area, stored.reference, stored.reflectors, stored.estimators)
+    assert stored.reflectors and back.vehicle.h == pytest.approx(1.2, abs=1e-12)
+    assert run_cli("config", tmp_path / "run.toml").stdout == out.stdout
+    foreign = tmp_path / "foreign.mcap"
+    foreign.write_bytes(b"\x89MCAP0\r\n" + b"\x00" * 40)
+    bad = run_cli("config", foreign)
+    assert bad.returncode == 2 and bad.stderr.strip().count("\n") == 0, bad.stderr
+
+
 def test_no_reference_steering_angle_round_trips(tmp_path: Path) -> None:
     cfg = config_from_dict({"reference": {"steering_angle_deg": False}})
     assert cfg.reference.steering_angle_deg is None

@@ -256,3 +256,20 @@ def test_reference_options(capsys, log: Path) -> None:
     assert ref["circles"]["pf"]["radius_m"] == pytest.approx(R, abs=0.01)
     code, _, err = run(capsys, log, "-e", "ekf")
     assert code == 2 and "no estimates of ekf" in err
+
+
+def test_a_logs_own_estimates_are_reported_in_the_order_replay_runs_them(
+        capsys, tmp_path: Path) -> None:
+    path = tmp_path / "replayed.mcap"
+    cfg = default_config()
+    with LogWriter(path, source="test") as w:
+        w.write_config(cfg)
+        # written in an order of their own (and one name of no lgvtool estimator)
+        for k, name in enumerate(("pf", "mine", "pf-paper", "laser")):
+            for row in circle(0.2, 2.3, 0.01 * k, 0.0, k).itertuples():
+                ns = int(row.t * 1e9) + 1
+                w.write(topics.estimate_pose(name), pose_in_frame(ns, row.x, row.y, row.heading),
+                        ns)
+    code, out, err = run(capsys, path, "--json")
+    assert code == 0, err
+    assert list(json.loads(out)["estimators"]) == ["laser", "pf-paper", "pf", "mine"]

@@ -25,8 +25,9 @@ def calibrate_logs(logs: Sequence[str], output: str, *, config_path: str | None 
     refusing. ``compare_with`` estimators are replayed (``seed``, ``start_at_truth``) with
     the starting and the calibrated configuration for the before/after table (empty: none).
 
-    The document is the calibration (each estimate with its 1-sigma, the table) with the
-    output's path; the text the estimates and the before/after table.
+    The document is the calibration (each estimate with its 1-sigma, the table, the warnings)
+    with the output's path; the text the estimates and the before/after table; the warnings
+    (what is held unobservable, drives that disagree) are printed apart, on stderr.
 
     :raises InputError: (exit 2) a bad input, a drive that cannot observe what is asked, or a
         refused output.
@@ -46,4 +47,5 @@ def calibrate_logs(logs: Sequence[str], output: str, *, config_path: str | None 
                            seed=seed, start_at_truth=start_at_truth, progress=bar)
     with atomic_output(out) as tmp:
         tmp.write_text(toml(result), encoding="utf-8")
-    return JobOutput(dict(result.to_dict(), output=str(out)), printable(text(result, str(out))))
+    return JobOutput(dict(result.to_dict(), output=str(out)), printable(text(result, str(out))),
+                     warnings=list(result.warnings))

@@ -30,9 +30,10 @@ def _estimates_from_log(
     """The log's own estimates of O (t, x, y, heading), read in one pass with what ``read``
     takes (the truth, the steering, the data quality); None when the log holds none."""
     from lgvtool.errors import InputError
+    from lgvtool.localize.registry import in_run_order
     from lgvtool.log import topics
 
-    present = topics.estimator_names(reader.topic_names())
+    present = in_run_order(topics.estimator_names(reader.topic_names()))
     if not present:
         return None
     if names:

@@ -71,8 +71,8 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
     feed = LiveFeed(server, estimators, warn=warn, drawing=drawing)
     stop = threading.Event()
     previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
-    notify(f"lgvtool: live view on {feed.server.url}: {log} ({span:.1f} s of data) at "
-           f"{speed:g}x")
+    pace = f"at {speed:g}x" if speed > 0 else "as fast as possible"
+    notify(f"lgvtool: live view on {feed.server.url}: {log} ({span:.1f} s of data) {pace}")
     bar = Progress(max(1, round(span)), "view", unit="s", enabled=show_progress)
     try:
         if wait_s > 0:

@@ -43,13 +43,12 @@ def comparison_table(cal: Calibration) -> list[str]:
 
 
 def text(cal: Calibration, output: str) -> str:
-    """What ``calibrate`` prints."""
+    """What ``calibrate`` prints on stdout (its warnings go to stderr, as every command's)."""
     out = [f"calibrated {len(cal.logs)} log(s) -> {output}", *estimates_table(cal)]
     comp = comparison_table(cal)
     if comp:
         out += ["", "estimators with the starting and with the calibrated configuration:",
                 *comp]
-    out += [f"warning: {w}" for w in cal.warnings]
     return "\n".join(out)
 
 

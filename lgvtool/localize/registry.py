@@ -56,6 +56,13 @@ ESTIMATORS: Mapping[str, type[Estimator]] = _Estimators()
 DEFAULT_ESTIMATORS: tuple[str, ...] = ("laser", "deadreckoning", "ekf", "pf-paper", "pf")
 
 
+def in_run_order(names: list[str] | tuple[str, ...]) -> list[str]:
+    """``names`` (e.g. the estimates a log holds) in the order replay runs and reports the
+    estimators (:data:`ESTIMATORS`), names of no known estimator after them, sorted."""
+    known = {n: i for i, n in enumerate(_WHERE)}
+    return sorted(names, key=lambda n: (known.get(n, len(known)), n))
+
+
 def check_names(names: list[str] | tuple[str, ...]) -> list[str]:
     """The names, deduplicated in order; InputError for an unknown one."""
     out: list[str] = []

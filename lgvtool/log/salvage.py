@@ -30,11 +30,13 @@ class RecoveryReport:
         span = ""
         if self.first_s is not None and self.last_s is not None:
             span = f", {self.last_s - self.first_s:.1f} s of data"
-        state = "complete already" if self.was_complete else "incomplete"
+        state = "the input was complete already" if self.was_complete else "the input was cut off"
         if self.corrupt_chunks:
-            state += f"; {self.corrupt_chunks} corrupt chunks skipped"
-        return (f"recovered {self.messages} messages on {len(self.topics)} topics{span} from "
-                f"{self.intact_bytes} of {self.source_bytes} bytes ({state} input)")
+            chunks = "chunk" if self.corrupt_chunks == 1 else "chunks"
+            state += f"; {self.corrupt_chunks} corrupt {chunks} skipped"
+        topics = "topic" if len(self.topics) == 1 else "topics"
+        return (f"recovered {self.messages} messages on {len(self.topics)} {topics}{span} from "
+                f"{self.intact_bytes} of {self.source_bytes} bytes ({state})")
 
 
 def recover(src: str | Path, dst: str | Path, compression: str = "zstd") -> RecoveryReport:

@@ -104,6 +104,13 @@ def test_straight_drive_cannot_observe_the_lever_arm(tmp_path: Path, run_cli) ->
     assert doc["estimates"]["nav_x"]["status"] == "unobservable"
     assert doc["estimates"]["nav_x"]["value_si"] == pytest.approx(1.0, rel=1e-12)
     assert any("nav_x" in w for w in doc["warnings"])
+    p = run_cli("calibrate", log, "-o", tmp_path / "v.toml", "--compare", "none", "--force",
+                "--estimate", "nav_x,nav_y,nav_yaw", "--allow-unobservable")
+    assert p.returncode == 0, p.stderr
+    assert "warning" not in p.stdout
+    said = p.stderr.strip().splitlines()
+    assert said and all(line.startswith("lgvtool: warning: ") for line in said), said
+    assert any("nav_x" in line for line in said)
 
 
 def test_no_motion_or_no_observations(tmp_path: Path, run_cli) -> None:

@@ -244,3 +244,13 @@ def test_a_lagging_estimator_skips_stale_observations_but_never_motion() -> None
     assert est.seen.count(topics.NAV_REFLECTORS) == 8 - feed.shed
     assert est.seen[-2:] == [topics.NAV_REFLECTORS, topics.MCU_FRAME]   # the newest is used
     assert feed.stats()["shed"] == feed.shed
+
+
+def test_view_as_fast_as_possible_says_so(circle_log: Path) -> None:
+    from lgvtool.app.view_job import view_log
+
+    said: list[str] = []
+    out = view_log(str(circle_log), live="127.0.0.1:0", speed=0.0, show_progress=False,
+                   notify=said.append)
+    assert len(said) == 1 and said[0].endswith("as fast as possible"), said
+    assert out.document["messages"] > 0

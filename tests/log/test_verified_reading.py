@@ -97,7 +97,7 @@ def test_corrupt_chunk_is_not_copied_by_replay_decode_recover(simulated: Path, t
         res = run_cli(*args)
         assert res.returncode == 0, (args[0], res.stderr)
         said = res.stderr + (res.stdout if args[0] == "recover" else "")
-        assert ("is corrupt" in said or "1 corrupt chunks skipped" in said), said
+        assert ("is corrupt" in said or "1 corrupt chunk skipped" in said), said
         assert "Traceback" not in res.stderr
         out = Path(str(args[3]))
         # what was written is sound for an independent reader that checks every CRC
@@ -207,3 +207,15 @@ def test_summary_that_fails_its_crc_is_not_trusted(simulated: Path, tmp_path: Pa
     assert not reader.complete
     n_good, _ = count(simulated)
     assert n_bad == n_good  # every message is still read, record by record
+
+
+def test_the_recovery_summary_reads_as_a_sentence() -> None:
+    from lgvtool.log.salvage import RecoveryReport
+
+    def said(complete: bool, corrupt: int) -> str:
+        return RecoveryReport(1000, 900, 12, {"/a": 12}, 0.0, 2.5, complete, corrupt).summary()
+
+    assert said(False, 0) == ("recovered 12 messages on 1 topic, 2.5 s of data from 900 of "
+                              "1000 bytes (the input was cut off)")
+    assert said(True, 1).endswith("(the input was complete already; 1 corrupt chunk skipped)")
+    assert said(True, 3).endswith("; 3 corrupt chunks skipped)")
