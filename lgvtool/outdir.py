@@ -23,9 +23,11 @@ def guard_directory(outdir: str | os.PathLike[str], names: Iterable[str],
                     inputs: Iterable[str | os.PathLike[str] | None], *, force: bool = False) -> Path:
     """Check the output directory and each file ``names`` in it; return the directory.
 
-    :raises InputError: the directory is a file or an input, or a file in it is an input, lies
-        inside an input directory, or exists and ``force`` is false.
+    :raises InputError: the path is empty, the directory is a file or an input, or a file in it
+        is an input, lies inside an input directory, or exists and ``force`` is false.
     """
+    if str(outdir) == "":
+        raise InputError("output directory: an empty path; name a directory")
     out = Path(outdir)
     sources = [Path(i) for i in inputs if i is not None]
     if out.exists() and not out.is_dir():

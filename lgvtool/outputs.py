@@ -19,7 +19,7 @@ import contextlib
 import os
 import re
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from lgvtool.errors import InputError
@@ -54,7 +54,9 @@ def guard_output(output: str | os.PathLike[str], inputs: Iterable[str | os.PathL
 
     ``inputs`` are every file or directory the command reads (``None`` entries are skipped).
     Raises :class:`InputError` (exit 2, one line) when the output is an input, lies inside an
-    input directory, is a directory, or exists and ``force`` is false.
+    input directory, is empty, a directory or something other than a regular file (a device
+    such as ``/dev/null``, a FIFO: it would be replaced by the new file), or exists and
+    ``force`` is false.
     """
     out = Path(output)
     for item in inputs:
@@ -65,8 +67,14 @@ def guard_output(output: str | os.PathLike[str], inputs: Iterable[str | os.PathL
             raise InputError(f"{what} {out} is the input {src}; choose another {what}")
         if _inside(out, src):
             raise InputError(f"{what} {out} is inside the input {src}; choose another {what}")
+    if str(output) == "":
+        raise InputError(f"{what}: an empty path; name a file")
     if out.is_dir():
         raise InputError(f"{what} {out} is a directory")
+    if out.exists() and not out.is_file():
+        # a device, a FIFO or a socket: renaming a new file over it would replace it
+        raise InputError(f"{what} {out} is not a regular file (a device, FIFO or socket); "
+                         f"choose a file")
     if not out.parent.is_dir():
         raise InputError(f"{what} {out}: no such directory {out.parent}")
     if (out.exists() or out.is_symlink()) and not force:
@@ -97,6 +105,19 @@ def atomic_output(output: str | os.PathLike[str]) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+@contextlib.contextmanager
+def atomic_outputs() -> Iterator[Callable[[str | os.PathLike[str]], Path]]:
+    """Files that land together: ``place(output)`` gives a temporary path beside ``output`` (as
+    :func:`atomic_output`). When the block ends without an exception every one is renamed
+    over its output; on an exception every temporary file is removed and no output is
+    touched, so a run that fails (a full disk) leaves none of the set half written."""
+    with contextlib.ExitStack() as stack:
+        def place(output: str | os.PathLike[str]) -> Path:
+            return stack.enter_context(atomic_output(output))
+
+        yield place
 
 
 def printable(text: str) -> str:

@@ -285,13 +285,13 @@ def evaluate_logs(
     from lgvtool.fleet.connect import require_fleet, scheduler_spec
     from lgvtool.progress import Progress
 
-    if png and not outdir:
+    if png and outdir is None:
         raise InputError("--png needs -o OUTDIR to write the images into")
     if png:
         from lgvtool.evaluate.plots import require_kaleido
 
         require_kaleido()
-    if outdir:
+    if outdir is not None:
         from lgvtool.outdir import guard_directory
 
         trajectory_files = [spec.partition("=")[2] for spec in foreign]
@@ -336,7 +336,7 @@ def evaluate_logs(
         warnings = [f"{res.name}: {w}" for res in results for w in res.warnings]
         _unique_names(results)
         doc = build_document(results)
-        if outdir:
+        if outdir is not None:
             bar.stage("report", len(results))
             write_outputs(Path(outdir), results, doc, png, force, bar)
     finally:
@@ -369,24 +369,26 @@ def write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any
     """Write :data:`OUTPUT_FILES` of ``results`` and their document ``doc`` into ``out``
     (created), and with ``png`` every figure of the report as ``<slug>.png``; a PNG that would
     replace an input, or an existing file without ``force``, is refused (InputError). ``bar``
-    counts the report's figures."""
+    counts the report's figures. The files land together: when one cannot be written (a full
+    disk), none of them is replaced."""
     from lgvtool.evaluate.document import to_json
     from lgvtool.evaluate.html_report import render_report
     from lgvtool.evaluate.plots import write_png
     from lgvtool.evaluate.table import render_tables
-    from lgvtool.outdir import write_text
-    from lgvtool.outputs import atomic_output, guard_output
+    from lgvtool.outputs import atomic_outputs, guard_output
 
     out.mkdir(parents=True, exist_ok=True)
-    write_text(out / "table1.md", render_tables(results, "md"))
-    write_text(out / "table1.csv", render_tables(results, "csv"))
-    write_text(out / "table1.tex", render_tables(results, "tex"))
-    write_text(out / "table1.json", to_json(doc))
-    figures: list[Any] = []
-    write_text(out / "report.html", render_report(
-        results, figures=figures, progress=None if bar is None else bar.advance))
-    if png:
-        for slug, fig in figures:
-            target = guard_output(out / f"{slug}.png", [r.path for r in results], force=force)
-            with atomic_output(target) as tmp:
-                write_png(fig, tmp)
+    with atomic_outputs() as place:
+        for fmt in ("md", "csv", "tex"):
+            place(out / f"table1.{fmt}").write_text(render_tables(results, fmt),
+                                                    encoding="utf-8")
+        place(out / "table1.json").write_text(to_json(doc), encoding="utf-8")
+        figures: list[Any] = []
+        place(out / "report.html").write_text(render_report(
+            results, figures=figures, progress=None if bar is None else bar.advance),
+            encoding="utf-8")
+        if png:
+            for slug, fig in figures:
+                target = guard_output(out / f"{slug}.png", [r.path for r in results],
+                                      force=force)
+                write_png(fig, place(target))

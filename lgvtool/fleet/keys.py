@@ -149,6 +149,11 @@ def json_safe(v: Any) -> Any:
     return v
 
 
+def json_text(data: Any) -> str:
+    """``data`` as the JSON text the sweep's files hold (indented by one, NaN refused)."""
+    return json.dumps(data, indent=1, allow_nan=False) + "\n"
+
+
 def write_json_atomic(path: str | Path, data: Any) -> None:
     """Write ``data`` as JSON to ``path`` through a temporary file and a rename, so a reader
     (or a re-run after a crash) never sees half a file."""
@@ -156,9 +161,9 @@ def write_json_atomic(path: str | Path, data: Any) -> None:
     p.parent.mkdir(parents=True, exist_ok=True)
     tmp = p.with_name(f".{p.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     try:
+        text = json_text(data)
         with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=1, allow_nan=False)
-            f.write("\n")
+            f.write(text)
         os.replace(tmp, p)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -245,14 +245,11 @@ def summary_table(tidy: pd.DataFrame, *, grid_keys: Sequence[str] = (),
     return out[[*order, *[c for c in out.columns if c not in order]]]
 
 
-def write_table(df: pd.DataFrame, stem: Path) -> list[Path]:
-    """Write ``df`` as ``<stem>.parquet`` and ``<stem>.csv``; return both paths."""
+def write_table(df: pd.DataFrame, stem: Path, place: Callable[[Path], Path]) -> list[Path]:
+    """Write ``df`` as ``<stem>.parquet`` and ``<stem>.csv`` through ``place`` (output ->
+    the temporary path to write, :func:`lgvtool.outputs.atomic_outputs`); return both paths."""
     stem.parent.mkdir(parents=True, exist_ok=True)
-    from lgvtool.outputs import atomic_output
-
     pq, csv = stem.with_suffix(".parquet"), stem.with_suffix(".csv")
-    with atomic_output(pq) as tmp:
-        df.to_parquet(tmp, index=False)
-    with atomic_output(csv) as tmp:
-        df.to_csv(tmp, index=False)
+    df.to_parquet(place(pq), index=False)
+    df.to_csv(place(csv), index=False)
     return [pq, csv]

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lgvtool import __version__
-from lgvtool.fleet.keys import HashCache, file_sha256, json_safe, write_json_atomic
+from lgvtool.fleet.keys import HashCache, file_sha256, json_safe, json_text
 from lgvtool.fleet.results import (
     TaskStore,
     is_final,
@@ -27,6 +27,7 @@ from lgvtool.fleet.results import (
     write_table,
 )
 from lgvtool.fleet.tasks import KIND, SweepTask, build_tasks, evaluate_task, expand_logs, grid_settings
+from lgvtool.outputs import atomic_outputs
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -167,34 +168,40 @@ def run_sweep(
     grid_keys = list(grid)
     tidy = tidy_table(tasks, records, grid_keys=grid_keys)
     summary = summary_table(tidy, grid_keys=grid_keys)
-    written = write_table(tidy, out / "results") + write_table(summary, out / "summary")
     failures = [{"log": t.label, "setting": dict(t.settings), "seed": t.seed,
                  "error": records[t.key].get("error")}
                 for t in tasks if records.get(t.key, {}).get("status") != "ok"]
-    result = SweepResult(out, len(tasks), reused, len(todo), len(failures), 0.0, tidy, summary,
-                         written, failures)
-    if report:
-        from lgvtool.fleet.sweep_report import render_report
+    # the results land together: when one file cannot be written (a full disk), none of them
+    # is replaced (the tasks' cache stays, and a run again resumes from it)
+    with atomic_outputs() as place:
+        written = (write_table(tidy, out / "results", place)
+                   + write_table(summary, out / "summary", place))
+        result = SweepResult(out, len(tasks), reused, len(todo), len(failures), 0.0, tidy,
+                             summary, written, failures)
+        if report:
+            from lgvtool.fleet.sweep_report import render_report
 
-        facts = {"logs": len(files), "settings": len(settings), "seeds": len(seed_list),
-                 "tasks": len(tasks), "failed": len(failures),
-                 "estimators": ", ".join(estimators) or "default set",
-                 "grid": "; ".join(f"{k} = {', '.join(map(str, v))}" for k, v in grid.items())
-                 or "none", "lgvtool": __version__}
-        page = render_report(tidy, grid=grid, metrics=metric_columns(tidy, grid_keys),
-                             title="lgvtool sweep", facts=facts)
-        from lgvtool.outdir import write_text
-
-        write_text(out / "report.html", page)
-        result.files.append(out / "report.html")
-    manifest = {"format": "lgvtool.sweep", "format_version": 1, "lgvtool_version": __version__,
-                "grid": grid, "fixed": dict(fixed or {}), "seeds": seed_list,
-                "estimators": list(estimators), "kind": kind, **result.as_dict(),
-                "logs": [{"path": str(f), "sha256": h} for f, h in zip(files, hashes, strict=True)],
-                "keys": [t.key for t in tasks]}
-    manifest.pop("outdir")
-    manifest.pop("elapsed_s")
-    write_json_atomic(out / "sweep.json", json_safe(manifest))
-    result.files.append(out / "sweep.json")
+            facts = {"logs": len(files), "settings": len(settings), "seeds": len(seed_list),
+                     "tasks": len(tasks), "failed": len(failures),
+                     "estimators": ", ".join(estimators) or "default set",
+                     "grid": "; ".join(f"{k} = {', '.join(map(str, v))}"
+                                       for k, v in grid.items()) or "none",
+                     "lgvtool": __version__}
+            page = render_report(tidy, grid=grid, metrics=metric_columns(tidy, grid_keys),
+                                 title="lgvtool sweep", facts=facts)
+            place(out / "report.html").write_text(page, encoding="utf-8")
+            result.files.append(out / "report.html")
+        manifest = {"format": "lgvtool.sweep", "format_version": 1,
+                    "lgvtool_version": __version__, "grid": grid, "fixed": dict(fixed or {}),
+                    "seeds": seed_list, "estimators": list(estimators), "kind": kind,
+                    **result.as_dict(),
+                    "logs": [{"path": str(f), "sha256": h}
+                             for f, h in zip(files, hashes, strict=True)],
+                    "keys": [t.key for t in tasks]}
+        manifest.pop("outdir")
+        manifest.pop("elapsed_s")
+        place(out / "sweep.json").write_text(
+            json_text(json_safe(manifest)), encoding="utf-8")
+        result.files.append(out / "sweep.json")
     result.elapsed_s = time.monotonic() - t_start
     return result

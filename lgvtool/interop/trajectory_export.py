@@ -25,7 +25,7 @@ from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
 from lgvtool.interop.named_options import SAFE_NAME
 from lgvtool.outdir import guard_directory
-from lgvtool.outputs import atomic_output
+from lgvtool.outputs import atomic_outputs
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -221,22 +221,16 @@ def export_log(log: str | Path, directory: str | Path, fmt: str, *,
     folder.mkdir(parents=True, exist_ok=True)
     summary = ExportSummary(str(log), str(folder), fmt, source, warnings=warnings)
     name = Path(str(log)).name
-    for tr, paths in plan:
-        meta = {"lgvtool_export_of": name, "trajectory": tr.name, "content": tr.what,
-                "point": "target rotation centre O", "frame": "map",
-                "time": "log time, s since the Unix epoch",
-                "units": "t s, x m, y m, heading rad (counter-clockwise from the map x axis)"}
-        _write(tr.poses, paths, fmt, meta)
-        summary.trajectories[tr.name] = {"files": [p.name for p in paths],
-                                         "poses": len(tr.poses), "what": tr.what}
+    # every file lands together: when one cannot be written (a full disk), none is replaced
+    with atomic_outputs() as place:
+        for tr, paths in plan:
+            meta = {"lgvtool_export_of": name, "trajectory": tr.name, "content": tr.what,
+                    "point": "target rotation centre O", "frame": "map",
+                    "time": "log time, s since the Unix epoch",
+                    "units": "t s, x m, y m, heading rad (counter-clockwise from the map x "
+                             "axis)"}
+            trajfile.write_trajectory(tr.poses, [place(p) for p in paths], fmt, meta)
+            summary.trajectories[tr.name] = {"files": [p.name for p in paths],
+                                             "poses": len(tr.poses), "what": tr.what}
     return summary
-
-
-def _write(df: pd.DataFrame, paths: list[Path], fmt: str, meta: Mapping[str, str]) -> None:
-    """Write one trajectory's files, each renamed into place only when complete."""
-    import contextlib
-
-    with contextlib.ExitStack() as stack:
-        temps = [stack.enter_context(atomic_output(p)) for p in paths]
-        trajfile.write_trajectory(df, temps, fmt, meta)
 
