@@ -226,6 +226,26 @@ def _check_section(name: str, table: Any, cls: type) -> dict[str, Any]:
     return out
 
 
+def reflectors_from_tables(items: Any) -> tuple[Reflector, ...]:
+    """Reflectors from a list of tables (``[[reflectors]]``, or a logged map's entries): ``id``,
+    ``x``, ``y`` (m) required, ``radius`` (m) and ``layer`` optional, each checked as every
+    configuration number is (its type, finite, within 10^6).
+
+    :raises ConfigError: not a list of such tables.
+    """
+    if not isinstance(items, list):
+        raise ConfigError("reflectors must be an array of tables ([[reflectors]])")
+    refl = []
+    for i, item in enumerate(items):
+        where = f"reflectors[{i}]"
+        d = _check_section(where, item, Reflector)
+        for req in ("id", "x", "y"):
+            if req not in d:
+                raise ConfigError(f"missing value for {where}.{req}")
+        refl.append(Reflector(**d))
+    return tuple(refl)
+
+
 #: upper ends of configuration values, in their units; any other number is at most 10^6
 _MAXIMA: dict[str, float] = {"encoder_ppr": 10**7, "id": 2**31 - 1, "layer": 255}
 _MAGNITUDE = 1e6
@@ -290,18 +310,7 @@ def config_from_dict(data: Mapping[str, Any], base: Config | None = None) -> Con
         reference = _check_section("reference", data["reference"], Reference)
         cfg = replace(cfg, reference=replace(cfg.reference, **reference))
     if "reflectors" in data:
-        items = data["reflectors"]
-        if not isinstance(items, list):
-            raise ConfigError("reflectors must be an array of tables ([[reflectors]])")
-        refl = []
-        for i, item in enumerate(items):
-            where = f"reflectors[{i}]"
-            d = _check_section(where, item, Reflector)
-            for req in ("id", "x", "y"):
-                if req not in d:
-                    raise ConfigError(f"missing value for {where}.{req}")
-            refl.append(Reflector(**d))
-        cfg = replace(cfg, reflectors=tuple(refl))
+        cfg = replace(cfg, reflectors=reflectors_from_tables(data["reflectors"]))
     for section in ("estimators", "simulator"):
         if section in data and not isinstance(data[section], dict):
             raise ConfigError(f"[{section}] must be a table")

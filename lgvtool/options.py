@@ -61,9 +61,20 @@ def positive(maximum: float) -> Number:
     return Number(float, 0.0, maximum, min_open=True)
 
 
-def split_names(values: Sequence[str]) -> list[str]:
-    """``-e`` values, repeated and comma-separated, flattened in order (empty parts dropped)."""
-    return [n.strip() for v in values for n in v.split(",") if n.strip()]
+def split_names(values: Sequence[str], option: str = "-e") -> list[str]:
+    """``-e`` values, repeated and comma-separated, flattened in order (spaces around a name
+    dropped).
+
+    :raises InputError: (exit 2) a value holds an empty name (``-e ''``, ``-e laser,,ekf``),
+        which would otherwise quietly mean "the default set".
+    """
+    from lgvtool.errors import InputError
+
+    names = [n.strip() for v in values for n in v.split(",")]
+    if "" in names:
+        bad = next(v for v in values if "" in (n.strip() for n in v.split(",")))
+        raise InputError(f"{option} {bad!r}: an empty name; give names separated by commas")
+    return names
 
 
 def force_option(f: F) -> F:

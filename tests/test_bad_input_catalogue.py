@@ -98,6 +98,51 @@ def _write_foreign(path: Path) -> None:
         w.finish()
 
 
+#: logs whose messages break the contract in one field: name -> (topic, change of the decoded
+#: message of the topic's first message, or of every one with ``all``)
+BAD_MESSAGES: dict[str, tuple[str, Any, bool]] = {
+    "truth_huge": ("/truth/pose", lambda d: d["pose"]["position"].update(x=1e308), False),
+    "nav_valid_string": ("/nav/pose", lambda d: d.update(valid="false"), True),
+    "nav_huge": ("/nav/pose", lambda d: d.update(x=1e308), True),
+    "map_not_list": ("/map/reflectors", lambda d: d.update(reflectors="none"), True),
+    "map_huge": ("/map/reflectors", lambda d: d["reflectors"][0].update(x=1e308), True),
+    "mcu_seq_huge": ("/mcu/frame", lambda d: d.update(seq=2**80), False),
+    "scan_range_huge": ("/nav/reflectors", lambda d: d["observations"][0].update(range=1e308),
+                        False),
+}
+
+
+def _write_changed(src: Path, dst: Path, topic: str, change: Any, every: bool) -> None:
+    """``src`` rewritten by the ``mcap`` package with ``change`` applied to the decoded JSON of
+    ``topic``'s first message (or of every one)."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with src.open("rb") as f, dst.open("wb") as g:
+        reader, w = make_reader(f), Writer(g)
+        w.start(profile="", library="catalogue")
+        schemas: dict[int, int] = {}
+        channels: dict[int, int] = {}
+        done = False
+        for schema, channel, message in reader.iter_messages(log_time_order=False):
+            if channel.id not in channels:
+                if schema is not None and schema.id not in schemas:
+                    schemas[schema.id] = w.register_schema(schema.name, schema.encoding,
+                                                           schema.data)
+                channels[channel.id] = w.register_channel(
+                    channel.topic, channel.message_encoding,
+                    schemas[schema.id] if schema is not None else 0, channel.metadata)
+            data = message.data
+            if channel.topic == topic and (every or not done):
+                doc = json.loads(data)
+                change(doc)
+                data, done = json.dumps(doc).encode(), True
+            w.add_message(channels[channel.id], message.log_time, data, message.publish_time)
+        for record in reader.iter_metadata():
+            w.add_metadata(record.name, record.metadata)
+        w.finish()
+
+
 def _run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
     capsys.readouterr()
     try:
@@ -127,6 +172,10 @@ def world(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (w / "empty.mcap").write_bytes(b"")
     data = (w / "log.mcap").read_bytes()
     (w / "truncated.mcap").write_bytes(data[: len(data) // 3])
+    (w / "cut20.mcap").write_bytes(data[:20])
+    os.mkfifo(w / "fifo.mcap")  # read, it would block
+    for name, (topic, change, every) in BAD_MESSAGES.items():
+        _write_changed(w / "log.mcap", w / f"{name}.mcap", topic, change, every)
     (w / "binary.toml").write_bytes(bytes(range(256)))
     (w / "folder").mkdir()
     (w / "link.mcap").symlink_to(w / "log.mcap")
@@ -309,6 +358,8 @@ def _record_cases() -> list[Case]:
         _case("record-nav-no-such-host", "record", "--nav", "tcp://no-such-host.invalid:4001",
               *out, needle="resolve"),
         _case("record-no-device", "record", *out),
+        _case("record-two-nav-units", "record", "--nav", "tcp://127.0.0.1:1", "--nav350",
+              "tcp://127.0.0.1:2", *out, needle="would both write /nav/pose"),
         _case("record-bad-url", "record", "--nav", "ftp://x", *out),
         _case("record-port-too-big", "record", "--nav", "tcp://127.0.0.1:99999", *out),
         _case("record-speed-input-without-mcu", "record", "--nav", "tcp://127.0.0.1:1",
@@ -409,6 +460,44 @@ def _output_cases() -> list[Case]:
     return cases
 
 
+def _message_cases() -> list[Case]:
+    """Logs whose messages break the contract (a position of 1e308 m, a flag that is a
+    string, a map that is no list, an integer too large for 64 bits): one line naming the
+    topic, never a hang or an internal error; a NAV pose of 1e308 m is not valid (like a
+    NaN one) and the run goes on."""
+    commands = {
+        "replay": ("replay", "{file}", "-o", "{out}/r.mcap", "-e", "laser,ekf"),
+        "replay-pf-paper": ("replay", "{file}", "-o", "{out}/r.mcap", "-e", "pf-paper",
+                            "--no-view"),
+        "evaluate": ("evaluate", "{file}", "-e", "ekf"),
+        "export": ("export", "{file}", "-o", "{out}/ex", "-e", "laser"),
+        "view": ("view", "{file}", "--live", "127.0.0.1:0", "--speed", "0", "--no-progress"),
+    }
+    needles = {"truth_huge": "/truth/pose", "nav_valid_string": "/nav/pose",
+               "map_not_list": "/map/reflectors", "map_huge": "/map/reflectors",
+               "mcu_seq_huge": "/mcu/frame", "scan_range_huge": "/nav/reflectors"}
+    cases = []
+    for name in BAD_MESSAGES:
+        for command, args in commands.items():
+            full = tuple(a.replace("{file}", f"{{w}}/{name}.mcap") for a in args)
+            if name == "nav_huge":
+                expect, needle = (ERROR, "laser has no usable") if command in (
+                    "replay", "export") else (OK, "")
+            elif command == "view":  # plays the messages as they are, draws what it can
+                expect, needle = CLEAN, ""
+            elif name == "truth_huge" and command == "replay-pf-paper":
+                expect, needle = OK, ""  # no truth is read without the view
+            elif name == "scan_range_huge" and command == "export":
+                expect, needle = OK, ""  # laser: the scans are not read
+            else:
+                expect, needle = ERROR, needles[name]
+            cases.append(_case(f"{command}-{name}", *full, expect=expect, needle=needle))
+    cases.append(_case("info-cut20", "info", "{w}/cut20.mcap", needle="not a readable MCAP"))
+    cases.append(_case("config-map_not_list", "config", "{w}/map_not_list.mcap",
+                       needle="/map/reflectors"))
+    return cases
+
+
 def _file_cases() -> list[Case]:
     """Files that are not lgvtool logs, given to every command that reads a log."""
     readers = {
@@ -430,7 +519,7 @@ def _file_cases() -> list[Case]:
     files = {"missing": ("{w}/no-such.mcap", ERROR), "folder": ("{w}/folder", ERROR),
              "empty": ("{w}/empty.mcap", ERROR), "text": ("{w}/text.txt", ERROR),
              "config": ("{w}/good.toml", ERROR), "truncated": ("{w}/truncated.mcap", CLEAN),
-             "foreign": ("{w}/foreign.mcap", ERROR)}
+             "foreign": ("{w}/foreign.mcap", ERROR), "fifo": ("{w}/fifo.mcap", ERROR)}
     cases = []
     for command, args in readers.items():
         for what, (path, expect) in files.items():
@@ -465,6 +554,15 @@ def _config_cases() -> list[Case]:
 def _grammar_cases() -> list[Case]:
     log = "{w}/log.mcap"
     return [
+        *[_case(f"{cmd}-empty-estimator-name-{k}", *args, "-e", value, needle="empty name")
+          for cmd, args in (("replay", ("replay", log, "-o", "{out}/r.mcap")),
+                            ("evaluate", ("evaluate", log)),
+                            ("export", ("export", log, "-o", "{out}/ex")))
+          for k, value in enumerate(("", ",", "laser,,ekf", " "))],
+        _case("calibrate-empty-estimate", "calibrate", log, "-o", "{out}/v.toml", "--estimate",
+              "", needle="--estimate"),
+        _case("calibrate-empty-compare", "calibrate", log, "-o", "{out}/v.toml", "--compare",
+              "laser,", needle="--compare"),
         _case("evaluate-json-and-format-csv", "evaluate", log, "--json", "--format", "csv"),
         _case("evaluate-json-and-format-md", "evaluate", log, "--json", "--format", "md"),
         _case("evaluate-png-without-output", "evaluate", log, "--png"),
@@ -551,7 +649,7 @@ def _grammar_cases() -> list[Case]:
 
 CASES: list[Case] = [*_sim_setting_cases(), *_estimator_param_cases(), *_option_cases(),
                      *_fault_cases(), *_serve_cases(), *_record_cases(), *_output_cases(),
-                     *_file_cases(), *_config_cases(), *_grammar_cases()]
+                     *_file_cases(), *_message_cases(), *_config_cases(), *_grammar_cases()]
 
 
 def test_the_catalogue_is_large_and_its_ids_unique() -> None:

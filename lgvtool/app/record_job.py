@@ -35,8 +35,8 @@ def record_devices(output: str, *, duration: float | None = None, speed_input: b
     bytes, why the recording stopped, the devices and the live view's figures; the text is the
     summary, the epilogue the live view's line.
 
-    :raises InputError: (exit 2) no device, inconsistent options, a refused output, a device
-        that fails for good.
+    :raises InputError: (exit 2) no device, two devices that write the same topic (the NAV200
+        and the NAV350), inconsistent options, a refused output, a device that fails for good.
     :raises TypeError: an option no family knows.
     """
     from pathlib import Path
@@ -51,6 +51,13 @@ def record_devices(output: str, *, duration: float | None = None, speed_input: b
     regs = registrations()
     if all(device_options.get(r.RECORD_URL_PARAM) is None for r in regs):
         raise InputError(no_device_message())
+    chosen = [r for r in regs if device_options.get(r.RECORD_URL_PARAM) is not None]
+    for i, a in enumerate(chosen):
+        for b in chosen[i + 1:]:
+            shared = sorted(a.log_decoder({}).decoded_topics & b.log_decoder({}).decoded_topics)
+            if shared:
+                raise InputError(f"record: {a.TITLE} and {b.TITLE} would both write "
+                                 f"{', '.join(shared)}; record one of them")
     if speed_input and all(device_options.get(r.RECORD_URL_PARAM) is None
                            for r in regs if r.ODOMETRY):
         raise InputError("record: --speed-input needs the MCU's odometry (--mcu URL)")

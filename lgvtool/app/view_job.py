@@ -42,6 +42,7 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
     from lgvtool.live.tap import LiveFeed, describe
     from lgvtool.localize.registry import check_names
     from lgvtool.log import LogReader, topics
+    from lgvtool.log.schemas import schema_names
     from lgvtool.progress import Progress
 
     address = parse_address(live)
@@ -57,6 +58,13 @@ def view_log(log: str, *, live: str = "127.0.0.1:8765", speed: float = 1.0,
     # the log's own channels of an estimator computed online are not sent: the online one is
     skip = frozenset(t for e in estimators for t in e.output_topics)
     infos = reader.topics()
+    # the live view re-publishes a channel with lgvtool's copy of its schema (JSON): a channel
+    # under a schema lgvtool does not have is left out, and said so
+    known = set(schema_names())
+    foreign = sorted(t for t, i in infos.items() if i.schema and i.schema not in known)
+    for t in foreign:
+        warn(f"{t} is not played: lgvtool has no schema named {infos[t].schema!r}")
+    skip |= frozenset(foreign)
     starts = [i.start_ns for i in infos.values() if i.count]
     ends = [i.end_ns for i in infos.values() if i.count]
     span = (max(ends) - min(starts)) * 1e-9 if starts else 0.0

@@ -14,8 +14,8 @@ from lgvtool.options import (
 )
 
 
-def _names(value: str | None) -> list[str]:
-    return split_names([value or ""])
+def _names(value: str | None, option: str) -> list[str]:
+    return [] if value is None else split_names([value], option)
 
 
 @click.command()
@@ -58,9 +58,10 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
     """
     from lgvtool.app.calibrate_job import calibrate_logs
 
-    chosen = [] if compare_with.strip().lower() == "none" else _names(compare_with)
+    chosen = [] if compare_with.strip().lower() == "none" else _names(compare_with, "--compare")
     print_output(calibrate_logs(logs, output, config_path=config_path,
-                                estimate=_names(estimate) or None, fix=_names(fix),
+                                estimate=_names(estimate, "--estimate") or None,
+                                fix=_names(fix, "--fix"),
                                 observations=observations,
                                 allow_unobservable=allow_unobservable, compare_with=chosen,
                                 seed=seed, start_at_truth=start_at_truth, force=force,

@@ -79,5 +79,5 @@ def record(output: str, duration: float | None, speed_input: bool, layer: int,
         output, duration=duration, speed_input=speed_input, layer=layer,
         upload_map=not no_map_upload, reply_timeout=reply_timeout, split_size=split_size,
         split_duration=split_duration, config_file=config_file, status=status, force=force,
-        live=live, live_estimators=split_names(live_estimators),
+        live=live, live_estimators=split_names(live_estimators, "--live-estimator"),
         command=shlex.join(["lgvtool", *sys.argv[1:]]), **device_options), as_json)

@@ -45,6 +45,7 @@ def view(log: str, live: str, speed: float, live_estimators: tuple[str, ...], se
     from lgvtool.app.view_job import view_log
 
     print_output(view_log(log, live=live, speed=speed,
-                          live_estimators=split_names(live_estimators), seed=seed, sets=sets,
+                          live_estimators=split_names(live_estimators, "--live-estimator"),
+                          seed=seed, sets=sets,
                           wait_s=wait_s, show_progress=show_progress, warn=warn,
                           notify=lambda line: click.echo(line, err=True)), as_json)

@@ -72,6 +72,8 @@ def open_bag(path: Path) -> Reader:
 
     if not path.exists():
         raise InputError(f"{path}: no such file or folder")
+    if not (path.is_dir() or path.is_file()):  # a FIFO or a device would block the reading
+        raise InputError(f"{path}: not a file or a folder")
     if path.is_dir() and not (path / "metadata.yaml").is_file():
         raise InputError(f"{path}: a folder without metadata.yaml, not a rosbag2 bag")
     if path.is_file() and path.suffix not in (".mcap", ".db3"):

@@ -26,6 +26,7 @@ from lgvtool.localize.motion import (
 )
 from lgvtool.localize.observations import RawScan, ScanBatch
 from lgvtool.localize.packed import PackedBytes
+from lgvtool.log.validate import MAX_MAGNITUDE, flags
 from lgvtool.timestamps import message_stamps_ns
 
 if TYPE_CHECKING:
@@ -354,7 +355,7 @@ _FIELDS: dict[str, Callable[[list[dict[str, Any]]], tuple[NDArray[Any], ...]]] =
     "/odom/twist": lambda docs: (_columns(docs, ("v", "omega"), np.float64),),
     "/nav/pose": lambda docs: (
         _columns(docs, ("x", "y", "heading"), np.float64),
-        np.array([bool(d["valid"]) for d in docs], dtype=bool)),
+        np.array(flags(docs, "valid"), dtype=bool)),
     "/truth/pose": _truth_fields,
 }
 
@@ -409,7 +410,7 @@ def load_log(reader: LogReader, reflectors: Sequence[Reflector] | None = None, *
         else _tapped(reader.raw_column_chunks([*wanted, *tap.topics]), tap, own))
     try:
         return _log_data(reader, chunks, reflectors, decode_scans)
-    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError, OverflowError) as exc:
         from lgvtool.errors import LogFormatError
 
         raise LogFormatError(f"{reader.path}: {_what(exc)}") from None
@@ -434,7 +435,7 @@ def _about(topic: str) -> Iterator[None]:
     """Name ``topic`` in a decoding failure (KeyError, TypeError, ValueError) inside."""
     try:
         yield
-    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError, OverflowError) as exc:
         if isinstance(exc, ValueError) and str(exc).startswith("topic "):
             raise
         raise ValueError(f"topic {topic}: messages do not match the log contract "
@@ -524,8 +525,10 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
             _checked(T.NAV_POSE, ti)
             order = np.argsort(ti, kind="stable")
             a = a[:, order]
+            # a pose beyond any hall (or not a number) is a corrupt reply: not valid
+            plausible = np.isfinite(a).all(axis=0) & (np.abs(a) <= MAX_MAGNITUDE).all(axis=0)
             data.nav = {"t": _seconds(ti[order], t0), "x": a[0], "y": a[1], "heading": a[2],
-                        "valid": valid[order] & np.isfinite(a).all(axis=0)}
+                        "valid": valid[order] & plausible}
     if len(scan_ns):
         with _about(T.NAV_REFLECTORS):
             _checked(T.NAV_REFLECTORS, scans_log_ns)

@@ -8,6 +8,7 @@ the file has one, else by scanning every message (a file cut off by a crash).
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 from typing import Any
 
@@ -56,8 +57,10 @@ def describe_any(path: str | Path) -> dict[str, Any]:
             else:
                 f.seek(0)
                 rows, metadata, total, span = _scan(f)
-    except (McapError, OSError, ValueError, KeyError, EOFError) as exc:
-        raise LogFormatError(f"{p}: not a readable MCAP file ({type(exc).__name__})") from None
+    except (McapError, OSError, ValueError, KeyError, EOFError, struct.error) as exc:
+        # struct.error: the mcap package's reader on a file cut inside its first record
+        why = "cut off inside a record" if isinstance(exc, struct.error) else type(exc).__name__
+        raise LogFormatError(f"{p}: not a readable MCAP file ({why})") from None
     return {"file": str(p), "size_bytes": p.stat().st_size, "lgvtool_log": False,
             "profile": header.profile, "library": header.library, "message_count": total,
             "start_time_s": span[0] / 1e9 if total else None,
@@ -97,7 +100,7 @@ def _scan(f: Any) -> tuple[dict[str, dict[str, Any]], list[str], int, tuple[int,
                 total += 1
             elif isinstance(record, Metadata):
                 metadata.append(record.name)
-    except (McapError, EOFError, ValueError):
+    except (McapError, EOFError, ValueError, struct.error):
         pass  # a file cut off: what was read so far is described
     return {r["topic"]: r for r in channels.values()}, metadata, total, (first, last)
 

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from lgvtool.errors import decoding_error
 from lgvtool.log.messages import steering_fields, yaw_from_quaternion
 from lgvtool.log.reader import LogMessage, LogReader, RawBlock
+from lgvtool.log.validate import check_magnitude
 from lgvtool.timestamps import stamp_seconds
 
 
@@ -68,7 +69,10 @@ class PoseColumns:
 
     def table(self) -> pd.DataFrame:
         """The table of every message added, in the order added; the rows are handed over
-        (each block freed as it is copied), so call it once."""
+        (each block freed as it is copied), so call it once.
+
+        :raises ValueError: a position beyond :data:`~lgvtool.log.validate.MAX_MAGNITUDE` m
+            (NaN is kept: an estimate may have none)."""
         self._seal()
         blocks, self._blocks = self._blocks, []
         # one (columns, rows) array, as pandas makes of a table of lists
@@ -78,6 +82,7 @@ class PoseColumns:
             b = blocks.pop(0)
             cols[:, at:at + len(b)] = b.T
             at += len(b)
+        check_magnitude({n: cols[k] for k, n in enumerate(self.NAMES) if n in ("x", "y", "z")})
         return pd.DataFrame(cols.T, columns=list(self.NAMES))
 
 

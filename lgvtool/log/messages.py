@@ -18,7 +18,8 @@ from collections.abc import Callable, Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from lgvtool.angles import wrap_scalar
-from lgvtool.config import Reflector
+from lgvtool.config import Reflector, reflectors_from_tables
+from lgvtool.errors import ConfigError
 from lgvtool.timestamps import stamp
 
 if TYPE_CHECKING:
@@ -79,12 +80,18 @@ def reflector_map_message(ns: int, reflectors: Iterable[Reflector]) -> dict[str,
 
 
 def reflectors_from_message(msg: Mapping[str, Any]) -> tuple[Reflector, ...]:
-    """The reflectors of a lgvtool.ReflectorMap message."""
-    return tuple(
-        Reflector(id=int(r["id"]), x=float(r["x"]), y=float(r["y"]),
-                  radius=float(r.get("radius", 0.05)), layer=int(r.get("layer", 0)))
-        for r in msg["reflectors"]
-    )
+    """The reflectors of a lgvtool.ReflectorMap message, checked as a configuration's
+    (:func:`lgvtool.config.reflectors_from_tables`; radius 0.05 m and layer 0 when absent).
+
+    :raises ValueError: the message holds no such list (naming the topic and the entry).
+    """
+    try:
+        items = msg["reflectors"] if isinstance(msg, Mapping) else None
+        return reflectors_from_tables([{"radius": 0.05, "layer": 0, **r} if isinstance(r, dict)
+                                       else r for r in items] if isinstance(items, list)
+                                      else items)
+    except ConfigError as exc:
+        raise ValueError(f"topic /map/reflectors: {exc}") from None
 
 
 def map_scene_message(ns: int, reflectors: Iterable[Reflector], height: float = 0.85) -> dict[str, Any]:

@@ -641,7 +641,10 @@ class LogReader:
         from lgvtool.log.messages import reflectors_from_message
 
         for m in self.messages([T.MAP]):
-            return reflectors_from_message(m.data)
+            try:
+                return reflectors_from_message(m.data)
+            except ValueError as exc:
+                raise LogFormatError(f"{self.path}: {exc}") from None
         return ()
 
     def reflector_map(self) -> tuple[Reflector, ...]:

@@ -44,8 +44,39 @@ def check_times(topic: str, ns: Iterable[int]) -> None:
                              "1990..2100")
 
 
+#: the largest magnitude of a decoded position, speed, angle or range, in its SI unit (m,
+#: m/s, rad, rad/s, s): the configuration's bound on every number (docs/config.md); beyond it
+#: a value is a corrupt message, and the filters' and fits' arithmetic would overflow
+MAX_MAGNITUDE = 1e6
+
+
+def flags(docs: Sequence[Mapping[str, Any]], key: str) -> list[bool]:
+    """The boolean field ``key`` of every message; TypeError when one is not a JSON boolean (a
+    string "false" would otherwise read as true), KeyError when one lacks it."""
+    values = [d[key] for d in docs]
+    if not all(v is True or v is False for v in values):
+        bad = next(v for v in values if v is not True and v is not False)
+        raise TypeError(f"field {key!r} holds {bad!r}, not true or false")
+    return values
+
+
+def check_magnitude(columns: Mapping[str, Sequence[float] | Any], topic: str = "") -> None:
+    """Raise ValueError naming the field (and ``topic`` if given) when a value is larger in
+    magnitude than :data:`MAX_MAGNITUDE` (NaN passes)."""
+    import numpy as np
+
+    for name, values in columns.items():
+        arr = np.abs(np.asarray(values, dtype=np.float64))
+        beyond = arr > MAX_MAGNITUDE
+        if arr.size and bool(beyond.any()):
+            where = f"topic {topic}: " if topic else ""
+            raise ValueError(f"{where}field {name!r} holds {float(arr[beyond][0]):g} in "
+                             f"magnitude (beyond {MAX_MAGNITUDE:g}: not a plausible value)")
+
+
 def check_finite(topic: str, columns: Mapping[str, Sequence[float] | Any]) -> None:
-    """Raise ValueError naming ``topic`` and the field when a value is NaN or infinite."""
+    """Raise ValueError naming ``topic`` and the field when a value is NaN, infinite or larger
+    in magnitude than :data:`MAX_MAGNITUDE`."""
     import numpy as np
 
     for name, values in columns.items():
@@ -53,3 +84,4 @@ def check_finite(topic: str, columns: Mapping[str, Sequence[float] | Any]) -> No
         if arr.size and not bool(np.isfinite(arr).all()):
             bad = float(arr[~np.isfinite(arr)][0])
             raise ValueError(f"topic {topic}: field {name!r} holds {bad} (not a finite number)")
+    check_magnitude(columns, topic)

@@ -20,6 +20,7 @@ from lgvtool.errors import decoding_error
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
 from lgvtool.log.messages import steering_fields
+from lgvtool.log.validate import MAX_MAGNITUDE, check_magnitude, flags
 from lgvtool.log.windows import Source, constant, source
 from lgvtool.timestamps import from_stamp
 
@@ -31,27 +32,32 @@ if TYPE_CHECKING:
 
 
 def nav_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
-    """x, y, heading (m, m, rad; NaN when not a number) and the valid flag of NAV poses."""
+    """x, y, heading (m, m, rad; NaN when not a number) and the valid flag of NAV poses
+    (TypeError when one is not a boolean, :func:`lgvtool.log.validate.flags`)."""
     return ([_num(d, "x") for d in docs], [_num(d, "y") for d in docs],
-            [_num(d, "heading") for d in docs], [bool(d.get("valid")) for d in docs])
+            [_num(d, "heading") for d in docs], flags(docs, "valid"))
 
 
 def scan_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
     """Per scan its start (ns) and count; per observation range (m), bearing (rad), id and time
-    in scan (s)."""
+    in scan (s); ValueError for a range beyond :data:`~lgvtool.log.validate.MAX_MAGNITUDE`."""
     obs = [d.get("observations", []) for d in docs]
     flat = [o for os in obs for o in os]
+    ranges = [float(o["range"]) for o in flat]
+    check_magnitude({"range": ranges})
     return ([from_stamp(d["timestamp"]) for d in docs],
-            [len(os) for os in obs], [float(o["range"]) for o in flat],
+            [len(os) for os in obs], ranges,
             [float(o["bearing"]) for o in flat], [int(o.get("id", -1)) for o in flat],
             [float(o.get("time_in_scan", 0.0)) for o in flat])
 
 
 def truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
-    """x, y (m) and the quaternion's z and w of ground-truth poses."""
+    """x, y (m) and the quaternion's z and w of ground-truth poses; ValueError for a position
+    beyond :data:`~lgvtool.log.validate.MAX_MAGNITUDE`."""
     poses = [d["pose"] for d in docs]
-    return ([p["position"]["x"] for p in poses], [p["position"]["y"] for p in poses],
-            [p["orientation"].get("z", 0.0) for p in poses],
+    x, y = [p["position"]["x"] for p in poses], [p["position"]["y"] for p in poses]
+    check_magnitude({"x": x, "y": y})
+    return (x, y, [p["orientation"].get("z", 0.0) for p in poses],
             [p["orientation"].get("w", 1.0) for p in poses])
 
 
@@ -265,7 +271,8 @@ def nav_streams(rows: LogRows, m: fx.Mounting, fallback: str = "truth",
     t, (x, y, h, valid) = rows.columns(T.NAV_POSE)
     track = fallback_track if fallback_track is not None else head_track([], [], [], [], m)
     if len(t):
-        ok = valid & np.isfinite(x + y + h)
+        # a pose beyond any hall is a corrupt reply, not drawn (as the estimators leave it out)
+        ok = valid & np.isfinite(x + y + h) & (np.maximum(np.abs(x), np.abs(y)) <= MAX_MAGNITUDE)
         t, x, y, h = t[ok], x[ok], y[ok], h[ok]
         if len(t):
             out.append(source(T.NAV_HEAD, t, _poses(t, x, y, h)))

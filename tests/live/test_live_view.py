@@ -254,3 +254,35 @@ def test_view_as_fast_as_possible_says_so(circle_log: Path) -> None:
                    notify=said.append)
     assert len(said) == 1 and said[0].endswith("as fast as possible"), said
     assert out.document["messages"] > 0
+
+
+def test_a_channel_under_a_schema_lgvtool_lacks_is_left_out_and_said(circle_log: Path,
+                                                                       tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    from lgvtool.app.view_job import view_log
+
+    log = tmp_path / "with-foreign.mcap"
+    with circle_log.open("rb") as f, log.open("wb") as g:
+        reader, w = make_reader(f), Writer(g)
+        w.start(profile="", library="test")
+        ids: dict[int, int] = {}
+        for schema, channel, message in reader.iter_messages():
+            if channel.id not in ids:
+                sid = w.register_schema(schema.name, schema.encoding, schema.data)
+                ids[channel.id] = w.register_channel(channel.topic, channel.message_encoding,
+                                                     sid, channel.metadata)
+            w.add_message(ids[channel.id], message.log_time, message.data,
+                          message.publish_time)
+        sid = w.register_schema("acme.Thing", "jsonschema", b'{"type": "object"}')
+        cid = w.register_channel("/acme/thing", "json", sid)
+        w.add_message(cid, message.log_time, b"{}", message.log_time)
+        for record in reader.iter_metadata():
+            w.add_metadata(record.name, record.metadata)
+        w.finish()
+    warned: list[str] = []
+    out = view_log(str(log), live="127.0.0.1:0", speed=0.0, show_progress=False,
+                   warn=warned.append)
+    assert warned == ["/acme/thing is not played: lgvtool has no schema named 'acme.Thing'"]
+    assert out.document["messages"] > 0
