@@ -49,14 +49,15 @@ def _inside(path: Path, directory: Path) -> bool:
 
 
 def guard_output(output: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str] | None],
-                 *, force: bool = False, what: str = "output") -> Path:
+                 *, force: bool = False, what: str = "output", in_place: bool = False) -> Path:
     """Check that writing ``output`` harms no input; return it as a :class:`Path`.
 
     ``inputs`` are every file or directory the command reads (``None`` entries are skipped).
     Raises :class:`InputError` (exit 2, one line) when the output is an input, lies inside an
     input directory, is empty, a directory or something other than a regular file (a device
-    such as ``/dev/null``, a FIFO: it would be replaced by the new file), or exists and
-    ``force`` is false.
+    such as ``/dev/null``, a FIFO: it would be replaced by the new file; allowed with
+    ``in_place``, for a command that writes into the file where it is, as ``record``), or
+    exists and ``force`` is false.
     """
     out = Path(output)
     for item in inputs:
@@ -71,7 +72,7 @@ def guard_output(output: str | os.PathLike[str], inputs: Iterable[str | os.PathL
         raise InputError(f"{what}: an empty path; name a file")
     if out.is_dir():
         raise InputError(f"{what} {out} is a directory")
-    if out.exists() and not out.is_file():
+    if out.exists() and not out.is_file() and not in_place:
         # a device, a FIFO or a socket: renaming a new file over it would replace it
         raise InputError(f"{what} {out} is not a regular file (a device, FIFO or socket); "
                          f"choose a file")

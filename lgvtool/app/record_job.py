@@ -47,7 +47,8 @@ def record_devices(output: str, *, duration: float | None = None, speed_input: b
     from lgvtool.errors import InputError
     from lgvtool.outputs import guard_output
 
-    guard_output(output, [config_file], force=force)
+    # the recording is written where it is (crash-safe, no rename), so /dev/null may take it
+    guard_output(output, [config_file], force=force, in_place=True)
     regs = registrations()
     if all(device_options.get(r.RECORD_URL_PARAM) is None for r in regs):
         raise InputError(no_device_message())

@@ -30,6 +30,7 @@ class FakeLogDecoder(DecodedQueue):
 
     decoded_topics: frozenset[str] = frozenset()
     sources = frozenset({DEVICE})
+    event_kinds = frozenset({"chunk"})
 
     def __init__(self) -> None:
         super().__init__()
