@@ -233,4 +233,3 @@ def export_log(log: str | Path, directory: str | Path, fmt: str, *,
             summary.trajectories[tr.name] = {"files": [p.name for p in paths],
                                              "poses": len(tr.poses), "what": tr.what}
     return summary
-

@@ -380,4 +380,3 @@ def decompress(kind: str, data: bytes | memoryview, size: int) -> bytes:
     if kind == "":
         return bytes(data)
     raise ValueError(f"unsupported chunk compression {kind!r}")
-

@@ -565,4 +565,3 @@ class McapWriter:
         self._emit(record(OP_FOOTER, struct.pack("<QQI", summary_start, offset_start, crc)))
         self._emit(MAGIC)
         self._out.flush()
-
