@@ -120,6 +120,10 @@ recorded with a chunk a second has chunks of 40 kB: numpy's cost per call is the
 4 MiB, not per chunk)."""
 
 
+CORRUPT_CHUNKS_SAID = 5
+"""Corrupt chunks of one log named in a warning each; the rest are counted, in one more."""
+
+
 class LogWarning(UserWarning):
     """Issued when a log is opened that is incomplete or not written by lgvtool."""
 
@@ -223,12 +227,22 @@ class LogReader:
             self.warnings.append(f"{self.path}: the data section does not match its CRC-32")
 
     def _note_corrupt(self, ci: ChunkIndex | int, reason: str) -> None:
-        """Count a corrupt chunk (skipped by the caller) and say so once, as a warning."""
+        """Count a corrupt chunk (skipped by the caller) and say so once, as a warning; beyond
+        :data:`CORRUPT_CHUNKS_SAID` of them, one more warning says that others follow (a badly
+        damaged file would otherwise print a line per chunk); all are counted."""
         offset = ci if isinstance(ci, int) else ci.chunk_start_offset
         if offset in self.corrupt_chunks:
             return
         self.corrupt_chunks[offset] = reason
-        text = f"{self.path}: chunk at byte {offset} is corrupt ({reason}); its messages skipped"
+        said = len(self.corrupt_chunks)
+        if said <= CORRUPT_CHUNKS_SAID:
+            text = (f"{self.path}: chunk at byte {offset} is corrupt ({reason}); its messages "
+                    "skipped")
+        elif said == CORRUPT_CHUNKS_SAID + 1:
+            text = (f"{self.path}: more chunks are corrupt, from byte {offset} on; their "
+                    f"messages skipped too (lgvtool info counts them)")
+        else:
+            return
         self.warnings.append(text)
         _warnings.warn(text, LogWarning, stacklevel=3)
 

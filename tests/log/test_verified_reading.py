@@ -3,6 +3,7 @@ decoded values range-checked. Every corrupt file is built here from a short simu
 
 from __future__ import annotations
 
+import json
 import warnings
 from pathlib import Path
 
@@ -219,3 +220,24 @@ def test_the_recovery_summary_reads_as_a_sentence() -> None:
                               "1000 bytes (the input was cut off)")
     assert said(True, 1).endswith("(the input was complete already; 1 corrupt chunk skipped)")
     assert said(True, 3).endswith("; 3 corrupt chunks skipped)")
+
+
+def test_a_badly_damaged_log_warns_of_a_few_chunks_and_counts_them_all(
+        simulated: Path, tmp_path: Path, run_cli) -> None:
+    from lgvtool.log.reader import CORRUPT_CHUNKS_SAID
+
+    bad = tmp_path / "bad.mcap"
+    rewrite(simulated, bad, "zstd")  # 5 s chunks: 8 of them
+    with open(bad, "rb") as f:
+        summary = read_summary(f)
+    assert summary is not None
+    n = len(summary.chunk_indexes)
+    assert n > CORRUPT_CHUNKS_SAID + 1
+    for k in range(n):
+        flip(bad, k, 0.5)
+    res = run_cli("replay", bad, "-o", tmp_path / "r.mcap", "-e", "laser", "--no-view")
+    said = [line for line in res.stderr.splitlines() if line.startswith("lgvtool: warning: ")]
+    assert len(said) == CORRUPT_CHUNKS_SAID + 1, res.stderr
+    assert "more chunks are corrupt" in said[-1]
+    info = run_cli("info", bad, "--json")
+    assert json.loads(info.stdout)["corrupt_chunks"] == n, info.stdout
