@@ -228,6 +228,9 @@ def test_invalid_poses_and_empty_scans_draw_nothing() -> None:
     bad = orjson.dumps({"timestamp": {"sec": 1, "nsec": 0}, "x": 1.0, "y": 2.0, "heading": 0.1,
                         "valid": False})
     assert view.feed(topics.NAV_POSE, bad, 1_000_000_000) == []
+    far = orjson.dumps({"timestamp": {"sec": 1, "nsec": 0}, "x": 1e308, "y": 2.0,
+                        "heading": 0.1, "valid": True})  # a corrupt reply, as replay's view
+    assert view.feed(topics.NAV_POSE, far, 1_000_000_000) == []
     empty = orjson.dumps({"timestamp": {"sec": 1, "nsec": 0}, "scan_period": 0.125,
                           "observations": []})
     assert view.feed(topics.NAV_REFLECTORS, empty, 1_000_000_000) == []
