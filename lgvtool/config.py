@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -229,7 +229,7 @@ def _check_section(name: str, table: Any, cls: type) -> dict[str, Any]:
 def reflectors_from_tables(items: Any) -> tuple[Reflector, ...]:
     """Reflectors from a list of tables (``[[reflectors]]``, or a logged map's entries): ``id``,
     ``x``, ``y`` (m) required, ``radius`` (m) and ``layer`` optional, each checked as every
-    configuration number is (its type, finite, within 10^6).
+    configuration number is (its type, finite, within 10^6); ids unique, radii not negative.
 
     :raises ConfigError: not a list of such tables.
     """
@@ -243,6 +243,7 @@ def reflectors_from_tables(items: Any) -> tuple[Reflector, ...]:
             if req not in d:
                 raise ConfigError(f"missing value for {where}.{req}")
         refl.append(Reflector(**d))
+    _check_map(refl)
     return tuple(refl)
 
 
@@ -284,14 +285,19 @@ def _validate(cfg: Config) -> Config:
     d = cfg.reference.steering_angle_deg
     if d is not None and not (0.0 < abs(d) < 90.0):
         raise ConfigError(f"reference.steering_angle_deg must be in (0, 90) in magnitude, got {d}")
+    _check_map(cfg.reflectors)
+    return cfg
+
+
+def _check_map(reflectors: Iterable[Reflector]) -> None:
+    """A map's ids unique and its radii not negative (ConfigError otherwise)."""
     seen: set[int] = set()
-    for r in cfg.reflectors:
+    for r in reflectors:
         if r.id in seen:
             raise ConfigError(f"reflector map has duplicate id {r.id}")
         seen.add(r.id)
         if r.radius < 0:
             raise ConfigError(f"reflector {r.id}: radius must not be negative, got {r.radius}")
-    return cfg
 
 
 def config_from_dict(data: Mapping[str, Any], base: Config | None = None) -> Config:

@@ -106,6 +106,8 @@ BAD_MESSAGES: dict[str, tuple[str, Any, bool]] = {
     "nav_huge": ("/nav/pose", lambda d: d.update(x=1e308), True),
     "map_not_list": ("/map/reflectors", lambda d: d.update(reflectors="none"), True),
     "map_huge": ("/map/reflectors", lambda d: d["reflectors"][0].update(x=1e308), True),
+    "map_duplicate_id": ("/map/reflectors",
+                         lambda d: d["reflectors"][1].update(id=d["reflectors"][0]["id"]), True),
     "mcu_seq_huge": ("/mcu/frame", lambda d: d.update(seq=2**80), False),
     "scan_range_huge": ("/nav/reflectors", lambda d: d["observations"][0].update(range=1e308),
                         False),
@@ -475,6 +477,7 @@ def _message_cases() -> list[Case]:
     }
     needles = {"truth_huge": "/truth/pose", "nav_valid_string": "/nav/pose",
                "map_not_list": "/map/reflectors", "map_huge": "/map/reflectors",
+               "map_duplicate_id": "duplicate id",
                "mcu_seq_huge": "/mcu/frame", "scan_range_huge": "/nav/reflectors"}
     cases = []
     for name in BAD_MESSAGES:

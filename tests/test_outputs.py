@@ -72,6 +72,7 @@ def test_a_device_fifo_or_empty_path_is_never_an_output(tmp_path: Path, run_cli)
                  ("sweep", log, "-o", "")):
         res = run_cli(*args)
         assert res.returncode == 2 and res.stderr.count("\n") == 1, (args, res.stderr)
+        assert "an empty path" in res.stderr, (args, res.stderr)
 
 
 def test_files_written_together_land_together_or_not_at_all(tmp_path: Path) -> None:

@@ -217,7 +217,8 @@ def export_log(log: str | Path, directory: str | Path, fmt: str, *,
     if not trajectories:
         raise InputError(f"{log}: no trajectory to export (no estimate, NAV pose or truth)")
     plan = [(tr, [folder / n for n in trajfile.file_names(tr.name, fmt)]) for tr in trajectories]
-    guard_directory(folder, [p.name for _tr, paths in plan for p in paths], [log], force=force)
+    guard_directory(directory, [p.name for _tr, paths in plan for p in paths], [log],
+                    force=force)
     folder.mkdir(parents=True, exist_ok=True)
     summary = ExportSummary(str(log), str(folder), fmt, source, warnings=warnings)
     name = Path(str(log)).name

@@ -14,6 +14,7 @@ from devices_helpers import Procs, circle_playback, messages, raw_stream
 from lgvtool.devices.mcu.mcu_emulator import VirtualMcu
 from lgvtool.errors import InputError
 from lgvtool.log import LogWriter, topics
+from lgvtool.log.reader import LogWarning
 from lgvtool.sim.emulate import (
     Fault,
     parse_fault,
@@ -92,6 +93,12 @@ def test_playback_from_a_log_plays_what_was_logged(tmp_path: Path) -> None:
     assert fix is not None and fix.valid
     mcu = VirtualMcu(back)
     assert b"".join(mcu.due(back.duration + 1)) == pb.mcu_bytes() and mcu.finished
+    # a log cut off is served from what is salvaged, and said so as every reader does
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(log.read_bytes()[: log.stat().st_size * 2 // 3])
+    with pytest.warns(LogWarning, match="incomplete log"):
+        salvaged = playback_from_log(cut)
+    assert 0 < len(salvaged.mcu) <= len(pb.mcu)
 
 
 def test_playback_from_a_scenario() -> None:

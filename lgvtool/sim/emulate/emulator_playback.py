@@ -139,11 +139,13 @@ def playback_from_log(path: str | Path) -> Playback:
 
 
 def _playback_from_log(path: str | Path) -> Playback:
-    from lgvtool.log import LogReader, topics
+    from lgvtool.log import LogReader, LogWarning, topics
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = LogReader(path)
+    for said in reader.warnings:  # a salvaged log is served, and said so, as every reader does
+        warnings.warn(said, LogWarning, stacklevel=2)
     names = set(reader.topic_names())
     mcu_topic = topics.MCU_RX if topics.MCU_RX in names else (
         topics.MCU_FRAME if topics.MCU_FRAME in names else None)
