@@ -35,7 +35,7 @@ import orjson
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
 from lgvtool.log.messages import steering_fields
-from lgvtool.log.validate import MAX_MAGNITUDE
+from lgvtool.log.validate import plausible_poses
 from lgvtool.log.view_channels import (
     Track,
     carry_to_start,
@@ -168,8 +168,7 @@ class LiveDrawing:
 
     def _nav_pose(self, doc: dict[str, Any], log_time_ns: int) -> list[fx.Encoded]:
         (x,), (y,), (h,), (valid,) = nav_fields([doc])
-        # as replay's view: a pose beyond any hall is a corrupt reply, not drawn
-        if not (valid and math.isfinite(x + y + h) and max(abs(x), abs(y)) <= MAX_MAGNITUDE):
+        if not (valid and plausible_poses(x, y, h)):
             return []
         if self._scans_on == "nav":
             self._track.append((log_time_ns, x, y, h))

@@ -26,7 +26,7 @@ from lgvtool.localize.motion import (
 )
 from lgvtool.localize.observations import RawScan, ScanBatch
 from lgvtool.localize.packed import PackedBytes
-from lgvtool.log.validate import MAX_MAGNITUDE, flags
+from lgvtool.log.validate import flags, plausible_poses
 from lgvtool.timestamps import message_stamps_ns
 
 if TYPE_CHECKING:
@@ -525,10 +525,8 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
             _checked(T.NAV_POSE, ti)
             order = np.argsort(ti, kind="stable")
             a = a[:, order]
-            # a pose beyond any hall (or not a number) is a corrupt reply: not valid
-            plausible = np.isfinite(a).all(axis=0) & (np.abs(a) <= MAX_MAGNITUDE).all(axis=0)
             data.nav = {"t": _seconds(ti[order], t0), "x": a[0], "y": a[1], "heading": a[2],
-                        "valid": valid[order] & plausible}
+                        "valid": valid[order] & plausible_poses(a[0], a[1], a[2])}
     if len(scan_ns):
         with _about(T.NAV_REFLECTORS):
             _checked(T.NAV_REFLECTORS, scans_log_ns)

@@ -50,6 +50,17 @@ def check_times(topic: str, ns: Iterable[int]) -> None:
 MAX_MAGNITUDE = 1e6
 
 
+def plausible_poses(x: Any, y: Any, heading: Any) -> Any:
+    """Which poses (x, y in m, heading in rad; arrays or numbers) are finite and at most
+    :data:`MAX_MAGNITUDE` in magnitude: a NAV pose that is not is a corrupt reply, taken as
+    not valid by the estimators and not drawn by the views. A boolean array (a numpy bool for
+    numbers)."""
+    import numpy as np
+
+    a = np.abs(np.asarray([x, y, heading], dtype=np.float64))
+    return np.all(a <= MAX_MAGNITUDE, axis=0)  # NaN compares false
+
+
 def flags(docs: Sequence[Mapping[str, Any]], key: str) -> list[bool]:
     """The boolean field ``key`` of every message; TypeError when one is not a JSON boolean (a
     string "false" would otherwise read as true), KeyError when one lacks it."""

@@ -20,7 +20,7 @@ from lgvtool.errors import decoding_error
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
 from lgvtool.log.messages import steering_fields
-from lgvtool.log.validate import MAX_MAGNITUDE, check_magnitude, flags
+from lgvtool.log.validate import check_magnitude, flags, plausible_poses
 from lgvtool.log.windows import Source, constant, source
 from lgvtool.timestamps import from_stamp
 
@@ -265,14 +265,11 @@ def nav_streams(rows: LogRows, m: fx.Mounting, fallback: str = "truth",
     ``fallback`` (an imported dataset's sensor reports no pose: its scans ride on the head of
     the ground truth, or of an estimator), whose head poses ``fallback_track`` carries the
     observations to their scan's start."""
-    import numpy as np
-
     out: list[Source] = []
     t, (x, y, h, valid) = rows.columns(T.NAV_POSE)
     track = fallback_track if fallback_track is not None else head_track([], [], [], [], m)
     if len(t):
-        # a pose beyond any hall is a corrupt reply, not drawn (as the estimators leave it out)
-        ok = valid & np.isfinite(x + y + h) & (np.maximum(np.abs(x), np.abs(y)) <= MAX_MAGNITUDE)
+        ok = valid & plausible_poses(x, y, h)
         t, x, y, h = t[ok], x[ok], y[ok], h[ok]
         if len(t):
             out.append(source(T.NAV_HEAD, t, _poses(t, x, y, h)))
