@@ -2,20 +2,7 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from lgvtool.app.job_output import JobOutput
-
-
-def _is_mcap(path: Path) -> bool:
-    """Whether ``path`` is a file that starts with the MCAP magic."""
-    from lgvtool.log.mcap_records import MAGIC
-
-    try:
-        with open(path, "rb") as f:
-            return f.read(len(MAGIC)) == MAGIC
-    except OSError:
-        return False
 
 
 def effective_config(file: str | None) -> JobOutput:
@@ -28,9 +15,10 @@ def effective_config(file: str | None) -> JobOutput:
     :raises LogFormatError: (exit 2) the log is unreadable or its stored configuration bad.
     """
     from lgvtool.config import load_config, to_toml
+    from lgvtool.log.mcap_records import starts_with_magic
     from lgvtool.outputs import printable
 
-    if file is not None and _is_mcap(Path(file)):
+    if file is not None and starts_with_magic(file):
         from lgvtool.log import LogReader
 
         cfg = LogReader(file).config()

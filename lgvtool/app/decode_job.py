@@ -104,6 +104,7 @@ def _is_decoder_diagnostic(topic: str, data: bytes,
     import orjson
 
     from lgvtool.log import topics
+    from lgvtool.log.messages import kind_of_log_message
 
     if topic not in (topics.DIAGNOSTICS, topics.DIAGNOSTICS_LOG):
         return False
@@ -116,9 +117,7 @@ def _is_decoder_diagnostic(topic: str, data: bytes,
     if topic == topics.DIAGNOSTICS:
         source, kind = msg.get("source"), msg.get("kind")
     else:
-        source, text = msg.get("name"), msg.get("message")
-        kind = (text[1:text.find("]")] if isinstance(text, str) and text.startswith("[")
-                and "]" in text else None)
+        source, kind = msg.get("name"), kind_of_log_message(msg)
     return isinstance(source, str) and isinstance(kind, str) and kind in regenerated.get(
         source, frozenset())
 

@@ -45,6 +45,16 @@ OP_SUMMARY_OFFSET = 0x0E
 OP_DATA_END = 0x0F
 
 
+def starts_with_magic(path: str | os.PathLike[str]) -> bool:
+    """Whether the file at ``path`` starts with the MCAP magic (False when it cannot be
+    read)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(MAGIC)) == MAGIC
+    except OSError:
+        return False
+
+
 class _Record:
     """A plain record: the fields ``_fields`` (in order), set by position or keyword."""
 

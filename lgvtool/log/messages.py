@@ -146,6 +146,15 @@ def log_message_of(diag: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
+def kind_of_log_message(msg: Mapping[str, Any]) -> str | None:
+    """The diagnostic kind a foxglove.Log mirror (:func:`log_message_of`) was made from, read
+    back from its text (``[kind] message``); None when the text is not of that form."""
+    text = msg.get("message")
+    if not isinstance(text, str) or not text.startswith("[") or "]" not in text:
+        return None
+    return text[1:text.index("]")]
+
+
 # ---------------------------------------------------------------------------------- devices
 def _stamp(timestamp: Mapping[str, int]) -> dict[str, int]:
     return {"sec": int(timestamp["sec"]), "nsec": int(timestamp["nsec"])}

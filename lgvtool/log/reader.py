@@ -42,6 +42,7 @@ from lgvtool.log.mcap_records import (
     data_section_crc,
     read_metadata,
     read_summary,
+    starts_with_magic,
 )
 from lgvtool.log.validate import check_channel
 from lgvtool.log.writer import FORMAT_VERSION
@@ -152,9 +153,7 @@ class LogReader:
         size = self.path.stat().st_size
         if size == 0:
             raise LogFormatError(f"{self.path}: empty file")
-        with open(self.path, "rb") as f:
-            head = f.read(len(MAGIC))
-        if head != MAGIC:
+        if not starts_with_magic(self.path):
             raise LogFormatError(f"{self.path}: not an MCAP file")
         self.size = size
         self.warnings: list[str] = []
