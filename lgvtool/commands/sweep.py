@@ -19,7 +19,8 @@ from lgvtool.options import (
 from lgvtool.values import MAX_SEEDS
 
 MAX_LISTED = 10
-"""Failed tasks named one by one on stderr before the rest are only counted."""
+"""Failed tasks (and logs read with warnings) named one by one on stderr before the rest are
+only counted."""
 
 
 @click.command()
@@ -58,7 +59,8 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
     existing one. Every finished task is stored in OUTDIR/tasks/ under a key made of the
     log's content hash, the settings, the seed and the lgvtool version, so running the same
     sweep again skips what is done and an interrupted sweep resumes. A log that fails
-    (corrupt, missing channels) is reported and does not stop the others.
+    (corrupt, missing channels) is reported and does not stop the others; a log read with
+    warnings (a cut-off file's salvage, say) is named on stderr with them.
 
     Writes into OUTDIR: results.parquet/.csv (one row per log x setting x seed x estimator,
     every figure of evaluate's JSON under a dotted name such as circle.rmse_mm or
@@ -82,6 +84,12 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
             break
         setting = ",".join(f"{k}={v}" for k, v in f["setting"].items()) or "default"
         warn(f"sweep: {f['log']} ({setting}, seed {f['seed']}): {f['error']}")
+    for i, (log, said) in enumerate(result.warnings.items()):
+        if i == MAX_LISTED:
+            warn(f"sweep: {len(result.warnings) - MAX_LISTED} more log(s) read with warnings, "
+                 "see results.csv")
+            break
+        warn(f"sweep: {log}: {said}")
     if as_json:
         click.echo(json.dumps(result.as_dict(), indent=2))
         return

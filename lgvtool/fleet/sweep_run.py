@@ -57,12 +57,16 @@ class SweepResult:
     files: list[Path] = field(default_factory=list)
     failures: list[dict[str, Any]] = field(default_factory=list)
     """One {log, setting, seed, error} per failed task."""
+    warnings: dict[str, str] = field(default_factory=dict)
+    """Per log whose runs read it with warnings (a salvaged file, say): the warnings of its
+    first such run, as results.csv's ``warnings`` column gives them."""
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready facts of the sweep (no tables)."""
         return {"outdir": str(self.outdir), "tasks": self.tasks, "reused": self.reused,
                 "ran": self.ran, "failed": self.failed, "elapsed_s": self.elapsed_s,
-                "files": [p.name for p in self.files], "failures": self.failures}
+                "files": [p.name for p in self.files], "failures": self.failures,
+                "warnings": self.warnings}
 
 
 def check_paths_on_workers(client: Client, paths: Sequence[str]) -> None:
@@ -171,13 +175,18 @@ def run_sweep(
     failures = [{"log": t.label, "setting": dict(t.settings), "seed": t.seed,
                  "error": records[t.key].get("error")}
                 for t in tasks if records.get(t.key, {}).get("status") != "ok"]
+    warned: dict[str, str] = {}
+    for t in tasks:
+        said = (records.get(t.key, {}).get("result") or {}).get("warnings") or []
+        if said and t.label not in warned:
+            warned[t.label] = "; ".join(str(w) for w in said)
     # the results land together: when one file cannot be written (a full disk), none of them
     # is replaced (the tasks' cache stays, and a run again resumes from it)
     with atomic_outputs() as place:
         written = (write_table(tidy, out / "results", place)
                    + write_table(summary, out / "summary", place))
         result = SweepResult(out, len(tasks), reused, len(todo), len(failures), 0.0, tidy,
-                             summary, written, failures)
+                             summary, written, failures, warned)
         if report:
             from lgvtool.fleet.sweep_report import render_report
 

@@ -119,13 +119,23 @@ def test_interrupted_sweep_resumes(first_sweep, run_cli, tmp_path):
 
 def test_failing_logs_are_reported_and_the_others_finish(logs, run_cli, tmp_path):
     out = tmp_path / "out"
-    args = ("sweep", logs["a"], logs["corrupt"], logs["nomotion"], logs["b"], "-e", "laser",
-            "--workers", "2", "-o", out)
+    whole = logs["a"].read_bytes()
+    cut = tmp_path / "cut.mcap"  # salvaged when read: runs, with a warning
+    cut.write_bytes(whole[:len(whole) * 6 // 10])
+    args = ("sweep", logs["a"], logs["corrupt"], logs["nomotion"], logs["b"], cut,
+            "-e", "laser", "--workers", "2", "-o", out)
     proc = run_cli(*args, timeout=400)
     assert proc.returncode == 0, proc.stderr
-    assert "4 task(s): 4 run now, 0 already done, 2 failed" in proc.stdout
+    assert "5 task(s): 5 run now, 0 already done, 2 failed" in proc.stdout
     assert "corrupt.mcap (default, seed 0): LogFormatError" in proc.stderr
     assert "nomotion.mcap (default, seed 0): MissingDataError" in proc.stderr
+    said = [line for line in proc.stderr.splitlines()
+            if line.startswith(f"lgvtool: warning: sweep: {cut}: ")]
+    assert len(said) == 1 and "salvaged" in said[0] and "incomplete log" in said[0]
+    manifest = json.loads((out / "sweep.json").read_text())
+    assert "salvaged" in manifest["warnings"][str(cut)]
+    tidy = pd.read_csv(out / "results.csv")
+    assert tidy.loc[tidy["log"] == str(cut), "warnings"].str.contains("salvaged").all()
     summary = pd.read_csv(out / "summary.csv").set_index("log_name")
     assert summary.loc["a", "ok"] == 1 and summary.loc["b", "ok"] == 1
     assert summary.loc["corrupt", "failed"] == 1
@@ -137,7 +147,8 @@ def test_failing_logs_are_reported_and_the_others_finish(logs, run_cli, tmp_path
     refused = run_cli(*args, timeout=400)
     assert refused.returncode == 2 and "pass --force" in refused.stderr
     again = run_cli(*args, "--force", timeout=400)
-    assert "0 run now, 4 already done, 2 failed" in again.stdout
+    assert "0 run now, 5 already done, 2 failed" in again.stdout
+    assert f"lgvtool: warning: sweep: {cut}: " in again.stderr  # also when reused
 
 
 def test_bad_usage_is_one_line(logs, run_cli, tmp_path):
