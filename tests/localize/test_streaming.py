@@ -300,6 +300,26 @@ def test_scans_decoded_as_they_are_read_equal_those_decoded_later(data, run_log,
     assert _lazy(load_log(r, (), decode_scans=True))._raw is not None
 
 
+@pytest.mark.parametrize("budget", [1, 5_000, 10**9])
+def test_the_decoding_block_does_not_change_what_is_read(data, run_log, budget: int,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """Messages decoded one at a time, a few at a time or all of a topic's gathered block at
+    once (``_DECODE_BYTES``) give the same arrays, scans and the other topics alike."""
+    from lgvtool.localize import logdata
+
+    cfg = data[0]
+    default = load_log(_reader(run_log), cfg.reflectors or None, decode_scans=True)
+    monkeypatch.setattr(logdata, "_DECODE_BYTES", budget)
+    blocks = load_log(_reader(run_log), cfg.reflectors or None, decode_scans=True)
+    _same_scans(default, blocks)
+    assert default.t0_ns == blocks.t0_ns
+    for part in ("mcu", "nav"):
+        a, b = getattr(default, part), getattr(blocks, part)
+        assert a.keys() == b.keys()
+        for k in a:
+            np.testing.assert_array_equal(a[k], b[k])
+
+
 def test_a_scan_that_breaks_the_contract_is_one_error_naming_its_topic(data, run_log,
                                                                        tmp_path) -> None:
     """Decoded as it is read, a scan whose observations are not a list is one LogFormatError
