@@ -14,17 +14,16 @@ share.
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
-import tempfile
-import time
 import warnings
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
+sys.path.insert(0, str(REPO / "benchmarks"))
 
 import zstandard  # noqa: E402
+from bench_memory import best, hour_log  # noqa: E402
 
 from lgvtool.localize.logdata import load_log  # noqa: E402
 from lgvtool.log import LogReader  # noqa: E402
@@ -32,26 +31,12 @@ from lgvtool.log.mcap_chunks import _chunk_frame, chunk_window, verified_records
 from lgvtool.log.mcap_records import decompress  # noqa: E402
 
 
-def best(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("log", nargs="?", type=Path)
     ap.add_argument("--repeat", type=int, default=5)
     opts = ap.parse_args()
-    log = opts.log or Path(tempfile.gettempdir()) / "lgvtool-bench-memory" / "paper-circle-1h.mcap"
-    if not log.exists():
-        log.parent.mkdir(parents=True, exist_ok=True)
-        subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "--scenario",
-                        "paper-circle", "--seed", "1", "--duration", "3600", "-o", str(log)],
-                       check=True, capture_output=True)
+    log = hour_log(opts.log)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = LogReader(log)

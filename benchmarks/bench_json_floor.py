@@ -35,7 +35,6 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import orjson
@@ -43,6 +42,10 @@ import zstandard
 from mcap.reader import make_reader
 from mcap.records import Chunk
 from mcap.stream_reader import StreamReader
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_memory import best, hour_log
 
 TOPICS = ("/mcu/frame", "/nav/pose", "/nav/reflectors")
 """The topics the paper's filter reads."""
@@ -60,16 +63,6 @@ print(time.perf_counter() - t0)
 """
 
 
-def best(fn, repeat: int) -> float:
-    """The least wall time of ``repeat`` calls of ``fn``, s."""
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
 def fresh(code: str, place: Path) -> str:
     """Run ``code`` as a script in a fresh interpreter (numba caches only functions of a
     file), which must succeed; what it printed."""
@@ -85,12 +78,7 @@ def main() -> None:
     ap.add_argument("log", nargs="?", type=Path)
     ap.add_argument("--repeat", type=int, default=5)
     opts = ap.parse_args()
-    log = opts.log or Path(tempfile.gettempdir()) / "lgvtool-bench-memory" / "paper-circle-1h.mcap"
-    if not log.exists():
-        log.parent.mkdir(parents=True, exist_ok=True)
-        subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "--scenario",
-                        "paper-circle", "--seed", "1", "--duration", "3600", "-o", str(log)],
-                       check=True, capture_output=True)
+    log = hour_log(opts.log)
 
     with open(log, "rb") as f:
         chunks = [r.data for r in StreamReader(f, emit_chunks=True).records

@@ -23,6 +23,8 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +63,30 @@ def simulate(path: Path, hours: float, tree: Path | None = None) -> None:
     tmp.rename(path)
 
 
+CACHE = Path(tempfile.gettempdir()) / "lgvtool-bench-memory"
+"""Where the simulated logs are kept between runs (by default)."""
+
+
+def hour_log(log: Path | None = None) -> Path:
+    """``log``, else the one-hour paper-circle log of :data:`CACHE` (simulated if missing)."""
+    if log is not None:
+        return log
+    CACHE.mkdir(parents=True, exist_ok=True)
+    path = CACHE / "paper-circle-1h.mcap"
+    simulate(path, 1.0)
+    return path
+
+
+def best(fn: Callable[[], object], repeat: int) -> float:
+    """The least wall time of ``repeat`` calls of ``fn``, s."""
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
 def measure(args: list[str], tree: Path | None = None) -> dict[str, Any]:
     """Peak RSS (MB), wall and CPU time (s) and the end of the stdout of ``lgvtool ARGS`` run
     as a subprocess (the lgvtool of the checkout ``tree`` when given: it is put on PYTHONPATH
@@ -78,8 +104,7 @@ def measure(args: list[str], tree: Path | None = None) -> dict[str, Any]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--hours", default="1,2,4", help="log durations, h (comma-separated)")
-    ap.add_argument("--cache", type=Path,
-                    default=Path(tempfile.gettempdir()) / "lgvtool-bench-memory",
+    ap.add_argument("--cache", type=Path, default=CACHE,
                     help="folder of the simulated logs (kept between runs)")
     ap.add_argument("--estimator", action="append", default=[],
                     help="estimator(s) to run (default: the commands' defaults, all five)")
