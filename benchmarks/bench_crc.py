@@ -13,7 +13,6 @@ share.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import warnings
 from pathlib import Path
@@ -23,7 +22,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
 import zstandard  # noqa: E402
-from bench_memory import best, hour_log  # noqa: E402
+from bench_memory import best, hour_log_options  # noqa: E402
 
 from lgvtool.localize.logdata import load_log  # noqa: E402
 from lgvtool.log import LogReader  # noqa: E402
@@ -32,11 +31,7 @@ from lgvtool.log.mcap_records import decompress  # noqa: E402
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("log", nargs="?", type=Path)
-    ap.add_argument("--repeat", type=int, default=5)
-    opts = ap.parse_args()
-    log = hour_log(opts.log)
+    log, repeat = hour_log_options(__doc__ or "")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = LogReader(log)
@@ -66,8 +61,7 @@ def main() -> None:
             r = LogReader(log)
         load_log(r, r.config().reflectors or None)
 
-    a, b, c = best(plain, opts.repeat), best(checked, opts.repeat), best(replay_read,
-                                                                         opts.repeat)
+    a, b, c = best(plain, repeat), best(checked, repeat), best(replay_read, repeat)
     print(f"{log.name}: {len(chunks)} chunks, {size / 1e6:.1f} MB of records")
     print(f"decompress only:        {a:.3f} s")
     print(f"decompress + check:     {b:.3f} s  (CRC-32 and size: +{b - a:.3f} s, "

@@ -29,7 +29,6 @@ is lgvtool's code. Their sum is printed beside the 0.72 s target of the pf-paper
 
 from __future__ import annotations
 
-import argparse
 import os
 import shutil
 import subprocess
@@ -45,7 +44,7 @@ from mcap.stream_reader import StreamReader
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_memory import best, hour_log
+from bench_memory import best, hour_log_options
 
 TOPICS = ("/mcu/frame", "/nav/pose", "/nav/reflectors")
 """The topics the paper's filter reads."""
@@ -74,11 +73,7 @@ def fresh(code: str, place: Path) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("log", nargs="?", type=Path)
-    ap.add_argument("--repeat", type=int, default=5)
-    opts = ap.parse_args()
-    log = hour_log(opts.log)
+    log, repeat = hour_log_options(__doc__ or "")
 
     with open(log, "rb") as f:
         chunks = [r.data for r in StreamReader(f, emit_chunks=True).records
@@ -101,17 +96,17 @@ def main() -> None:
         place = Path(tmp)
         out = place / "copy.mcap"
         parts = {
-            "start": best(lambda: fresh(_START, place), opts.repeat),
-            "decompress": best(decompress, opts.repeat),
-            "json": best(decode, opts.repeat),
-            "copy": best(lambda: shutil.copyfile(log, out), opts.repeat),
+            "start": best(lambda: fresh(_START, place), repeat),
+            "decompress": best(decompress, repeat),
+            "json": best(decode, repeat),
+            "copy": best(lambda: shutil.copyfile(log, out), repeat),
         }
         fresh(_NUMBA, place)  # compiles into numba's cache beside the script
-        parts["numba"] = min(float(fresh(_NUMBA, place)) for _ in range(opts.repeat))
+        parts["numba"] = min(float(fresh(_NUMBA, place)) for _ in range(repeat))
 
     print(f"log: {log} ({log.stat().st_size / 1e6:.1f} MB; {len(chunks)} chunks, "
           f"{size / 1e6:.1f} MB compressed records; {len(payloads)} messages of "
-          f"{', '.join(TOPICS)}); best of {opts.repeat}, load average "
+          f"{', '.join(TOPICS)}); best of {repeat}, load average "
           + ", ".join(f"{v:.2f}" for v in os.getloadavg()))
     for name, s in parts.items():
         print(f"  {name:<10} {s:6.3f} s")

@@ -77,6 +77,17 @@ def hour_log(log: Path | None = None) -> Path:
     return path
 
 
+def hour_log_options(doc: str) -> tuple[Path, int]:
+    """The command line ``[LOG] [--repeat N]`` of a benchmark of one log (described by the
+    first paragraph of ``doc``): the log (:func:`hour_log`) and the repeat count (default 5)."""
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    ap.add_argument("log", nargs="?", type=Path,
+                    help="a log (default: the one-hour paper-circle log, simulated once)")
+    ap.add_argument("--repeat", type=int, default=5, help="runs of each measurement (best kept)")
+    opts = ap.parse_args()
+    return hour_log(opts.log), opts.repeat
+
+
 def best(fn: Callable[[], object], repeat: int) -> float:
     """The least wall time of ``repeat`` calls of ``fn``, s."""
     times = []
