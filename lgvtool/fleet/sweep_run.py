@@ -59,7 +59,8 @@ class SweepResult:
     """One {log, setting, seed, error} per failed task."""
     warnings: dict[str, str] = field(default_factory=dict)
     """Per log whose runs read it with warnings (a salvaged file, say): the warnings of its
-    first such run, as results.csv's ``warnings`` column gives them."""
+    first such run, as results.csv's ``warnings`` column gives them but for the path the
+    worker opened, which a reader's warning starts with."""
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready facts of the sweep (no tables)."""
@@ -179,7 +180,8 @@ def run_sweep(
     for t in tasks:
         said = (records.get(t.key, {}).get("result") or {}).get("warnings") or []
         if said and t.label not in warned:
-            warned[t.label] = "; ".join(str(w) for w in said)
+            # a reader's warning names the file as the worker opened it: the label says that
+            warned[t.label] = "; ".join(str(w).removeprefix(f"{t.log}: ") for w in said)
     # the results land together: when one file cannot be written (a full disk), none of them
     # is replaced (the tasks' cache stays, and a run again resumes from it)
     with atomic_outputs() as place:
