@@ -25,6 +25,7 @@ pose at ``t - nav_time_offset`` interpolated between its two nodes, the head at
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -89,7 +90,8 @@ class Factors:
 
 
 class Rows:
-    """Accumulates residuals and Jacobian entries (COO triplets)."""
+    """Accumulates residuals and the Jacobian's rows (compressed sparse rows, one block per
+    :meth:`add`)."""
 
     def __init__(self, jac: bool) -> None:
         self.jac = jac
@@ -97,8 +99,9 @@ class Rows:
         self.group: list[IntArray] = []
         self.time: list[FloatArray] = []
         self.drive: list[IntArray] = []
-        self.ri: list[IntArray] = []
-        self.ci: list[IntArray] = []
+        self.counts: list[IntArray] = []
+        """Entries in each row."""
+        self.columns: list[IntArray] = []
         self.vals: list[FloatArray] = []
         self.n = 0
 
@@ -113,20 +116,21 @@ class Rows:
         self.group.append(np.full(m, group, dtype=np.int64))
         self.time.append(np.broadcast_to(t, (m,)).astype(np.float64))
         self.drive.append(np.full(m, drive, dtype=np.int64))
-        if not self.jac:
-            self.n += m
-            return
-        rows = self.n + np.arange(m, dtype=np.int64)
-        for col, val in cols:
-            c = np.broadcast_to(np.asarray(col, dtype=np.int64), (m,))
-            v = np.broadcast_to(np.asarray(val, dtype=np.float64), (m,))
-            keep = c >= 0
-            if not keep.any():
-                continue
-            self.ri.append(rows[keep])
-            self.ci.append(c[keep])
-            self.vals.append(v[keep])
         self.n += m
+        if not self.jac:
+            return
+        c = np.empty((m, len(cols)), dtype=np.int64)
+        v = np.empty((m, len(cols)), dtype=np.float64)
+        for i, (col, val) in enumerate(cols):
+            c[:, i] = col
+            v[:, i] = val
+        keep = c >= 0
+        self.counts.append(np.count_nonzero(keep, axis=1))
+        kept = c[keep]  # row by row, in the order of ``cols``
+        # 32-bit column indices where they fit: the Jacobian is most of the calibration's memory
+        self.columns.append(kept.astype(np.int32) if len(kept) and kept.max() < 2 ** 31
+                            else kept)
+        self.vals.append(v[keep])
 
     def build(self, size: int, jac: bool) -> tuple[FloatArray, sp.csr_matrix | None, IntArray,
                                                     FloatArray, IntArray]:
@@ -137,9 +141,18 @@ class Rows:
         drv = np.concatenate(self.drive) if self.drive else np.zeros(0, dtype=np.int64)
         j = None
         if jac:
-            j = sp.csr_matrix((np.concatenate(self.vals), (np.concatenate(self.ri),
-                                                           np.concatenate(self.ci))),
-                              shape=(self.n, size))
+            counts = np.concatenate(self.counts) if self.counts else np.zeros(0, np.int64)
+            joined = np.concatenate(self.columns) if self.columns else np.zeros(0, np.int32)
+            self.columns = []
+            index = np.int32 if joined.dtype == np.int32 and len(joined) < 2 ** 31 \
+                else np.int64
+            indptr = np.zeros(self.n + 1, dtype=index)
+            np.cumsum(counts, out=indptr[1:])
+            columns = joined.astype(index, copy=False)
+            del joined
+            data = np.concatenate(self.vals) if self.vals else np.zeros(0)
+            self.vals = []
+            j = sp.csr_matrix((data, columns, indptr), shape=(self.n, size))
         return res, j, grp, tim, drv
 
 
@@ -284,17 +297,13 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                 (col("odom_yaw_per_m"), -drive.dist / sig3)])
         # ---------------------------------------------------------------- observations
         acc = factors.acc[d]
-        for kind in ("scan", "pose"):
+        for kind, use in _observation_blocks(factors, d):
             if kind == "scan":
-                use = factors.obs_use[d]
                 kk = factors.obs_k[d][use]
                 t_obs = drive.obs_t[use]
             else:
-                use = factors.pose_use[d]
                 kk = factors.pose_k[d][use]
                 t_obs = drive.pose_t[use]
-            if not len(kk):
-                continue
             t0, t1 = drive.t[kk], drive.t[kk + 1]
             span = t1 - t0
             f = (t_obs - tau - t0) / span
@@ -312,11 +321,11 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
             dhy_dth = ct * mx - st * my
             ip = _Interp([cx[kk], cx[kk] + 1, cx[kk] + 2],
                          [cx[kk + 1], cx[kk + 1] + 1, cx[kk + 1] + 2], f, vel, c_tau, c_yaw,
-                         d, t_obs)
+                         (c_mx, c_my), ct, st, d, t_obs)
 
             def add(e: FloatArray, grp: int, gx: FloatArray, gy: FloatArray, gth: FloatArray,
-                    gyaw: FloatArray | float, ip: _Interp = ip) -> None:
-                _add_interpolated(rows, ip, e, grp, gx, gy, gth, gyaw)
+                    gyaw: FloatArray | float, ip: _Interp = ip, head: bool = True) -> None:
+                _add_interpolated(rows, ip, e, grp, gx, gy, gth, gyaw, head)
 
             if kind == "scan":
                 lx, ly = drive.obs_lx[use], drive.obs_ly[use]
@@ -328,16 +337,12 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                 sig_b = noise.bearing_rad * sc["bearing"]
                 er = (rng - r) / sig_r
                 ghx, ghy = dx / (r * sig_r), dy / (r * sig_r)
-                pre = len(rows.res)
                 add(er, g["range"], ghx, ghy, ghx * dhx_dth + ghy * dhy_dth, 0.0)
-                _mount_cols(rows, pre, c_mx, c_my, ghx, ghy, ct, st)
                 bh = np.arctan2(dy, dx) - p[:, 2] - myaw
                 eb = wrap_angle(brg - bh) / sig_b
                 ghx, ghy = -dy / (q2 * sig_b), dx / (q2 * sig_b)
-                pre = len(rows.res)
                 add(eb, g["bearing"], ghx, ghy, ghx * dhx_dth + ghy * dhy_dth + 1.0 / sig_b,
                     1.0 / sig_b)
-                _mount_cols(rows, pre, c_mx, c_my, ghx, ghy, ct, st)
             else:
                 sig_p = noise.pose_xy_m * sc["pose_xy"]
                 sig_h = noise.pose_heading_rad * sc["pose_heading"]
@@ -347,15 +352,11 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                     e = (h - meas) / sig_p
                     one = np.full(len(kk), 1.0 / sig_p)
                     dth_ = (dhx_dth if comp == 0 else dhy_dth) / sig_p
-                    pre = len(rows.res)
                     add(e, g["pose_xy"], one if comp == 0 else zero,
                         zero if comp == 0 else one, dth_, 0.0)
-                    # d h / d mount: (c, s) for nav_x and (-s, c) for nav_y
-                    _mount_cols(rows, pre, c_mx, c_my, one if comp == 0 else zero,
-                                zero if comp == 0 else one, ct, st)
                 eh = wrap_angle(p[:, 2] + myaw - qh)
                 add(eh / sig_h, g["pose_heading"], zero, zero, np.full(len(kk), 1.0 / sig_h),
-                    1.0 / sig_h)
+                    1.0 / sig_h, head=False)
     # ---------------------------------------------------------------- priors
     for i, name in enumerate(layout.names):
         sp0 = prior[name]
@@ -364,10 +365,25 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
     return rows.build(layout.size, jac)
 
 
+OBSERVATION_BLOCK = 32_768
+"""Measurements whose factors are computed together: the intermediate arrays of a block, not
+of a whole drive, are held at once (a block's rows are still contiguous in the Jacobian)."""
+
+
+def _observation_blocks(factors: Factors, d: int) -> Iterator[tuple[str, IntArray]]:
+    """The reflector measurements (``scan``), then the NAV poses (``pose``) of drive ``d`` that
+    take part, as indices in blocks of at most :data:`OBSERVATION_BLOCK`."""
+    for kind, use in (("scan", factors.obs_use[d]), ("pose", factors.pose_use[d])):
+        where = np.flatnonzero(use)
+        for first in range(0, len(where), OBSERVATION_BLOCK):
+            yield kind, where[first:first + OBSERVATION_BLOCK]
+
+
 @dataclass(frozen=True)
 class _Interp:
     """Measurements interpolated between two nodes: the nodes' columns, the fraction ``f``,
-    the pose's rate of change, the time offset's and the yaw's columns."""
+    the pose's rate of change, the time offset's, the yaw's and the mounting offset's columns,
+    the cosine and sine of the interpolated heading."""
 
     cols0: list[IntArray]
     cols1: list[IntArray]
@@ -375,14 +391,21 @@ class _Interp:
     vel: FloatArray
     c_tau: int
     c_yaw: int
+    c_mount: tuple[int, int]
+    cos: FloatArray
+    sin: FloatArray
     drive: int
     t: FloatArray
 
 
 def _add_interpolated(rows: Rows, ip: _Interp, e: FloatArray, grp: int, gx: FloatArray,
-                      gy: FloatArray, gth: FloatArray, gyaw: FloatArray | float) -> None:
+                      gy: FloatArray, gth: FloatArray, gyaw: FloatArray | float,
+                      head: bool) -> None:
     """Rows of measurements whose derivatives by the interpolated pose are ``(gx, gy, gth)``
-    and by the mounting yaw ``gyaw``: chained onto the two nodes and the time offset."""
+    and by the mounting yaw ``gyaw``: chained onto the two nodes and the time offset; with
+    ``head`` (the head's position is measured, not only its heading) also onto the mounting
+    offset, by which the head moves ``(cos, sin)`` per m of ``nav_x`` and ``(-sin, cos)``
+    per m of ``nav_y``."""
     gp = (gx, gy, gth)
     cols: list[tuple[IntArray | int, FloatArray | float]] = []
     for i in range(3):
@@ -390,6 +413,9 @@ def _add_interpolated(rows: Rows, ip: _Interp, e: FloatArray, grp: int, gx: Floa
         cols.append((ip.cols1[i], ip.f * gp[i]))
     cols.append((ip.c_tau, -(gx * ip.vel[:, 0] + gy * ip.vel[:, 1] + gth * ip.vel[:, 2])))
     cols.append((ip.c_yaw, gyaw))
+    if head:
+        cols.append((ip.c_mount[0], gx * ip.cos + gy * ip.sin))
+        cols.append((ip.c_mount[1], -gx * ip.sin + gy * ip.cos))
     rows.add(e, grp, ip.t, ip.drive, cols)
 
 
@@ -410,19 +436,3 @@ def interval_acceleration(t: FloatArray, ds: FloatArray, dth: FloatArray,
     node[1:-1] = np.diff(vel, axis=0) / (0.5 * (dt[:-1] + dt[1:]))[:, None]
     acc[:] = 0.5 * (node[:-1] + node[1:])
     return acc
-
-
-def _mount_cols(rows: Rows, index: int, c_mx: int, c_my: int, ghx: FloatArray,
-                ghy: FloatArray, ct: FloatArray, st: FloatArray) -> None:
-    """Add the mounting-offset derivatives to the rows just added at ``rows.res[index]``:
-    the head moves by ``(cos, sin)`` per m of ``nav_x`` and ``(-sin, cos)`` per m of ``nav_y``."""
-    if index >= len(rows.res) or not rows.jac:
-        return
-    m = len(rows.res[index])
-    first = rows.n - m
-    r = first + np.arange(m, dtype=np.int64)
-    for c, v in ((c_mx, ghx * ct + ghy * st), (c_my, -ghx * st + ghy * ct)):
-        if c >= 0:
-            rows.ri.append(r)
-            rows.ci.append(np.full(m, c, dtype=np.int64))
-            rows.vals.append(np.asarray(v, dtype=np.float64))

@@ -284,6 +284,33 @@ class Problem:
         self.free = list(names)
         self.layout: Layout = layout
 
+    def elimination_order(self) -> NDArray[np.int64]:
+        """The state's columns in the order the factorisation eliminates them: each drive's
+        nodes in time order, each gyro bias after the nodes of its stretch, the drives one after
+        the other, and the free quantities (which touch every node) last.
+
+        The normal matrix is then a band along the time (a node meets its neighbours, its
+        stretch's bias and the quantities) with a dense border of a few quantities, which
+        factorises without fill beyond the band and the border: in time and memory linear in
+        the drive's length. A general ordering (minimum degree) finds much the same fill but
+        takes time that grows faster than the drive (the quantities' dense rows)."""
+        layout = self.layout
+        parts: list[NDArray[np.int64]] = []
+        for d, drive in enumerate(self.drives):
+            n, nb = len(drive.t), layout.bias_count[d]
+            po, bo = layout.pose_offset[d], layout.bias_offset[d]
+            # a node's place is its index; a bias stretch's, after the stretch's last node
+            node_key = np.repeat(np.arange(n, dtype=np.float64), 3)
+            ends = drive.t[0] + self.settings.bias_stretch_s * np.arange(1, nb + 1)
+            bias_key = np.searchsorted(drive.t, ends, side="left") - 0.5
+            if nb:
+                bias_key[-1] = n - 0.5  # the last stretch takes the rest of the drive
+            keys = np.concatenate([node_key, bias_key])
+            columns = np.concatenate([np.arange(po, po + 3 * n), np.arange(bo, bo + nb)])
+            parts.append(columns[np.argsort(keys, kind="stable")])
+        parts.append(np.arange(len(layout.names)))
+        return np.concatenate(parts).astype(np.int64)
+
     def relink(self) -> None:
         """Node of every measurement at the current time offset; re-associate unknown ids."""
         v = self.layout.values
@@ -330,17 +357,20 @@ class Problem:
         column-scaled normal matrix): the new state."""
         r, j, grp, _, _ = self.evaluate(x)
         assert j is not None
-        w = np.sqrt(self.robust_weights(r, grp))
-        jw = sp.diags(w) @ j
-        rw = w * r
-        norms = np.sqrt(np.asarray(jw.multiply(jw).sum(axis=0)).ravel())
-        norms = np.where(norms > 0, norms, 1.0)
-        js = jw @ sp.diags(1.0 / norms)
-        h = (js.T @ js).tocsc()
-        g = js.T @ rw
+        jw, rw = self._weighed(j, r, grp)
+        h, norms = _scaled_normal(jw)
+        g = (jw.T @ rw) / norms
         h = h + sp.diags(np.full(h.shape[0], lam))
-        delta = _factor(h).solve(-g)
+        delta = _Factor(h, self.elimination_order()).solve(-g)
         return np.asarray(x + delta / norms, dtype=np.float64)
+
+    def _weighed(self, j: sp.csr_matrix, r: FloatArray, grp: NDArray[np.int64]
+                 ) -> tuple[sp.csr_matrix, FloatArray]:
+        """The Jacobian ``j`` (its rows weighed in place) and the residuals ``r``, each row
+        times the square root of its robust weight."""
+        w = np.sqrt(self.robust_weights(r, grp))
+        j.data *= np.repeat(w, np.diff(j.indptr))
+        return j, w * r
 
     def gauss_newton(self) -> int:
         """Levenberg-Marquardt iterations at fixed links and noise; the number taken."""
@@ -383,28 +413,25 @@ class Problem:
         combinations ``extra`` of the state), in state order."""
         r, j, grp, tim, drv = self.evaluate(self.x)
         assert j is not None
-        w = np.sqrt(self.robust_weights(r, grp))
-        jw = (sp.diags(w) @ j).tocsr()
-        rw = w * r
+        jw, rw = self._weighed(j, r, grp)
         n = len(self.layout.names)
         picks = [np.eye(1, self.layout.size, i).ravel() for i in range(n)]
         picks.extend(extra or [])
         if not picks:
             return np.zeros((0, 0)), np.zeros((0, 0))
         e = np.stack(picks, axis=1)
-        norms = np.sqrt(np.asarray(jw.multiply(jw).sum(axis=0)).ravel())
-        norms = np.where(norms > 0, norms, 1.0)
-        js = jw @ sp.diags(1.0 / norms)
-        h = (js.T @ js).tocsc()
-        lu = _factor(h)
+        h, norms = _scaled_normal(jw)
+        lu = _Factor(h, self.elimination_order())
         xs = lu.solve(e / norms[:, None]) / norms[:, None]  # H^-1 e in the state's units
         formal = e.T @ xs
+        obs = np.flatnonzero(grp >= 0)
         jx = jw @ xs
-        obs = grp >= 0
-        block = np.where(obs, drv * 100_000 + np.floor(tim / self.settings.cluster_s), -1)
-        keys, inv = np.unique(block[obs], return_inverse=True)
-        u = np.zeros((len(keys), e.shape[1]))
-        np.add.at(u, inv, jx[obs] * rw[obs, None])
+        jx *= rw[:, None]
+        block = drv[obs] * 100_000 + np.floor(tim[obs] / self.settings.cluster_s)
+        keys, inv = np.unique(block, return_inverse=True)
+        # each stretch's sum of its rows' scores, one column at a time
+        u = np.stack([np.bincount(inv, weights=jx[obs, c], minlength=len(keys))
+                      for c in range(jx.shape[1])], axis=1).astype(np.float64, copy=False)
         robust = u.T @ u
         return formal, robust
 
@@ -481,11 +508,34 @@ def solve(problem: Problem, *, allow_unobservable: bool) -> Solution:
                     bias_per_log=biases, iterations=iterations, poses=problem.poses())
 
 
-def _factor(h: sp.csc_matrix) -> spla.SuperLU:
-    """Sparse LU of the symmetric positive definite normal matrix, pivoting on its diagonal
-    (an ordering of A + A^T keeps the fill of the pose chain small)."""
-    return spla.splu(h, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                     options={"SymmetricMode": True})
+def _scaled_normal(j: sp.csr_matrix) -> tuple[sp.csc_matrix, FloatArray]:
+    """The normal matrix of ``j`` with its columns scaled to unit norm, ``D jᵀj D`` with
+    ``D = diag(1 / norms)``, and the norms (1 for an empty column). The scaling is applied to
+    the normal matrix, so no scaled copy of the (much larger) Jacobian is made."""
+    h = (j.T @ j).tocsc()
+    diagonal = h.diagonal()
+    norms = np.sqrt(np.where(diagonal > 0, diagonal, 1.0))
+    h.data /= norms[h.indices]  # rows
+    h.data /= np.repeat(norms, np.diff(h.indptr))  # columns
+    return h, norms
+
+
+class _Factor:
+    """Sparse LU of the symmetric positive definite normal matrix ``h`` with its rows and
+    columns taken in ``order`` (:meth:`Problem.elimination_order`), pivoting on the diagonal.
+    :meth:`solve` takes and returns vectors (or columns of them) in the state's order."""
+
+    def __init__(self, h: sp.csc_matrix, order: NDArray[np.int64]) -> None:
+        self.order = order
+        permuted = sp.csc_matrix(h[order][:, order])
+        self.lu = spla.splu(permuted, permc_spec="NATURAL", diag_pivot_thresh=0.0,
+                            options={"SymmetricMode": True})
+
+    def solve(self, b: FloatArray) -> FloatArray:
+        """``h^-1 b``."""
+        out = np.empty_like(b)
+        out[self.order] = self.lu.solve(b[self.order])
+        return out
 
 
 class UnobservableError(Exception):

@@ -3,6 +3,8 @@ against their closed form, and the MCU sampling instants."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from calibrate_cases import ERRORS
@@ -29,8 +31,8 @@ def test_arc_terms_match_closed_form_and_derivatives() -> None:
     assert db == pytest.approx((fb - gb) / (2 * h), abs=1e-6)
 
 
-@pytest.mark.parametrize("use_poses", [False, True])
-def test_jacobian_matches_finite_differences(tmp_path, use_poses: bool) -> None:
+def _problem(tmp_path: Path, use_poses: bool) -> Problem:
+    """The least squares of a 14 s warehouse drive with installation errors, linked."""
     from lgvtool.localize.logdata import load_log
     from lgvtool.log import LogReader
 
@@ -46,6 +48,12 @@ def test_jacobian_matches_finite_differences(tmp_path, use_poses: bool) -> None:
     problem = Problem([drive], names, start, cfg.reflectors, cfg.vehicle.encoder_ppr,
                       SolveSettings(bias_stretch_s=5.0), [use_poses])
     problem.relink()
+    return problem
+
+
+@pytest.mark.parametrize("use_poses", [False, True])
+def test_jacobian_matches_finite_differences(tmp_path: Path, use_poses: bool) -> None:
+    problem = _problem(tmp_path, use_poses)
     x = problem.x.copy()
     x[: len(problem.layout.names)] += 1e-4  # away from the prior's minimum
     r0, jac, _, _, _ = problem.evaluate(x)
@@ -66,6 +74,69 @@ def test_jacobian_matches_finite_differences(tmp_path, use_poses: bool) -> None:
         scale = max(1.0, float(np.abs(numeric[ok]).max()))
         assert dense[ok, c] == pytest.approx(numeric[ok], abs=2e-4 * scale), c
     assert np.isfinite(r0).all()
+
+
+@pytest.mark.parametrize("use_poses", [False, True])
+def test_observation_blocks_give_the_same_normal_equations(tmp_path: Path, use_poses: bool,
+                                                          monkeypatch: pytest.MonkeyPatch
+                                                          ) -> None:
+    """The measurements' factors computed a few at a time give the same rows (in another
+    order): the same cost, normal matrix and gradient."""
+    from lgvtool.calibrate import model
+
+    problem = _problem(tmp_path, use_poses)
+    r0, j0, g0, _, _ = problem.evaluate(problem.x)
+    monkeypatch.setattr(model, "OBSERVATION_BLOCK", 7)
+    r1, j1, g1, _, _ = problem.evaluate(problem.x)
+    assert j0 is not None and j1 is not None
+    assert len(r1) == len(r0) and sorted(g1.tolist()) == sorted(g0.tolist())
+    assert r1 @ r1 == pytest.approx(r0 @ r0, rel=1e-12)
+    h0, h1 = (j0.T @ j0).toarray(), (j1.T @ j1).toarray()
+    assert h1 == pytest.approx(h0, rel=1e-9, abs=1e-9 * float(np.abs(h0).max()))
+    assert j1.T @ r1 == pytest.approx(j0.T @ r0, rel=1e-9, abs=1e-9 * float(np.abs(h0).max()))
+
+
+def test_elimination_order_keeps_the_factor_a_band(tmp_path: Path) -> None:
+    """Nodes in time order, each gyro bias after its stretch's nodes, the quantities last; the
+    factor of the normal matrix in that order stays within a small multiple of the matrix
+    (eliminating the quantities first would fill it), and solves it."""
+    import scipy.sparse as sp
+
+    from lgvtool.calibrate.solve import _Factor, _scaled_normal
+
+    problem = _problem(tmp_path, use_poses=False)
+    layout = problem.layout
+    order = problem.elimination_order()
+    assert sorted(order.tolist()) == list(range(layout.size))
+    n_glob = len(layout.names)
+    assert order[-n_glob:].tolist() == list(range(n_glob))
+    assert layout.bias_count[0] >= 2
+    node_of = {c: (c - layout.pose_offset[0]) // 3 for c in order.tolist()
+               if layout.pose_offset[0] <= c < layout.bias_offset[0]}
+    nodes = [node_of[c] for c in order.tolist() if c in node_of]
+    assert nodes == sorted(nodes)
+    drive = problem.drives[0]
+    place = {c: i for i, c in enumerate(order.tolist())}
+    for b in range(layout.bias_count[0] - 1):
+        last = int(np.searchsorted(drive.t, drive.t[0] + 5.0 * (b + 1))) - 1
+        first_after = last + 1
+        at = place[layout.bias_offset[0] + b]
+        assert place[layout.pose_offset[0] + 3 * last + 2] < at
+        assert at < place[layout.pose_offset[0] + 3 * first_after]
+    _, j, _, _, _ = problem.evaluate(problem.x)
+    assert j is not None
+    h, _ = _scaled_normal(j)
+    h = (h + sp.identity(layout.size) * 1e-6).tocsc()
+    factor = _Factor(h, order)
+    assert factor.lu.L.nnz + factor.lu.U.nnz <= 3 * h.nnz
+    glob_first = np.concatenate([order[-n_glob:], order[:-n_glob]])
+    assert _Factor(h, glob_first).lu.L.nnz + _Factor(h, glob_first).lu.U.nnz > 3 * h.nnz
+    rng = np.random.default_rng(3)
+    rhs = rng.standard_normal((layout.size, 2))
+    dense = np.linalg.solve(h.toarray(), rhs)
+    tol = 1e-9 * float(np.abs(dense).max())
+    assert factor.solve(rhs) == pytest.approx(dense, rel=1e-6, abs=tol)
+    assert factor.solve(rhs[:, 0]) == pytest.approx(dense[:, 0], rel=1e-6, abs=tol)
 
 
 def test_mcu_sampling_instants_follow_the_mcu_clock() -> None:
