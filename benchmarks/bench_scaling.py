@@ -7,18 +7,20 @@ Run by hand (never a timed test)::
                                        [--repeat 1] [--commands pf-paper,replay,evaluate]
 
 Wall time and CPU time (user + system, which depends less on the machine's other load) are
-printed. Per log: ``lgvtool replay LOG -o OUT --seed 0`` (the five default estimators and the view
-channels: "replay five estimators"), ``lgvtool evaluate LOG -o DIR --seed 0`` on the raw log
-(it runs the five estimators and writes Table 1 and report.html: "evaluate raw"), and on the
+printed. Per log: ``lgvtool replay LOG -o OUT --seed 0`` (the five default estimators and the
+view channels: "replay five estimators"), ``lgvtool evaluate LOG -o DIR --seed 0`` on the raw
+log (it runs the five estimators and writes Table 1 and report.html: "evaluate raw"), and on the
 one-hour log ``lgvtool replay LOG -o OUT --estimator pf-paper --particles 150 --seed 0 --json``
 ("replay pf-paper end to end", with the command's own split into reading, filtering and
-writing); ``floor`` times ``lgvtool replay LOG --estimator laser`` on the one-hour log with and
-without ``--no-view``: reading the log and writing the output with almost no filtering and no
-compiled kernel, the floor under the end-to-end rows. The logs are simulated once
-(``lgvtool simulate --scenario paper-circle --seed 1``) and kept in ``--cache``. ``--tree``
-runs the lgvtool of another checkout (its folder is put on ``PYTHONPATH``), so that the code
-before and after a change can be measured alternately in the same minutes; the load average
-is printed before and after the runs.
+writing); ``calibrate`` (not in the default set) times ``lgvtool calibrate LOG -o FILE
+--allow-unobservable --compare none`` (one circle cannot observe the lever arm and the wheels:
+they are held and the rest estimated); ``floor`` times ``lgvtool replay LOG --estimator laser``
+on the one-hour log with and without ``--no-view``: reading the log and writing the output with
+almost no filtering and no compiled kernel, the floor under the end-to-end rows. The logs are
+simulated once (``lgvtool simulate --scenario paper-circle --seed 1``) and kept in ``--cache``.
+``--tree`` runs the lgvtool of another checkout (its folder is put on ``PYTHONPATH``), so that
+the code before and after a change can be measured alternately in the same minutes; the load
+average is printed before and after the runs.
 """
 
 from __future__ import annotations
@@ -64,7 +66,8 @@ def main() -> None:
                     help="checkout whose lgvtool is run (default: this one)")
     ap.add_argument("--repeat", type=int, default=1, help="runs per cell (the median is shown)")
     ap.add_argument("--commands", default="pf-paper,replay,evaluate",
-                    help="which runs: pf-paper (one hour), floor (one hour), replay, evaluate")
+                    help="which runs: pf-paper (one hour), floor (one hour), replay, evaluate, "
+                         "calibrate")
     opts = ap.parse_args()
     hours = [float(h) for h in opts.hours.split(",")]
     wanted = set(opts.commands.split(","))
@@ -106,6 +109,14 @@ def main() -> None:
                                       "--force", "--no-progress"], opts.repeat)
                 rows.append(("replay five estimators", h, r))
                 print(f"replay five estimators {h:4g} h: {r['wall_s']:7.2f} s wall, "
+                      f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
+            if "calibrate" in wanted:
+                toml = Path(tmp) / "vehicle.toml"
+                r = median_run(tree, ["calibrate", str(log), "-o", str(toml),
+                                      "--allow-unobservable", "--compare", "none", "--force"],
+                               opts.repeat)
+                rows.append(("calibrate", h, r))
+                print(f"calibrate              {h:4g} h: {r['wall_s']:7.2f} s wall, "
                       f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
             if "evaluate" in wanted:
                 folder = Path(tmp) / f"report-{h:g}"
