@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -101,7 +102,8 @@ class Rows:
         self.drive: list[IntArray] = []
         self.counts: list[IntArray] = []
         """Entries in each row."""
-        self.columns: list[IntArray] = []
+        self.columns: list[NDArray[np.signedinteger[Any]]] = []
+        """Column of each entry, row by row (32-bit where they fit)."""
         self.vals: list[FloatArray] = []
         self.n = 0
 

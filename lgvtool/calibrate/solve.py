@@ -2,8 +2,9 @@
 robust (Huber) weights, noise re-estimation, uncertainty and observability.
 
 The normal equations of the sparse Jacobian (:mod:`lgvtool.calibrate.model`) are solved with a
-sparse LU factorisation (SuperLU, ``scipy.sparse.linalg.splu``); the columns are scaled to unit
-norm first. Around each linearisation the robust weights are those of a Huber loss at
+sparse LU factorisation (SuperLU, ``scipy.sparse.linalg.splu``) that eliminates the unknowns in
+time order, the calibration quantities last (:meth:`Problem.elimination_order`); the columns
+are scaled to unit norm first. Around each linearisation the robust weights are those of a Huber loss at
 ``huber_k`` standard deviations (iteratively reweighted least squares); after each round the
 noise scale of every residual group is re-estimated from its residuals (1.4826 x the median
 absolute normalised residual), so that the uncertainties follow the data and not the starting
@@ -292,8 +293,9 @@ class Problem:
         The normal matrix is then a band along the time (a node meets its neighbours, its
         stretch's bias and the quantities) with a dense border of a few quantities, which
         factorises without fill beyond the band and the border: in time and memory linear in
-        the drive's length. A general ordering (minimum degree) finds much the same fill but
-        takes time that grows faster than the drive (the quantities' dense rows)."""
+        the drive's length. A general ordering (minimum degree) finds much the same fill, but
+        finding it takes time that grows faster than the drive (docs/calibration.md, "Long
+        drives")."""
         layout = self.layout
         parts: list[NDArray[np.int64]] = []
         for d, drive in enumerate(self.drives):
