@@ -130,8 +130,8 @@ class Rows:
         self.counts.append(np.count_nonzero(keep, axis=1))
         kept = c[keep]  # row by row, in the order of ``cols``
         # 32-bit column indices where they fit: the Jacobian is most of the calibration's memory
-        self.columns.append(kept.astype(np.int32) if len(kept) and kept.max() < 2 ** 31
-                            else kept)
+        fits = len(kept) == 0 or kept.max() < 2 ** 31
+        self.columns.append(kept.astype(np.int32) if fits else kept)
         self.vals.append(v[keep])
 
     def build(self, size: int, jac: bool) -> tuple[FloatArray, sp.csr_matrix | None, IntArray,
@@ -144,14 +144,12 @@ class Rows:
         j = None
         if jac:
             counts = np.concatenate(self.counts) if self.counts else np.zeros(0, np.int64)
-            joined = np.concatenate(self.columns) if self.columns else np.zeros(0, np.int32)
+            columns = np.concatenate(self.columns) if self.columns else np.zeros(0, np.int32)
             self.columns = []
-            index = np.int32 if joined.dtype == np.int32 and len(joined) < 2 ** 31 \
-                else np.int64
-            indptr = np.zeros(self.n + 1, dtype=index)
+            if len(columns) >= 2 ** 31:  # the row pointers need 64 bits, and so the columns
+                columns = columns.astype(np.int64)
+            indptr = np.zeros(self.n + 1, dtype=columns.dtype)
             np.cumsum(counts, out=indptr[1:])
-            columns = joined.astype(index, copy=False)
-            del joined
             data = np.concatenate(self.vals) if self.vals else np.zeros(0)
             self.vals = []
             j = sp.csr_matrix((data, columns, indptr), shape=(self.n, size))

@@ -529,7 +529,7 @@ class _Factor:
 
     def __init__(self, h: sp.csc_matrix, order: NDArray[np.int64]) -> None:
         self.order = order
-        permuted = sp.csc_matrix(h[order][:, order])
+        permuted = h[order][:, order].tocsc()
         self.lu = spla.splu(permuted, permc_spec="NATURAL", diag_pivot_thresh=0.0,
                             options={"SymmetricMode": True})
 
