@@ -104,27 +104,23 @@ def main() -> None:
         for h in hours:
             log = opts.cache / f"paper-circle-{h:g}h.mcap"
             simulate(log, h, tree)
-            if "replay" in wanted:
-                r = median_run(tree, ["replay", str(log), "-o", str(out), "--seed", "0",
-                                      "--force", "--no-progress"], opts.repeat)
-                rows.append(("replay five estimators", h, r))
-                print(f"replay five estimators {h:4g} h: {r['wall_s']:7.2f} s wall, "
-                      f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
-            if "calibrate" in wanted:
-                toml = Path(tmp) / "vehicle.toml"
-                r = median_run(tree, ["calibrate", str(log), "-o", str(toml),
-                                      "--allow-unobservable", "--compare", "none", "--force"],
-                               opts.repeat)
-                rows.append(("calibrate", h, r))
-                print(f"calibrate              {h:4g} h: {r['wall_s']:7.2f} s wall, "
-                      f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
-            if "evaluate" in wanted:
-                folder = Path(tmp) / f"report-{h:g}"
-                r = median_run(tree, ["evaluate", str(log), "-o", str(folder), "--seed", "0",
-                                      "--force", "--no-progress"], opts.repeat)
-                rows.append(("evaluate raw", h, r))
-                print(f"evaluate raw           {h:4g} h: {r['wall_s']:7.2f} s wall, "
-                      f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
+            runs = {
+                "replay": ("replay five estimators",
+                           ["replay", str(log), "-o", str(out), "--seed", "0", "--force",
+                            "--no-progress"]),
+                "calibrate": ("calibrate",
+                              ["calibrate", str(log), "-o", str(Path(tmp) / "vehicle.toml"),
+                               "--allow-unobservable", "--compare", "none", "--force"]),
+                "evaluate": ("evaluate raw",
+                             ["evaluate", str(log), "-o", str(Path(tmp) / f"report-{h:g}"),
+                              "--seed", "0", "--force", "--no-progress"]),
+            }
+            for command, (name, args) in runs.items():
+                if command in wanted:
+                    r = median_run(tree, args, opts.repeat)
+                    rows.append((name, h, r))
+                    print(f"{name:<22} {h:4g} h: {r['wall_s']:7.2f} s wall, "
+                          f"{r['cpu_s']:7.2f} s CPU, peak {r['peak_mb']:6.0f} MB", flush=True)
     if rows:
         print("\n| run | " + " | ".join(f"{h:g} h" for h in hours) + " |")
         print("|---|" + "---:|" * len(hours))
