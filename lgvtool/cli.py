@@ -29,7 +29,7 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
     "record": (
         "lgvtool.commands.record",
         "record",
-        "Record the MCU and the NAV200 into a crash-safe log.",
+        "Record the MCU and a NAV200 or NAV350 into a crash-safe log.",
     ),
     "recover": (
         "lgvtool.commands.recover",
@@ -91,9 +91,9 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
 def cli() -> None:
     """lgvtool: how well does a laser-guided vehicle know where it is?
 
-    Record the MCU (encoders, gyro) and the SICK NAV200 into MCAP logs, replay them through the
-    paper's particle filter and baselines, and evaluate the accuracy against the kinematic
-    reference circle or ground truth.
+    Record the MCU (encoders, gyro) and a SICK NAV200 or NAV350 into MCAP logs, replay them
+    through the paper's particle filter and baselines, and evaluate the accuracy against the
+    kinematic reference circle or ground truth.
     """
 
 

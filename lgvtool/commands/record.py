@@ -61,12 +61,13 @@ def record(output: str, duration: float | None, speed_input: bool, layer: int,
            split_duration: float | None, config_file: str | None, status: bool, force: bool,
            as_json: bool, live: str | None = None, live_estimators: tuple[str, ...] = (),
            **device_options: Any) -> None:
-    """Record the MCU frame stream and the NAV200 (polled for its pose) into OUTPUT.
+    """Record the MCU frame stream and the NAV200 (polled for its pose, --nav) or the NAV350
+    (pose and landmarks, --nav350) into OUTPUT.
 
-    Logged: raw bytes both ways (/mcu/rx, /nav200/tx, /nav200/rx), decoded frames (/mcu/frame)
-    and poses (/nav/pose), the uploaded reflector map (/map/reflectors and metadata), device
-    identity, and every link failure, gap, checksum error and NAV200 error reply
-    (/diagnostics), all stamped with the host receive time. A link that fails is retried with
+    Logged: raw bytes both ways (/mcu/rx, /nav200/tx, /nav200/rx, /nav350/tx, /nav350/rx),
+    decoded frames (/mcu/frame), poses (/nav/pose) and NAV350 landmarks (/nav/reflectors), the
+    uploaded reflector map (/map/reflectors and metadata), device identity, and every link
+    failure, gap, checksum error and device error reply (/diagnostics), all stamped with the host receive time. A link that fails is retried with
     backoff and the recording goes on. Ctrl-C or SIGTERM finishes the file; after a crash,
     'lgvtool recover' saves all but about the last second. See docs/recording.md.
     """
