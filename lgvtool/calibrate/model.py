@@ -88,23 +88,27 @@ class Factors:
     """Multiplier of each group's standard deviation."""
     acc: list[FloatArray] = field(default_factory=list)
     """Mean acceleration over each interval (:func:`interval_acceleration`)."""
+    capacity: tuple[int, int] = (0, 0)
+    """Rows and Jacobian entries of the last evaluation, for which the next one makes room
+    up front."""
 
 
 class Rows:
-    """Accumulates residuals and the Jacobian's rows (compressed sparse rows, one block per
-    :meth:`add`)."""
+    """Accumulates residuals and the Jacobian's rows (compressed sparse rows, appended in
+    place: see :class:`_Growing`)."""
 
-    def __init__(self, jac: bool) -> None:
+    def __init__(self, jac: bool, capacity: tuple[int, int] = (0, 0)) -> None:
         self.jac = jac
-        self.res: list[FloatArray] = []
-        self.group: list[IntArray] = []
-        self.time: list[FloatArray] = []
-        self.drive: list[IntArray] = []
-        self.counts: list[IntArray] = []
+        rows, entries = capacity
+        self.res = _Growing(np.float64, rows)
+        self.group = _Growing(np.int64, rows)
+        self.time = _Growing(np.float64, rows)
+        self.drive = _Growing(np.int64, rows)
+        self.counts = _Growing(np.int64, rows if jac else 0)
         """Entries in each row."""
-        self.columns: list[NDArray[np.signedinteger[Any]]] = []
-        """Column of each entry, row by row (32-bit where they fit)."""
-        self.vals: list[FloatArray] = []
+        self.columns = _Growing(np.int32, entries if jac else 0)
+        """Column of each entry, row by row (32-bit while they fit)."""
+        self.vals = _Growing(np.float64, entries if jac else 0)
         self.n = 0
 
     def add(self, e: FloatArray, group: int, t: FloatArray, drive: int,
@@ -114,10 +118,10 @@ class Rows:
         m = len(e)
         if m == 0:
             return
-        self.res.append(e)
-        self.group.append(np.full(m, group, dtype=np.int64))
-        self.time.append(np.broadcast_to(t, (m,)).astype(np.float64))
-        self.drive.append(np.full(m, drive, dtype=np.int64))
+        self.res.extend(e)
+        self.group.extend(np.full(m, group, dtype=np.int64))
+        self.time.extend(np.broadcast_to(t, (m,)))
+        self.drive.extend(np.full(m, drive, dtype=np.int64))
         self.n += m
         if not self.jac:
             return
@@ -127,33 +131,60 @@ class Rows:
             c[:, i] = col
             v[:, i] = val
         keep = c >= 0
-        self.counts.append(np.count_nonzero(keep, axis=1))
+        self.counts.extend(np.count_nonzero(keep, axis=1))
         kept = c[keep]  # row by row, in the order of ``cols``
-        # 32-bit column indices where they fit: the Jacobian is most of the calibration's memory
-        fits = len(kept) == 0 or kept.max() < 2 ** 31
-        self.columns.append(kept.astype(np.int32) if fits else kept)
-        self.vals.append(v[keep])
+        # 32-bit column indices while they fit: the Jacobian is most of the calibration's memory
+        if len(kept) and kept.max() >= 2 ** 31:
+            self.columns.widen(np.int64)
+        self.columns.extend(kept)
+        self.vals.extend(v[keep])
 
     def build(self, size: int, jac: bool) -> tuple[FloatArray, sp.csr_matrix | None, IntArray,
                                                     FloatArray, IntArray]:
         """Residual vector, Jacobian (or None), group, time and drive of every row."""
-        res = np.concatenate(self.res) if self.res else np.zeros(0)
-        grp = np.concatenate(self.group) if self.group else np.zeros(0, dtype=np.int64)
-        tim = np.concatenate(self.time) if self.time else np.zeros(0)
-        drv = np.concatenate(self.drive) if self.drive else np.zeros(0, dtype=np.int64)
+        res, grp, tim, drv = (g.take() for g in (self.res, self.group, self.time, self.drive))
         j = None
         if jac:
-            counts = np.concatenate(self.counts) if self.counts else np.zeros(0, np.int64)
-            columns = np.concatenate(self.columns) if self.columns else np.zeros(0, np.int32)
-            self.columns = []
-            if len(columns) >= 2 ** 31:  # the row pointers need 64 bits, and so the columns
-                columns = columns.astype(np.int64)
+            counts = self.counts.take()
+            if int(counts.sum()) >= 2 ** 31:  # the row pointers need 64 bits, and the columns
+                self.columns.widen(np.int64)
+            columns = self.columns.take()
             indptr = np.zeros(self.n + 1, dtype=columns.dtype)
             np.cumsum(counts, out=indptr[1:])
-            data = np.concatenate(self.vals) if self.vals else np.zeros(0)
-            self.vals = []
-            j = sp.csr_matrix((data, columns, indptr), shape=(self.n, size))
+            del counts
+            j = sp.csr_matrix((self.vals.take(), columns, indptr), shape=(self.n, size))
         return res, j, grp, tim, drv
+
+
+class _Growing:
+    """A 1-D array appended to in place, its capacity at least doubled when full. Only the
+    part written is resident (a fresh capacity is not touched before it is written), so the
+    whole is never held beside its pieces, as joining a list of blocks would."""
+
+    def __init__(self, dtype: Any, capacity: int = 0) -> None:
+        self.a: NDArray[Any] = np.empty(capacity, dtype=dtype)
+        self.n = 0
+
+    def extend(self, values: NDArray[Any]) -> None:
+        """Append ``values``."""
+        need = self.n + len(values)
+        if need > len(self.a):
+            grown = np.empty(max(need, 2 * len(self.a), 1024), dtype=self.a.dtype)
+            grown[:self.n] = self.a[:self.n]
+            self.a = grown
+        self.a[self.n:need] = values
+        self.n = need
+
+    def widen(self, dtype: Any) -> None:
+        """Hold the values as ``dtype`` from now on."""
+        if self.a.dtype != dtype:
+            self.a = self.a.astype(dtype)
+
+    def take(self) -> NDArray[Any]:
+        """The values appended (a view of the first ``n`` of the capacity); empties this."""
+        a = self.a[:self.n]
+        self.a, self.n = np.empty(0, dtype=self.a.dtype), 0
+        return a
 
 
 @dataclass
@@ -188,7 +219,7 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
     """Residuals (normalised) and their Jacobian at state ``x``."""
     for i, name in enumerate(layout.names):
         layout.values[name] = float(x[i])
-    rows = Rows(jac)
+    rows = Rows(jac, factors.capacity)
     sc = factors.scale
     g = {n: GROUPS.index(n) for n in GROUPS}
     col = layout.column
@@ -362,7 +393,12 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
         sp0 = prior[name]
         rows.add(np.array([(x[i] - start[name]) / sp0]), -1, np.zeros(1), -1,
                  [(i, 1.0 / sp0)])
-    return rows.build(layout.size, jac)
+    built = rows.build(layout.size, jac)
+    if jac:
+        j = built[1]
+        assert j is not None
+        factors.capacity = (j.shape[0], j.nnz)
+    return built
 
 
 OBSERVATION_BLOCK = 32_768

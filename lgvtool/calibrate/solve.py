@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -357,14 +358,22 @@ class Problem:
     def step(self, x: FloatArray, lam: float) -> FloatArray:
         """One damped Gauss-Newton step of the reweighted problem (damping ``lam`` on the
         column-scaled normal matrix): the new state."""
-        r, j, grp, _, _ = self.evaluate(x)
-        assert j is not None
-        jw, rw = self._weighed(j, r, grp)
-        h, norms = _scaled_normal(jw)
-        g = (jw.T @ rw) / norms
+        h, g, norms = self._normal_equations(x)
         h = h + sp.diags(np.full(h.shape[0], lam))
         delta = _Factor(h, self.elimination_order()).solve(-g)
         return np.asarray(x + delta / norms, dtype=np.float64)
+
+    def _normal_equations(self, x: FloatArray) -> tuple[sp.csc_matrix, FloatArray, FloatArray]:
+        """The reweighted problem's normal matrix and gradient at ``x``, column-scaled
+        (:func:`_scaled_normal`), and the column norms. The Jacobian is released before they
+        are returned, so that it and the factorisation are never held at once."""
+        r, j, grp, _, _ = self.evaluate(x)
+        assert j is not None
+        jw, rw = self._weighed(j, r, grp)
+        del j
+        h, norms = _scaled_normal(jw)
+        g = (jw.T @ rw) / norms
+        return h, g, norms
 
     def _weighed(self, j: sp.csr_matrix, r: FloatArray, grp: NDArray[np.int64]
                  ) -> tuple[sp.csr_matrix, FloatArray]:
@@ -413,27 +422,36 @@ class Problem:
                    ) -> tuple[FloatArray, FloatArray]:
         """Formal and cluster-robust covariance of the free quantities (and of the linear
         combinations ``extra`` of the state), in state order."""
-        r, j, grp, tim, drv = self.evaluate(self.x)
-        assert j is not None
-        jw, rw = self._weighed(j, r, grp)
         n = len(self.layout.names)
         picks = [np.eye(1, self.layout.size, i).ravel() for i in range(n)]
         picks.extend(extra or [])
         if not picks:
             return np.zeros((0, 0)), np.zeros((0, 0))
         e = np.stack(picks, axis=1)
-        h, norms = _scaled_normal(jw)
-        lu = _Factor(h, self.elimination_order())
-        xs = lu.solve(e / norms[:, None]) / norms[:, None]  # H^-1 e in the state's units
+        h, _, norms = self._normal_equations(self.x)
+        # H^-1 e in the state's units; the factor is released before the Jacobian is made again
+        xs = _Factor(h, self.elimination_order()).solve(e / norms[:, None]) / norms[:, None]
         formal = e.T @ xs
-        obs = np.flatnonzero(grp >= 0)
-        jx = jw @ xs
-        jx *= rw[:, None]
-        block = drv[obs] * 100_000 + np.floor(tim[obs] / self.settings.cluster_s)
-        keys, inv = np.unique(block, return_inverse=True)
-        # each stretch's sum of its rows' scores, one column at a time
-        u = np.stack([np.bincount(inv, weights=jx[obs, c], minlength=len(keys))
-                      for c in range(jx.shape[1])], axis=1).astype(np.float64, copy=False)
+        del h, e
+        r, j, grp, tim, drv = self.evaluate(self.x)
+        assert j is not None
+        jw, rw = self._weighed(j, r, grp)
+        del j
+        obs = grp >= 0
+        keys, inv = np.unique(drv[obs] * 100_000 + np.floor(tim[obs] / self.settings.cluster_s),
+                              return_inverse=True)
+        cluster = np.full(len(grp), -1, dtype=np.int64)  # each row's stretch; -1: a prior
+        cluster[obs] = inv
+        del obs, inv
+        # each stretch's sum of its rows' scores, a slice of rows and a column at a time
+        u = np.zeros((len(keys), xs.shape[1]))
+        for r0, r1, rows in _row_slices(jw):
+            scores = rows @ xs
+            scores *= rw[r0:r1, None]
+            at = cluster[r0:r1]
+            sel = at >= 0
+            for c in range(xs.shape[1]):
+                u[:, c] += np.bincount(at[sel], weights=scores[sel, c], minlength=len(keys))
         robust = u.T @ u
         return formal, robust
 
@@ -514,12 +532,48 @@ def _scaled_normal(j: sp.csr_matrix) -> tuple[sp.csc_matrix, FloatArray]:
     """The normal matrix of ``j`` with its columns scaled to unit norm, ``D jᵀj D`` with
     ``D = diag(1 / norms)``, and the norms (1 for an empty column). The scaling is applied to
     the normal matrix, so no scaled copy of the (much larger) Jacobian is made."""
-    h = (j.T @ j).tocsc()
+    h = _normal(j)
     diagonal = h.diagonal()
     norms = np.sqrt(np.where(diagonal > 0, diagonal, 1.0))
     h.data /= norms[h.indices]  # rows
     h.data /= np.repeat(norms, np.diff(h.indptr))  # columns
     return h, norms
+
+
+NORMAL_SLICE_ENTRIES = 1 << 21
+"""Jacobian entries (about 24 MB) whose part of the normal matrix, or of the covariance's
+scores, is formed at a time."""
+
+
+def _normal(j: sp.csr_matrix) -> sp.csc_matrix:
+    """``jᵀj``, formed from slices of :data:`NORMAL_SLICE_ENTRIES` entries of ``j``'s rows, so
+    that only a slice, never the whole Jacobian, is copied into the column-major form that the
+    product takes. The slices' parts are added pairwise (as the digits of a binary counter),
+    so each entry of the sum is added about log2(slices) times, not once per slice."""
+    partial: list[tuple[int, sp.csc_matrix]] = []  # (level, sum of 2**level slices' parts)
+    for part in (s.T @ s for _r0, _r1, s in _row_slices(j)):
+        level = 0
+        while partial and partial[-1][0] == level:
+            part = partial.pop()[1] + part
+            level += 1
+        partial.append((level, part))
+    total = sp.csc_matrix((j.shape[1], j.shape[1]))
+    while partial:
+        total = total + partial.pop()[1]
+    return total.tocsc()
+
+
+def _row_slices(j: sp.csr_matrix) -> Iterator[tuple[int, int, sp.csr_matrix]]:
+    """Consecutive runs of ``j``'s rows, each of about :data:`NORMAL_SLICE_ENTRIES` entries
+    (a row is never split): first row, end row and the rows as a matrix of their own (scipy
+    copies a small part of a larger array), so only one slice is ever copied at a time."""
+    indptr = j.indptr
+    cuts = np.searchsorted(indptr, np.arange(NORMAL_SLICE_ENTRIES, j.nnz, NORMAL_SLICE_ENTRIES))
+    bounds = np.unique(np.concatenate([[0], cuts, [j.shape[0]]]))
+    for r0, r1 in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+        lo, hi = int(indptr[r0]), int(indptr[r1])
+        yield r0, r1, sp.csr_matrix((j.data[lo:hi], j.indices[lo:hi], indptr[r0:r1 + 1] - lo),
+                                    shape=(r1 - r0, j.shape[1]))
 
 
 class _Factor:

@@ -67,9 +67,10 @@ def record(output: str, duration: float | None, speed_input: bool, layer: int,
     Logged: raw bytes both ways (/mcu/rx, /nav200/tx, /nav200/rx, /nav350/tx, /nav350/rx),
     decoded frames (/mcu/frame), poses (/nav/pose) and NAV350 landmarks (/nav/reflectors), the
     uploaded reflector map (/map/reflectors and metadata), device identity, and every link
-    failure, gap, checksum error and device error reply (/diagnostics), all stamped with the host receive time. A link that fails is retried with
-    backoff and the recording goes on. Ctrl-C or SIGTERM finishes the file; after a crash,
-    'lgvtool recover' saves all but about the last second. See docs/recording.md.
+    failure, gap, checksum error and device error reply (/diagnostics), all stamped with the
+    host receive time. A link that fails is retried with backoff and the recording goes on.
+    Ctrl-C or SIGTERM finishes the file; after a crash, 'lgvtool recover' saves all but about
+    the last second. See docs/recording.md.
     """
     import shlex
     import sys

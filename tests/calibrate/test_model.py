@@ -154,3 +154,63 @@ def test_mcu_sampling_instants_follow_the_mcu_clock() -> None:
     jumpy = recv.copy()
     jumpy[::7] += 0.2
     assert mcu_sample_times(jumpy, clock_ms[::-1].copy(), 115_200)[1] == "host"
+
+
+def test_growing_arrays_join_blocks_across_their_capacity() -> None:
+    """Blocks appended past the capacity (none, too little, enough) come back joined in
+    order; widening keeps the values."""
+    from lgvtool.calibrate.model import _Growing
+
+    rng = np.random.default_rng(5)
+    blocks = [rng.integers(0, 1000, size=int(k)) for k in rng.integers(0, 700, size=12)]
+    joined = np.concatenate(blocks)
+    for capacity in (0, 10, len(joined)):
+        grow = _Growing(np.int32, capacity)
+        for i, b in enumerate(blocks):
+            if i == 6:
+                grow.widen(np.int64)
+            grow.extend(b)
+        out = grow.take()
+        assert out.dtype == np.int64 and out.tolist() == joined.tolist()
+        assert grow.take().tolist() == []
+
+
+def test_the_jacobian_made_with_room_up_front_is_the_same(tmp_path: Path) -> None:
+    """The second evaluation makes room for the first one's rows and entries: the same
+    Jacobian and residuals, to the bit (the same arithmetic in the same order)."""
+    problem = _problem(tmp_path, use_poses=False)
+    problem.factors.capacity = (0, 0)
+    r0, j0, _, _, _ = problem.evaluate(problem.x)
+    assert j0 is not None and problem.factors.capacity == (j0.shape[0], j0.nnz)
+    r1, j1, _, _, _ = problem.evaluate(problem.x)
+    assert j1 is not None
+    assert r1.tolist() == r0.tolist()
+    for a, b in ((j1.indptr, j0.indptr), (j1.indices, j0.indices), (j1.data, j0.data)):
+        assert a.tolist() == b.tolist()
+
+
+@pytest.mark.parametrize("use_poses", [False, True])
+def test_normal_matrix_and_covariance_formed_a_slice_of_rows_at_a_time(
+        tmp_path: Path, use_poses: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Slices of a few rows give the normal matrix ``jᵀj`` and the formal and cluster-robust
+    covariances of one slice; the slices cover the rows once, in order."""
+    from lgvtool.calibrate import solve
+
+    problem = _problem(tmp_path, use_poses)
+    _, j, _, _, _ = problem.evaluate(problem.x)
+    assert j is not None
+    whole = (j.T @ j).toarray()
+    formal0, robust0 = problem.covariance()
+    monkeypatch.setattr(solve, "NORMAL_SLICE_ENTRIES", 37)
+    slices = list(solve._row_slices(j))
+    assert len(slices) > 100
+    assert [s[0] for s in slices[1:]] == [s[1] for s in slices[:-1]]
+    assert slices[0][0] == 0 and slices[-1][1] == j.shape[0]
+    assert sum(s.nnz for _, _, s in slices) == j.nnz
+    tol = 1e-12 * float(np.abs(whole).max())
+    assert solve._normal(j).toarray() == pytest.approx(whole, rel=1e-12, abs=tol)
+    formal1, robust1 = problem.covariance()
+    # inverses of the normal matrix, whose conditioning turns the sums' other rounding (1e-16
+    # relative) into about 1e-7 here; a row lost or counted twice moves them by far more
+    assert formal1 == pytest.approx(formal0, rel=1e-5, abs=1e-9 * float(np.abs(formal0).max()))
+    assert robust1 == pytest.approx(robust0, rel=1e-5, abs=1e-9 * float(np.abs(robust0).max()))
