@@ -557,7 +557,9 @@ def _normal(j: sp.csr_matrix) -> sp.csc_matrix:
             part = partial.pop()[1] + part
             level += 1
         partial.append((level, part))
-    total = sp.csc_matrix((j.shape[1], j.shape[1]))
+    if not partial:
+        return sp.csc_matrix((j.shape[1], j.shape[1]))
+    total = partial.pop()[1]
     while partial:
         total = total + partial.pop()[1]
     return total.tocsc()

@@ -209,6 +209,9 @@ def test_normal_matrix_and_covariance_formed_a_slice_of_rows_at_a_time(
     assert sum(s.nnz for _, _, s in slices) == j.nnz
     tol = 1e-12 * float(np.abs(whole).max())
     assert solve._normal(j).toarray() == pytest.approx(whole, rel=1e-12, abs=tol)
+    import scipy.sparse as sp
+
+    assert solve._normal(sp.csr_matrix((0, 5))).toarray().tolist() == [[0.0] * 5] * 5
     formal1, robust1 = problem.covariance()
     # inverses of the normal matrix, whose conditioning turns the sums' other rounding (1e-16
     # relative) into about 1e-7 here; a row lost or counted twice moves them by far more
