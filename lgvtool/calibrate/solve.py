@@ -370,7 +370,6 @@ class Problem:
         r, j, grp, _, _ = self.evaluate(x)
         assert j is not None
         jw, rw = self._weighed(j, r, grp)
-        del j
         h, norms = _scaled_normal(jw)
         g = (jw.T @ rw) / norms
         return h, g, norms
@@ -436,7 +435,6 @@ class Problem:
         r, j, grp, tim, drv = self.evaluate(self.x)
         assert j is not None
         jw, rw = self._weighed(j, r, grp)
-        del j
         obs = grp >= 0
         keys, inv = np.unique(drv[obs] * 100_000 + np.floor(tim[obs] / self.settings.cluster_s),
                               return_inverse=True)
