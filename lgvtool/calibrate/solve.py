@@ -4,11 +4,11 @@ robust (Huber) weights, noise re-estimation, uncertainty and observability.
 The normal equations of the sparse Jacobian (:mod:`lgvtool.calibrate.model`) are solved with a
 sparse LU factorisation (SuperLU, ``scipy.sparse.linalg.splu``) that eliminates the unknowns in
 time order, the calibration quantities last (:meth:`Problem.elimination_order`); the columns
-are scaled to unit norm first. Around each linearisation the robust weights are those of a Huber loss at
-``huber_k`` standard deviations (iteratively reweighted least squares); after each round the
-noise scale of every residual group is re-estimated from its residuals (1.4826 x the median
-absolute normalised residual), so that the uncertainties follow the data and not the starting
-noise values.
+are scaled to unit norm first. Around each linearisation the robust weights are those of a
+Huber loss at ``huber_k`` standard deviations (iteratively reweighted least squares); after
+each round the noise scale of every residual group is re-estimated from its residuals (1.4826 x
+the median absolute normalised residual), so that the uncertainties follow the data and not the
+starting noise values.
 
 The 1-sigma of each quantity is the larger of the formal one (the inverse of the normal matrix)
 and a cluster-robust one (the sandwich ``H^-1 (sum_b g_b g_b^T) H^-1`` over stretches of
