@@ -14,7 +14,9 @@ one-hour log ``lgvtool replay LOG -o OUT --estimator pf-paper --particles 150 --
 ("replay pf-paper end to end", with the command's own split into reading, filtering and
 writing); ``calibrate`` (not in the default set) times ``lgvtool calibrate LOG -o FILE
 --allow-unobservable --compare none`` (one circle cannot observe the lever arm and the wheels:
-they are held and the rest estimated); ``floor`` times ``lgvtool replay LOG --estimator laser``
+they are held and the rest estimated); ``simulate`` (not in the default set either) times
+``lgvtool simulate --scenario paper-circle --seed 1 --duration H`` writing a log of each length;
+``floor`` times ``lgvtool replay LOG --estimator laser``
 on the one-hour log with and without ``--no-view``: reading the log and writing the output with
 almost no filtering and no compiled kernel, the floor under the end-to-end rows. The logs are
 simulated once (``lgvtool simulate --scenario paper-circle --seed 1``) and kept in ``--cache``.
@@ -67,7 +69,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1, help="runs per cell (the median is shown)")
     ap.add_argument("--commands", default="pf-paper,replay,evaluate",
                     help="which runs: pf-paper (one hour), floor (one hour), replay, evaluate, "
-                         "calibrate")
+                         "calibrate, simulate")
     opts = ap.parse_args()
     hours = [float(h) for h in opts.hours.split(",")]
     wanted = set(opts.commands.split(","))
@@ -111,6 +113,10 @@ def main() -> None:
                 "calibrate": ("calibrate",
                               ["calibrate", str(log), "-o", str(Path(tmp) / "vehicle.toml"),
                                "--allow-unobservable", "--compare", "none", "--force"]),
+                "simulate": ("simulate",
+                             ["simulate", "--scenario", "paper-circle", "--seed", "1",
+                              "--duration", f"{h * 3600:g}", "-o", str(Path(tmp) / "sim.mcap"),
+                              "--force"]),
                 "evaluate": ("evaluate raw",
                              ["evaluate", str(log), "-o", str(Path(tmp) / f"report-{h:g}"),
                               "--seed", "0", "--force", "--no-progress"]),

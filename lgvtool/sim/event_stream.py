@@ -99,22 +99,26 @@ def mcu_sends(sim: Simulation) -> Iterator[McuSend]:
                       sim.mcu_traffic.delivered[i])
 
 
-def nav_scans(sim: Simulation) -> Iterator[NavScan]:
+def nav_scans(sim: Simulation, block: int = 1024) -> Iterator[NavScan]:
     """Every revolution at its end, with the reflectors the head detected in it, in the order
-    it measured them."""
+    it measured them (made ``block`` revolutions at a time, so a long run is never held as
+    objects)."""
     sc = sim.scans
     ids = sim.landmarks.ids.tolist()
-    order = np.argsort(np.where(sc.seen, sc.time_in_scan, np.inf), axis=1, kind="stable")
-    counts = sc.seen.sum(axis=1).tolist()
-    ranges = np.take_along_axis(sc.range, order, axis=1).tolist()
-    bearings = np.take_along_axis(sc.bearing, order, axis=1).tolist()
-    times = np.take_along_axis(sc.time_in_scan, order, axis=1).tolist()
-    cols = order.tolist()
-    starts = sc.start.tolist()
-    for k in range(len(sc)):
-        obs = tuple(Observation(ranges[k][i], bearings[k][i], times[k][i], ids[cols[k][i]])
-                    for i in range(counts[k]))
-        yield NavScan(starts[k] + sc.period, starts[k], sc.period, obs)
+    for k0 in range(0, len(sc), block):
+        rows = slice(k0, k0 + block)
+        order = np.argsort(np.where(sc.seen[rows], sc.time_in_scan[rows], np.inf), axis=1,
+                           kind="stable")
+        counts = sc.seen[rows].sum(axis=1).tolist()
+        ranges = np.take_along_axis(sc.range[rows], order, axis=1).tolist()
+        bearings = np.take_along_axis(sc.bearing[rows], order, axis=1).tolist()
+        times = np.take_along_axis(sc.time_in_scan[rows], order, axis=1).tolist()
+        cols = order.tolist()
+        starts = sc.start[rows].tolist()
+        for k, start in enumerate(starts):
+            obs = tuple(Observation(ranges[k][i], bearings[k][i], times[k][i], ids[cols[k][i]])
+                        for i in range(counts[k]))
+            yield NavScan(start + sc.period, start, sc.period, obs)
 
 
 def nav_solutions(sim: Simulation) -> Iterator[NavSolution]:

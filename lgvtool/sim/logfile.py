@@ -13,7 +13,10 @@ map and the metadata ('simulator' with every setting and the seed, and 'config')
 
 from __future__ import annotations
 
+import heapq
+from collections.abc import Iterator
 from dataclasses import dataclass
+from itertools import pairwise, takewhile
 from pathlib import Path
 from typing import IO, Any
 
@@ -41,40 +44,75 @@ class LogSummary:
     """Injected faults by kind."""
 
 
+Record = tuple[int, int, int, Any]
+"""(log time ns, kind, position in its source, payload): records compare by log time, then
+kind, then position (the payload is never compared)."""
+
+
+def _records(sim: Simulation) -> Iterator[Record]:
+    """Every record of the run's host side in log-time order, one at a time: records of one
+    log time in the order of their kind (:data:`_TRUTH` first), those of one kind in the order
+    their source made them.
+
+    Each source is in time order already or put in it (a stable sort of its times), so the
+    sources are merged as they go and the whole run is never held as records.
+    """
+    late = sim.settings.install.nav_time_offset_ms * 1e-3  # NAV-to-host time offset, s
+    truth = ((sim.host_ns(s.t), s)
+             for s in truth_samples(sim, sim.settings.sim.truth_rate_hz))
+    sources = [_numbered(_TRUTH, _checked(truth)),
+               _numbered(_FAULT, _in_time_order(sim, [(f.t, f) for f in sim.faults])),
+               _numbered(_MCU, _in_time_order(sim, [(c.t, c.data) for c in sim.mcu_traffic.rx]))]
+    if sim.settings.sim.nav_device == "nav350":  # the host side of a NAV350 instead
+        from lgvtool.devices.nav350.nav350_simlink import nav350_traffic
+
+        traffic = nav350_traffic(sim)
+        tx = [(t, data) for t, direction, data in traffic if direction != "rx"]
+        rx = [(t + late, data) for t, direction, data in traffic if direction == "rx"]
+        sources += [_numbered(_NAV_TX, _in_time_order(sim, tx)),
+                    _numbered(_NAV_RX, _in_time_order(sim, rx))]
+    else:
+        tx = [(c.t, c.data) for c in sim.nav_traffic.tx]
+        rx = [(c.t + late, c.data) for c in sim.nav_traffic.rx]
+        reported = takewhile(lambda r: r[0] <= sim.duration,
+                             zip(sim.solutions.available.tolist(), nav_scans(sim), strict=False))
+        scans = ((sim.host_ns(t + late), scan) for t, scan in reported)
+        sources += [_numbered(_NAV_TX, _in_time_order(sim, tx)),
+                    _numbered(_NAV_RX, _in_time_order(sim, rx)),
+                    _numbered(_SCAN, _checked(scans))]
+    return heapq.merge(*sources)
+
+
+def _in_time_order(sim: Simulation, items: list[tuple[float, Any]]) -> Iterator[tuple[int, Any]]:
+    """``items`` (simulation time s, payload) as (log time ns, payload), stably sorted by
+    time."""
+    stamped = [(sim.host_ns(t), payload) for t, payload in items]
+    if any(a[0] > b[0] for a, b in pairwise(stamped)):
+        stamped.sort(key=lambda r: r[0])
+    return iter(stamped)
+
+
+def _checked(items: Iterator[tuple[int, Any]]) -> Iterator[tuple[int, Any]]:
+    """``items``, made in time order by construction, checked to be (an error otherwise)."""
+    last = -1
+    for ns, payload in items:
+        if ns < last:
+            raise RuntimeError("simulated records out of time order")
+        last = ns
+        yield ns, payload
+
+
+def _numbered(kind: int, items: Iterator[tuple[int, Any]]) -> Iterator[Record]:
+    """``items`` as records of ``kind``, numbered in their order."""
+    for i, (ns, payload) in enumerate(items):
+        yield ns, kind, i, payload
+
+
 def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | None = None,
               compression: str = "zstd") -> LogSummary:
     """Write ``sim`` to ``path`` (see the module docstring); return what was written."""
-    records: list[tuple[int, int, int, Any]] = []
-
-    def add(t: float, order: int, payload: Any) -> None:
-        records.append((sim.host_ns(t), order, len(records), payload))
-
-    for sample in truth_samples(sim, sim.settings.sim.truth_rate_hz):
-        add(sample.t, _TRUTH, sample)
-    for fault in sim.faults:
-        add(fault.t, _FAULT, fault)
-    for chunk in sim.mcu_traffic.rx:
-        add(chunk.t, _MCU, chunk)
     late = sim.settings.install.nav_time_offset_ms * 1e-3  # NAV-to-host time offset, s
     nav_family = sim.settings.sim.nav_device
-    if nav_family == "nav350":  # the host side of a NAV350 instead
-        from lgvtool.devices.nav350.nav350_simlink import nav350_traffic
-
-        for t, direction, data in nav350_traffic(sim):
-            add(t + late if direction == "rx" else t, _NAV_TX if direction == "tx" else _NAV_RX,
-                data)
-    else:
-        for chunk in sim.nav_traffic.tx:
-            add(chunk.t, _NAV_TX, chunk)
-        for chunk in sim.nav_traffic.rx:
-            add(chunk.t + late, _NAV_RX, chunk)
-        available = sim.solutions.available
-        for k, scan in enumerate(nav_scans(sim)):
-            if available[k] > sim.duration:
-                break
-            add(float(available[k]) + late, _SCAN, scan)
-    records.sort(key=lambda r: (r[0], r[1], r[2]))
-
     mcu = registration("mcu").log_decoder({})
     nav = registration(nav_family).log_decoder({})
     with LogWriter(path, compression=compression, source="simulate", command=command) as w:
@@ -87,7 +125,7 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
         w.add_metadata("simulator", sim.metadata())
         w.write_config(sim.config)
         w.write_map(sim.config.reflectors, sim.start_ns)
-        for ns, order, _, payload in records:
+        for ns, order, _, payload in _records(sim):
             if order == _TRUTH:
                 w.write(topics.TRUTH, pose_in_frame(ns, payload.x, payload.y, payload.heading),
                         ns)
@@ -95,10 +133,9 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
                 w.write_diagnostic(payload.source, payload.kind, payload.message, ns, level=3,
                                    details=payload.details)
             elif order == _MCU:
-                feed("mcu", "rx", mcu, ns, payload.data)
+                feed("mcu", "rx", mcu, ns, payload)
             elif order in (_NAV_TX, _NAV_RX):
-                data = payload if isinstance(payload, bytes) else payload.data
-                feed(nav_family, "tx" if order == _NAV_TX else "rx", nav, ns, data)
+                feed(nav_family, "tx" if order == _NAV_TX else "rx", nav, ns, payload)
             else:
                 w.write(topics.NAV_REFLECTORS,
                         reflector_scan_message(sim.host_ns(payload.start + late),
