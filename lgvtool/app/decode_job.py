@@ -7,12 +7,18 @@ path the simulator's log writer and the recorder use).
 
 from __future__ import annotations
 
+import base64
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import orjson
+
 from lgvtool.app.job_output import JobOutput
+from lgvtool.errors import LogFormatError
+from lgvtool.log import topics
+from lgvtool.log.messages import kind_of_log_message
 
 if TYPE_CHECKING:
     from lgvtool.log import LogReader
@@ -85,12 +91,6 @@ class DecodeReport:
 
 
 def _raw_bytes(data: bytes) -> bytes:
-    import base64
-
-    import orjson
-
-    from lgvtool.errors import LogFormatError
-
     try:
         return base64.b64decode(orjson.loads(data)["data"], validate=True)
     except (ValueError, KeyError, TypeError) as exc:
@@ -101,11 +101,6 @@ def _is_decoder_diagnostic(topic: str, data: bytes,
                            regenerated: Mapping[str, frozenset[str]]) -> bool:
     """Whether ``data`` on ``topic`` is a diagnostic (or its foxglove.Log mirror, whose text
     starts with ``[kind]``) of a source and kind in ``regenerated`` (source -> kinds)."""
-    import orjson
-
-    from lgvtool.log import topics
-    from lgvtool.log.messages import kind_of_log_message
-
     if topic not in (topics.DIAGNOSTICS, topics.DIAGNOSTICS_LOG):
         return False
     try:

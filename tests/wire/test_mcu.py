@@ -99,6 +99,26 @@ def test_crc_check_value() -> None:
     assert crc16_ccitt_false(b"123456789") == 0x29B1
 
 
+def _crc16_bitwise(data: bytes, crc: int = 0xFFFF) -> int:
+    """CRC-16/CCITT-FALSE from its definition, a bit at a time."""
+    for byte in data:
+        crc ^= byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else crc << 1
+            crc &= 0xFFFF
+    return crc
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=80), st.integers(0, 0xFFFF))
+def test_crc_is_the_definition_and_continues_a_running_value(data: bytes, start: int) -> None:
+    assert crc16_ccitt_false(data) == _crc16_bitwise(data)
+    assert crc16_ccitt_false(data, start) == _crc16_bitwise(data, start)
+    cut = len(data) // 3
+    assert crc16_ccitt_false(data[cut:], crc16_ccitt_false(data[:cut])) == _crc16_bitwise(data)
+    assert crc16_ccitt_false(memoryview(data)) == crc16_ccitt_false(bytearray(data))
+
+
 @settings(max_examples=200, deadline=None)
 @given(mcu_frame_strategy)
 def test_round_trip(frame: McuFrame) -> None:
