@@ -18,7 +18,8 @@ no motion compensation: this is where the error while turning comes from (``docs
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,6 +60,13 @@ class Scans:
 
     def __len__(self) -> int:
         return len(self.start)
+
+    def take(self, rows: slice | NDArray[np.intp]) -> Scans:
+        """The revolutions ``rows`` (a slice or indices)."""
+        return replace(self, start=self.start[rows], seen=self.seen[rows],
+                       time_in_scan=self.time_in_scan[rows], range=self.range[rows],
+                       bearing=self.bearing[rows], matched=self.matched[rows],
+                       hidden=self.hidden[rows])
 
 
 @dataclass(frozen=True)
@@ -102,10 +110,43 @@ def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmar
     when ``noise`` is off, so that switching a mechanism off leaves the other draws unchanged.
     """
     period = 1.0 / nav.rotation_hz
+    starts = scan_starts(traj.t[-1], nav, float(rng.random()))
+    s, m = len(starts), len(marks)
+    draws = _Draws(u_detect=rng.random((s, m)), n_range=rng.standard_normal((s, m)),
+                   n_bearing=rng.standard_normal((s, m)), u_grid=rng.random(s))
+    blocks = [_measure_rows(traj, vehicle, nav, marks, occl, noise, false_detection, starts,
+                            draws, slice(k, k + ROWS_PER_BLOCK))
+              for k in range(0, max(s, 1), ROWS_PER_BLOCK)]
+    return Scans(start=starts, period=period, landmark=np.arange(m),
+                 **{f: np.concatenate([b[f] for b in blocks]) for f in blocks[0]})
+
+
+ROWS_PER_BLOCK = 2048
+"""Revolutions the head model computes at once: its temporaries are (revolutions, landmarks)
+arrays, so a long run is computed a block at a time (the same numbers, row by row)."""
+
+
+@dataclass(frozen=True)
+class _Draws:
+    """The random numbers of every revolution, drawn at once (shapes (scans, landmarks), the
+    grid phase (scans,)): uniform detection draws, standard normal range and bearing noise."""
+
+    u_detect: FloatArray
+    n_range: FloatArray
+    n_bearing: FloatArray
+    u_grid: FloatArray
+
+
+def _measure_rows(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmarks,
+                  occl: Occlusions, noise: bool, false_detection: float, all_starts: FloatArray,
+                  draws: _Draws, rows: slice) -> dict[str, Any]:
+    """The :class:`Scans` fields (but ``start``, ``period`` and ``landmark``) of the
+    revolutions ``rows``."""
+    period = 1.0 / nav.rotation_hz
     omega_head = TWO_PI * nav.rotation_hz
     sign = -1.0 if nav.clockwise else 1.0
     start_angle = math.radians(nav.scan_start_deg)
-    starts = scan_starts(traj.t[-1], nav, float(rng.random()))
+    starts = all_starts[rows]
     s, m = len(starts), len(marks)
     lx, ly = marks.x[None, :], marks.y[None, :]
 
@@ -123,31 +164,26 @@ def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmar
     else:
         t = t0 + 0.5 * period
     true_range, alpha = bearing_at(t)
-    u_detect = rng.random((s, m))
-    n_range = rng.standard_normal((s, m))
-    n_bearing = rng.standard_normal((s, m))
-    u_grid = rng.random(s)
     scale = 1.0 if noise else 0.0
-    grid = u_grid if noise else np.zeros(s)
+    grid = draws.u_grid[rows] if noise else np.zeros(s)
     centre_range, centre_bearing, hits = apparent_centre(
         true_range, alpha, nav.reflector_radius_mm * 1e-3, math.radians(nav.angle_step_deg),
         grid)
     sigma_r = (nav.sigma_range_mm + nav.sigma_range_per_m_mm * true_range) * 1e-3
-    meas_range = centre_range + scale * sigma_r * n_range
+    meas_range = centre_range + scale * sigma_r * draws.n_range[rows]
     meas_bearing = wrap_angle(centre_bearing
-                           + scale * math.radians(nav.sigma_bearing_deg) * n_bearing)
+                           + scale * math.radians(nav.sigma_bearing_deg) * draws.n_bearing[rows])
     landmark = np.broadcast_to(np.arange(m)[None, :], (s, m))
     in_range = (true_range >= nav.range_min) & (true_range <= nav.range_max)
     hidden = in_range & occl.hidden(landmark, t)
     p_real = nav.detection_probability * range_falloff(true_range, nav.detection_range_m)
     p_real = p_real if noise else np.ones((s, m))
     p_detect = np.where(marks.is_false[None, :], false_detection, p_real)
-    detected = (u_detect < p_detect) & (hits > 0)
+    detected = (draws.u_detect[rows] < p_detect) & (hits > 0)
     seen = in_range & ~hidden & detected
     matched = _match(traj, vehicle, nav, marks, t, meas_range, meas_bearing, seen)
-    return Scans(start=starts, period=period, seen=seen, time_in_scan=t - t0,
-                 range=meas_range, bearing=meas_bearing, landmark=np.arange(m),
-                 matched=matched, hidden=hidden)
+    return {"seen": seen, "time_in_scan": t - t0, "range": meas_range, "bearing": meas_bearing,
+            "matched": matched, "hidden": hidden}
 
 
 def range_falloff(r: FloatArray, full_range: float) -> FloatArray:
@@ -240,10 +276,8 @@ def compensate(scans: Scans, rows: NDArray[np.intp], vx: float, vy: float, omega
     turned = scans.bearing[rows] + omega * dt
     px = vx * dt + scans.range[rows] * np.cos(turned)
     py = vy * dt + scans.range[rows] * np.sin(turned)
-    return replace(scans, start=scans.start[rows], seen=scans.seen[rows],
-                   time_in_scan=scans.time_in_scan[rows], range=np.hypot(px, py),
-                   bearing=wrap_angle(np.arctan2(py, px)), matched=scans.matched[rows],
-                   hidden=scans.hidden[rows])
+    return replace(scans.take(rows), range=np.hypot(px, py),
+                   bearing=wrap_angle(np.arctan2(py, px)))
 
 
 def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
@@ -257,8 +291,17 @@ def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
     Starts from the true head pose at mid-scan (the device's tracked estimate) and iterates
     ``nav.solver_iterations`` times. A scan is valid with at least ``nav.min_reflectors``
     matched reflectors. Quality falls linearly from 100 to 0 as the RMS position residual
-    grows to ``nav.quality_rms_mm``.
+    grows to ``nav.quality_rms_mm``. Computed :data:`ROWS_PER_BLOCK` scans at a time.
     """
+    parts = [_solve_rows(scans.take(slice(k, k + ROWS_PER_BLOCK)), traj, vehicle, nav, marks)
+             for k in range(0, max(len(scans), 1), ROWS_PER_BLOCK)]
+    return Solutions(**{f.name: np.concatenate([getattr(p, f.name) for p in parts])
+                        for f in fields(Solutions)})
+
+
+def _solve_rows(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
+                marks: Landmarks) -> Solutions:
+    """:func:`solve` of the scans ``scans`` at once."""
     use = scans.matched >= 0
     if nav.max_reflectors > 0:
         ranked = np.argsort(np.where(use, scans.range, np.inf), axis=1, kind="stable")

@@ -202,3 +202,35 @@ def test_detection_falls_off_beyond_its_range() -> None:
     r = np.array([5.0, 12.0, 24.0])
     assert nav_model.range_falloff(r, 12.0) == pytest.approx([1.0, 1.0, 0.25], rel=1e-12)
     assert np.all(nav_model.range_falloff(r, 0.0) == 1.0)
+
+
+@pytest.mark.parametrize("overrides", [{}, {"nav.skew": False, "nav.max_reflectors": 0}],
+                         ids=["defaults", "no-skew-all-reflectors"])
+def test_revolutions_computed_a_block_at_a_time_are_the_same(
+        sim_cache, monkeypatch: pytest.MonkeyPatch, overrides: dict[str, object]) -> None:
+    # degraded: occlusions and a shiny object, so detection, hiding and matching all vary
+    sim = sim_cache("degraded", seed=3, duration=60.0, **overrides)
+    s = sim.settings
+
+    def run(block: int) -> tuple[nav_model.Scans, nav_model.Solutions]:
+        monkeypatch.setattr(nav_model, "ROWS_PER_BLOCK", block)
+        rng = np.random.default_rng(11)
+        scans = nav_model.measure(sim.truth, sim.vehicle, s.nav, sim.landmarks, sim.occlusions,
+                                  s.nav_noise, s.faults.false_detection_probability, rng)
+        return scans, nav_model.solve(scans, sim.truth, sim.vehicle, s.nav, sim.landmarks)
+
+    whole = run(10**9)
+    assert len(whole[0]) > 400
+    for block in (7, 100):
+        parts = run(block)
+        for a, b in zip(parts, whole, strict=True):
+            for name, value in vars(b).items():
+                got = getattr(a, name)
+                if isinstance(value, np.ndarray) and value.dtype.kind == "f":
+                    # the same operations row by row: equal but for a processor's last bits
+                    np.testing.assert_allclose(got, value, rtol=1e-12, atol=1e-12,
+                                               err_msg=name)
+                elif isinstance(value, np.ndarray):
+                    assert np.array_equal(got, value), name
+                else:
+                    assert got == value, name
