@@ -16,7 +16,7 @@ from __future__ import annotations
 import heapq
 from collections.abc import Iterator
 from dataclasses import dataclass
-from itertools import pairwise, takewhile
+from itertools import takewhile
 from pathlib import Path
 from typing import IO, Any
 
@@ -85,11 +85,8 @@ def _records(sim: Simulation) -> Iterator[Record]:
 
 def _in_time_order(sim: Simulation, items: list[tuple[float, Any]]) -> Iterator[tuple[int, Any]]:
     """``items`` (simulation time s, payload) as (log time ns, payload), stably sorted by
-    time."""
-    stamped = [(sim.host_ns(t), payload) for t, payload in items]
-    if any(a[0] > b[0] for a, b in pairwise(stamped)):
-        stamped.sort(key=lambda r: r[0])
-    return iter(stamped)
+    time (in linear time when they are in order already, as they usually are)."""
+    return iter(sorted(((sim.host_ns(t), payload) for t, payload in items), key=lambda r: r[0]))
 
 
 def _checked(items: Iterator[tuple[int, Any]]) -> Iterator[tuple[int, Any]]:
