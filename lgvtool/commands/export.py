@@ -10,6 +10,7 @@ from lgvtool.options import (
     seed_option,
     set_option,
     split_names,
+    threads_option,
     warn,
 )
 
@@ -29,11 +30,12 @@ from lgvtool.options import (
               help="Configuration TOML instead of the one stored in the log.")
 @click.option("--start-at-truth", is_flag=True,
               help="When export runs the estimators: start them at the log's ground truth.")
+@threads_option("1, which keeps a long log within its memory; more are faster")
 @force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def export(log: str, outdir: str, fmt: str, estimators: tuple[str, ...], seed: int,
-           sets: tuple[str, ...], config_path: str | None, start_at_truth: bool, force: bool,
-           as_json: bool) -> None:
+           sets: tuple[str, ...], config_path: str | None, start_at_truth: bool,
+           threads: int | None, force: bool, as_json: bool) -> None:
     """Write every trajectory of LOG into DIR: each estimator's pose of the target rotation
     centre O (NAME.EXT), the NAV pose converted to O (nav.EXT), the ground truth (truth.EXT)
     and the truth interpolated at each trajectory's stamps as lgvtool scores it
@@ -50,7 +52,8 @@ def export(log: str, outdir: str, fmt: str, estimators: tuple[str, ...], seed: i
 
     summary = export_trajectories(log, outdir, fmt, estimators=split_names(estimators) or None,
                                   seed=seed, sets=sets, config_path=config_path,
-                                  start_at_truth=start_at_truth, force=force)
+                                  start_at_truth=start_at_truth, force=force,
+                                  threads=threads if threads is not None else 1)
     for w in summary.warnings:
         warn(w)
     click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())

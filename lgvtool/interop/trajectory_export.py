@@ -80,8 +80,9 @@ class ExportSummary:
 
 
 def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
-               settings: Mapping[str, Any], start_at_truth: bool, warnings: list[str]
-               ) -> tuple[dict[str, pd.DataFrame], str, dict[str, pd.DataFrame]]:
+               settings: Mapping[str, Any], start_at_truth: bool, warnings: list[str],
+               threads: int | None) -> tuple[dict[str, pd.DataFrame], str,
+                                             dict[str, pd.DataFrame]]:
     """The estimates of the log (source 'log'), else those of the estimators run over it, and
     the tables of the log's ground truth and NAV poses (those it has), read in the same pass
     as the log's estimates or as the estimators' reading."""
@@ -113,7 +114,8 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
         with collector_paused():
             run = run_replay(reader, list(names) if names else list(DEFAULT_ESTIMATORS),
                              config=cfg, seed=seed, settings=dict(settings),
-                             initial_pose="truth" if start_at_truth else None, tap=side)
+                             initial_pose="truth" if start_at_truth else None, tap=side,
+                             threads=threads)
     except MissingDataError as exc:
         if names:
             raise MissingDataError(f"{reader.path}: {exc}") from None
@@ -144,9 +146,10 @@ def nav_at_o(df: pd.DataFrame | None, cfg: Config) -> pd.DataFrame | None:
 
 def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
             config: Config | None = None, seed: int = 0,
-            settings: Mapping[str, Any] | None = None, start_at_truth: bool = False
-            ) -> tuple[list[Trajectory], str, list[str]]:
-    """Every trajectory of the log to export, the estimates' source and warnings."""
+            settings: Mapping[str, Any] | None = None, start_at_truth: bool = False,
+            threads: int | None = 1) -> tuple[list[Trajectory], str, list[str]]:
+    """Every trajectory of the log to export, the estimates' source and warnings; estimators
+    that export runs run on ``threads`` threads at once (see :func:`export_log`)."""
     from lgvtool.evaluate.evaluation import clean_trajectory
     from lgvtool.evaluate.metrics import associate_truth
     from lgvtool.log import topics
@@ -154,7 +157,7 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
     cfg = config if config is not None else reader.config()
     warnings: list[str] = list(reader.warnings)
     estimates, source, tables = _estimates(reader, estimators, cfg, seed, settings or {},
-                                           start_at_truth, warnings)
+                                           start_at_truth, warnings, threads)
     for name in estimates:
         if not SAFE_NAME.match(name):
             raise InputError(f"estimator name '{name}' cannot name a file (letters, digits and "
@@ -193,8 +196,12 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
 def export_log(log: str | Path, directory: str | Path, fmt: str, *,
                estimators: Sequence[str] | None = None, config: Config | None = None,
                seed: int = 0, settings: Mapping[str, Any] | None = None,
-               start_at_truth: bool = False, force: bool = False) -> ExportSummary:
+               start_at_truth: bool = False, force: bool = False,
+               threads: int | None = 1) -> ExportSummary:
     """Export every trajectory of ``log`` as ``fmt`` files into ``directory`` (created).
+    Estimators that export runs run on ``threads`` threads at once (None: one per
+    estimator, at most one per CPU; the same files for any count); one by default, as
+    filters side by side hold their working memory at once (docs/performance.md).
 
     :raises InputError: unknown format, pyarrow missing for Parquet, an output that exists
         (without ``force``) or is the log, a log without the estimates asked for.
@@ -213,7 +220,7 @@ def export_log(log: str | Path, directory: str | Path, fmt: str, *,
         reader = LogReader(log)
     trajectories, source, warnings = collect(
         reader, estimators=estimators, config=config, seed=seed, settings=settings,
-        start_at_truth=start_at_truth)
+        start_at_truth=start_at_truth, threads=threads)
     if not trajectories:
         raise InputError(f"{log}: no trajectory to export (no estimate, NAV pose or truth)")
     plan = [(tr, [folder / n for n in trajfile.file_names(tr.name, fmt)]) for tr in trajectories]

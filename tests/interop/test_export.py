@@ -228,3 +228,47 @@ def test_a_raw_log_is_exported_in_the_estimators_pass(
     assert {topics.TRUTH, topics.NAV_POSE, topics.NAV_REFLECTORS} <= set(chunk_passes[0])
     for path in sorted(exported.iterdir()):
         assert (out / path.name).read_bytes() == path.read_bytes(), path.name
+
+
+def test_threads_write_the_same_files_and_one_is_the_default(
+        sim_log: Path, exported: Path, tmp_path: Path, cli: CLI,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The estimators export runs use one thread unless ``--threads`` says otherwise (two
+    filters side by side hold their working memory at once), and any count writes the same
+    files."""
+    import lgvtool.localize
+
+    asked: list[int | None] = []
+    real = lgvtool.localize.run_replay
+
+    def run_replay(*args: object, threads: int | None = None, **kw: object) -> object:
+        asked.append(threads)
+        return real(*args, threads=threads, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(lgvtool.localize, "run_replay", run_replay)
+    for threads in ((), ("--threads", "2")):
+        out = tmp_path / f"tum{len(threads)}"
+        code, _, err = cli("export", sim_log, "-e", ",".join(FAST), "-o", out, *threads)
+        assert code == 0, err
+        for path in sorted(exported.iterdir()):
+            assert (out / path.name).read_bytes() == path.read_bytes(), path.name
+    assert asked == [1, 2]
+
+
+@pytest.mark.parametrize("fmt", ["tum", "kitti", "csv"])
+def test_text_files_written_a_block_of_rows_at_a_time_are_the_same(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, fmt: str) -> None:
+    """The text writers turn a block of rows at a time into lines (memory holds a block's,
+    not the file's): blocks of 3 rows, which do not divide the 10 poses, write the same
+    bytes as one block."""
+    t = 1.7e9 + np.arange(10) * 0.05
+    df = pd.DataFrame({"t": t, "x": np.linspace(-3, 4, 10), "y": np.linspace(2, -1, 10),
+                       "heading": np.linspace(-3, 3, 10)})
+    written = []
+    for block in (3, 10_000):
+        monkeypatch.setattr(trajfile, "_BLOCK", block)
+        paths = [tmp_path / f"{block}-{n}" for n in trajfile.file_names("a", fmt)]
+        trajfile.write_trajectory(df, paths, fmt, {"content": "test"})
+        written.append([p.read_bytes() for p in paths])
+    assert written[0] == written[1]
+    assert all(f.count(b"\n") >= 10 for f in written[0])
