@@ -16,6 +16,9 @@ writing); ``calibrate`` (not in the default set) times ``lgvtool calibrate LOG -
 --allow-unobservable --compare none`` (one circle cannot observe the lever arm and the wheels:
 they are held and the rest estimated); ``simulate`` (not in the default set either) times
 ``lgvtool simulate --scenario paper-circle --seed 1 --duration H`` writing a log of each length;
+``export`` (not in the default set) times ``lgvtool export LOG -o DIR --format tum --seed 0`` of
+the raw log (it runs the five estimators and writes their TUM files beside the NAV poses and
+the truth);
 ``floor`` times ``lgvtool replay LOG --estimator laser``
 on the one-hour log with and without ``--no-view``: reading the log and writing the output with
 almost no filtering and no compiled kernel, the floor under the end-to-end rows. The logs are
@@ -69,7 +72,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1, help="runs per cell (the median is shown)")
     ap.add_argument("--commands", default="pf-paper,replay,evaluate",
                     help="which runs: pf-paper (one hour), floor (one hour), replay, evaluate, "
-                         "calibrate, simulate")
+                         "calibrate, simulate, export")
     opts = ap.parse_args()
     hours = [float(h) for h in opts.hours.split(",")]
     wanted = set(opts.commands.split(","))
@@ -117,6 +120,9 @@ def main() -> None:
                              ["simulate", "--scenario", "paper-circle", "--seed", "1",
                               "--duration", f"{h * 3600:g}", "-o", str(Path(tmp) / "sim.mcap"),
                               "--force"]),
+                "export": ("export raw",
+                           ["export", str(log), "-o", str(Path(tmp) / f"tum-{h:g}"),
+                            "--format", "tum", "--seed", "0", "--force"]),
                 "evaluate": ("evaluate raw",
                              ["evaluate", str(log), "-o", str(Path(tmp) / f"report-{h:g}"),
                               "--seed", "0", "--force", "--no-progress"]),
