@@ -56,7 +56,7 @@ class CorruptChunkError(ValueError):
 OnCorrupt = Callable[[ChunkIndex, str], None]
 
 
-def _records_of(records: bytes) -> Iterator[tuple[int, int, int]]:
+def records_of(records: bytes) -> Iterator[tuple[int, int, int]]:
     """``(offset, opcode, length)`` of every record in a chunk's uncompressed ``records``.
 
     :raises CorruptChunkError: a record runs past the end of ``records`` (or a message record
@@ -82,7 +82,7 @@ def chunk_messages(records: bytes, wanted: set[int] | None) -> list[tuple[int, i
     """
     out = []
     fields = MSG_FIELDS.unpack_from
-    for pos, opcode, length in _records_of(records):
+    for pos, opcode, length in records_of(records):
         if opcode == OP_MESSAGE:
             cid, _seq, log_time, pub = fields(records, pos + 9)
             if wanted is None or cid in wanted:
@@ -239,7 +239,7 @@ def _walked_columns(records: bytes) -> RecordColumns:
     offsets: list[int] = []
     sizes: list[int] = []
     fields = MSG_FIELDS.unpack_from
-    for pos, opcode, length in _records_of(records):
+    for pos, opcode, length in records_of(records):
         if opcode == OP_MESSAGE:
             cid, _seq, log_time, _pub = fields(records, pos + 9)
             cids.append(cid)
@@ -320,7 +320,7 @@ def _indexed_columns(chunks: Sequence[tuple[Any, ChunkIndex, int]], records: byt
     for g in gaps.tolist():
         try:
             if any(op == OP_MESSAGE for _at, op, _n in
-                   _records_of(records[int(ends[g]):int(starts[g])])):
+                   records_of(records[int(ends[g]):int(starts[g])])):
                 return None
         except CorruptChunkError:
             return None

@@ -220,7 +220,7 @@ def chunk_index_record(ci: ChunkIndex) -> bytes:
 # ---------------------------------------------------------------------- parsing
 
 
-class _Cursor:
+class Cursor:
     """Reads MCAP primitives from a buffer."""
 
     __slots__ = ("buf", "pos")
@@ -296,7 +296,7 @@ def read_summary(f: IO[bytes]) -> Summary | None:
     buf = f.read(size - tail - summary_start)
     check_summary_crc(buf, foot)
     out = Summary({}, {}, [], [], None)
-    c = _Cursor(buf)
+    c = Cursor(buf)
     while c.pos + 9 <= len(buf):
         opcode, length = REC_HEAD.unpack_from(buf, c.pos)
         c.pos += 9
@@ -311,13 +311,11 @@ def read_summary(f: IO[bytes]) -> Summary | None:
             out.chunk_indexes.append(ChunkIndex(start_t, end_t, offset, clen, offsets, milen,
                                                 kind, csize, usize))
         elif opcode == OP_SCHEMA:
-            sid = c.u16()
-            name, enc = c.string(), c.string()
-            out.schemas[sid] = Schema(sid, name, enc, c.raw(c.u32()))
+            schema = parse_schema(c)
+            out.schemas[schema.id] = schema
         elif opcode == OP_CHANNEL:
-            cid, sid = c.u16(), c.u16()
-            topic, enc = c.string(), c.string()
-            out.channels[cid] = Channel(cid, topic, enc, sid, c.string_map())
+            channel = parse_channel(c)
+            out.channels[channel.id] = channel
         elif opcode == OP_STATISTICS:
             c.pos += 8 + 2 + 4 * 4 + 16
             out.channel_message_counts = c.id_map()
@@ -362,7 +360,25 @@ def read_metadata(f: IO[bytes], index: MetadataIndex) -> Metadata:
     """The metadata record that ``index`` points at."""
     f.seek(index.offset)
     buf = f.read(index.length)
-    c = _Cursor(buf, 9)
+    return parse_metadata(Cursor(buf, 9))
+
+
+def parse_schema(c: Cursor) -> Schema:
+    """The schema record whose body starts at ``c`` (read past it)."""
+    sid = c.u16()
+    name, enc = c.string(), c.string()
+    return Schema(sid, name, enc, c.raw(c.u32()))
+
+
+def parse_channel(c: Cursor) -> Channel:
+    """The channel record whose body starts at ``c`` (read past it)."""
+    cid, sid = c.u16(), c.u16()
+    topic, enc = c.string(), c.string()
+    return Channel(cid, topic, enc, sid, c.string_map())
+
+
+def parse_metadata(c: Cursor) -> Metadata:
+    """The metadata record whose body starts at ``c`` (read past it)."""
     name = c.string()
     return Metadata(name, c.string_map())
 

@@ -1,8 +1,9 @@
 """Read lgvtool logs: typed messages in log-time order, metadata, per-topic DataFrames.
 
 A log that was cut off mid-write (crash, power loss, full disk) has no summary or footer. The
-reader then walks the file record by record up to the cut, keeps every complete message before
-it, and says so in :attr:`LogReader.warnings`; :attr:`LogReader.complete` is False.
+reader then walks the file's records once up to the cut (:mod:`lgvtool.log.mcap_scan`), finds
+every complete chunk, reads their messages a chunk at a time as it reads a complete log's, and
+says so in :attr:`LogReader.warnings`; :attr:`LogReader.complete` is False.
 """
 
 from __future__ import annotations
@@ -246,6 +247,37 @@ class LogReader:
         _warnings.warn(text, LogWarning, stacklevel=3)
 
     def _salvage(self) -> None:
+        """Find the records of a file without a usable summary (:mod:`lgvtool.log.mcap_scan`):
+        its chunks are then read one at a time, as a complete file's are. A file with message
+        records outside chunks, or with messages on a channel whose definition was lost, is
+        read record by record into memory instead (:meth:`_salvage_in_memory`)."""
+        from lgvtool.log.mcap_scan import scan_records
+
+        corrupt: list[tuple[int, str]] = []
+        with open(self.path, "rb") as f:
+            scan = scan_records(f, self.size, lambda at, why: corrupt.append((at, why)))
+        if scan.loose_messages or scan.unknown_channels():
+            self._salvage_in_memory()
+            return
+        for at, why in corrupt:
+            self._note_corrupt(at, why)
+        self._schemas, self._channels = scan.schemas, scan.channels
+        self._metadata = scan.metadata
+        self._chunk_indexes = scan.chunk_indexes
+        self._verified.update(ci.chunk_start_offset for ci in scan.chunk_indexes)
+        self.salvaged_bytes = scan.good_end
+        self._say_salvaged(scan.good_end, sum(scan.counts.values()), scan.last_time)
+
+    def _say_salvaged(self, good_end: int, messages: int, last_ns: int | None) -> None:
+        where = f", last message at {last_ns / 1e9:.3f} s" if last_ns is not None else ""
+        self.warnings.append(
+            f"{self.path}: incomplete log (no summary; cut off after {good_end} of {self.size} "
+            f"bytes): salvaged {messages} complete messages{where}"
+        )
+
+    def _salvage_in_memory(self) -> None:
+        """Walk the file record by record through the ``mcap`` package's stream reader and
+        keep every complete message (in log-time order) in memory."""
         from mcap.records import Channel as McapChannel
         from mcap.records import Chunk, Message
         from mcap.records import Metadata as McapMetadata
@@ -278,12 +310,8 @@ class LogReader:
         msgs.sort(key=lambda m: m.log_time)
         self._salvaged = [m for m in msgs if m.channel_id in self._channels]
         self.salvaged_bytes = good_end
-        last = self._salvaged[-1].log_time / 1e9 if self._salvaged else None
-        where = f", last message at {last:.3f} s" if last is not None else ""
-        self.warnings.append(
-            f"{self.path}: incomplete log (no summary; cut off after {good_end} of {self.size} "
-            f"bytes): salvaged {len(self._salvaged)} complete messages{where}"
-        )
+        self._say_salvaged(good_end, len(self._salvaged),
+                           self._salvaged[-1].log_time if self._salvaged else None)
 
     def _check_contract(self) -> None:
         info = self.metadata.get("lgvtool")
