@@ -16,7 +16,9 @@ writing); ``calibrate`` (not in the default set) times ``lgvtool calibrate LOG -
 --allow-unobservable --compare none`` (one circle cannot observe the lever arm and the wheels:
 they are held and the rest estimated); ``simulate`` (not in the default set either) times
 ``lgvtool simulate --scenario paper-circle --seed 1 --duration H`` writing a log of each length;
-``export`` (not in the default set) times ``lgvtool export LOG -o DIR --format tum --seed 0`` of
+``cut`` (not in the default set) cuts each log off at 90 % of its bytes, as a crash or a power
+loss would, and times ``lgvtool info CUT`` and ``lgvtool recover CUT -o OUT``; ``export`` (not
+in the default set) times ``lgvtool export LOG -o DIR --format tum --seed 0`` of
 the raw log (it runs the five estimators and writes their TUM files beside the NAV poses and
 the truth);
 ``floor`` times ``lgvtool replay LOG --estimator laser``
@@ -72,7 +74,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1, help="runs per cell (the median is shown)")
     ap.add_argument("--commands", default="pf-paper,replay,evaluate",
                     help="which runs: pf-paper (one hour), floor (one hour), replay, evaluate, "
-                         "calibrate, simulate, export")
+                         "calibrate, simulate, export, cut")
     opts = ap.parse_args()
     hours = [float(h) for h in opts.hours.split(",")]
     wanted = set(opts.commands.split(","))
@@ -127,6 +129,15 @@ def main() -> None:
                              ["evaluate", str(log), "-o", str(Path(tmp) / f"report-{h:g}"),
                               "--seed", "0", "--force", "--no-progress"]),
             }
+            if "cut" in wanted:  # the log cut off at 90 % of its bytes, as by a power loss
+                broken = Path(tmp) / f"cut-{h:g}h.mcap"
+                with open(log, "rb") as src, open(broken, "wb") as dst:
+                    dst.write(src.read(int(log.stat().st_size * 0.9)))
+                runs["info-cut"] = ("info cut log", ["info", str(broken)])
+                runs["recover-cut"] = ("recover cut log",
+                                       ["recover", str(broken), "-o",
+                                        str(Path(tmp) / "recovered.mcap"), "--force"])
+                wanted = wanted | {"info-cut", "recover-cut"}
             for command, (name, args) in runs.items():
                 if command in wanted:
                     r = median_run(tree, args, opts.repeat)

@@ -47,9 +47,6 @@ def recover(src: str | Path, dst: str | Path, compression: str = "zstd") -> Reco
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = LogReader(src)
-    counts: dict[str, int] = {}
-    first = last = None
-    n = 0
     with LogWriter(dst, chunk_seconds=None, source="recover", compression=compression,
                    command=f"lgvtool recover {src.name}") as w:
         for name, record in reader.metadata.items():
@@ -58,17 +55,15 @@ def recover(src: str | Path, dst: str | Path, compression: str = "zstd") -> Reco
                                                   "complete": reader.complete})
                 continue
             w.add_metadata(name, record)
-        for m in reader.raw_messages():
-            if m.schema:
-                w.channel_id(m.topic, m.schema)
-            w.write_encoded(m.topic, m.data, m.log_time_ns, m.publish_time_ns)
-            counts[m.topic] = counts.get(m.topic, 0) + 1
-            first = m.log_time_ns if first is None else first
-            last = m.log_time_ns
-            n += 1
+        # the intact chunks' records copied as they are, a run of chunks at a time
+        n = w.copy_from(reader, metadata=False)
+    info = {t: i for t, i in reader.topics().items() if i.count}
+    first = min((i.start_ns for i in info.values()), default=None)
+    last = max((i.end_ns for i in info.values()), default=None)
     return RecoveryReport(
         source_bytes=reader.size, intact_bytes=reader.salvaged_bytes, messages=n,
-        topics=counts, first_s=None if first is None else first / 1e9,
+        topics={t: i.count for t, i in info.items()},
+        first_s=None if first is None else first / 1e9,
         last_s=None if last is None else last / 1e9, was_complete=reader.complete,
         corrupt_chunks=len(reader.corrupt_chunks),
     )
