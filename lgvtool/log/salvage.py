@@ -55,8 +55,9 @@ def recover(src: str | Path, dst: str | Path, compression: str = "zstd") -> Reco
                                                   "complete": reader.complete})
                 continue
             w.add_metadata(name, record)
-        # the intact chunks' records copied as they are, a run of chunks at a time
-        n = w.copy_from(reader, metadata=False)
+        # the intact chunks' records copied as they are into new chunks (compressed as asked),
+        # a run of chunks at a time
+        n = w.copy_from(reader, metadata=False, verbatim=False)
     info = {t: i for t, i in reader.topics().items() if i.count}
     first = min((i.start_ns for i in info.values()), default=None)
     last = max((i.end_ns for i in info.values()), default=None)

@@ -220,7 +220,8 @@ class LogWriter:
 
     def copy_from(self, reader: LogReader, *, skip_topics: frozenset[str] = frozenset(),
                   metadata: bool = True,
-                  extra: _Batch | Iterable[_Batch] | None = None) -> int:
+                  extra: _Batch | Iterable[_Batch] | None = None,
+                  verbatim: bool = True) -> int:
         """Copy every message of ``reader`` (except ``skip_topics``) into this log, and its
         metadata records other than 'lgvtool'. Returns the number of messages copied.
 
@@ -230,13 +231,16 @@ class LogWriter:
         batches in increasing time, taken one at a time as the merge reaches them (so that
         only one batch need exist at once, e.g. :class:`lgvtool.log.windows.WindowedMerge`).
         Without it, a complete input copied into a fresh writer has its
-        chunks copied verbatim (no decoding); otherwise messages are copied one by one.
+        chunks copied verbatim (no decoding) unless ``verbatim`` is False (the records are then
+        put into new chunks compressed as this writer compresses); otherwise the input's
+        records are spliced with the further messages (message by message where its chunks
+        overlap in time).
         """
         if metadata:
             for name, record in reader.metadata.items():
                 if name != "lgvtool":
                     self.add_metadata(name, record)
-        plan = reader.verbatim_plan(skip_topics) if extra is None else None
+        plan = reader.verbatim_plan(skip_topics) if extra is None and verbatim else None
         if plan is not None and not self._channels and not self._schemas:
             schemas, channels, chunk_indexes, counts = plan
             for sid, (name, encoding, data) in schemas.items():

@@ -186,3 +186,18 @@ def test_recover_copies_every_intact_message_and_reports_them(simulated: Path,
     assert report.first_s == pytest.approx(want[0][1] / 1e9, abs=1e-6)
     assert report.last_s == pytest.approx(want[-1][1] / 1e9, abs=1e-6)
     assert not report.was_complete and report.intact_bytes < broken.stat().st_size
+
+
+@pytest.mark.parametrize("compression", ["lz4", "none"])
+def test_recover_compresses_as_asked_also_a_complete_log(simulated: Path, tmp_path: Path,
+                                                         compression: str) -> None:
+    """The records are put into new chunks compressed as ``--compression`` says, also when
+    the input is complete (its chunks are not copied byte for byte)."""
+    from lgvtool.log.salvage import recover
+
+    fixed = tmp_path / "fixed.mcap"
+    report = recover(simulated, fixed, compression=compression)
+    assert report.was_complete
+    assert {c.compression for c in chunks_of(fixed)} == {"" if compression == "none"
+                                                          else compression}
+    assert read(fixed)[1] == read(simulated)[1]
