@@ -204,3 +204,38 @@ def test_background_compression_writes_the_same_file() -> None:
         plain, background = build(False, compression), build(True, compression)
         assert background == plain, compression
         assert len(list(make_reader(io.BytesIO(background)).iter_messages())) == len(payloads)
+
+
+def test_the_writer_holds_little_per_chunk_written() -> None:
+    """A recorder's writer runs for a whole shift: what it keeps per chunk written (the summary's
+    chunk index) is the packed record, about 170 bytes with five channels, not an object with
+    a dict (690 bytes)."""
+    import tracemalloc
+
+    from lgvtool.log.mcap_writer import McapWriter
+
+    class Sink:
+        def write(self, data: bytes) -> int:
+            return len(data)
+
+        def flush(self) -> None:
+            pass
+
+    w = McapWriter(Sink(), compression="none", chunk_bytes=1 << 20)  # type: ignore[arg-type]
+    sid = w.add_schema("s", "jsonschema", b"{}")
+    cids = [w.add_channel(f"/t{i}", "json", sid) for i in range(5)]
+
+    def chunks(k0: int, n: int) -> None:  # 5 messages of about 50 bytes: one chunk
+        for k in range(k0, k0 + n):
+            for c in cids:
+                w.add_message(c, 10**18 + k * 10**6 + c, b'{"k":%d,"pad":"%s"}' % (k, b"x" * 20))
+            w.close_chunk()
+
+    chunks(0, 200)
+    tracemalloc.start()
+    before = tracemalloc.get_traced_memory()[0]
+    chunks(200, 2000)
+    grown = tracemalloc.get_traced_memory()[0] - before
+    tracemalloc.stop()
+    w.finish()
+    assert grown / 2000 < 400, grown / 2000
