@@ -590,7 +590,8 @@ class LogReader:
 
     def _indexed_topic_times(self) -> dict[str, list[int]] | None:
         """(count, first, last, largest gap) per topic from the message indexes of the sound
-        chunks; None for a salvaged file or one whose chunks lack indexes."""
+        chunks (a chunk without them read for its messages' times); None for a file held in
+        memory (:meth:`_salvage_in_memory`) or one whose message indexes do not parse."""
         import numpy as np
 
         from lgvtool.log.mcap_chunks import indexed_times
@@ -599,10 +600,26 @@ class LogReader:
             return None
         self.verify_chunks()
         sound = [ci for ci in self._chunk_indexes if ci.chunk_start_offset in self._verified]
+        # a chunk without message indexes (a cut-off log's last one may have lost them) is
+        # read for its messages' times
+        indexed: list[ChunkIndex] = []
+        walked: list[ChunkIndex] = []
+        for ci in sound:
+            (walked if ci.uncompressed_size and not ci.message_index_offsets
+             else indexed).append(ci)
         with open(self.path, "rb") as f:
-            per_channel = indexed_times(f, sound)
-        if per_channel is None:
-            return None
+            per_channel = indexed_times(f, indexed)
+            if per_channel is None:
+                return None
+            more: dict[int, list[int]] = {}
+            for block in iter_indexed_blocks(f, walked, None, self._note_corrupt):
+                for log_time, cid, _pub, _data in block:
+                    more.setdefault(cid, []).append(log_time)
+        for cid, ts in more.items():
+            joined = np.concatenate([per_channel.get(cid, np.zeros(0, np.int64)),
+                                     np.array(ts, dtype=np.int64)])
+            joined.sort(kind="stable")
+            per_channel[cid] = joined
         by_topic: dict[str, list[NDArray[np.int64]]] = {}
         for cid, t in per_channel.items():
             c = self._channels.get(cid)
