@@ -80,13 +80,13 @@ class Scan:
 def scan_records(f: IO[bytes], size: int, on_corrupt: Callable[[int, str], None]) -> Scan:
     """Walk the top-level records of the MCAP file ``f`` (``size`` bytes; its magic already
     checked) up to the end of its data section, or to the first record that runs past the end
-    of the file, has opcode 0 (a zero-filled tail) or does not parse. A chunk that is corrupt goes to
+    of the file, has opcode 0 (a zero-filled tail) or does not parse. A corrupt chunk goes to
     ``on_corrupt(its file offset, reason)`` and is left out."""
     out = Scan()
     zstd = zstandard.ZstdDecompressor()
     pos = len(MAGIC)
-    #: the chunk just read: its index and message counts per channel, and the message
-    #: indexes seen after it so far (channel -> offset, entries) with their bytes
+    # the chunk just read: its index and message counts per channel, and the message
+    # indexes seen after it so far (channel -> offset, entries) with their bytes
     chunk: tuple[ChunkIndex, dict[int, int]] | None = None
     indexes: dict[int, tuple[int, int]] = {}
     index_bytes = 0
