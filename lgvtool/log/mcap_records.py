@@ -1,10 +1,11 @@
 """MCAP records: their layouts, packing and parsing, the summary section and chunk compression.
 
-The pieces shared by lgvtool's lean writer (:mod:`lgvtool.log.mcap_writer`) and chunk reader
-(:mod:`lgvtool.log.mcap_chunks`): the record opcodes and binary layouts of the MCAP
+The pieces shared by lgvtool's lean writer (:mod:`lgvtool.log.mcap_writer`), chunk reader
+(:mod:`lgvtool.log.mcap_chunks`) and walk of a file without a summary
+(:mod:`lgvtool.log.mcap_scan`): the record opcodes and binary layouts of the MCAP
 specification, the header, schema, channel, metadata and chunk index records as small classes,
-their packing, the parsing of an indexed file's summary section (with its CRC-32) and the
-compression of chunks. Offsets and sizes in bytes, times in ns.
+their packing and parsing, the parsing of an indexed file's summary section (with its CRC-32)
+and the compression of chunks. Offsets and sizes in bytes, times in ns.
 """
 
 from __future__ import annotations
