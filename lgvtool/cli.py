@@ -72,6 +72,11 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "calibrate",
         "Estimate the vehicle's installation (NAV mounting, wheels, gyro, timing) from logs.",
     ),
+    "layout": (
+        "lgvtool.commands.layout",
+        "layout",
+        "Convert reflector layout files (lgvtool TOML, SICK .imk).",
+    ),
     "config": (
         "lgvtool.commands.config_file",
         "config",

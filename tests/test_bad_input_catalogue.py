@@ -171,6 +171,10 @@ def world(tmp_path_factory: pytest.TempPathFactory) -> Path:
         (w / f"{name}.toml").write_text(text, encoding="utf-8")
     _write_foreign(w / "foreign.mcap")
     (w / "text.txt").write_text("not a log\n", encoding="utf-8")
+    (w / "layout.imk").write_text("globID x_mm y_mm type subtype size_mm layer\n"
+                                  "1 0 0 1 1 80 0\n2 5000 0 1 1 80 0\n3 0 5000 1 1 80 0\n",
+                                  encoding="utf-8")
+    (w / "bad.imk").write_text("1 2 3\n", encoding="utf-8")
     (w / "empty.mcap").write_bytes(b"")
     data = (w / "log.mcap").read_bytes()
     (w / "truncated.mcap").write_bytes(data[: len(data) // 3])
@@ -369,6 +373,29 @@ def _record_cases() -> list[Case]:
         _case("record-port-too-big", "record", "--nav", "tcp://127.0.0.1:99999", *out),
         _case("record-speed-input-without-mcu", "record", "--nav", "tcp://127.0.0.1:1",
               "--speed-input", *out),
+        _case("record-write-layout-missing", "record", "--nav350", "tcp://127.0.0.1:1",
+              "--write-layout", "{w}/no-such-layout.toml", *out, needle="cannot read"),
+        _case("record-write-layout-not-a-layout", "record", "--nav350", "tcp://127.0.0.1:1",
+              "--write-layout", "{w}/good.toml", *out, needle="no [[reflectors]]"),
+        _case("record-write-layout-to-nav200", "record", "--nav", "tcp://127.0.0.1:1",
+              "--write-layout", "{w}/layout.imk", *out, needle="NAV200"),
+        _case("record-map-at-two-numbers", "record", "--nav350", "tcp://127.0.0.1:1",
+              "--map-at", "1,2", *out, needle="X,Y,DEG"),
+        _case("record-map-at-nan", "record", "--nav350", "tcp://127.0.0.1:1",
+              "--map-at", "1,2,nan", *out, needle="--map-at"),
+        _case("record-map-layout-without-map-at", "record", "--nav350", "tcp://127.0.0.1:1",
+              "--map-layout", "{out}/site.toml", *out, needle="--map-at"),
+        _case("record-map-layout-is-the-output", "record", "--nav350", "tcp://127.0.0.1:1",
+              "--map-at", "0,0,0", "--map-layout", "{out}/rec.mcap", *out,
+              needle="is the input"),
+        _case("layout-convert-missing", "layout", "convert", "{w}/no-such-layout.imk", "-o",
+              "{out}/l.toml", needle="cannot read"),
+        _case("layout-convert-bad-imk", "layout", "convert", "{w}/bad.imk", "-o",
+              "{out}/l.toml", needle="line 1"),
+        _case("layout-convert-onto-itself", "layout", "convert", "{w}/layout.imk", "-o",
+              "{w}/layout.imk", needle="is the input"),
+        _case("layout-convert-empty-layer", "layout", "convert", "{w}/layout.imk", "-o",
+              "{out}/l.toml", "--layer", "7", needle="no reflector in layer 7"),
         _case("record-config-as-output", "record", "--nav", "tcp://127.0.0.1:1", "--config",
               "{w}/good.toml", "-o", "{w}/good.toml", "--force", needle="is the input"),
         _case("record-config-link-as-output", "record", "--nav", "tcp://127.0.0.1:1",

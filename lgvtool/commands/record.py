@@ -33,8 +33,28 @@ def _family_options(f: Callable[..., Any]) -> Callable[..., Any]:
               help="Poll with Pw, sending the head's vehicle-frame speed (mm/s) and yaw rate "
                    "from the MCU odometry.")
 @click.option("--layer", type=click.IntRange(0, 255), default=0, show_default=True,
-              help="Reflector layer to upload.")
-@click.option("--no-map-upload", is_flag=True, help="Do not upload the stored reflector map.")
+              help="Reflector layer read, written, mapped and navigated on.")
+@click.option("--read-layout/--no-read-layout", default=True, show_default=True,
+              help="Read the device's stored layout of --layer into the log (nothing is "
+                   "written).")
+@click.option("--no-map-upload", "no_map_upload", is_flag=True, hidden=True,
+              help="Old name of --no-read-layout.")
+@click.option("--write-layout", "write_layout", metavar="FILE",
+              type=click.Path(dir_okay=False, path_type=str),
+              help="NAV350: ERASE the device's stored layout of --layer and write FILE's "
+                   "reflectors of that layer instead (lgvtool TOML [[reflectors]] or SICK "
+                   ".imk), once per recording; the layout before and after is logged. "
+                   "Nothing is ever written to a device without this option.")
+@click.option("--map-at", "map_at", metavar="X,Y,DEG",
+              help="NAV350: run the device's mapping once from where the vehicle stands (the "
+                   "NAV head at X, Y m, heading DEG in the layout frame); waits while the MCU "
+                   "shows motion. The landmarks found are logged.")
+@click.option("--map-layout", "map_layout", metavar="FILE",
+              type=click.Path(dir_okay=False, path_type=str),
+              help="With --map-at: merge the landmarks found into the layout file FILE "
+                   "(created if missing; a landmark within 0.25 m of one of FILE's reflectors "
+                   "is that reflector), so stands mapped one after the other build one "
+                   "layout.")
 @click.option("--reply-timeout", type=_PERIOD, default=1.0, show_default=True, metavar="S",
               help="NAV200 reply timeout, s.")
 @click.option("--split-size", type=positive(MAX_BYTES / 1e6), metavar="MB",
@@ -57,7 +77,9 @@ def _family_options(f: Callable[..., Any]) -> Callable[..., Any]:
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 @_family_options
 def record(output: str, duration: float | None, speed_input: bool, layer: int,
-           no_map_upload: bool, reply_timeout: float, split_size: float | None,
+           read_layout: bool, no_map_upload: bool, write_layout: str | None,
+           map_at: str | None, map_layout: str | None, reply_timeout: float,
+           split_size: float | None,
            split_duration: float | None, config_file: str | None, status: bool, force: bool,
            as_json: bool, live: str | None = None, live_estimators: tuple[str, ...] = (),
            **device_options: Any) -> None:
@@ -66,9 +88,11 @@ def record(output: str, duration: float | None, speed_input: bool, layer: int,
 
     Logged: raw bytes both ways (/mcu/rx, /nav200/tx, /nav200/rx, /nav350/tx, /nav350/rx),
     decoded frames (/mcu/frame), poses (/nav/pose) and NAV350 landmarks (/nav/reflectors), the
-    uploaded reflector map (/map/reflectors and metadata), device identity, and every link
-    failure, gap, checksum error and device error reply (/diagnostics), all stamped with the
-    host receive time. A link that fails is retried with backoff and the recording goes on.
+    device's stored reflector layout as read (/map/reflectors and metadata), device identity,
+    and every link failure, gap, checksum error and device error reply (/diagnostics), all
+    stamped with the host receive time. Nothing is written to a device's layout unless
+    --write-layout names the file. A link that fails, or opens and drops, is retried with
+    backoff and the recording goes on.
     Ctrl-C or SIGTERM finishes the file; after a crash, 'lgvtool recover' saves all but about
     the last second. See docs/recording.md.
     """
@@ -76,10 +100,40 @@ def record(output: str, duration: float | None, speed_input: bool, layer: int,
     import sys
 
     from lgvtool.app.record_job import record_devices
+    from lgvtool.errors import InputError
 
+    warn = None
+    if no_map_upload:
+        warn = ("record: --no-map-upload is now --no-read-layout (nothing is written to a "
+                "device unless --write-layout names the file)")
+        read_layout = False
+    if map_layout is not None and map_at is None:
+        raise InputError("record: --map-layout needs --map-at X,Y,DEG")
     print_output(record_devices(
         output, duration=duration, speed_input=speed_input, layer=layer,
-        upload_map=not no_map_upload, reply_timeout=reply_timeout, split_size=split_size,
+        read_layout=read_layout, write_layout=write_layout,
+        map_at=None if map_at is None else _map_pose(map_at), map_layout=map_layout,
+        warn=warn, reply_timeout=reply_timeout, split_size=split_size,
         split_duration=split_duration, config_file=config_file, status=status, force=force,
         live=live, live_estimators=split_names(live_estimators, "--live-estimator"),
         command=shlex.join(["lgvtool", *sys.argv[1:]]), **device_options), as_json)
+
+
+def _map_pose(text: str) -> tuple[float, float, float]:
+    """``X,Y,DEG`` -> (x m, y m, heading deg); InputError when it is not three finite numbers
+    within 10^6 m and a heading within +-360 deg."""
+    import math
+
+    from lgvtool.errors import InputError
+
+    parts = text.split(",")
+    try:
+        x, y, deg = (float(p) for p in parts)
+    except ValueError:
+        raise InputError(f"record: --map-at {text!r}: give X,Y,DEG (m, m, degrees), e.g. "
+                         "--map-at 12.5,4.0,90") from None
+    if not all(math.isfinite(v) for v in (x, y, deg)) or max(abs(x), abs(y)) > 1e6 \
+            or abs(deg) > 360.0:
+        raise InputError(f"record: --map-at {text!r}: X and Y within 10^6 m, DEG within "
+                         "+-360")
+    return x, y, deg

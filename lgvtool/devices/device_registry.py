@@ -7,9 +7,11 @@ Each family is a folder ``lgvtool/devices/<family>/`` with a registration module
   recorder's odometry source: the other families' speed input);
 - decoding: ``log_decoder(metadata)``, ``ABSENT_REPORT``, ``ABSENT_METADATA``;
 - ``lgvtool record``: ``record_options`` (click decorators), ``RECORD_URL_OPTION`` /
-  ``RECORD_URL_PARAM`` (the option naming its link), ``recorder_settings(options, *, layer,
-  upload, speed_input, reply_timeout, config)`` (takes its options out of ``options``; a
-  :class:`~lgvtool.devices.recorder.RecordedDevice` or None), ``recorder_link(url)``,
+  ``RECORD_URL_PARAM`` (the option naming its link), ``recorder_settings(options, *, layout,
+  speed_input, reply_timeout, config)`` (takes its options out of ``options``; ``layout``: the
+  shared :class:`~lgvtool.devices.layout_plan.LayoutPlan`, which a family refuses in one line
+  where it cannot do it; a :class:`~lgvtool.devices.recorder.RecordedDevice` or None),
+  ``recorder_link(url)``,
   ``recorder_worker(...)`` and ``recorder_metadata(device)``;
 - ``lgvtool simulate serve``: ``serve_options`` (click decorators), ``SERVE_PARAM`` /
   ``SERVE_DEFAULT`` (its port parameter), ``serve_emulator(playback, spec, *, loop)`` (the

@@ -97,6 +97,9 @@ class RecordResult:
     devices: dict[str, str]
     live: dict[str, Any] | None = None
     """The live view's figures (URL, messages published, estimator latency), if served."""
+    mapped: tuple[tuple[float, float], ...] | None = None
+    """The landmarks a requested mapping run found (x, y m in the layout frame); None: no
+    mapping run succeeded."""
 
     def summary(self) -> str:
         """One line for the terminal."""
@@ -261,7 +264,9 @@ class Recorder:
                             errors=self.sink.errors, elapsed=elapsed,
                             bytes=self.sink.bytes_written(), stop_reason=self._reason,
                             devices=self._device_states(),
-                            live=None if self.live is None else self.live.stats())
+                            live=None if self.live is None else self.live.stats(),
+                            mapped=next((w.mapped for w in self.workers
+                                         if getattr(w, "mapped", None) is not None), None))
 
     def _install_signals(self) -> Any:
         if threading.current_thread() is not threading.main_thread():

@@ -70,7 +70,7 @@ def record_options(f: Callable[..., Any]) -> Callable[..., Any]:
                         help="Fake device link, recorded by no one.")(f)
 
 
-def recorder_settings(options: dict[str, Any], *, layer: int, upload: bool, speed_input: bool,
+def recorder_settings(options: dict[str, Any], *, layout: Any, speed_input: bool,
                       reply_timeout: float, config: Any) -> Any:
     from lgvtool.devices.recorder import RecordedDevice
 

@@ -10,6 +10,7 @@ import pytest
 
 from lgvtool.app.decode_job import decode_log
 from lgvtool.devices.device_registry import FAMILIES, family_of_topic, registration
+from lgvtool.devices.layout_plan import LayoutPlan
 from lgvtool.devices.log_decoding import decode_chunk, finish_decoding
 from lgvtool.devices.nav200.nav200_replies import build_pose_reply
 from lgvtool.devices.nav200.nav200_requests import request_pose
@@ -51,7 +52,7 @@ def test_every_family_has_the_same_interface() -> None:
 def test_a_family_takes_only_its_own_record_options() -> None:
     options = {"nav_url": "tcp://h:1", "poll_period": 0.2, "mcu_url": "tcp://h:2",
                "nav350_cola": "ascii"}
-    shared = {"layer": 0, "upload": True, "speed_input": False, "reply_timeout": 1.0,
+    shared = {"layout": LayoutPlan(), "speed_input": False, "reply_timeout": 1.0,
               "config": None}
     mcu = registration("mcu").recorder_settings(options, **shared)
     assert mcu.url == "tcp://h:2" and mcu.settings is None

@@ -60,14 +60,17 @@ def test_worked_pose_reply() -> None:
     assert tg.decode_frame(parse_frame(raw)).value == data
 
 
-def test_wrong_mode_reply_walks_five_flags_and_accepts_the_short_form() -> None:
+def test_wrong_mode_reply_has_four_flags() -> None:
     data = tg.PoseData(1, 1, 1, 2)
     raw = tg.Telegram("sAN", "mNPOSGetData", data).encode()
-    # the layout of the note's section 3 has five present-flags: 41 bytes, checksum 0x76
-    assert len(raw) == 41 and raw[-1] == 0x76
-    # the note's own example leaves out the last flag (39 bytes); it decodes the same
-    short = h("02 02 02 02 00 00 00 1E 73 41 4E 20 6D 4E 50 4F 53 47 65 74 44 61 74 61 20 "
-              "00 01 01 01 02 00 00 00 00 00 00 00 00 76")
+    # no pose, so no optional-pose flag: pose, landmark, scan-channel and remission flags
+    # (the note's section 7 example, 39 bytes)
+    note = h("02 02 02 02 00 00 00 1E 73 41 4E 20 6D 4E 50 4F 53 47 65 74 44 61 74 61 20 "
+             "00 01 01 01 02 00 00 00 00 00 00 00 00 76")
+    assert raw == note
+    assert tg.decode_frame(parse_frame(note)).value == data
+    # a reply that ends before the remission flag still decodes (no remission block)
+    short = encode_frame(BINARY, "sAN", "mNPOSGetData", h("00 01 01 01 02 00 00 00 00 00 00"))
     assert tg.decode_frame(parse_frame(short)).value == data
 
 

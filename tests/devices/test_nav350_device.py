@@ -139,12 +139,12 @@ def run_session(dev: Nav350Device, settings: Nav350Settings, seconds: float,
 
 
 @pytest.mark.parametrize("dialect", [BINARY, ASCII])
-def test_session_uploads_the_layout_navigates_and_polls_at_the_device_rate(dialect: str) -> None:
+def test_session_writes_a_requested_layout_navigates_and_polls_at_the_device_rate(dialect: str) -> None:
     dev = device()
     layout = tuple(tg.LayoutLandmark(1000 * i, 2000, 1, 1, 80, (0,)) for i in range(60))
-    events = run_session(dev, Nav350Settings(dialect=dialect, layout=layout), 6.0)
+    events = run_session(dev, Nav350Settings(dialect=dialect, write_layout=layout), 6.0)
     assert any(isinstance(e, NavigationEntered) for e in events)
-    assert len(dev.layout) == 60  # two AddLandmark chunks (50 + 10)
+    assert len(dev.layout) == 60  # erased, then two AddLandmark chunks (50 + 10)
     adds = [r for _, r in dev.requests if r.name == "mNLAYAddLandmark"]
     assert [len(r.value) for r in adds] == [50, 10]
     poses = [e for e in events if isinstance(e, PoseDataReceived)]

@@ -88,7 +88,7 @@ def record_options(f: Callable[..., Any]) -> Callable[..., Any]:
                              "or tcp://HOST:PORT.")(f)
 
 
-def recorder_settings(options: dict[str, Any], *, layer: int, upload: bool, speed_input: bool,
+def recorder_settings(options: dict[str, Any], *, layout: Any, speed_input: bool,
                       reply_timeout: float, config: Any) -> Any:
     """Take the MCU's :func:`record_options` out of ``options``: its
     :class:`~lgvtool.devices.recorder.RecordedDevice` (no settings of its own), None without

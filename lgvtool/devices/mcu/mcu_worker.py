@@ -63,10 +63,14 @@ class McuWorker(LinkWorker):
                 self.state = "silent"
                 self.diag("device_silent", f"no MCU data for {now - self._last_data:.1f} s",
                           level=ERROR, silence_s=round(now - self._last_data, 3))
-            if self._silent and quiet >= self.timing.reconnect_after:
-                self._quiet_reconnect()
+            # reopened after the back-off, like every reopen: the link of a device that stays
+            # silent is never healthy, so it is reopened every reconnect_after s plus a wait
+            # growing to backoff_max
+            if (self._silent and quiet >= self.timing.reconnect_after
+                    and self._quiet_reconnect()):
                 self._opened_at = time.monotonic()
             return
+        self._received()
         t = time.time_ns()
         self.sink.raw("mcu", "rx", data, t)
         if self._silent:

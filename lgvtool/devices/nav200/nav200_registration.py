@@ -112,13 +112,15 @@ def record_options(f: Callable[..., Any]) -> Callable[..., Any]:
     return f
 
 
-def recorder_settings(options: dict[str, Any], *, layer: int, upload: bool, speed_input: bool,
+def recorder_settings(options: dict[str, Any], *, layout: Any, speed_input: bool,
                       reply_timeout: float, config: Any) -> Any:
     """Take the NAV200's :func:`record_options` out of ``options``: its
     :class:`~lgvtool.devices.recorder.RecordedDevice` with
-    :class:`~lgvtool.devices.nav200.nav200_session.Nav200Settings` (the shared ``layer``,
-    ``upload``, ``speed_input``, ``reply_timeout`` s), None without ``--nav``; InputError for
-    action radii out of order."""
+    :class:`~lgvtool.devices.nav200.nav200_session.Nav200Settings` (``layout``: the shared
+    :class:`~lgvtool.devices.layout_plan.LayoutPlan`, whose read is the NAV200's map upload;
+    ``speed_input``, ``reply_timeout`` s), None without ``--nav``; InputError for action radii
+    out of order, and for a layout write or a mapping run, which the NAV200 recorder does not
+    do (nothing is ever written to a NAV200)."""
     from lgvtool.devices.nav200.nav200_session import Nav200Settings
     from lgvtool.devices.recorder import RecordedDevice
     from lgvtool.errors import InputError
@@ -134,10 +136,14 @@ def recorder_settings(options: dict[str, Any], *, layer: int, upload: bool, spee
         raise InputError("record: --action-radii RMIN must be below RMAX")
     if url is None:
         return None
+    if layout.write or layout.map_at is not None:
+        what = "--write-layout" if layout.write else "--map-at"
+        raise InputError(f"record: {what} is for the NAV350; the NAV200 recorder only reads "
+                         "its stored layout (nothing is written to a NAV200)")
     return RecordedDevice(url, Nav200Settings(
-        poll_period=poll_period, reply_timeout=reply_timeout, layer=layer,
+        poll_period=poll_period, reply_timeout=reply_timeout, layer=layout.layer,
         sliding_mean=sliding_mean, action_radii=action_radii, nearest_reflectors=nearest,
-        upload_map=upload, speed_input=speed_input,
+        upload_map=layout.read, speed_input=speed_input,
         omega_scale=OMEGA_UNITS_PER_RAD_S if omega_units == "rev"
         else OMEGA_UNITS_PER_RAD_S_HALF_DEG,
     ))

@@ -22,6 +22,15 @@ sequence (identity again, and the map read again and compared with the one held:
 a ``map_verified`` or ``map_changed`` diagnostic) and so lead back into positioning;
 retries back off from ``retry_initial`` to ``retry_max`` s while the device
 stays silent.
+
+Bounded per device session (a device session starts each time the link is opened, or reopened
+after the device fell silent): positioning is re-entered after refused pose requests at most
+``resume_tries`` times in a row without a pose accepted in between, then no more (one
+``positioning_given_up`` diagnostic; polling goes on, and an accepted pose re-arms it); a Pw
+(speed input) refused ``speed_input_tries`` times in a row gives speed input up (one
+``speed_input_given_up`` diagnostic; PP from then on). Without these bounds a NAV200 that
+refuses the pose request (e.g. a firmware without Pw) was taken through the whole sequence,
+the map upload included, again and again without a pause, and no pose was ever recorded.
 """
 
 from __future__ import annotations
@@ -104,6 +113,14 @@ class Nav200Settings:
     pose_errors_before_resume: int = 3
     """Error replies in a row to pose requests (of a kind that does not say "wrong mode")
     before re-entering positioning anyway."""
+    resume_tries: int = 3
+    """Re-entries of positioning after refused pose requests, in a row without a pose accepted
+    in between, per device session; then positioning is not re-entered again in that device
+    session (one ``positioning_given_up`` diagnostic), polling goes on. An accepted pose, or a
+    new device session (the link opened again), re-arms it."""
+    speed_input_tries: int = 3
+    """Pw requests refused in a row, per device session, before speed input is given up for
+    that device session (PP from then on; one ``speed_input_given_up`` diagnostic)."""
     retry_initial: float = 0.5
     """First retry delay after the device fell silent or a start-up step failed, s."""
     retry_max: float = 5.0
@@ -191,6 +208,12 @@ class Nav200Session:
         self._use_pa = self.settings.sliding_mean is None
         self._entered_with = ""
         self._verify_map = False
+        # per device session (see link_up): re-entries of positioning without a pose since,
+        # refused Pw requests in a row, and what was given up
+        self._resumes = 0
+        self._resume_given_up = False
+        self._pw_refusals = 0
+        self._pw_given_up = False
         #: True between the device confirming positioning and losing it
         self.positioning = False
         #: True while the link is up and the session is working
@@ -230,8 +253,11 @@ class Nav200Session:
         self.link_up(now)
 
     def link_up(self, now: float) -> None:
-        """The link is (again) open: run the sequence, honouring a pending retry delay."""
+        """The link is (again) open: a new device session; run the sequence, honouring a
+        pending retry delay. What an earlier device session gave up is tried again."""
         self.active = True
+        self._resumes, self._resume_given_up = 0, False
+        self._pw_refusals, self._pw_given_up = 0, False
         if self._host.pending is not None:
             self._host.cancel()
         self._pending = None
@@ -360,7 +386,7 @@ class Nav200Session:
 
     def _pose_request(self, now: float) -> Request:
         s, sp = self.settings, self._speed
-        if not s.speed_input or now - sp.at > s.speed_max_age:
+        if not s.speed_input or self._pw_given_up or now - sp.at > s.speed_max_age:
             return request_pose()
         limit = 32767 / s.omega_scale
         return request_pose_with_speed(
@@ -417,6 +443,9 @@ class Nav200Session:
         if pending.step == "pose":
             self._pose_errors = 0
             self._failures = 0
+            self._resumes, self._resume_given_up = 0, False
+            if pending.request.code == "Pw":
+                self._pw_refusals = 0
             assert isinstance(reply.payload, Pose)
             self.poses += 1
             self._events.append(PoseReceived(reply.payload, pending.request.code,
@@ -484,21 +513,22 @@ class Nav200Session:
         self._pose_errors = 0
         self._retry_at = -math.inf
         self._next_poll = now
+        given_up = {"speed_input_given_up": True} if self._pw_given_up else {}
         self._events.append(PositioningEntered(self.settings.applied()
-                                               | {"entered_with": self._entered_with}))
+                                               | {"entered_with": self._entered_with}
+                                               | given_up))
 
     def _on_error(self, pending: _Pending, reply: ErrorReply, now: float) -> None:
         step = pending.step
         if step == "pose":
             self._pose_errors += 1
+            if pending.request.code == "Pw" and self._pw_refused(reply):
+                self._pose_errors = 0  # the next poll asks with PP
+                return
             not_now = reply.detail in _NOT_NOW_DETAILS or reply.group != GROUP_POSITIONING
             if not_now or self._pose_errors >= self.settings.pose_errors_before_resume:
-                self._diag("positioning_lost", "NAV200 rejected the pose request "
-                           f"({reply.describe()}): entering positioning again", level=WARNING,
-                           request=pending.request.code, error_class=reply.error_class,
-                           group=reply.group, detail=reply.detail)
                 self._pose_errors = 0
-                self._restart_plan()
+                self._resume(pending, reply)
             return
         if step == "upload_next":
             self._plan.popleft()
@@ -537,6 +567,40 @@ class Nav200Session:
                    f"{reply.describe()}; retrying", level=ERROR, request=pending.request.code)
         self._restart_plan()
         self._backoff(now)
+
+    def _pw_refused(self, reply: ErrorReply) -> bool:
+        """A Pw was refused; True when that gives speed input up for this device session."""
+        self._pw_refusals += 1
+        if self._pw_given_up or self._pw_refusals < self.settings.speed_input_tries:
+            return False
+        self._pw_given_up = True
+        self._diag("speed_input_given_up", f"NAV200 refused Pw {self._pw_refusals} times in a "
+                   f"row ({reply.describe()}): poses are polled with PP, without speed input, "
+                   "for the rest of this device session", level=WARNING,
+                   refusals=self._pw_refusals, error_class=reply.error_class,
+                   group=reply.group, detail=reply.detail)
+        return True
+
+    def _resume(self, pending: _Pending, reply: ErrorReply) -> None:
+        """Pose requests were refused: enter positioning again, unless that was done
+        ``resume_tries`` times in a row without a pose (then it is given up, said once)."""
+        if self._resume_given_up:
+            return
+        details = {"request": pending.request.code, "error_class": reply.error_class,
+                   "group": reply.group, "detail": reply.detail}
+        if self._resumes >= self.settings.resume_tries:
+            self._resume_given_up = True
+            self._diag("positioning_given_up", f"NAV200 rejected the pose request "
+                       f"({reply.describe()}) after entering positioning {self._resumes} times "
+                       "in a row without a pose: not entering positioning again in this "
+                       "device session; polling goes on", level=ERROR, tries=self._resumes,
+                       **details)
+            return
+        self._resumes += 1
+        self._diag("positioning_lost", "NAV200 rejected the pose request "
+                   f"({reply.describe()}): entering positioning again", level=WARNING,
+                   tries=self._resumes, **details)
+        self._restart_plan()
 
 
 def _positions(reflectors: tuple[ReflectorPosition, ...]) -> list[tuple[int, int, int, int]]:

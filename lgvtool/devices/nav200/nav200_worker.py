@@ -72,8 +72,9 @@ class Nav200Worker(SessionWorker):
                 self._metadata()
             elif isinstance(event, DeviceSilent):
                 self.state = "silent"
-                self._quiet_reconnect()
-                self.session.link_up(time.monotonic())
+                # reopened after the back-off, like every reopen; a new device session
+                if self._quiet_reconnect():
+                    self.session.link_up(time.monotonic())
 
     def _metadata(self) -> None:
         record: dict[str, Any] = {"link": self.link.spec.url, **self.identity}

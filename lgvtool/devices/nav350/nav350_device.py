@@ -13,6 +13,16 @@ the data-format writes are read as on/off switches (landmark: cartesian, polar, 
 scan: DIST1, RSSI1; pose: pose, optional pose), mask 0 = pose only, 1 = pose + landmarks,
 2 = pose + landmarks + scan; absent blocks are sent with a zero flag; requests that need a
 login answer ``sFA 1``; method calls in the wrong mode answer with errorCode 1.
+
+Mapping (``sWN NMAPMapCfg mean neg x y phi``, ``mNEVAChangeState 2``, ``sMN mNMAPDoMapping``):
+the device averages the next ``mean`` revolutions and answers after the last of them: each
+reflector it measured, placed in the layout frame from the pose the host gave (it cannot know
+where it stands), grouped with the measurements of the other revolutions within
+:data:`MAP_GROUP_M`, kept when seen in at least half of them, and reported with its
+cartesian, polar (from the stand) and optional data. Fewer than three such reflectors:
+errorCode 7 and no landmarks. A vehicle that moves while mapping smears the positions, as it
+would on the real device. The stored layout is read with ``mNLAYGetLayer`` and
+``mNLAYGetLandmark`` (unknown id: errorCode 3).
 """
 
 from __future__ import annotations
@@ -50,6 +60,10 @@ SCAN_POINTS = 1440
 _WRAP = 1 << 32
 #: Time from a mode change request to its result, s.
 CHANGE_DELAY = 0.05
+#: Measurements of one reflector in a mapping run lie within this distance, m.
+MAP_GROUP_M = 0.3
+#: Fewest reflectors a mapping run must find.
+MAP_MIN = 3
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,6 +145,9 @@ class _State:
     scan_format: tuple[int, int] = (1, 1)
     pose_format: tuple[int, int] = (1, 1)
     host_cola: int = 1
+    map_cfg: tuple[int, int, int, int, int] = (50, 0, 0, 0, 0)
+    """mean, negative, x mm, y mm, phi mdeg of the mapping configuration."""
+    refl_size: int = 80
 
 
 @dataclass
@@ -272,6 +289,20 @@ class Nav350Device:
             return [self._out(tg.reply("sAN", name, 0 if st.mode == MODE_NAVIGATION else 1), d)]
         if name in ("mNLAYEraseLayout", "mNLAYAddLandmark", "mNLAYStoreLayout"):
             return [self._out(self._layout_op(request), d)]
+        if name == "mNLAYGetLayer":
+            layer = int(f[0])
+            ids = tuple(g for g, m in sorted(self._layout.marks.items()) if layer in m.layers)
+            return [self._out(Telegram("sAN", name, tg.LayerIds(0, ids)), d)]
+        if name == "mNLAYGetLandmark":
+            marks = self._layout.marks
+            if any(int(g) not in marks for g in request.value):
+                return [self._out(Telegram("sAN", name, tg.StoredLandmarks(3, ())), d)]
+            return [self._out(Telegram("sAN", name, tg.StoredLandmarks(0, tuple(
+                tg.StoredLandmark(int(g), marks[g].x_mm, marks[g].y_mm, marks[g].type,
+                                  marks[g].subtype, marks[g].size_mm, marks[g].layers)
+                for g in request.value))), d)]
+        if name == "mNMAPDoMapping":
+            return self._do_mapping(request, t)
         if name == "mEEwriteall":
             return [self._out(tg.reply("sAN", name, 0), d)]
         return [self._sfa(2, d)]
@@ -328,6 +359,10 @@ class Nav350Device:
             st.pose_format = (ints[0], ints[1])
         elif name == "EIHstCola":
             st.host_cola = ints[0]
+        elif name == "NMAPMapCfg":
+            st.map_cfg = (ints[0], ints[1], ints[2], ints[3], ints[4])
+        elif name == "NLMDReflSize":
+            st.refl_size = ints[0]
 
     def _change(self, request: Telegram, t: float) -> list[bytes]:
         mode = int(request.fields[0])
@@ -383,6 +418,59 @@ class Nav350Device:
             lay.next_id += 1
         return Telegram("sAN", request.name, tg.AddedLandmarks(0, tuple(ids)))
 
+    def _do_mapping(self, request: Telegram, t: float) -> list[bytes]:
+        d = request.dialect
+        if self._state.mode != MODE_MAPPING:
+            return [self._out(Telegram("sAN", request.name, tg.MappingResult(1, None)), d)]
+        mean = max(1, min(127, self._state.map_cfg[0]))
+        first = self.source.next_after(t)
+        last = min(first + mean, len(self.source)) - 1
+        if last < first:  # the run is over: never answered
+            return [self._out(tg.reply("sMA", request.name), d)]
+        result = self._mapped(first, last)
+        at = self.source.revolutions[last].available
+        self._later.append((at, self._out(Telegram("sAN", request.name, result), d)))
+        self._later.sort(key=lambda item: item[0])
+        return [self._out(tg.reply("sMA", request.name), d)]
+
+    def _mapped(self, first: int, last: int) -> tg.MappingResult:
+        """The reflectors of revolutions ``first..last`` placed from the configured stand (see
+        the module docstring)."""
+        _, _, x_mm, y_mm, phi_mdeg = self._state.map_cfg
+        sx, sy, sphi = x_mm / 1000.0, y_mm / 1000.0, math.radians(phi_mdeg / 1000.0)
+        c, s = math.cos(sphi), math.sin(sphi)
+        groups: list[list[tuple[float, float, float, float]]] = []
+        for k in range(first, last + 1):
+            for o in self.source.revolutions[k].observations:
+                bx, by = o.range * math.cos(o.bearing), o.range * math.sin(o.bearing)
+                px, py = sx + c * bx - s * by, sy + s * bx + c * by
+                near = min(groups, default=None, key=lambda g: math.hypot(
+                    g[0][0] - px, g[0][1] - py))
+                if near is not None and math.hypot(near[0][0] - px, near[0][1] - py) \
+                        <= MAP_GROUP_M:
+                    near.append((px, py, o.range, o.bearing))
+                else:
+                    groups.append([(px, py, o.range, o.bearing)])
+        revs = last - first + 1
+        kept = [g for g in groups if 2 * len(g) >= revs]
+        if len(kept) < MAP_MIN:
+            return tg.MappingResult(7, None)
+        tick = self.tick(self.source.revolutions[last].start)
+        marks = []
+        for i, g in enumerate(kept):
+            n = len(g)
+            x = sum(p[0] for p in g) / n
+            y = sum(p[1] for p in g) / n
+            rng = math.hypot(x - sx, y - sy)
+            bearing = math.atan2(y - sy, x - sx) - sphi
+            centre = round(math.degrees(bearing) / 0.25) % SCAN_POINTS
+            info = LandmarkInfo(i, 0xFFFF, 1, 1, 100, tick, self._state.refl_size,
+                                min(n, 0xFFFF), 200, centre, centre)
+            marks.append(Landmark((round(x * 1000.0), round(y * 1000.0)),
+                                  (round(rng * 1000.0),
+                                   round(math.degrees(bearing) * 1000.0) % 360_000), info))
+        return tg.MappingResult(0, LandmarkData(1, tuple(marks)))
+
     # ------------------------------------------------------------------ pose data
     def _solution(self, k: int) -> tuple[float, float, float, bool, int, int]:
         rev = self.source.revolutions[k]
@@ -414,7 +502,7 @@ class Nav350Device:
             if error == 0 and st.pose_format[0]:
                 phi = round(math.degrees(heading) * 1000.0) % 360_000
                 pose = (round(x * 1000.0), round(y * 1000.0), phi)
-            if error == 0 and st.pose_format[1]:
+            if pose is not None and st.pose_format[1]:  # optional data only with a pose
                 mid = self.tick(rev.start + 0.5 * rev.period)
                 mean_dev = round((100 - max(0, min(100, quality))) * 2.5)
                 info = PoseInfo(1, mid, mean_dev, 4, 0, min(used, 255))

@@ -47,6 +47,7 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
              speed_input: bool = False, dialect: str = "binary") -> LoopbackResult:
     """Serve ``playback``, record ``seconds`` s into ``out``, count both sides."""
     from lgvtool.config import default_config
+    from lgvtool.devices.layout_plan import LayoutPlan
     from lgvtool.devices.link_worker import LinkTiming
     from lgvtool.devices.nav350.nav350_registration import recorder_settings
     from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
@@ -61,7 +62,7 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
     try:
         config = default_config()
         nav350 = recorder_settings({"nav350_url": server.urls["nav350"], "nav350_cola": dialect},
-                                   layer=0, upload=True, speed_input=speed_input,
+                                   layout=LayoutPlan(), speed_input=speed_input,
                                    reply_timeout=1.0, config=config)
         settings = RecorderSettings(output=out, devices={"mcu": RecordedDevice(server.urls["mcu"]),
                                                          "nav350": nav350},

@@ -114,25 +114,27 @@ def record_options(f: Callable[..., Any]) -> Callable[..., Any]:
                      default="binary", show_default=True,
                      help="NAV350 SOPAS dialect: CoLa-B (binary) or CoLa-A (ascii).")(f)
     return click.option("--nav350", "nav350_url", metavar="URL",
-                        help="NAV350 over Ethernet: tcp://HOST:2112. Logs in, uploads the "
-                             "configured reflector map as layout --layer (unless "
-                             "--no-map-upload), navigates and polls pose + landmarks at the "
+                        help="NAV350 over Ethernet: tcp://HOST:2112. Logs in, reads its stored "
+                             "layout of --layer into the log (writes one only with "
+                             "--write-layout), navigates and polls pose + landmarks at the "
                              "device's rate; --speed-input sends mNPOSSetSpeed.")(f)
 
 
-def recorder_settings(options: dict[str, Any], *, layer: int, upload: bool, speed_input: bool,
+def recorder_settings(options: dict[str, Any], *, layout: Any, speed_input: bool,
                       reply_timeout: float, config: Any) -> Any:
     """Take the NAV350's :func:`record_options` out of ``options``: its
     :class:`~lgvtool.devices.recorder.RecordedDevice` with
-    :class:`~lgvtool.devices.nav350.nav350_session.Nav350Settings` (the shared ``layer``,
-    ``upload``, ``speed_input``, ``reply_timeout`` s; the map of ``config``), None without
-    ``--nav350``; InputError for a URL that is not TCP."""
+    :class:`~lgvtool.devices.nav350.nav350_session.Nav350Settings` (``layout``: the shared
+    :class:`~lgvtool.devices.layout_plan.LayoutPlan`; ``speed_input``, ``reply_timeout`` s),
+    None without ``--nav350``; InputError for a URL that is not TCP or a layer out of range."""
     url = options.pop(RECORD_URL_PARAM, None)
     cola = options.pop("nav350_cola", "binary")
     if url is None:
         return None
+    import math
+
     from lgvtool.devices.device_links import parse_link_url
-    from lgvtool.devices.nav350.nav350_session import Nav350Settings
+    from lgvtool.devices.nav350.nav350_session import MapStand, Nav350Settings
     from lgvtool.devices.nav350.nav350_telegrams import LayoutLandmark
     from lgvtool.devices.recorder import RecordedDevice
     from lgvtool.errors import InputError
@@ -140,15 +142,19 @@ def recorder_settings(options: dict[str, Any], *, layer: int, upload: bool, spee
     if parse_link_url(url).scheme != "tcp":
         raise InputError(f"record: --nav350 {url!r}: the NAV350 is reached over Ethernet, "
                          f"tcp://HOST:{DEFAULT_PORT}")
-    if layer > 0xFFFF:
+    if layout.layer > 0xFFFF:
         raise InputError("record: --layer must be 0..65535")
-    layout: tuple[LayoutLandmark, ...] = ()
-    if upload and config is not None:
-        layout = tuple(LayoutLandmark(round(r.x * 1000), round(r.y * 1000), 1, 1,
-                                      max(1, round(r.radius * 2000)), (layer,))
-                       for r in config.reflectors if r.layer == layer)
-    return RecordedDevice(url, Nav350Settings(dialect=cola, layer=layer, layout=layout,
-                                              speed_input=speed_input,
+    write = tuple(LayoutLandmark(round(r.x * 1000), round(r.y * 1000), 1, 1,
+                                 max(1, round(r.radius * 2000)), (layout.layer,))
+                  for r in layout.write)
+    stand = None
+    if layout.map_at is not None:
+        m = layout.map_at
+        stand = MapStand(round(m.x * 1000), round(m.y * 1000),
+                         round(math.degrees(m.heading) * 1000) % 360_000)
+    return RecordedDevice(url, Nav350Settings(dialect=cola, layer=layout.layer,
+                                              read_layout=layout.read, write_layout=write,
+                                              map_at=stand, speed_input=speed_input,
                                               reply_timeout=reply_timeout))
 
 
@@ -173,6 +179,17 @@ def recorder_worker(link: Any, sink: Any, stop: Any, timing: Any, settings: Any,
     from lgvtool.devices.nav350.nav350_worker import Nav350Worker
 
     s = settings if settings is not None else Nav350Settings()
-    known = tuple(r for r in config.reflectors if r.layer == s.layer) if s.layout else ()
+    # the landmarks written (if asked for) in the order written: the device's new ids map to
+    # these reflectors until the layout is read back
+    known = tuple(r for r in _written(s))
     return Nav350Worker(link, sink, stop, timing, Nav350Session(s), vehicle=config.vehicle,
                         known_map=known, mcu=mcu, warn=warn)
+
+
+def _written(settings: Any) -> tuple[Any, ...]:
+    """The reflectors of a requested layout write, as the log's map (ids from 1 in the order
+    written; the device's own ids replace them once the layout is read back)."""
+    from lgvtool.config import Reflector
+
+    return tuple(Reflector(i + 1, m.x_mm / 1000.0, m.y_mm / 1000.0, m.size_mm / 2000.0,
+                           settings.layer) for i, m in enumerate(settings.write_layout))

@@ -3,8 +3,10 @@
 A :class:`Telegram` is ``kind name value``; :meth:`Telegram.encode` frames it in either dialect
 and :func:`decode_frame` turns a parsed :class:`~lgvtool.devices.nav350.nav350_cola.Frame` back into
 one. Fixed layouts are listed in :data:`LAYOUTS` (one field code per argument: ``u8 u16 u32
-i16 i32 flex``); the variable ones (the ``mNPOSGetData`` reply, landmark data, the layout
-upload) have their own walkers, which follow the present-flags, never the request mask.
+i16 i32 flex``); the variable ones (the ``mNPOSGetData`` and ``mNMAPDoMapping`` replies,
+landmark data, the layout upload and read-back) have their own walkers, which follow the
+present-flags, never the request mask. A count larger than the bytes that follow it raises
+:class:`~lgvtool.wire.wire_errors.BadLengthError` from :func:`decode_frame`.
 Units are the wire's: mm, mdeg (1/1000 deg), ms ticks of the NAV350 clock.
 """
 
@@ -24,11 +26,12 @@ from lgvtool.devices.nav350.nav350_cola import (
     reader_for,
     writer_for,
 )
-from lgvtool.wire.wire_errors import BadLengthError, UnknownCommandError
+from lgvtool.wire.wire_errors import BadLengthError, EncodeError, UnknownCommandError
 
 __all__ = [
     "ERROR_CODES",
     "LAYOUTS",
+    "MAX_LANDMARKS_PER_REQUEST",
     "MODES",
     "PASSWORD_CLIENT",
     "PASSWORD_SERVICE",
@@ -37,13 +40,21 @@ __all__ = [
     "Landmark",
     "LandmarkData",
     "LandmarkInfo",
+    "LayerIds",
     "LayoutLandmark",
+    "MappingResult",
     "PoseData",
     "PoseInfo",
     "ScanChannel",
+    "StoredLandmark",
+    "StoredLandmarks",
     "Telegram",
     "decode_frame",
+    "do_mapping",
+    "get_landmarks",
+    "get_layer",
     "is_known",
+    "map_config",
 ]
 
 #: Operating modes of mNEVAChangeState.
@@ -78,6 +89,8 @@ LAYOUTS: dict[tuple[str, str], tuple[str, ...]] = {
     ("sMN", "mNPOSSetPose"): ("i32", "i32", "i32"),
     ("sMN", "mNLAYEraseLayout"): ("u8",),
     ("sMN", "mNLAYStoreLayout"): (),
+    ("sMN", "mNLAYGetLayer"): ("u16",),
+    ("sMN", "mNMAPDoMapping"): (),
     ("sMN", "mNAVGetTimestamp"): (),
     ("sMN", "mEEwriteall"): (),
     ("sWN", "NEVACurrLayer"): ("u16",),
@@ -85,6 +98,7 @@ LAYOUTS: dict[tuple[str, str], tuple[str, ...]] = {
     ("sWN", "NAVScanDataFormat"): ("u8", "u8"),
     ("sWN", "NPOSPoseDataFormat"): ("u8", "u8"),
     ("sWN", "NLMDReflSize"): ("u16",),
+    ("sWN", "NMAPMapCfg"): ("u8", "u8", "i32", "i32", "i32"),
     ("sWN", "EIHstCola"): ("u8",),
     ("sRN", "FirmwareVersion"): (),
     ("sRN", "SCdevicestate"): (),
@@ -115,8 +129,12 @@ LAYOUTS: dict[tuple[str, str], tuple[str, ...]] = {
 }
 #: Variables whose write is acknowledged by an empty sWA.
 WRITABLE = frozenset(n for (k, n) in LAYOUTS if k == "sWN")
-#: Methods that may first answer with an empty sMA.
-METHODS = frozenset(n for (k, n) in LAYOUTS if k == "sMN") | {"mNLAYAddLandmark"}
+#: Methods that may first answer with an empty sMA (mNMAPDoMapping and mNEVAChangeState do).
+METHODS = frozenset(n for (k, n) in LAYOUTS if k == "sMN") | {
+    "mNLAYAddLandmark", "mNLAYGetLandmark", "mNMAPDoMapping"}
+#: Most global ids one mNLAYGetLandmark request asks for (the vendor driver uploads landmarks
+#: in chunks of at most 50; the same bound for the read-back is lgvtool's choice).
+MAX_LANDMARKS_PER_REQUEST = 50
 
 
 # ---------------------------------------------------------------------------------- values
@@ -190,7 +208,9 @@ class ScanChannel:
 class PoseData:
     """A ``sAN mNPOSGetData`` reply (and, without a pose, ``sAN mNLMDGetData``): version,
     errorCode, the echoed wait and mask, then each block or None when its flag is 0.
-    ``pose`` is ``(x_mm, y_mm, phi_mdeg)``, phi in 0..360000."""
+    ``pose`` is ``(x_mm, y_mm, phi_mdeg)``, phi in 0..360000. ``info`` (the optional pose
+    data) travels inside the pose block: its flag is on the wire only when the pose flag is
+    1, so a reply with ``pose`` None and ``info`` set cannot be encoded."""
 
     version: int = 1
     error_code: int = 0
@@ -222,6 +242,48 @@ class AddedLandmarks:
 
     error_code: int
     ids: tuple[int, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class MappingResult:
+    """The ``sAN mNMAPDoMapping`` reply: errorCode, then the mapped reflectors (the landmark
+    block, cartesian x, y in mm, polar distance mm and angle mdeg) or None when its
+    present-flag is 0. No version field."""
+
+    error_code: int
+    landmarks: LandmarkData | None
+
+
+@dataclass(frozen=True, slots=True)
+class LayerIds:
+    """The ``sAN mNLAYGetLayer`` reply (layout inferred): errorCode and the global ids of the
+    landmarks of the layer asked for (dimensionless u16 ids)."""
+
+    error_code: int
+    ids: tuple[int, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class StoredLandmark:
+    """A landmark of the stored layout as ``sAN mNLAYGetLandmark`` returns it (layout
+    inferred): its global id, x and y in mm, type, subtype, size in mm and its layers."""
+
+    global_id: int
+    x_mm: int
+    y_mm: int
+    type: int
+    subtype: int
+    size_mm: int
+    layers: tuple[int, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class StoredLandmarks:
+    """The ``sAN mNLAYGetLandmark`` reply (layout inferred): errorCode and the landmarks
+    asked for (positions in mm, see :class:`StoredLandmark`)."""
+
+    error_code: int
+    landmarks: tuple[StoredLandmark, ...]
 
 
 # ---------------------------------------------------------------------------------- walkers
@@ -299,26 +361,34 @@ def _write_tail(w: Writer, d: PoseData) -> None:
 
 
 def _read_pose_data(r: Reader) -> PoseData:
+    # the optional-pose flag is part of the pose block (the vendor parser reads it only when
+    # the pose flag is set): without a pose, the landmark flag follows the pose flag
     version, err, wait, mask = r.group("HBBB")
-    pose = r.group("iiI") if r.u16() else None
-    info = PoseInfo(*r.group("BIiBIB")) if r.u16() else None
+    pose: tuple[int, int, int] | None = None
+    info = None
+    if r.u16():
+        pose = r.group("iiI")
+        info = PoseInfo(*r.group("BIiBIB")) if r.u16() else None
     landmarks, scans, remission = _read_tail(r)
     return PoseData(version, err, wait, mask, pose, info, landmarks, scans,
                     remission)
 
 
 def _write_pose_data(w: Writer, d: PoseData) -> None:
+    i = d.info
+    if d.pose is None and i is not None:
+        raise BadLengthError("mNPOSGetData: optional pose data without a pose cannot be "
+                             "encoded (its present-flag is only sent after a pose)")
     w.u16(d.version).u8(d.error_code).u8(d.wait).u8(d.mask)
     if d.pose is None:
         w.u16(0)
     else:
         w.u16(1).i32(d.pose[0]).i32(d.pose[1]).u32(d.pose[2])
-    i = d.info
-    if i is None:
-        w.u16(0)
-    else:
-        (w.u16(1).u8(i.output_mode).u32(i.timestamp_ms).i32(i.mean_dev).u8(i.nav_mode)
-         .u32(i.info_state).u8(i.used_reflectors))
+        if i is None:
+            w.u16(0)
+        else:
+            (w.u16(1).u8(i.output_mode).u32(i.timestamp_ms).i32(i.mean_dev).u8(i.nav_mode)
+             .u32(i.info_state).u8(i.used_reflectors))
     _write_tail(w, d)
 
 
@@ -357,11 +427,62 @@ def _write_added(w: Writer, a: AddedLandmarks) -> None:
     w.u8(a.error_code).u16(len(a.ids)).u16s(a.ids)
 
 
+def _read_mapping(r: Reader) -> MappingResult:
+    err = r.u8()
+    return MappingResult(err, _read_landmarks(r) if r.u16() else None)
+
+
+def _write_mapping(w: Writer, m: MappingResult) -> None:
+    w.u8(m.error_code)
+    if m.landmarks is None:
+        w.u16(0)
+    else:
+        w.u16(1)
+        _write_landmarks(w, m.landmarks)
+
+
+def _read_layer_ids(r: Reader) -> LayerIds:
+    err = r.u8()
+    return LayerIds(err, tuple(r.u16s(r.u16())))
+
+
+def _write_layer_ids(w: Writer, v: LayerIds) -> None:
+    w.u8(v.error_code).u16(len(v.ids)).u16s(v.ids)
+
+
+def _read_id_list(r: Reader) -> tuple[int, ...]:
+    return tuple(r.u16s(r.u16()))
+
+
+def _write_id_list(w: Writer, ids: tuple[int, ...]) -> None:
+    w.u16(len(ids)).u16s(ids)
+
+
+def _read_stored(r: Reader) -> StoredLandmarks:
+    err = r.u8()
+    out = []
+    for _ in range(r.u16()):
+        gid, x, y, typ, sub, size, n = r.group("HiiBBHH")
+        out.append(StoredLandmark(gid, x, y, typ, sub, size, tuple(r.u16s(n))))
+    return StoredLandmarks(err, tuple(out))
+
+
+def _write_stored(w: Writer, v: StoredLandmarks) -> None:
+    w.u8(v.error_code).u16(len(v.landmarks))
+    for m in v.landmarks:
+        (w.u16(m.global_id).i32(m.x_mm).i32(m.y_mm).u8(m.type).u8(m.subtype).u16(m.size_mm)
+         .u16(len(m.layers)).u16s(m.layers))
+
+
 _CUSTOM: dict[tuple[str, str], tuple[Callable[[Reader], Any], Callable[[Writer, Any], None]]] = {
     ("sAN", "mNPOSGetData"): (_read_pose_data, _write_pose_data),
     ("sAN", "mNLMDGetData"): (_read_landmark_only, _write_landmark_only),
     ("sMN", "mNLAYAddLandmark"): (_read_add, _write_add),
     ("sAN", "mNLAYAddLandmark"): (_read_added, _write_added),
+    ("sAN", "mNMAPDoMapping"): (_read_mapping, _write_mapping),
+    ("sAN", "mNLAYGetLayer"): (_read_layer_ids, _write_layer_ids),
+    ("sMN", "mNLAYGetLandmark"): (_read_id_list, _write_id_list),
+    ("sAN", "mNLAYGetLandmark"): (_read_stored, _write_stored),
 }
 
 
@@ -503,6 +624,36 @@ def set_speed(vx: float, vy: float, omega: float, timestamp_ms: int,
 def add_landmarks(marks: tuple[LayoutLandmark, ...]) -> Telegram:
     """``sMN mNLAYAddLandmark`` with up to 50 landmarks."""
     return Telegram("sMN", "mNLAYAddLandmark", tuple(marks))
+
+
+def map_config(mean: int, negative: int, x_mm: int, y_mm: int, phi_mdeg: int) -> Telegram:
+    """``sWN NMAPMapCfg``: ``mean`` scans averaged (1..127, vendor default 50), ``negative``
+    (0: map all reflectors, 1: only new ones), the vehicle pose the map is built from: x, y in
+    mm (±10 000 000), phi in mdeg (±360 000)."""
+    return request("sWN", "NMAPMapCfg", mean, negative, x_mm, y_mm, phi_mdeg)
+
+
+def do_mapping() -> Telegram:
+    """``sMN mNMAPDoMapping`` (needs mapping mode; answered by ``sMA``, then ``sAN`` with a
+    :class:`MappingResult`, positions in mm)."""
+    return request("sMN", "mNMAPDoMapping")
+
+
+def get_layer(layer: int) -> Telegram:
+    """``sMN mNLAYGetLayer layer`` (layer: u16 number): the global ids of that layer of the
+    stored layout (reply :class:`LayerIds`; layout inferred)."""
+    return request("sMN", "mNLAYGetLayer", layer)
+
+
+def get_landmarks(ids: Sequence[int]) -> Telegram:
+    """``sMN mNLAYGetLandmark count id…``: the stored landmarks with these global ids (reply
+    :class:`StoredLandmarks`, positions in mm; layout inferred). At most
+    :data:`MAX_LANDMARKS_PER_REQUEST` ids, else EncodeError (a ValueError)."""
+    values = tuple(int(i) for i in ids)
+    if len(values) > MAX_LANDMARKS_PER_REQUEST:
+        raise EncodeError(f"mNLAYGetLandmark asks for at most {MAX_LANDMARKS_PER_REQUEST} "
+                          f"landmarks, got {len(values)}")
+    return Telegram("sMN", "mNLAYGetLandmark", values)
 
 
 def reply(kind: str, name: str, *values: Any) -> Telegram:

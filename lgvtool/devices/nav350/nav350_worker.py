@@ -1,9 +1,11 @@
 """The recorder's NAV350 thread: runs :class:`Nav350Session` over a TCP link into the log.
 
 Logged: /nav350/tx and /nav350/rx (every byte), /nav/pose (with the device's figures and both
-times), /nav/reflectors (every landmark), the uploaded layout (/map/reflectors), device identity
-and clock estimate (metadata ``device.nav350``), and on /diagnostics every sFA, error code,
-timeout, decoder error, reconnect and gap.
+times), /nav/reflectors (every landmark), the device's stored layout as read (/map/reflectors,
+and before and after a requested write, metadata ``device.nav350.layout_before`` / ``_after``),
+the landmarks of a mapping run (metadata ``device.nav350.mapping`` and /diagnostics), device
+identity and clock estimate (metadata ``device.nav350``), and on /diagnostics every sFA, error
+code, timeout, decoder error, reconnect and gap.
 """
 
 from __future__ import annotations
@@ -20,19 +22,36 @@ from lgvtool.devices.mcu.mcu_worker import McuWorker
 from lgvtool.devices.nav350.nav350_session import (
     ClockRead,
     Identity,
-    LayoutUploaded,
+    LayoutRead,
+    LayoutWritten,
+    MappingDone,
     Nav350Session,
     NavigationEntered,
     PoseDataReceived,
     SessionFatal,
 )
+from lgvtool.devices.nav350.nav350_telegrams import StoredLandmark
 from lgvtool.devices.session_events import DeviceSilent
 from lgvtool.errors import LgvError
 from lgvtool.log import topics
 from lgvtool.log.messages import nav350_pose_message, nav350_scan_message
-from lgvtool.wire.decode_events import ERROR, INFO, DecodeEvent
+from lgvtool.wire.decode_events import ERROR, INFO, WARNING, DecodeEvent
 
-__all__ = ["Nav350Stopped", "Nav350Worker"]
+__all__ = ["MOTION_SPEED", "MOTION_YAW_RATE", "Nav350Stopped", "Nav350Worker",
+           "reflectors_of_layout"]
+
+#: The MCU shows motion above this speed (m/s) or yaw rate (rad/s): a mapping run waits.
+MOTION_SPEED, MOTION_YAW_RATE = 0.005, 0.005
+#: Odometry older than this says nothing about motion now, s.
+_MOTION_MAX_AGE = 1.0
+
+
+def reflectors_of_layout(landmarks: tuple[StoredLandmark, ...]) -> tuple[Reflector, ...]:
+    """The device's stored landmarks as the log's reflectors: id = the device's global id, x, y
+    in m, radius = half the landmark size (m), layer = its first layer."""
+    return tuple(Reflector(lm.global_id, lm.x_mm / 1000.0, lm.y_mm / 1000.0,
+                           max(lm.size_mm, 1) / 2000.0, lm.layers[0] if lm.layers else 0)
+                 for lm in landmarks)
 
 
 class Nav350Stopped(LgvError):
@@ -53,6 +72,10 @@ class Nav350Worker(SessionWorker):
         self.session: Nav350Session = session
         self._known = known_map
         self._map_id: dict[int, int] | None = None
+        #: the mapping run's landmarks (x, y m), once done; None: no run (yet)
+        self.mapped: tuple[tuple[float, float], ...] | None = None
+        self._layouts: dict[str, list[dict[str, Any]]] = {}
+        self._mapping: dict[str, Any] = {}
         self._identity: dict[str, str] = {}
         self._applied: dict[str, Any] = {}
         self._clock: dict[str, Any] = {}
@@ -88,8 +111,12 @@ class Nav350Worker(SessionWorker):
             elif isinstance(event, Identity):
                 self._identity = dict(event.values)
                 self._metadata()
-            elif isinstance(event, LayoutUploaded):
-                self._on_layout(event, t)
+            elif isinstance(event, LayoutRead):
+                self._on_layout_read(event, t)
+            elif isinstance(event, LayoutWritten):
+                self._on_layout_written(event, t)
+            elif isinstance(event, MappingDone):
+                self._on_mapping(event, t)
             elif isinstance(event, NavigationEntered):
                 self._applied = event.settings
                 self.sink.diagnostic("nav350", "navigation", "NAV350 navigation", t,
@@ -99,8 +126,8 @@ class Nav350Worker(SessionWorker):
                 self.state = "silent"
                 self.diag("device_silent", f"no NAV350 reply {event.timeouts} times in a row; "
                           "reconnecting", level=ERROR, timeouts=event.timeouts)
-                self._quiet_reconnect()
-                self.session.link_up(time.monotonic())
+                if self._quiet_reconnect():
+                    self.session.link_up(time.monotonic())
             elif isinstance(event, SessionFatal):
                 self.diag("fatal", event.message, level=ERROR)
                 self.crashed = Nav350Stopped(f"record: {event.message}; the log holds "
@@ -122,13 +149,65 @@ class Nav350Worker(SessionWorker):
                                  details={"tick_ms": event.tick, **self._clock})
             self._metadata()
 
-    def _on_layout(self, event: LayoutUploaded, t: int) -> None:
-        layout = self._known
-        self._map_id = {dev: r.id for dev, r in zip(event.ids, layout, strict=False)}
-        self.sink.set_map(layout, t)
-        self.sink.diagnostic("nav350", "layout_uploaded", f"{len(event.ids)} landmarks uploaded"
-                             f" into layer {event.layer}", t, level=INFO,
-                             details={"landmarks": len(event.ids), "layer": event.layer})
+    def _speed_input(self, now: float) -> None:
+        super()._speed_input(now)
+        latest = None if self._mcu is None else self._mcu.motion
+        if latest is None or time.monotonic() - latest[0] > _MOTION_MAX_AGE:
+            self.session.vehicle_moving(None)
+        else:
+            m = latest[1]
+            self.session.vehicle_moving(abs(m.v) > MOTION_SPEED or abs(m.omega) > MOTION_YAW_RATE)
+
+    def _on_layout_read(self, event: LayoutRead, t: int) -> None:
+        marks = [{"id": lm.global_id, "x_mm": lm.x_mm, "y_mm": lm.y_mm, "size_mm": lm.size_mm,
+                  "layers": list(lm.layers)} for lm in event.landmarks]
+        self._layouts[event.when] = marks
+        writes = self.session.settings.write_layout
+        if event.when == "before" and writes and not self.session.layout_written:
+            self.sink.diagnostic("nav350", "layout_erasing", f"erasing the NAV350's layout of "
+                                 f"layer {event.layer} ({len(marks)} landmarks, logged in "
+                                 f"device.nav350.layout_before) to write {len(writes)}", t,
+                                 level=WARNING, details={"layer": event.layer,
+                                                         "stored": len(marks),
+                                                         "writing": len(writes)})
+        else:
+            self.sink.diagnostic("nav350", "layout_read", f"{len(marks)} landmarks read from "
+                                 f"the NAV350's layer {event.layer} ({event.when})", t,
+                                 level=INFO, details={"layer": event.layer,
+                                                      "landmarks": len(marks),
+                                                      "when": event.when})
+        in_layer = tuple(lm for lm in event.landmarks if event.layer in lm.layers
+                         or not lm.layers)
+        if in_layer and (event.when == "after" or not writes):
+            # the layout the device navigates on is the log's map; its ids are the device's
+            self._map_id = {lm.global_id: lm.global_id for lm in in_layer}
+            self.sink.set_map(reflectors_of_layout(in_layer), t)
+        self._metadata()
+
+    def _on_layout_written(self, event: LayoutWritten, t: int) -> None:
+        self.sink.diagnostic("nav350", "layout_written", f"{len(event.ids)} landmarks written "
+                             f"into the NAV350's layer {event.layer} and stored", t,
+                             level=WARNING, details={"landmarks": len(event.ids),
+                                                     "layer": event.layer})
+        if not self.session.settings.read_layout or "after" not in self._layouts:
+            # the written layout is the map until it is read back
+            layout = self._known
+            self._map_id = {dev: r.id for dev, r in zip(event.ids, layout, strict=False)}
+            self.sink.set_map(layout, t)
+        self._metadata()
+
+    def _on_mapping(self, event: MappingDone, t: int) -> None:
+        found = tuple((x / 1000.0, y / 1000.0) for x, y in event.landmarks)
+        st = event.stand
+        self._mapping = {"stand_mm_mdeg": [st.x_mm, st.y_mm, st.phi_mdeg], "mean": st.mean,
+                         "error_code": event.error_code,
+                         "landmarks_m": [[round(x, 4), round(y, 4)] for x, y in found]}
+        if event.error_code == 0:
+            self.mapped = found
+            self.sink.diagnostic("nav350", "mapping", f"mapping from ({st.x_mm / 1000:.3f}, "
+                                 f"{st.y_mm / 1000:.3f}) m, {st.phi_mdeg / 1000:.1f} deg: "
+                                 f"{len(found)} landmarks", t, level=INFO,
+                                 details=self._mapping)
         self._metadata()
 
     def _metadata(self) -> None:
@@ -139,4 +218,8 @@ class Nav350Worker(SessionWorker):
             record["clock"] = self._clock
         if self._map_id is not None:
             record["global_ids"] = {str(k): v for k, v in self._map_id.items()}
+        for when, marks in self._layouts.items():
+            record[f"layout_{when}"] = marks
+        if self._mapping:
+            record["mapping"] = self._mapping
         self.sink.set_metadata("device.nav350", record)
