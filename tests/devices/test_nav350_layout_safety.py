@@ -32,6 +32,33 @@ def _kinds(events: Sequence[object]) -> list[str]:
     return [getattr(e, "kind", "") for e in events]
 
 
+def _sessions(session: Nav350Session, dev: Nav350Device, count: int, seconds: float,
+              moving_until: float = -1.0) -> list[object]:
+    """``count`` device sessions of ``seconds`` s each over an ideal link (the device power
+    cycled between them), time stepped by 1 ms; the vehicle moves until ``moving_until`` s.
+    Returns the session's events."""
+    dec = Nav350StreamDecoder()
+    events: list[object] = []
+    t = 0.0
+    for _ in range(count):
+        session.link_up(t)
+        end = t + seconds
+        while t < end:
+            session.vehicle_moving(t < moving_until)
+            req = session.poll(t)
+            if req is not None:
+                for r in dec.feed(req.encode()):
+                    for raw in dev.handle(r, t):
+                        session.feed(raw, t)
+            for raw in dev.due(t):
+                session.feed(raw, t)
+            events += session.pop_events()
+            t = round(t + 0.001, 6)
+        session.link_down(t)
+        dev.reset()
+    return events
+
+
 def test_by_default_the_stored_layout_is_read_and_nothing_is_written() -> None:
     dev = device()
     before = dev.layout
@@ -60,25 +87,7 @@ def test_a_requested_write_is_done_once_even_after_a_reconnect() -> None:
     dev = device()
     layout = tuple(tg.LayoutLandmark(1000 * i, 2000, 1, 1, 80, (0,)) for i in range(5))
     session = Nav350Session(Nav350Settings(write_layout=layout))
-    dec = Nav350StreamDecoder()
-    events: list[object] = []
-    t = 0.0
-    for cycle in range(2):  # the link drops after 3 s and comes back
-        session.link_up(t)
-        end = t + 3.0
-        while t < end:
-            req = session.poll(t)
-            if req is not None:
-                for r in dec.feed(req.encode()):
-                    for raw in dev.handle(r, t):
-                        session.feed(raw, t)
-            for raw in dev.due(t):
-                session.feed(raw, t)
-            events += session.pop_events()
-            t = round(t + 0.001, 6)
-        session.link_down(t)
-        if cycle == 0:
-            dev.reset()
+    events = _sessions(session, dev, 2, 3.0)  # the link drops after 3 s and comes back
     names = [r.name for _, r in dev.requests]
     assert names.count("mNLAYEraseLayout") == 1
     assert names.count("mNLAYStoreLayout") == 1
@@ -123,23 +132,8 @@ def test_mapping_waits_while_the_vehicle_moves() -> None:
     source, _ = _still_source()
     dev = Nav350Device(source, {})
     session = Nav350Session(Nav350Settings(map_at=MapStand(2000, 1000, 30_000, mean=4)))
-    session.vehicle_moving(True)
-    session.link_up(0.0)
-    dec = Nav350StreamDecoder()
-    t, asked_while_moving = 0.0, False
-    while t < 4.0:
-        if t >= 2.0:
-            session.vehicle_moving(False)
-        req = session.poll(t)
-        if req is not None:
-            asked_while_moving |= req.name == "mNMAPDoMapping" and t < 2.0
-            for r in dec.feed(req.encode()):
-                for raw in dev.handle(r, t):
-                    session.feed(raw, t)
-        for raw in dev.due(t):
-            session.feed(raw, t)
-        t = round(t + 0.001, 6)
-    events = session.pop_events()
+    events = _sessions(session, dev, 1, 4.0, moving_until=2.0)
+    asked_while_moving = any(t < 2.0 and r.name == "mNMAPDoMapping" for t, r in dev.requests)
     assert not asked_while_moving
     assert _kinds(events).count("mapping_waits") == 1
     assert any(isinstance(e, MappingDone) and e.error_code == 0 for e in events)
@@ -196,25 +190,10 @@ def test_garbage_clock_replies_are_given_up_after_a_bounded_number_per_device_se
 def test_the_clock_read_is_tried_again_in_a_new_device_session() -> None:
     dev = _GarbageClock(revolutions(), {})
     session = Nav350Session(Nav350Settings())
-    dec = Nav350StreamDecoder()
-    t = 0.0
-    for _ in range(2):
-        session.link_up(t)
-        end = t + 4.0
-        while t < end:
-            req = session.poll(t)
-            if req is not None:
-                for r in dec.feed(req.encode()):
-                    for raw in dev.handle(r, t):
-                        session.feed(raw, t)
-            for raw in dev.due(t):
-                session.feed(raw, t)
-            t = round(t + 0.001, 6)
-        session.link_down(t)
-        dev.reset()
+    events = _sessions(session, dev, 2, 4.0)
     per_session = len([r for _, r in dev.requests if r.name == "mNAVGetTimestamp"])
     assert 2 * 1 <= per_session <= 2 * 5
-    assert _kinds(session.pop_events()).count("clock_given_up") == 2
+    assert _kinds(events).count("clock_given_up") == 2
 
 
 @pytest.mark.parametrize("fields", [(0, 0), (1, 1)])
