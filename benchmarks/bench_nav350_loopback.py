@@ -23,8 +23,8 @@ FAULTS = ("garbage:nav350:8:400", "badsum:nav350:16:3", "sfa:nav350:24:13",
 
 
 def main() -> None:
-    from lgvtool.devices.nav350.nav350_loopback import loopback
     from lgvtool.sim.emulate.emulator_playback import playback_from_scenario
+    from lgvtool.sim.emulate.nav350.nav350_loopback import loopback
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0)

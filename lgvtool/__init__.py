@@ -1,4 +1,4 @@
-"""lgvtool: log, replay and evaluate the localization of laser-guided vehicles.
+"""lgvtool: log, replay and evaluate the localisation of laser-guided vehicles.
 
 The package is split along the data flow:
 

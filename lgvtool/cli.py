@@ -4,7 +4,8 @@ Each command lives in its own module under :mod:`lgvtool.commands` and is import
 runs, so ``lgvtool --help`` and ``lgvtool --version`` never load numpy, pandas or plotly.
 
 Exit codes: 0 success, 1 a checked threshold failed, 2 bad input or usage, 130 interrupted.
-Errors are one line on stderr; set ``LGVTOOL_DEBUG=1`` to see the traceback of an internal error.
+Errors are one line on stderr; set ``LGVTOOL_DEBUG=1`` to see the traceback of an internal error
+(and, after the line, the details an error leaves out of it, which ``--json`` also prints).
 """
 
 from __future__ import annotations
@@ -106,15 +107,25 @@ _JSON = {"on": False}
 """Whether the running command was given --json (its errors then also go to stdout as JSON)."""
 
 
-def _fail(message: str, code: int) -> None:
+def _fail(message: str, code: int, error: BaseException | None = None) -> None:
+    """Print ``message`` as the one error line and exit with ``code``. An ``error`` that
+    carries ``details`` (JSON-able) adds them to the ``--json`` document, and its
+    ``detail_lines`` follow the error line with ``LGVTOOL_DEBUG=1``."""
     from lgvtool.outputs import printable
 
     message = printable(message)
     click.echo(f"lgvtool: error: {message}", err=True)
+    if os.environ.get("LGVTOOL_DEBUG"):
+        for line in getattr(error, "detail_lines", None) or ():
+            click.echo(f"lgvtool: detail: {printable(str(line))}", err=True)
     if _JSON["on"]:
         import json
 
-        click.echo(json.dumps({"error": message, "exit_code": code}))
+        document: dict[str, Any] = {"error": message, "exit_code": code}
+        details = getattr(error, "details", None)
+        if details:
+            document["details"] = details
+        click.echo(json.dumps(document))
     sys.exit(code)
 
 
@@ -160,7 +171,7 @@ def _run(argv: list[str] | None) -> None:
     except click.ClickException as exc:
         _fail(_click_message(exc), exc.exit_code)
     except LgvError as exc:
-        _fail(str(exc), exc.exit_code)
+        _fail(str(exc), exc.exit_code, exc)
     except KeyboardInterrupt:
         _fail("interrupted", 130)
     except BrokenPipeError:
@@ -193,9 +204,11 @@ def _log_warnings_as_lines() -> None:
 
 
 def _click_message(exc: click.ClickException) -> str:
-    """Flatten a click usage error to one line, naming the command."""
+    """Flatten a click usage error to one line, naming the subcommand (``lgvtool info: No
+    such option ...``; the line already starts with ``lgvtool: error:``)."""
     message = exc.format_message().replace("\n", " ")
     ctx: Any = getattr(exc, "ctx", None)
-    if ctx is not None and getattr(ctx, "command_path", None):
-        return f"{ctx.command_path}: {message}"
+    path = getattr(ctx, "command_path", None) if ctx is not None else None
+    if path and path != "lgvtool":
+        return f"{path}: {message}"
     return message

@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any
 
 from lgvtool.errors import ConfigError
+from lgvtool.suggest import unknown_tail
 from lgvtool.values import coerce, parse_setting, split_assignment
 
 
@@ -221,7 +222,8 @@ def _check_section(name: str, table: Any, cls: type) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for key, value in table.items():
         if key not in known:
-            raise ConfigError(f"unknown key '{key}' in [{name}] (known: {', '.join(known)})")
+            raise ConfigError(f"unknown key '{key}' in [{name}]" + unknown_tail(
+                key, known, more=f"{len(known)} keys in [{name}]; lgvtool config prints them"))
         out[key] = _coerce(f"{name}.{key}", value, known[key].type)
     return out
 
@@ -306,7 +308,7 @@ def config_from_dict(data: Mapping[str, Any], base: Config | None = None) -> Con
     known = {"vehicle", "area", "reference", "reflectors", "estimators", "simulator"}
     for key in data:
         if key not in known:
-            raise ConfigError(f"unknown section '{key}' (known: {', '.join(sorted(known))})")
+            raise ConfigError(f"unknown section '{key}'" + unknown_tail(key, sorted(known)))
     if "vehicle" in data:
         vehicle = _check_section("vehicle", data["vehicle"], Vehicle)
         cfg = replace(cfg, vehicle=replace(cfg.vehicle, **vehicle))
@@ -334,8 +336,8 @@ def _check_estimators(table: Mapping[str, Any]) -> dict[str, Any]:
 
     for name, params in table.items():
         if name not in ESTIMATORS:
-            raise ConfigError(f"unknown estimator [estimators.{name}] (known: "
-                              f"{', '.join(ESTIMATORS)})")
+            raise ConfigError(f"unknown estimator [estimators.{name}]"
+                              + unknown_tail(name, ESTIMATORS, prefix="estimators."))
         if not isinstance(params, dict):
             raise ConfigError(f"[estimators.{name}] must be a table")
         resolve_params(name, None, params)
@@ -356,7 +358,10 @@ def _check_simulator(table: Mapping[str, Any], cfg: Config) -> dict[str, Any]:
     known = {k for sc in SCENARIOS.values() for k in sc.defaults}
     for key, value in settings.scenario.items():
         if key not in known:
-            raise ConfigError(f"unknown setting 'scenario.{key}' (known: {', '.join(sorted(known))})")
+            raise ConfigError(f"unknown setting 'scenario.{key}'"
+                              + unknown_tail(key, sorted(known), prefix="scenario.", more=(
+                                  f"{len(known)} scenario settings; lgvtool simulate --list "
+                                  "lists them")))
         sc = next(sc for sc in SCENARIOS.values() if key in sc.defaults)
         sc.parameters({key: value})
     return dict(table)

@@ -4,7 +4,7 @@
 ``name -> (module, attribute, one-line help)`` without importing any of them, so help stays
 instant. A command whose module file is not in the package (an optional part left out) is not
 offered. Used by :mod:`lgvtool.cli` and by the groups that have subcommands (``simulate``).
-Only click is imported here.
+Only click is imported here (and, for a mistyped command name, :mod:`lgvtool.suggest`).
 """
 
 from __future__ import annotations
@@ -46,6 +46,20 @@ class LazyGroup(click.Group):
         command = getattr(importlib.import_module(module), attribute)
         assert isinstance(command, click.Command)
         return command
+
+    def resolve_command(self, ctx: click.Context, args: list[str]
+                        ) -> tuple[str | None, click.Command | None, list[str]]:
+        """click's, with the closest command names offered for an unknown one ("No such
+        command 'evalute'. Did you mean 'evaluate'?"); click offers them for options only."""
+        name = args[0] if args else ""
+        if (name[:1].isalnum() and not ctx.resilient_parsing and ctx.token_normalize_func is None
+                and name not in self._available()):
+            from lgvtool.suggest import did_you_mean
+
+            hint = did_you_mean(name, self._available())
+            if hint:
+                ctx.fail(f"No such command '{name}'. {hint[0].upper()}{hint[1:]}")
+        return super().resolve_command(ctx, args)
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = [(name, self.lazy[name][2]) for name in self._available()]

@@ -83,10 +83,50 @@ def force_option(f: F) -> F:
                         help="Replace an existing output (never an input).")(f)
 
 
+def complete_estimators(ctx: click.Context, param: click.Parameter, incomplete: str
+                        ) -> list[Any]:
+    """Shell completion of estimator names, also after a comma (``-e laser,pf`` offers
+    ``laser,pf-paper`` and ``laser,pf``); names already in the list are not offered again."""
+    from click.shell_completion import CompletionItem
+
+    from lgvtool.localize.registry import ESTIMATORS
+
+    head, comma, last = incomplete.rpartition(",")
+    given = {n.strip() for n in head.split(",")} if comma else set()
+    return [CompletionItem(f"{head}{comma}{name}") for name in ESTIMATORS
+            if name.startswith(last.strip()) and name not in given]
+
+
+def complete_scenarios(ctx: click.Context, param: click.Parameter, incomplete: str
+                       ) -> list[Any]:
+    """Shell completion of scenario names (zsh and fish show each one's description)."""
+    from click.shell_completion import CompletionItem
+
+    from lgvtool.sim.scenarios import SCENARIOS
+
+    return [CompletionItem(name, help=_first_clause(sc.description))
+            for name, sc in SCENARIOS.items() if name.startswith(incomplete)]
+
+
+def _first_clause(text: str, width: int = 70) -> str:
+    """``text`` up to its first colon or full stop, at most ``width`` characters."""
+    for stop in (": ", ". "):
+        text = text.split(stop, 1)[0]
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
 def estimator_option(help_text: str) -> Callable[[F], F]:
-    """``-e/--estimator NAME``: repeatable and comma-separated; flatten with :func:`split_names`."""
+    """``-e/--estimator NAME``: repeatable and comma-separated; flatten with :func:`split_names`.
+    The shell completes the names (:func:`complete_estimators`)."""
     return click.option("-e", "--estimator", "estimators", multiple=True, metavar="NAME[,NAME]",
+                        shell_complete=complete_estimators,
                         help=f"{help_text} (repeatable or comma-separated).")
+
+
+def scenario_option(help_text: str) -> Callable[[F], F]:
+    """``-s/--scenario NAME``, completed by the shell (:func:`complete_scenarios`)."""
+    return click.option("--scenario", "-s", metavar="NAME", shell_complete=complete_scenarios,
+                        help=help_text)
 
 
 def set_option(help_text: str = "Estimator parameter, e.g. pf.particles=500 or "
@@ -128,13 +168,13 @@ def threads_option(default_text: str) -> Callable[[F], F]:
 
 def scheduler_options(f: F) -> F:
     """``--scheduler URL`` and the TLS options of a remote Dask scheduler (docs/fleet.md)."""
-    f = click.option("--tls-key", type=click.Path(exists=True, dir_okay=False), metavar="PEM",
-                     help="Private key of --tls-cert, when not in that file.")(f)
-    f = click.option("--tls-cert", type=click.Path(exists=True, dir_okay=False), metavar="PEM",
-                     help="This client's certificate for a tls:// scheduler.")(f)
+    f = click.option("--tls-key", type=click.Path(exists=True, dir_okay=False), metavar="FILE",
+                     help="Private key of --tls-cert (PEM), when not in that file.")(f)
+    f = click.option("--tls-cert", type=click.Path(exists=True, dir_okay=False), metavar="FILE",
+                     help="This client's certificate (PEM) for a tls:// scheduler.")(f)
     f = click.option("--tls-ca-file", type=click.Path(exists=True, dir_okay=False),
-                     metavar="PEM", help="CA certificate that signed the tls:// scheduler's "
-                                         "certificate.")(f)
+                     metavar="FILE", help="CA certificate (PEM) that signed the tls:// "
+                                          "scheduler's certificate.")(f)
     return click.option("--scheduler", metavar="tls://HOST:PORT",
                         help="Run on this Dask scheduler instead of a local cluster; it and its "
                              "workers are trusted to run code here (docs/fleet.md).")(f)

@@ -811,6 +811,8 @@ def test_without_the_fleet_extra(world: Path, monkeypatch: pytest.MonkeyPatch,
     them one after the other."""
     import importlib.util
 
+    from lgvtool.extras import install_hint
+
     real = importlib.util.find_spec
 
     def find_spec(name: str, *args: Any, **kw: Any) -> Any:
@@ -822,7 +824,7 @@ def test_without_the_fleet_extra(world: Path, monkeypatch: pytest.MonkeyPatch,
                  ["evaluate", log, "--workers", "2"],
                  ["evaluate", log, "--scheduler", "tls://127.0.0.1:1"]):
         code, _, err = _run(argv, capsys)
-        assert code == 2 and "pip install 'lgvtool[fleet]'" in err and err.count("\n") == 1
+        assert code == 2 and install_hint("fleet") in err and err.count("\n") == 1
     code, out, err = _run(["evaluate", log, log, "-e", "laser", "--json"], capsys)
     assert code == 0, err
     assert json.loads(out)["format"]

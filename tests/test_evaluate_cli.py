@@ -89,9 +89,13 @@ def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_table_on_the_terminal(capsys, log: Path) -> None:
     code, out, err = run(capsys, log)
     assert code == 0, err
-    assert "laser RMSE (mm)" in out and "pf variance (mm²)" in out and "Average" in out
+    assert "Rotation" in out and "RMSE" in out and "σ²" in out and "Average" in out
     assert "Partial rotations left out: 1." in out
+    assert "Verdict on drive" in out
     assert err == ""
+    code, out, err = run(capsys, log, "--wide")
+    assert code == 0, err
+    assert "laser RMSE (mm)" in out and "pf variance (mm²)" in out and "Average" in out
 
 
 def test_json_document(capsys, log: Path) -> None:
@@ -145,7 +149,8 @@ def test_thresholds(capsys, log: Path) -> None:
                        "--max", "laser.truth.position_rmse_m=0.001")
     assert code == 1
     assert "pf.circle.rmse_mm" in err and "laser.truth.position_rmse_m" in err
-    assert len(err.strip().splitlines()) == 1
+    # one line per check and a count; a failed check is no error
+    assert len(err.strip().splitlines()) == 3 and "error" not in err
     code, _, err = run(capsys, log, "--max", "kf.circle.rmse_mm=3")
     assert code == 2 and "no estimator 'kf'" in err
     code, _, err = run(capsys, log, "--max", "pf.circle.rmse_mm")

@@ -2,6 +2,11 @@
 
 - every module basename is unique across lgvtool (``__init__.py`` and ``__main__.py`` aside);
 - the device side (codecs, sessions, device models, emulators) imports no estimator;
+- the simulator sits above the device families, never the reverse: no module under
+  ``lgvtool/devices`` imports ``lgvtool.sim``, and the emulators, simulator links and loopbacks
+  live in ``lgvtool/sim``;
+- a device family holds no command-line code: no module under ``lgvtool/devices`` imports click
+  (or lgvtool's option and command modules, which do);
 - nothing outside the command line imports ``lgvtool.commands``;
 - the log layer (``lgvtool.log``) imports none of the layers above it: the estimators, the
   evaluation, the jobs, the commands;
@@ -99,6 +104,63 @@ def test_only_the_command_line_imports_the_commands() -> None:
     importers = {_rel(p) for p in _modules()
                  if not _rel(p).startswith(COMMAND_LINE) and _imports_any(p, ("lgvtool.commands",))}
     assert not importers, f"import lgvtool.commands from outside the command line: {sorted(importers)}"
+
+
+DEVICES_BELOW = ("lgvtool.sim",)
+"""What ``lgvtool/devices`` must not import: the simulator (and its emulators) sit above it."""
+COMMAND_LINE_CODE = ("click", "lgvtool.options", "lgvtool.commands", "lgvtool.cli",
+                     "lgvtool.lazy_group")
+"""What ``lgvtool/devices`` must not import: click, and lgvtool's modules that are click code."""
+SIMULATOR_PARTS = ("_emulator.py", "_emulation.py", "_simlink.py", "_loopback.py")
+"""Module name endings of a family's emulator, emulation, simulator link and loopback."""
+
+
+def _device_modules(root: Path = ROOT) -> list[Path]:
+    return sorted(p for p in (root / "lgvtool" / "devices").rglob("*.py")
+                  if "__pycache__" not in p.parts)
+
+
+def _offenders(modules: list[Path], packages: tuple[str, ...], root: Path = ROOT
+               ) -> dict[str, list[str]]:
+    """Module -> the imports of ``packages`` it makes (the modules that make any)."""
+    found = {_rel(p, root): sorted(m for m in _imported(p, root)
+                                   if any(m == a or m.startswith(a + ".") for a in packages))
+             for p in modules}
+    return {k: v for k, v in found.items() if v}
+
+
+def test_no_device_module_imports_the_simulator() -> None:
+    modules = _device_modules()
+    assert len(modules) > 20
+    bad = _offenders(modules, DEVICES_BELOW)
+    assert not bad, f"device modules importing the simulator (it sits above them): {bad}"
+
+
+def test_no_device_module_imports_click() -> None:
+    bad = _offenders(_device_modules(), COMMAND_LINE_CODE)
+    assert not bad, f"device modules importing command-line code (declare the options): {bad}"
+
+
+def test_the_emulators_simulator_links_and_loopbacks_live_in_sim() -> None:
+    in_devices = [_rel(p) for p in _device_modules() if p.name.endswith(SIMULATOR_PARTS)]
+    assert not in_devices, f"simulator parts under lgvtool/devices (move them to sim/): {in_devices}"
+    in_sim = {p.name for p in (PACKAGE / "sim").rglob("*.py") if p.name.endswith(SIMULATOR_PARTS)}
+    assert {"mcu_emulator.py", "nav200_emulator.py", "nav350_emulator.py", "mcu_simlink.py",
+            "nav200_simlink.py", "nav350_simlink.py", "nav350_loopback.py"} <= in_sim
+
+
+def test_the_device_rules_see_imports_inside_functions(tmp_path: Path) -> None:
+    src = tmp_path / "lgvtool" / "devices" / "probe" / "probe_registration.py"
+    src.parent.mkdir(parents=True)
+    src.write_text("def f():\n    from ...sim.emulate import serve\n    import click.types\n")
+    (tmp_path / "lgvtool" / "devices" / "clean.py").write_text("from lgvtool.log import topics\n")
+    modules = _device_modules(tmp_path)
+    assert len(modules) == 2
+    assert _offenders(modules, DEVICES_BELOW, tmp_path) == {
+        "lgvtool/devices/probe/probe_registration.py": ["lgvtool.sim.emulate",
+                                                        "lgvtool.sim.emulate.serve"]}
+    assert _offenders(modules, COMMAND_LINE_CODE, tmp_path) == {
+        "lgvtool/devices/probe/probe_registration.py": ["click.types"]}
 
 
 def test_the_rules_see_relative_imports_and_imports_inside_functions(tmp_path: Path) -> None:

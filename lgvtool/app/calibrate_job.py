@@ -3,9 +3,86 @@ calibrate``)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from typing import Any
 
 from lgvtool.app.job_output import JobOutput
+from lgvtool.errors import InputError
+
+
+class UnobservableRefusal(InputError):
+    """The refusal of drives that cannot observe what is asked: one short line, with the
+    1-sigma and the needs of each quantity as ``details`` (``--json``) and ``detail_lines``
+    (``LGVTOOL_DEBUG=1``), which :func:`lgvtool.cli.main` prints."""
+
+    def __init__(self, message: str, details: dict[str, Any], detail_lines: list[str]) -> None:
+        super().__init__(message)
+        self.details = details
+        self.detail_lines = detail_lines
+
+
+#: what each quantity needs the drives to contain, in a word or two (the full reason,
+#: ``lgvtool.calibrate.quantities.QUANTITIES[name].needs``, comes with --json)
+_NEEDS: dict[str, tuple[str, ...]] = {
+    "nav_x": ("turns", "speed changes"),
+    "nav_y": ("turns", "speed changes"),
+    "nav_yaw": ("turns", "straights"),
+    "wheel_radius_left": ("turns", "straights"),
+    "wheel_radius_right": ("turns", "straights"),
+    "track": ("turns", "straights"),
+    "gyro_scale": ("turns",),
+    "gyro_bias": ("standstill or straights",),
+    "nav_time_offset": ("speed changes",),
+    "nav_pose_age": ("turns", "NAV poses beside scans"),
+    "odom_scale_v": ("travel",),
+    "odom_scale_w": ("turns",),
+    "odom_yaw_per_m": ("turns", "straights"),
+}
+_NEEDS_ORDER = ("turns", "straights", "speed changes", "standstill or straights", "travel",
+                "NAV poses beside scans")
+"""The order the needs are said in."""
+
+_MAX_LINE = 200
+"""Characters of the refusal's line at most (names past it are counted, not listed)."""
+
+
+def _unobservable_refusal(exc: InputError) -> UnobservableRefusal | None:
+    """The short refusal for the error of quantities the drives cannot observe (raised by
+    :func:`lgvtool.calibrate.calibration_run.calibrate` from an ``UnobservableError``), else
+    None."""
+    import sys
+
+    from lgvtool.calibrate.quantities import QUANTITIES
+
+    solve = sys.modules.get("lgvtool.calibrate.solve")  # imported if it raised
+    cause = exc.__context__
+    if (solve is None or not isinstance(cause, solve.UnobservableError) or not cause.sigma
+            or not set(cause.sigma) <= set(QUANTITIES)):
+        return None
+    details: dict[str, Any] = {}
+    lines: list[str] = []
+    for name, sigma in cause.sigma.items():
+        q = QUANTITIES[name]
+        finite = math.isfinite(sigma)
+        # sigma in the unit shown (None: unbounded), sigma_si in SI units
+        details[name] = {"sigma": sigma * q.display if finite else None, "unit": q.unit,
+                         "sigma_si": sigma if finite else None, "needs": q.needs}
+        shown = f"{sigma * q.display:.3g} {q.unit}".strip() if finite else "unbounded"
+        lines.append(f"{name}: 1-sigma {shown}; needs {q.needs}")
+    wanted = {w for n in cause.sigma for w in _NEEDS.get(n, ("travel",))}
+    needs = [w for w in _NEEDS_ORDER if w in wanted]
+    said = needs[0] if len(needs) == 1 else f"{', '.join(needs[:-1])} and {needs[-1]}"
+    names = list(cause.sigma)
+    for shown_names in range(len(names), 0, -1):
+        listed = ", ".join(names[:shown_names])
+        if shown_names < len(names):
+            listed += f" and {len(names) - shown_names} more"
+        line = (f"the drives cannot observe {listed}: drive with {said}, or use --fix or "
+                f"--allow-unobservable (--json: details)")
+        if len(line) <= _MAX_LINE:
+            break
+    return UnobservableRefusal(line, {"unobservable": details}, lines)
 
 
 def calibrate_logs(logs: Sequence[str], output: str, *, config_path: str | None = None,
@@ -41,10 +118,17 @@ def calibrate_logs(logs: Sequence[str], output: str, *, config_path: str | None 
     out = guard_output(output, [*logs, config_path], force=force)
     cfg = load_config(config_path) if config_path else None
     with Progress(0, "calibrate", enabled=show_progress, delay_s=1.0) as bar:
-        result = calibrate(list(logs), config=cfg, estimate=list(estimate) if estimate else None,
-                           fix=list(fix), observations=observations,
-                           allow_unobservable=allow_unobservable, compare_with=list(compare_with),
-                           seed=seed, start_at_truth=start_at_truth, progress=bar)
+        try:
+            result = calibrate(list(logs), config=cfg,
+                               estimate=list(estimate) if estimate else None, fix=list(fix),
+                               observations=observations, allow_unobservable=allow_unobservable,
+                               compare_with=list(compare_with), seed=seed,
+                               start_at_truth=start_at_truth, progress=bar)
+        except InputError as exc:
+            short = _unobservable_refusal(exc)
+            if short is None:
+                raise
+            raise short from None
     with atomic_output(out) as tmp:
         tmp.write_text(toml(result), encoding="utf-8")
     return JobOutput(dict(result.to_dict(), output=str(out)), printable(text(result, str(out))),

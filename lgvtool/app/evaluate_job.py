@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,6 +21,8 @@ if TYPE_CHECKING:
     from lgvtool.config import Config
     from lgvtool.evaluate.evaluation import EvaluationResult
     from lgvtool.evaluate.log_inputs import EvaluationInputs
+    from lgvtool.evaluate.regress import Check
+    from lgvtool.evaluate.verdict import Verdict
     from lgvtool.log import LogReader
     from lgvtool.progress import Progress
 
@@ -30,13 +32,14 @@ def _estimates_from_log(
     """The log's own estimates of O (t, x, y, heading), read in one pass with what ``read``
     takes (the truth, the steering, the data quality); None when the log holds none."""
     from lgvtool.errors import InputError
-    from lgvtool.localize.registry import in_run_order
+    from lgvtool.localize.registry import check_names, in_run_order
     from lgvtool.log import topics
 
     present = in_run_order(topics.estimator_names(reader.topic_names()))
     if not present:
         return None
     if names:
+        check_names(list(names), also=present)  # a mistyped name: "did you mean ...?"
         missing = [n for n in names if n not in present]
         if missing:
             raise InputError(f"{reader.path}: no estimates of {', '.join(missing)} in the log "
@@ -96,7 +99,9 @@ def evaluate_log(
     estimates are scored, since nothing is run then).
     ``config`` overrides the configuration stored in the log. The steering angle of the
     reference circle is the median logged steering angle (MCU frames), else
-    ``config.reference.steering_angle_deg``. Raises :class:`~lgvtool.errors.InputError` (or a
+    ``config.reference.steering_angle_deg``, else the reference circle is fitted to the truth;
+    a log may name its circle reference (:func:`lgvtool.evaluate.reference.circle_from_log`,
+    ``import ros2 --circle-from``). Raises :class:`~lgvtool.errors.InputError` (or a
     subclass) for a log that cannot be evaluated. ``replay=True`` runs the estimators even when
     the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
     ``trajectories`` (name -> DataFrame t, x, y, heading of O) are scored beside them
@@ -109,6 +114,7 @@ def evaluate_log(
     from lgvtool.circle import median_steering
     from lgvtool.evaluate.evaluation import evaluate_trajectories
     from lgvtool.evaluate.log_inputs import EvaluationInputs
+    from lgvtool.evaluate.reference import circle_from_log
     from lgvtool.gc_pause import collector_paused
     from lgvtool.log import LogReader, topics
 
@@ -143,9 +149,12 @@ def evaluate_log(
         trajs = add_foreign(trajs, trajectories, truth, log=str(reader.path))
     steering = None
     steering_source = "none"
+    drive_speed = None
     if reader.has_topic(topics.MCU_FRAME):
-        steering = median_steering(*read.steering_columns())
+        angles, speeds = read.steering_columns()
+        steering = median_steering(angles, speeds)
         steering_source = "log" if steering is not None else "none"
+        drive_speed = _median_moving_speed(speeds)
     if steering is None and cfg.reference.steering_angle_deg is not None:
         steering = math.radians(cfg.reference.steering_angle_deg)
         steering_source = "config"
@@ -153,15 +162,83 @@ def evaluate_log(
         trajs, truth=truth, steering_angle=steering, steering_source=steering_source,
         h=cfg.vehicle.h, shared_centre=shared_centre, free_radius=free_radius,
         name=Path(str(reader.path)).stem, reflectors=reader.reflector_map() or cfg.reflectors,
-        lap_source=lap_source,
+        lap_source=lap_source, circle_from=circle_from_log(reader.metadata),
     )
     result.path = str(reader.path)
     result.quality = read.quality(result.t0)
     result.source = source
     result.settings = used
+    result.drive_speed = drive_speed
+    result.observations = _observations_used(
+        reader, cfg, list(result.estimators), used, source, set(trajectories or ()),
+        start_at_truth and source == "replay", result.quality)
     late = [w for w in reader.warnings if w not in warnings]  # corrupt chunks met in reading
     result.warnings[:0] = warnings + late
     return result
+
+
+def _median_moving_speed(speeds: Any) -> float | None:
+    """Median |drive-wheel speed| of the MCU frames while moving, m/s (None: never moving)."""
+    import numpy as np
+
+    from lgvtool.circle import MOVING_SPEED
+
+    v = np.abs(np.asarray(speeds, dtype=float))
+    v = v[np.isfinite(v) & (v > MOVING_SPEED)]
+    return float(np.median(v)) if v.size else None
+
+
+def _observations_used(
+    reader: LogReader, cfg: Config, names: Sequence[str], used: Mapping[str, Any], source: str,
+    foreign: set[str], from_truth: bool, quality: Any,
+) -> dict[str, str]:
+    """What each estimator updated with, from its class, its settings (those evaluate ran it
+    with, else those ``replay`` stored in the log's metadata) and what the log holds, as the
+    replay driver chooses them (:func:`lgvtool.localize.observations.sources`)."""
+    from lgvtool.log import topics
+
+    try:
+        from lgvtool.localize.observations import sources
+        from lgvtool.localize.registry import ESTIMATORS
+    except ImportError:  # estimators stood in for (lgvtool.localize replaced by a module)
+        return dict.fromkeys(names, "unknown")
+    settings: Mapping[str, Any] = used
+    if source == "log":
+        stored = (reader.metadata.get("replay") or {}).get("settings")
+        settings = stored if isinstance(stored, Mapping) else {}
+    has_scans = reader.has_topic(topics.NAV_REFLECTORS) and bool(cfg.reflectors)
+    has_poses = reader.has_topic(topics.NAV_POSE) and (
+        quality is None or quality.nav_replies > quality.nav_no_position)
+    out: dict[str, str] = {}
+    for n in names:
+        params = settings.get(n)
+        if n in foreign:
+            out[n] = "unknown (another tool's trajectory)"
+            continue
+        if n not in ESTIMATORS or not isinstance(params, Mapping):
+            out[n] = "unknown (estimates read from the log)"
+            continue
+        try:
+            cls = ESTIMATORS[n]
+        except ImportError:  # as above
+            out[n] = "unknown"
+            continue
+        if not cls.uses_motion and not cls.uses_scans:
+            out[n] = "NAV poses (the laser itself)"
+            continue
+        if not getattr(cls, "corrects", True):
+            out[n] = "odometry only, from the truth" if from_truth else "odometry only"
+            continue
+        scans, poses = sources(str(params.get("observations", "both")),
+                               has_scans and cls.uses_scans, has_poses and cls.uses_poses)
+        what = []
+        if scans:
+            what.append("reflector scans at NAV polls" if params.get("scans") == "nav-poll"
+                        else "reflector scans")
+        if poses:
+            what.append("NAV poses")
+        out[n] = " and ".join(what) if what else "none"
+    return out
 
 
 @dataclass(frozen=True)
@@ -226,6 +303,33 @@ class EvaluationRun:
     """What the comparison with the baseline noted (estimators it has that these lack)."""
     failures: list[str] = field(default_factory=list)
     """Every ``--max``/``--min``/``--baseline`` figure that failed (empty: all hold)."""
+    verdicts: list[Verdict] = field(default_factory=list)
+    """One verdict per log, with the paths written (:mod:`lgvtool.evaluate.verdict`)."""
+    checks: list[Check] = field(default_factory=list)
+    """Every check asked for, passed or failed (:mod:`lgvtool.evaluate.regress`)."""
+
+    def verdict_lines(self, width: int = 100) -> list[str]:
+        """The verdict to print: per log at most ten lines of at most ``width`` columns; over
+        several logs each log's without the files and a blank line, then one summary line and
+        the files."""
+        from lgvtool.evaluate.verdict import format_verdict, paths_line, summary_line
+
+        if len(self.verdicts) == 1:
+            return format_verdict(self.verdicts[0], width)
+        lines: list[str] = []
+        for v in self.verdicts:
+            lines += [*format_verdict(v, width, show_paths=False), ""]
+        if self.verdicts:
+            lines.append(summary_line(self.verdicts, width))
+            lines.append(paths_line(self.verdicts[-1].paths, width))
+        return lines
+
+    def check_lines(self) -> list[str]:
+        """One line per check (``check  pass  ...`` / ``check  FAIL  ...``) and a count; empty
+        without checks."""
+        from lgvtool.evaluate.regress import check_lines
+
+        return check_lines(self.checks)
 
     def check(self) -> None:
         """Raise :class:`~lgvtool.errors.ThresholdError` (exit 1) if a check failed."""
@@ -243,7 +347,7 @@ def evaluate_logs(
     maxima: Sequence[str] = (),
     minima: Sequence[str] = (),
     baseline: str | None = None,
-    tolerance: str = "0%",
+    tolerance: str | None = None,
     seed: int = 0,
     sets: Sequence[str] = (),
     config_path: str | None = None,
@@ -258,6 +362,7 @@ def evaluate_logs(
     start_at_truth: bool = False,
     foreign: Sequence[str] = (),
     show_progress: bool = True,
+    wide: bool = False,
 ) -> EvaluationRun:
     """Evaluate ``logs`` as ``lgvtool evaluate`` does and check the figures.
 
@@ -266,11 +371,15 @@ def evaluate_logs(
     certificate, key) files); a log's estimators run on ``threads`` threads (default one).
     ``maxima``/``minima`` are ``KEY=VALUE`` bounds on the document's figures
     (``pf.circle.rmse_mm=25``); ``baseline`` a previous ``table1.json``, worse by at most
-    ``tolerance`` (``"10%"``). ``sets`` are ``KEY=VALUE`` estimator settings,
+    ``tolerance`` (``"10%"``; default 0 %; refused without ``baseline``). Every check is
+    listed in :attr:`EvaluationRun.checks` and the document's ``checks``; each log's verdict
+    (with the files written) in :attr:`EvaluationRun.verdicts`, the result's ``verdict`` and
+    the document's ``verdict``. ``sets`` are ``KEY=VALUE`` estimator settings,
     ``config_path`` a configuration TOML used instead of the logs' own, ``foreign``
     ``NAME=FILE`` trajectories of other tools (one log only). With ``outdir`` the files
     :data:`OUTPUT_FILES` (and PNGs with ``png``) are written there; an existing one is
-    replaced only with ``force``. ``fmt``: text, md, csv, tex or json.
+    replaced only with ``force``. ``fmt``: text, md, csv, tex or json; ``wide``: text tables
+    with every header spelled out (default: at most 120 columns).
 
     :raises InputError: (or a subclass; exit 2) a bad option, file or log; the first log that
         fails stops the evaluation.
@@ -282,24 +391,29 @@ def evaluate_logs(
     from lgvtool.evaluate import regress
     from lgvtool.evaluate.document import build_document, to_json
     from lgvtool.evaluate.table import render_tables
+    from lgvtool.evaluate.verdict import verdict_of
     from lgvtool.fleet.connect import require_fleet, scheduler_spec
     from lgvtool.progress import Progress
 
     if png and outdir is None:
-        raise InputError("--png needs -o OUTDIR to write the images into")
+        raise InputError("--png needs -o DIR to write the images into")
     if png:
         from lgvtool.evaluate.plots import require_kaleido
 
         require_kaleido()
+    if tolerance is not None and baseline is None:
+        raise InputError("--tolerance needs --baseline: it is the worsening allowed against a "
+                         "baseline (a previous table1.json)")
     if outdir is not None:
         from lgvtool.outdir import guard_directory
 
         trajectory_files = [spec.partition("=")[2] for spec in foreign]
-        guard_directory(outdir, OUTPUT_FILES, [*logs, config_path, baseline, *trajectory_files],
-                        force=force)
+        inputs = [*logs, config_path, baseline, *trajectory_files]
+        _refuse_input_as_outdir(outdir, inputs)
+        guard_directory(outdir, OUTPUT_FILES, inputs, force=force)
     upper = [regress.parse_bound(b, "--max") for b in maxima]
     lower = [regress.parse_bound(b, "--min") for b in minima]
-    tol = regress.parse_tolerance(tolerance)
+    tol = regress.parse_tolerance(tolerance if tolerance is not None else "0%")
     base_doc = None
     if baseline is not None:
         try:
@@ -335,19 +449,60 @@ def evaluate_logs(
         results = _evaluate_all(logs, options, scheduler=cluster, workers=workers, bar=bar)
         warnings = [f"{res.name}: {w}" for res in results for w in res.warnings]
         _unique_names(results)
+        planned = ([str(Path(outdir) / name) for name in _REPORT_FIRST]
+                   if outdir is not None else [])
+        for res in results:
+            res.verdict = verdict_of(res, paths=planned)
         doc = build_document(results)
+        checks = regress.bound_checks(doc, upper, lower)
+        notes: list[str] = []
+        if base_doc is not None:
+            more, notes = regress.baseline_checks(doc, base_doc, tol,
+                                                  source=baseline or "baseline")
+            checks += more
+        doc["checks"] = regress.check_dicts(checks)
         if outdir is not None:
             bar.stage("report", len(results))
-            write_outputs(Path(outdir), results, doc, png, force, bar)
+            written = write_outputs(Path(outdir), results, doc, png, force, bar)
+            pngs = [str(p) for p in written if p.suffix == ".png"]
+            if pngs:
+                for res in results:
+                    if res.verdict is not None:
+                        res.verdict = replace(res.verdict, paths=(*res.verdict.paths, *pngs))
     finally:
         bar.close()
-    text = to_json(doc) if fmt == "json" else render_tables(results, fmt)
-    failures = regress.check_bounds(doc, upper, lower)
-    notes: list[str] = []
-    if base_doc is not None:
-        more, notes = regress.check_baseline(doc, base_doc, tol, source=baseline or "baseline")
-        failures += more
-    return EvaluationRun(results, doc, text, warnings, notes, failures)
+    text = to_json(doc) if fmt == "json" else render_tables(results, fmt, wide=wide)
+    failures = [c.text for c in checks if not c.passed]
+    verdicts = [r.verdict for r in results if r.verdict is not None]
+    return EvaluationRun(results, doc, text, warnings, notes, failures, verdicts, checks)
+
+
+def _refuse_input_as_outdir(outdir: str, inputs: Sequence[str | None]) -> None:
+    """InputError when ``outdir`` is one of the input files (also through a link): ``-o``
+    names the folder the report goes into, and a log there would be replaced by it."""
+    from lgvtool.errors import InputError
+
+    out = Path(outdir)
+    if not out.exists() or out.is_dir():
+        return
+    for src in inputs:
+        if src is None:
+            continue
+        try:
+            same = Path(src).exists() and out.samefile(src)
+        except OSError:
+            same = False
+        if same:
+            raise InputError(f"the output {outdir} is the input {src}: -o names a folder for "
+                             "report.html and table1.*; choose another one")
+
+
+def column_help() -> tuple[tuple[str, str], ...]:
+    """(column, meaning) of every column of evaluate's tables, for its ``--help``
+    (:data:`lgvtool.evaluate.verdict.COLUMN_HELP`)."""
+    from lgvtool.evaluate.verdict import COLUMN_HELP
+
+    return COLUMN_HELP
 
 
 def _unique_names(results: list[EvaluationResult]) -> None:
@@ -361,16 +516,18 @@ def _unique_names(results: list[EvaluationResult]) -> None:
 
 
 OUTPUT_FILES = ("table1.md", "table1.csv", "table1.tex", "table1.json", "report.html")
-"""Files that ``evaluate -o OUTDIR`` writes (and PNGs with --png)."""
+"""Files that ``evaluate -o DIR`` writes (and PNGs with --png)."""
+_REPORT_FIRST = ("report.html", "table1.md", "table1.csv", "table1.tex", "table1.json")
+""":data:`OUTPUT_FILES` in the order the verdict names them."""
 
 
 def write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any],
-                   png: bool, force: bool = False, bar: Progress | None = None) -> None:
+                  png: bool, force: bool = False, bar: Progress | None = None) -> list[Path]:
     """Write :data:`OUTPUT_FILES` of ``results`` and their document ``doc`` into ``out``
     (created), and with ``png`` every figure of the report as ``<slug>.png``; a PNG that would
     replace an input, or an existing file without ``force``, is refused (InputError). ``bar``
     counts the report's figures. The files land together: when one cannot be written (a full
-    disk), none of them is replaced."""
+    disk), none of them is replaced. Returns the files written (the PNGs last)."""
     from lgvtool.evaluate.document import to_json
     from lgvtool.evaluate.html_report import render_report
     from lgvtool.evaluate.plots import write_png
@@ -387,8 +544,11 @@ def write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any
         place(out / "report.html").write_text(render_report(
             results, figures=figures, progress=None if bar is None else bar.advance),
             encoding="utf-8")
+        written = [out / name for name in OUTPUT_FILES]
         if png:
             for slug, fig in figures:
                 target = guard_output(out / f"{slug}.png", [r.path for r in results],
                                       force=force)
                 write_png(fig, place(target))
+                written.append(target)
+    return written

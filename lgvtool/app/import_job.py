@@ -78,12 +78,15 @@ def _delay(text: str) -> float | None:
 
 def import_ros2(bag: str, output: str, *, topic_options: Sequence[str] = (),
                 config_path: str | None = None, sensor_frame: str | None = None,
+                nav_frame: str | None = None, circle_from: str = "auto",
                 compression: str = "zstd", force: bool = False) -> Ros2ImportSummary:
     """Import the rosbag2 ``bag`` (a bag folder, or one .mcap or .db3 file) into the log
     ``output`` (replaced atomically; an existing one only with ``force``). ``topic_options``
     are ``ROLE=/name`` choices (odom, gyro, nav, reflectors, truth, tf; ``ROLE=none`` leaves a
     role out), ``config_path`` the vehicle geometry and reflector map (TOML) stored in the
-    log, ``sensor_frame`` the navigation sensor's frame in /tf. Returns the import summary.
+    log, ``sensor_frame`` the navigation sensor's frame in /tf, ``nav_frame`` the frame whose
+    pose a generic NAV pose topic gives, ``circle_from`` what evaluate fits the reference
+    circle to (auto, truth, none, a /topic or an estimator). Returns the import summary.
 
     :raises InputError: (exit 2) a bag that cannot be read, a bad topic choice, a refused
         output.
@@ -91,4 +94,5 @@ def import_ros2(bag: str, output: str, *, topic_options: Sequence[str] = (),
     from lgvtool.interop.ros2_import import import_bag
 
     return import_bag(bag, output, topic_options=topic_options, config=config_path,
-                      sensor_frame=sensor_frame, compression=compression, force=force)
+                      sensor_frame=sensor_frame, nav_frame=nav_frame, circle_from=circle_from,
+                      compression=compression, force=force)

@@ -10,7 +10,8 @@ def recover_log(broken: str, output: str, *, compression: str = "zstd",
     """Write every intact message of ``broken`` (a log cut off by a crash, power loss or a
     full disk) into ``output``, a complete, indexed log (through a temporary file; an existing
     one is replaced only with ``force``, an input never). The document is the recovery report
-    (messages and bytes saved, what was lost), the text its summary.
+    (messages and bytes saved, what was lost), the text its summary and the time span of what
+    was saved, in ISO-8601 UTC as ``lgvtool info`` prints it.
 
     :raises InputError: (exit 2) nothing can be read from ``broken``, or a refused output.
     """
@@ -23,4 +24,16 @@ def recover_log(broken: str, output: str, *, compression: str = "zstd",
     with warnings.catch_warnings(), atomic_output(output) as tmp:
         warnings.simplefilter("ignore")
         report = salvage.recover(broken, tmp, compression=compression)
-    return JobOutput(report.__dict__, report.summary())
+    return JobOutput(report.__dict__, report.summary() + _time_line(report.first_s, report.last_s))
+
+
+def _time_line(first_s: float | None, last_s: float | None) -> str:
+    """The recovered messages' time span as ``lgvtool info`` prints a log's: ISO-8601 UTC by
+    info's own formatter (the JSON keeps ``first_s``/``last_s`` in s since the Unix epoch, as
+    ``info --json`` keeps ``start_time_s``); empty when nothing was recovered."""
+    if first_s is None or last_s is None:
+        return ""
+    from lgvtool.log.inspect import _iso
+
+    return (f"\ntime:      {_iso(int(first_s * 1e9))} .. {_iso(int(last_s * 1e9))} "
+            f"({last_s - first_s:.3f} s)")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import click
 
 from lgvtool.options import (
+    complete_estimators,
     force_option,
     print_output,
     progress_option,
@@ -19,9 +20,10 @@ def _names(value: str | None, option: str) -> list[str]:
 
 
 @click.command()
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=str))
+@click.argument("logs", nargs=-1, required=True, metavar="LOG...",
+                type=click.Path(dir_okay=False, path_type=str))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=str),
-              metavar="VEHICLE.toml", help="Calibrated configuration to write.")
+              metavar="FILE", help="Calibrated configuration (TOML) to write.")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
               metavar="FILE", help="Starting values, map and settings (default: the first "
               "log's stored configuration).")
@@ -34,8 +36,9 @@ def _names(value: str | None, option: str) -> list[str]:
 @click.option("--allow-unobservable", is_flag=True, help="Hold what the drives cannot observe "
               "at its starting value (a warning) instead of refusing.")
 @click.option("--compare", "compare_with", default="laser,ekf", show_default=True,
-              metavar="LIST", help="Estimators replayed with the starting and the calibrated "
-              "configuration for the before/after table; 'none': no table.")
+              metavar="LIST", shell_complete=complete_estimators,
+              help="Estimators replayed with the starting and the calibrated configuration "
+              "for the before/after table; 'none': no table.")
 @seed_option("Seed of the estimators of the before/after table.")
 @click.option("--start-at-truth", is_flag=True, help="Start the estimators of the before/after "
               "table at the logs' ground truth (as evaluate --start-at-truth).")
@@ -49,8 +52,8 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
     """Estimate the NAV mounting (nav_x, nav_y mm; nav_yaw deg), the wheel radii and the track
     (mm), the gyro's scale and bias (deg/s), the NAV-to-host time offset and the NAV poses' age
     (ms), or, with generic odometry, its two scales and its drift (deg/m), from one or more
-    LOGS by a batch least squares over the whole drives, each with its 1-sigma; write them
-    into VEHICLE.toml (the starting configuration with the calibrated vehicle).
+    LOG... by a batch least squares over the whole drives, each with its 1-sigma; write them
+    into FILE (-o: the starting configuration with the calibrated vehicle, TOML).
 
     Prints the estimates and a before/after table of the estimators' errors. Exit 2 for bad
     input, a drive that cannot observe what is asked (unless --allow-unobservable), or an

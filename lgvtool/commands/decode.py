@@ -23,7 +23,7 @@ from lgvtool.options import compression_option, force_option, print_output
 def decode(log: str, output: str, compression: str, force: bool, as_json: bool) -> None:
     """Re-decode the raw traffic of LOG (/mcu/rx, /nav200/tx, /nav200/rx, /nav350/tx,
     /nav350/rx) into fresh /mcu/frame, /nav/pose, /nav/reflectors and /diagnostics channels
-    in OUTPUT, copying every other channel and the metadata; print the frames decoded and the
+    in the log FILE (-o), copying every other channel and the metadata; print the frames decoded and the
     error counts per device (bad checksums, bad lengths, skipped bytes, truncated frames,
     sequence gaps, NAV200 error replies, ...).
 

@@ -14,7 +14,7 @@ def layout() -> None:
 
 
 @layout.command(short_help="Convert a layout file between lgvtool TOML and SICK .imk.")
-@click.argument("source", metavar="LAYOUT", type=click.Path(dir_okay=False, path_type=str))
+@click.argument("source", metavar="FILE", type=click.Path(dir_okay=False, path_type=str))
 @click.option("-o", "--output", required=True, metavar="FILE",
               type=click.Path(dir_okay=False, path_type=str),
               help="The layout file to write: .imk for SICK's format, else lgvtool's TOML.")
@@ -23,8 +23,8 @@ def layout() -> None:
 @force_option
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
 def convert(source: str, output: str, layer: int | None, force: bool, as_json: bool) -> None:
-    """Read LAYOUT (SICK .imk by its suffix, else TOML with [[reflectors]]: id, x, y m, radius
-    m, layer) and write its reflectors to FILE in the format FILE's suffix names. .imk lines
+    """Read the layout FILE (SICK .imk by its suffix, else TOML with [[reflectors]]: id, x, y
+    m, radius m, layer) and write its reflectors to the -o FILE in the format its suffix names. .imk lines
     are 'globID x_mm y_mm type subtype size_mm layer...': the size (mm) is the reflector's
     diameter, a landmark's first layer is its layer, and type and subtype are written as 1."""
     from lgvtool.app.layout_job import convert_layout

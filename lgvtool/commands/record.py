@@ -1,6 +1,6 @@
 """``lgvtool record``: the devices into a crash-safe log
-(:func:`lgvtool.app.record_job.record_devices`); each device family's options come from its
-registration (:mod:`lgvtool.devices.device_registry`)."""
+(:func:`lgvtool.app.record_job.record_devices`); each device family's options are made from
+the declarations of its registration (``RECORD_OPTIONS``, :mod:`lgvtool.devices.device_registry`)."""
 
 from __future__ import annotations
 
@@ -9,18 +9,53 @@ from typing import Any
 
 import click
 
-from lgvtool.devices.device_registry import registrations
-from lgvtool.options import force_option, positive, print_output, split_names
+from lgvtool.devices.device_registry import (
+    ChoiceValue,
+    IntegerValue,
+    NumberValue,
+    PairValue,
+    RecordOption,
+    TextValue,
+    ValueKind,
+    registrations,
+)
+from lgvtool.options import Number, force_option, positive, print_output, split_names
 from lgvtool.values import MAX_BYTES, MAX_WALL_S
 
 _POSITIVE = positive(MAX_WALL_S)
 _PERIOD = positive(3600.0)
 
 
+def _click_type(value: ValueKind) -> Any:
+    """The click type of a declared option value (None: click's string)."""
+    if isinstance(value, TextValue):
+        return None
+    if isinstance(value, NumberValue):
+        return Number(float, value.minimum, value.maximum, min_open=value.min_open)
+    if isinstance(value, IntegerValue):
+        return click.IntRange(value.minimum, value.maximum)
+    if isinstance(value, ChoiceValue):
+        return click.Choice(list(value.choices))
+    if isinstance(value, PairValue):
+        item = _click_type(value.item)
+        return (item, item)
+    raise TypeError(f"record: no click type for {value!r}")
+
+
+def _click_option(option: RecordOption) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """The click option of a family's declared ``record`` option."""
+    given: dict[str, Any] = {"type": _click_type(option.value), "default": option.default,
+                             "show_default": option.show_default or None,
+                             "metavar": option.metavar}
+    return click.option(option.flag, option.param, help=option.help,
+                        **{k: v for k, v in given.items() if v is not None})
+
+
 def _family_options(f: Callable[..., Any]) -> Callable[..., Any]:
-    """Every registered device family's ``record`` options, in family order."""
-    for reg in reversed(registrations()):
-        f = reg.record_options(f)
+    """Every registered device family's ``record`` options (``RECORD_OPTIONS``), in family
+    order."""
+    for option in reversed([o for reg in registrations() for o in reg.RECORD_OPTIONS]):
+        f = _click_option(option)(f)
     return f
 
 
@@ -56,7 +91,7 @@ def _family_options(f: Callable[..., Any]) -> Callable[..., Any]:
                    "is that reflector), so stands mapped one after the other build one "
                    "layout.")
 @click.option("--reply-timeout", type=_PERIOD, default=1.0, show_default=True, metavar="S",
-              help="NAV200 reply timeout, s.")
+              help="Reply timeout of the NAV200 and the NAV350, s.")
 @click.option("--split-size", type=positive(MAX_BYTES / 1e6), metavar="MB",
               help="Start a new file once the current one holds MB megabytes (10^6 bytes).")
 @click.option("--split-duration", type=_POSITIVE, metavar="S",

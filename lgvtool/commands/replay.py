@@ -52,9 +52,9 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
            cloud_period: float, cloud_size: int, compression: str, view: bool,
            threads: int | None, as_json: bool, force: bool, show_progress: bool = True
            ) -> None:
-    """Replay LOG through the localisation estimators and write OUTPUT.
+    """Replay LOG through the localisation estimators and write the log FILE (-o).
 
-    OUTPUT is a complete log: every message of LOG, plus per estimator NAME the pose of the
+    FILE is a complete log: every message of LOG, plus per estimator NAME the pose of the
     target rotation centre O on /estimate/NAME/pose (foxglove.PoseInFrame), the pose with its
     covariance on /estimate/NAME/state (lgvtool.PoseEstimate) and, for particle filters,
     decimated particle clouds on /estimate/NAME/particles (foxglove.PosesInFrame); with

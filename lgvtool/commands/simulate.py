@@ -8,7 +8,14 @@ from typing import Any
 import click
 
 from lgvtool.lazy_group import LazyGroup
-from lgvtool.options import Number, compression_option, force_option, seed_option, set_option
+from lgvtool.options import (
+    Number,
+    compression_option,
+    force_option,
+    scenario_option,
+    seed_option,
+    set_option,
+)
 from lgvtool.values import MAX_SIM_DURATION_S
 
 #: subcommand name -> (module, attribute, one-line help)
@@ -19,8 +26,7 @@ SUBCOMMANDS: dict[str, tuple[str, str, str]] = {
 
 
 @click.group(cls=LazyGroup, lazy=SUBCOMMANDS, invoke_without_command=True)
-@click.option("--scenario", "-s", metavar="NAME",
-              help="Scenario to simulate (see --list).")
+@scenario_option("Scenario to simulate (see --list).")
 @seed_option("Seed of every random draw; the same seed gives the same messages.")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), metavar="FILE",
               help="Vehicle, area, reflector map and [simulator] settings (TOML).")
@@ -29,8 +35,8 @@ SUBCOMMANDS: dict[str, tuple[str, str, str]] = {
 @click.option("--duration", type=Number(float, 0.0, MAX_SIM_DURATION_S, min_open=True), metavar="S",
               help="Length of the run in s (circles: drive until then; default: the "
                    "scenario's own).")
-@click.option("-o", "--output", type=click.Path(dir_okay=False), metavar="OUT.mcap",
-              help="Log file to write.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), metavar="FILE",
+              help="Log file (MCAP) to write.")
 @compression_option()
 @force_option
 @click.option("--list", "list_scenarios", is_flag=True,
@@ -71,7 +77,7 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
     if scenario is None:
         raise InputError("simulate needs --scenario NAME (see lgvtool simulate --list)")
     if output is None:
-        raise InputError("simulate needs -o OUT.mcap")
+        raise InputError("simulate needs -o FILE, the log to write")
     from lgvtool.app.simulate_job import simulate_log
 
     result = simulate_log(scenario, output, seed=seed, config_path=config_path, sets=sets,

@@ -26,7 +26,7 @@ only counted."""
 @click.command()
 @click.argument("logs", nargs=-1, required=True, metavar="LOG_OR_DIR...",
                 type=click.Path(exists=True, path_type=str))
-@click.option("-o", "--output", "outdir", required=True,
+@click.option("-o", "--output", "outdir", required=True, metavar="DIR",
               type=click.Path(file_okay=False, path_type=str),
               help="Directory of the results (created; re-using it resumes the sweep).")
 @estimator_option("Estimator to run; default: laser, deadreckoning, ekf, pf-paper, pf")
@@ -56,13 +56,13 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
     lgvtool evaluate does: one task per (log, setting, seed).
 
     Tasks run on a local Dask cluster (one process per CPU), or with --scheduler on an
-    existing one. Every finished task is stored in OUTDIR/tasks/ under a key made of the
+    existing one. Every finished task is stored in DIR/tasks/ under a key made of the
     log's content hash, the settings, the seed and the lgvtool version, so running the same
     sweep again skips what is done and an interrupted sweep resumes. A log that fails
     (corrupt, missing channels) is reported and does not stop the others; a log read with
     warnings (a cut-off file's salvage, say) is named on stderr with them.
 
-    Writes into OUTDIR: results.parquet/.csv (one row per log x setting x seed x estimator,
+    Writes into DIR (-o): results.parquet/.csv (one row per log x setting x seed x estimator,
     every figure of evaluate's JSON under a dotted name such as circle.rmse_mm or
     truth.position_rmse_m), summary.parquet/.csv (per log x setting x estimator over the
     seeds: mean, std, Student-t 95 % interval), report.html and sweep.json.

@@ -2,11 +2,15 @@
 
 A family folder (:mod:`~lgvtool.devices.mcu`, :mod:`~lgvtool.devices.nav200`,
 :mod:`~lgvtool.devices.nav350`) holds the family's codec (pure), its host session (pure, time
-passed in), its device model (shared by the simulator and the emulator), its emulator, its
-simulator link, its recorder worker, its log decoder and its registration (topics, decoders,
-``record`` and ``simulate serve`` options, emulator, recorder settings and worker).
+passed in), its device model (shared by the simulator and the emulator), its recorder worker,
+its log decoder and its registration (topics, decoders, declared ``record`` options, recorder
+settings and worker: a :class:`~lgvtool.devices.device_registry.DeviceFamily`).
 :mod:`~lgvtool.devices.device_registry` lists the families; ``lgvtool decode``, ``record``, the
 recorder, the simulator's log writer and ``simulate serve`` find a family's parts through it.
+
+The device families know neither the simulator nor the command line: their emulators,
+simulator links and loopback are the simulator's (``sim/``, above this package), their click
+options are made by ``lgvtool record`` from their declarations.
 
 Shared by the families (the generic codec base is :mod:`lgvtool.wire`):
 

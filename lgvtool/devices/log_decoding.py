@@ -5,7 +5,7 @@ Every device family has a log decoder (``devices/<family>/<family>_logdecode.py`
 they were logged at (integer ns since the Unix epoch), decoded messages ``(topic, message dict,
 log time ns)`` and decoder events come out. :func:`decode_chunk` and :func:`finish_decoding`
 drive one: they feed it and write what it yields to a :class:`DecodedOutput`. ``lgvtool decode``
-(:mod:`lgvtool.app.decode_job`), the simulator's log writer (:mod:`lgvtool.sim.logfile`) and the
+(:mod:`lgvtool.app.decode_job`), the simulator's log writer (``sim/logfile.py``) and the
 recorder's MCU worker all decode through them; the NAV workers' poses come from their host
 sessions (which own the request timing) and are built by the same :mod:`lgvtool.log.messages`.
 """

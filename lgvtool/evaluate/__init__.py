@@ -1,4 +1,4 @@
-"""Evaluation of localization accuracy: reference circle, rotations, metrics, Table 1.
+"""Evaluation of localisation accuracy: reference circle, rotations, metrics, Table 1.
 
 The core is pure (no files, no logs): it takes pandas DataFrames with columns t (s), x (m),
 y (m), heading (rad) and returns plain objects. Reading logs and running estimators is the job

@@ -2,7 +2,9 @@
 
 One log gives one document; several logs give the same layout with the figures over all logs
 and one document per log under ``per_log``. Circle figures are in mm and mm^2, ground-truth
-figures in m and degrees, times in s; a figure that cannot be computed is ``null``.
+figures in m and degrees, times in s; a figure that cannot be computed is ``null``. Each log's
+document holds its verdict (``verdict``, :func:`lgvtool.evaluate.verdict.verdict_dict`, m);
+several logs add ``verdict_summary``, one line. ``evaluate`` adds ``checks``.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from lgvtool.evaluate.evaluation import EvaluationResult
 from lgvtool.evaluate.metrics import RadialStats, TruthStats
 from lgvtool.evaluate.quality import DataQuality, log_quality
 from lgvtool.evaluate.table import MM, Table1, build_table
+from lgvtool.evaluate.verdict import Verdict, summary_line, verdict_dict, verdict_of
 
 FORMAT = "lgvtool.evaluation"
 FORMAT_VERSION = 1
@@ -137,6 +140,8 @@ def _log_doc(res: EvaluationResult) -> dict[str, Any]:
             "free_radius": ref.free_radius,
             "shared_centre": ref.shared_centre,
             "circle_drive": ref.circle_drive,
+            "circle_source": ref.circle_source,
+            "circle_reference": ref.circle_reference,
             "circles": circles,
         },
         "rotations": {
@@ -151,6 +156,8 @@ def _log_doc(res: EvaluationResult) -> dict[str, Any]:
         "estimators": estimators,
         "data_quality": None if quality is None else quality_dict(quality),
         "warnings": list(res.warnings),
+        "verdict": verdict_dict(res.verdict if res.verdict is not None
+                                else verdict_of(res, quality=quality)),
     }
 
 
@@ -171,8 +178,14 @@ def build_document(results: Sequence[EvaluationResult]) -> dict[str, Any]:
         "truth_path": None,
         "estimators": _estimators(table),
         "warnings": [f"{r.name}: {w}" for r in results for w in r.warnings],
+        "verdict": None,
+        "verdict_summary": summary_line([_verdict(r) for r in results]),
         "per_log": per_log,
     }
+
+
+def _verdict(res: EvaluationResult) -> Verdict:
+    return res.verdict if res.verdict is not None else verdict_of(res)
 
 
 def _plain(value: Any) -> Any:

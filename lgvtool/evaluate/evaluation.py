@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -43,10 +43,14 @@ from lgvtool.evaluate.metrics import (
 from lgvtool.evaluate.quality import DataQuality
 from lgvtool.evaluate.reference import (
     MIN_SAMPLES,
+    CircleFrom,
     ReferenceInfo,
     circles_and_laps,
     reference_info,
 )
+
+if TYPE_CHECKING:
+    from lgvtool.evaluate.verdict import Verdict
 
 __all__ = ["BASELINE", "EstimatorEvaluation", "EvaluationResult", "ReferenceInfo", "Rotation",
            "clean_trajectory", "evaluate_trajectories"]
@@ -127,6 +131,15 @@ class EvaluationResult:
     quality: DataQuality | None = None
     """The log's data quality when it was gathered while the log was read (else the report
     reads it: :func:`lgvtool.evaluate.quality.quality_of_log`)."""
+    observations: dict[str, str] = field(default_factory=dict)
+    """Estimator name -> what it updated with ("reflector scans", "NAV poses", "odometry
+    only", ...), as :func:`lgvtool.app.evaluate_job.evaluate_log` finds it (empty: unknown)."""
+    drive_speed: float | None = None
+    """Median drive-wheel speed of the MCU frames while moving, m/s (None: no MCU frames);
+    tells the paper's experiment (:func:`lgvtool.evaluate.verdict.is_paper_experiment`)."""
+    verdict: Verdict | None = None
+    """The verdict on this log with the paths written (:mod:`lgvtool.evaluate.verdict`), set
+    by :func:`lgvtool.app.evaluate_job.evaluate_logs`; None until then."""
 
     @property
     def has_truth(self) -> bool:
@@ -161,6 +174,7 @@ def evaluate_trajectories(
     name: str = "",
     reflectors: Sequence[Any] = (),
     lap_source: str | None = None,
+    circle_from: CircleFrom | None = None,
 ) -> EvaluationResult:
     """Evaluate the ``trajectories`` (name -> DataFrame t, x, y, heading in s, m, rad) of one
     drive against the reference circle and, if given, the ``truth`` (same columns).
@@ -168,8 +182,11 @@ def evaluate_trajectories(
     ``steering_angle`` (rad) and ``h`` (m) give the kinematic radius; ``None`` means no
     reference circle (ground-truth metrics only). ``lap_source`` names the trajectory whose
     angle about the centre defines the rotations (default: the truth if given, else the
-    estimator with the smallest radial RMSE). Raises :class:`~lgvtool.errors.InputError` when
-    there is no usable trajectory, or neither a reference circle nor ground truth.
+    estimator with the smallest radial RMSE). ``circle_from``: the circle reference the log
+    names (:func:`lgvtool.evaluate.reference.circle_from_log`); without one and without a
+    steering angle the circle is fitted to the truth. Raises
+    :class:`~lgvtool.errors.InputError` when there is no usable trajectory, or neither a
+    reference circle nor ground truth.
     """
     warnings: list[str] = []
     trajs: dict[str, pd.DataFrame] = {}
@@ -188,7 +205,8 @@ def evaluate_trajectories(
     t0 = min(float(df["t"].iloc[0]) for df in trajs.values())
 
     info, warn = reference_info(steering_angle, steering_source, h, free_radius, shared_centre,
-                            has_truth=true_df is not None, name=name)
+                            has_truth=true_df is not None, name=name,
+                            circle_from=circle_from)
     warnings.extend(warn)
     radius = None if free_radius else info.kinematic_radius
 
@@ -198,16 +216,18 @@ def evaluate_trajectories(
     ref_circle: Circle | None = None
     if info.circle_drive:
         circles, laps, truth_circle, ref_circle, warnings_c = circles_and_laps(
-            trajs, true_df, radius, shared_centre, lap_source)
+            trajs, true_df, radius, shared_centre, lap_source, info)
         warnings.extend(warnings_c)
         if not circles:
             info = replace(info, circle_drive=False)
 
-    evaluations = {n: _evaluate_one(n, df, circles.get(n), laps, true_df, radius is None)
+    free = radius is None and not info.fixed_circle
+    evaluations = {n: _evaluate_one(n, df, circles.get(n), laps, true_df, free)
                    for n, df in trajs.items()}
     if ref_circle is not None:
         warnings.extend(_centre_offsets(evaluations, ref_circle, laps.source,
-                                        has_truth=true_df is not None, shared=shared_centre))
+                                        has_truth=true_df is not None, shared=shared_centre,
+                                        own_fit=info.fixed_circle))
     base = evaluations.get(BASELINE)
     if base is not None and base.average is not None:
         for n, ev in evaluations.items():
@@ -229,17 +249,19 @@ def evaluate_trajectories(
 
 def _centre_offsets(
     evaluations: dict[str, EstimatorEvaluation], ref: Circle, source: str, *,
-    has_truth: bool, shared: bool,
+    has_truth: bool, shared: bool, own_fit: bool = False,
 ) -> list[str]:
-    """Set each estimator's centre offset from ``ref`` (m); warnings for the far ones."""
+    """Set each estimator's centre offset from ``ref`` (m); warnings for the far ones.
+    ``own_fit``: measure it from the estimator's own free-radius fit (its circle is ``ref``)."""
     warnings: list[str] = []
     far = max(OFF_CENTRE * ref.r, 0.05)
     for n, ev in evaluations.items():
-        if ev.circle is None:
+        own = ev.fitted if own_fit else ev.circle
+        if ev.circle is None or own is None:
             continue
-        off = math.hypot(ev.circle.cx - ref.cx, ev.circle.cy - ref.cy)
+        off = math.hypot(own.cx - ref.cx, own.cy - ref.cy)
         evaluations[n] = replace(ev, centre_offset=off)
-        if off > far and not shared:
+        if off > far and not shared and not own_fit:  # own_fit: the figures show it
             whose = "the true one" if has_truth else f"that of '{source}'"
             see = "the ground-truth figures" if has_truth else "--shared-centre"
             warnings.append(f"estimator '{n}' circles about a centre {off:.2f} m away from "

@@ -9,15 +9,18 @@ name: ``pf.circle.rmse_mm``, ``laser.truth.position_rmse_m``. Paths from the doc
 - ``--baseline FILE --tolerance P``: every error figure of :data:`BASELINE_FIGURES` of every
   estimator in the baseline must not exceed its baseline value by more than P percent.
 
-Malformed keys and baselines raise :class:`~lgvtool.errors.InputError` (exit 2); the failed
-checks are returned as messages, one per figure, for :class:`~lgvtool.errors.ThresholdError`
-(exit 1).
+Malformed keys and baselines raise :class:`~lgvtool.errors.InputError` (exit 2). Every check
+is a :class:`Check` (:func:`bound_checks`, :func:`baseline_checks`), passed or failed, which
+``evaluate`` lists one line each (:func:`check_lines`) and puts in the document (``checks``);
+:func:`check_bounds` and :func:`check_baseline` return the failed ones as messages, one per
+figure, for :class:`~lgvtool.errors.ThresholdError` (exit 1).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from lgvtool.errors import InputError, ThresholdError
@@ -108,23 +111,55 @@ def lookup(doc: Mapping[str, Any], key: str) -> float | None:
     return float(node)
 
 
+@dataclass(frozen=True)
+class Check:
+    """One check and its outcome. ``kind``: "max", "min" or "baseline"; ``key``: the figure
+    (``pf.circle.rmse_mm``; for a baseline that all of an estimator's figures held, the
+    estimator's name); ``value``: the figure now (its unit: the key's suffix; None: not
+    available); ``limit``: the bound, or the baseline value; ``text``: one line saying what
+    was checked and found."""
+
+    kind: str
+    key: str
+    value: float | None
+    limit: float | None
+    passed: bool
+    text: str
+
+
+def bound_checks(
+    doc: Mapping[str, Any],
+    maxima: Sequence[tuple[str, float]] = (),
+    minima: Sequence[tuple[str, float]] = (),
+) -> list[Check]:
+    """Every bound as a :class:`Check`, passed or failed, ``--max`` ones first."""
+    checks: list[Check] = []
+    for bounds, word in ((maxima, "max"), (minima, "min")):
+        for key, limit in bounds:
+            value = lookup(doc, key)
+            if value is None:
+                checks.append(Check(word, key, None, limit, False,
+                                    f"{key} is not available (needed for --{word} {limit:g})"))
+            elif word == "max":
+                ok = value <= limit
+                text = (f"{key} = {value:.4g}, at most {limit:g}" if ok
+                        else f"{key} = {value:.4g} exceeds the maximum {limit:g}")
+                checks.append(Check(word, key, value, limit, ok, text))
+            else:
+                ok = value >= limit
+                text = (f"{key} = {value:.4g}, at least {limit:g}" if ok
+                        else f"{key} = {value:.4g} is below the minimum {limit:g}")
+                checks.append(Check(word, key, value, limit, ok, text))
+    return checks
+
+
 def check_bounds(
     doc: Mapping[str, Any],
     maxima: Sequence[tuple[str, float]] = (),
     minima: Sequence[tuple[str, float]] = (),
 ) -> list[str]:
     """Messages for every bound that fails (empty: all hold)."""
-    failures: list[str] = []
-    for bounds, word in ((maxima, "max"), (minima, "min")):
-        for key, limit in bounds:
-            value = lookup(doc, key)
-            if value is None:
-                failures.append(f"{key} is not available (needed for --{word} {limit:g})")
-            elif word == "max" and value > limit:
-                failures.append(f"{key} = {value:.4g} exceeds the maximum {limit:g}")
-            elif word == "min" and value < limit:
-                failures.append(f"{key} = {value:.4g} is below the minimum {limit:g}")
-    return failures
+    return [c.text for c in bound_checks(doc, maxima, minima) if not c.passed]
 
 
 def validate_baseline(obj: Any, source: str = "baseline") -> Mapping[str, Any]:
@@ -142,13 +177,15 @@ def validate_baseline(obj: Any, source: str = "baseline") -> Mapping[str, Any]:
     return obj
 
 
-def check_baseline(
+def baseline_checks(
     doc: Mapping[str, Any], baseline: Mapping[str, Any], tolerance: float,
     *, source: str = "baseline",
-) -> tuple[list[str], list[str]]:
-    """Compare ``doc`` with ``baseline``: (failures, notes). A figure fails when it exceeds the
-    baseline by more than ``tolerance`` (a fraction) or is no longer available; notes name the
-    estimators of the baseline that this evaluation lacks."""
+) -> tuple[list[Check], list[str]]:
+    """Compare ``doc`` with ``baseline``: (checks, notes). Per estimator both documents have,
+    one passed :class:`Check` when all its figures of :data:`BASELINE_FIGURES` hold, else one
+    failed Check per figure that exceeds the baseline by more than ``tolerance`` (a fraction)
+    or is no longer available; notes name the estimators of the baseline that this
+    evaluation lacks."""
     validate_baseline(baseline, source)
     current = doc.get("estimators") or {}
     base = baseline["estimators"]
@@ -158,21 +195,67 @@ def check_baseline(
                          f"(baseline: {', '.join(base) or 'none'}; now: {', '.join(current)})")
     notes = [f"estimator '{n}' of the {source} is not in this evaluation" for n in base
              if n not in current]
-    failures: list[str] = []
+    checks: list[Check] = []
+    pct = f"{100.0 * tolerance:g}%"
     for n in common:
+        failed: list[Check] = []
+        compared = 0
+        worst: tuple[float, str] | None = None
         for (group, figure), slack in BASELINE_FIGURES.items():
             b = _figure(base[n], group, figure)
             if b is None:
                 continue
+            compared += 1
             now = _figure(current[n], group, figure)
             key = f"{n}.{group}.{figure}"
             if now is None:
-                failures.append(f"{key} is no longer available (baseline {b:.4g})")
+                failed.append(Check("baseline", key, None, b, False,
+                                    f"{key} is no longer available (baseline {b:.4g})"))
             elif now > b * (1.0 + tolerance) + slack:
                 worse = f"{100.0 * (now / b - 1.0):.1f}% " if b > slack else ""
-                failures.append(f"{key} = {now:.4g} is {worse}worse than the baseline "
-                                f"{b:.4g} (tolerance {100.0 * tolerance:g}%)")
-    return failures, notes
+                failed.append(Check("baseline", key, now, b, False,
+                                    f"{key} = {now:.4g} is {worse}worse than the baseline "
+                                    f"{b:.4g} (tolerance {pct})"))
+            elif b > slack:
+                change = 100.0 * (now / b - 1.0)
+                if worst is None or change > worst[0]:
+                    worst = (change, f"{group}.{figure}")
+        if failed:
+            checks += failed
+        elif compared:
+            most = f" (largest change {worst[1]} {worst[0]:+.1f}%)" if worst else ""
+            checks.append(Check("baseline", n, None, None, True,
+                                f"{n}: {compared} error figures within {pct} of {source}{most}"))
+    return checks, notes
+
+
+def check_baseline(
+    doc: Mapping[str, Any], baseline: Mapping[str, Any], tolerance: float,
+    *, source: str = "baseline",
+) -> tuple[list[str], list[str]]:
+    """Compare ``doc`` with ``baseline``: (failures, notes). A figure fails when it exceeds the
+    baseline by more than ``tolerance`` (a fraction) or is no longer available; notes name the
+    estimators of the baseline that this evaluation lacks."""
+    checks, notes = baseline_checks(doc, baseline, tolerance, source=source)
+    return [c.text for c in checks if not c.passed], notes
+
+
+def check_lines(checks: Sequence[Check]) -> list[str]:
+    """One line per check, ``check  pass  ...`` or ``check  FAIL  ...``, then a count."""
+    lines = [f"check  {'pass' if c.passed else 'FAIL'}  {c.text}" for c in checks]
+    failed = sum(not c.passed for c in checks)
+    n = len(checks)
+    if failed:
+        lines.append(f"checks: {failed} of {n} FAILED")
+    elif n:
+        lines.append(f"checks: all {n} passed" if n > 1 else "checks: the one check passed")
+    return lines
+
+
+def check_dicts(checks: Sequence[Check]) -> list[dict[str, Any]]:
+    """The checks as JSON-ready dicts (the document's ``checks``)."""
+    return [{"kind": c.kind, "key": c.key, "value": c.value, "limit": c.limit,
+             "passed": c.passed, "text": c.text} for c in checks]
 
 
 def _figure(block: Mapping[str, Any], group: str, figure: str) -> float | None:

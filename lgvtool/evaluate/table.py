@@ -8,15 +8,20 @@ Log column) and averages over all of them.
 A summary table follows Table 1: per estimator the average RMSE, variance, bias and largest
 |error| on the circle, the improvement over ``laser``, and, where the log has ground truth, the
 true position error beside it. Figures are in mm, mm^2 and degrees (the edges of lgvtool).
+
+On the terminal (:func:`to_text`) both tables fit :data:`TEXT_WIDTH` columns: short headers
+under each estimator's (or figure group's) name with a unit line, further estimators in a
+block below; ``wide`` gives the spelled-out headers of the files, one line per row.
 """
 
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -185,7 +190,7 @@ def summary_cells(table: Table1, digits: int = 2) -> tuple[list[str], list[list[
         head += ["RMSE (mm)", "variance (mm²)", "bias (mm)", "max |error| (mm)",
                  "centre offset (mm)"]
     if versus:
-        head.append(f"vs {BASELINE} (%)")
+        head.append(f"less error than {BASELINE} (%)")
     in_rot = circle and bool(table.truth_in_rotations)
     if in_rot:
         head.append("true RMSE in rotations (mm)")
@@ -338,8 +343,160 @@ def to_latex(table: Table1, *, caption: str = "Comparison of variance and RMSE",
     return "\n".join(lines) + "\n"
 
 
-def to_text(table: Table1, *, digits: int = 2) -> str:
-    """Table 1 and the summary as aligned plain text for the terminal."""
+TEXT_WIDTH = 120
+"""Widest line of the default terminal tables, columns (``--wide``: no limit)."""
+
+
+@dataclass(frozen=True)
+class _Col:
+    """One column of a terminal table: its header, unit line and cells."""
+
+    head: str
+    unit: str
+    cells: list[str]
+    left: bool = False
+    least: int = 0
+
+    @property
+    def width(self) -> int:
+        return max([self.least, len(self.head), len(self.unit), *(len(c) for c in self.cells)])
+
+    def cell(self, text: str) -> str:
+        return text.ljust(self.width) if self.left else text.rjust(self.width)
+
+    def row(self, i: int) -> str:
+        return self.cell(self.cells[i])
+
+
+def _widened(cols: list[_Col], least: int, sep: int) -> list[_Col]:
+    """``cols`` with the first widened so that together they span ``least`` columns."""
+    span = sum(c.width for c in cols) + sep * (len(cols) - 1)
+    if span >= least or not cols:
+        return cols
+    first = cols[0]
+    return [replace(first, least=first.width + least - span), *cols[1:]]
+
+
+def _text_blocks(keys: list[_Col], groups: list[tuple[str, list[_Col]]], width: int) -> str:
+    """Aligned columns: the ``keys`` (left), then the ``groups`` of columns, each under its
+    label; when they do not fit ``width`` columns, the groups continue in further blocks that
+    repeat the keys. A unit line follows the header when some column has a unit."""
+    sep, gsep = "  ", "   "
+    groups = [(label, _widened(cols, len(label), len(sep))) for label, cols in groups]
+    key_w = sum(c.width for c in keys) + len(sep) * (len(keys) - 1)
+    chunks: list[list[tuple[str, list[_Col]]]] = [[]]
+    used = key_w
+    for label, cols in groups:
+        w = len(gsep) + sum(c.width for c in cols) + len(sep) * (len(cols) - 1)
+        if chunks[-1] and used + w > width:
+            chunks.append([])
+            used = key_w
+        chunks[-1].append((label, cols))
+        used += w
+    rows = len(keys[0].cells)
+    units = any(c.unit for c in keys) or any(c.unit for _, cols in groups for c in cols)
+    out = []
+
+    def line(chunk: list[tuple[str, list[_Col]]], pick: Callable[[_Col], str]) -> str:
+        parts = [sep.join(pick(c) for c in keys)]
+        parts += [sep.join(pick(c) for c in cols) for _, cols in chunk]
+        return gsep.join(parts).rstrip()
+
+    for chunk in chunks:
+        labels = [" " * key_w]
+        for label, cols in chunk:
+            span = sum(c.width for c in cols) + len(sep) * (len(cols) - 1)
+            labels.append(label[:span].ljust(span))
+        text = []
+        if any(label for label, _ in chunk):
+            text.append(gsep.join(labels).rstrip())
+        text.append(line(chunk, lambda c: c.cell(c.head)))
+        if units:
+            text.append(line(chunk, lambda c: c.cell(c.unit)))
+        text.append(line(chunk, lambda c: "-" * c.width))
+        for i in range(rows):
+            text.append(line(chunk, functools.partial(_Col.row, i=i)))
+        out.append("\n".join(text))
+    return "\n\n".join(out)
+
+
+def _table1_text(table: Table1, digits: int, width: int) -> str:
+    """Table 1 for the terminal: a Rotation column (and Log over several logs), then per
+    estimator the pair RMSE (mm), sigma^2 (mm^2) under its name."""
+    keys = []
+    if table.multi_log:
+        keys.append(_Col("Log", "", [*(r.log for r in table.rows), ""], left=True))
+    rot = [str(r.rotation if table.multi_log else r.number) for r in table.rows]
+    keys.append(_Col("Rotation", "", [*rot, "Average"], left=True))
+    groups = []
+    for n in table.estimators:
+        rmse, var = [], []
+        for s in [r.stats.get(n) for r in table.rows] + [table.average.get(n)]:
+            rmse.append(_f(s.rmse * MM if s else None, digits))
+            var.append(_f(s.variance * MM * MM if s else None, digits))
+        groups.append((n, [_Col("RMSE", "mm", rmse), _Col("σ²", "mm²", var)]))
+    title = ("Table 1: signed radial error about the reference circle per complete rotation "
+             "(lower is better)")
+    return title + "\n" + _text_blocks(keys, groups, width)
+
+
+def _summary_text(table: Table1, digits: int, width: int) -> str:
+    """The summary for the terminal: per estimator the circle figures (Average row) and the
+    ground-truth figures, short headers under a group label, units below them."""
+    circle = bool(table.average)
+    versus = circle and BASELINE in table.average
+    names = list(table.estimators)
+    keys = [_Col("Estimator", "", names, left=True)]
+    groups: list[tuple[str, list[_Col]]] = []
+
+    def col(head: str, unit: str, values: list[float | None], d: int = digits) -> _Col:
+        return _Col(head, unit, [_f(v, d) for v in values])
+
+    if circle:
+        avg = [table.average.get(n) for n in names]
+        cols = [col("RMSE", "mm", [s.rmse * MM if s else None for s in avg]),
+                col("σ²", "mm²", [s.variance * MM * MM if s else None for s in avg]),
+                col("bias", "mm", [s.mean * MM if s else None for s in avg]),
+                col("max|e|", "mm", [s.max_abs * MM if s else None for s in avg]),
+                col("centre", "mm", [table.centre_offset[n] * MM if n in table.centre_offset
+                                     else None for n in names])]
+        if versus:
+            base = table.average[BASELINE].rmse
+            cols.append(col("x laser", "", [s.rmse / base if s and base > 0 else None
+                                             for s in avg]))
+        groups.append(("circle (Average of the rotations)", cols))
+    if table.has_truth:
+        tr = [table.truth.get(n) for n in names]
+        cols = [col("RMSE", "mm", [t.position_rmse * MM if t else None for t in tr])]
+        if circle and table.truth_in_rotations:
+            cols.append(col("in rot.", "mm", [table.truth_in_rotations[n] * MM
+                                              if n in table.truth_in_rotations else None
+                                              for n in names]))
+        cols += [col("mean", "mm", [t.position_mean * MM if t else None for t in tr]),
+                 col("p95", "mm", [t.position_p95 * MM if t else None for t in tr]),
+                 col("max", "mm", [t.position_max * MM if t else None for t in tr]),
+                 col("heading", "°", [math.degrees(t.heading_rmse) if t else None
+                                      for t in tr], 3)]
+        groups.append(("ground truth (whole drive)", cols))
+    if not groups:
+        return "No circle and no ground-truth figures: see the verdict."
+    title = "Summary per estimator (lower is better; columns: lgvtool evaluate --help)"
+    return title + "\n" + _text_blocks(keys, groups, width)
+
+
+def to_text(table: Table1, *, digits: int = 2, wide: bool = False,
+            width: int = TEXT_WIDTH) -> str:
+    """Table 1 and the summary as aligned plain text for the terminal: short headers under
+    each estimator's or figure group's name, with a unit line, at most ``width`` columns
+    (further estimators continue below); ``wide``: one line per row with every header
+    spelled out (mm, mm^2, degrees)."""
+    if not wide:
+        parts = [_table1_text(table, digits, width) if table.rows else no_rows_note(table)]
+        if table.circle:
+            parts.append(f"Partial rotations left out: {table.partial}.")
+        parts.append(_summary_text(table, digits, width))
+        return "\n\n".join(parts) + "\n"
+
     def block(head: list[str], body: list[list[str]]) -> str:
         widths = [max(len(c) for c in col) for col in zip(head, *body, strict=False)]
         fmt = [f"{{:<{w}}}" if i == 0 or h == "Log" else f"{{:>{w}}}"
@@ -364,9 +521,12 @@ FORMATS = ("text", "md", "csv", "tex")
 """Table formats of :func:`render_tables`."""
 
 
-def render_tables(results: Sequence[EvaluationResult], fmt: str = "text") -> str:
+def render_tables(results: Sequence[EvaluationResult], fmt: str = "text", *,
+                  wide: bool = False) -> str:
     """The tables of one or more logs in ``fmt`` (one of :data:`FORMATS`). Several logs give
-    the aggregated table first, then one per log (CSV: one table with a log column)."""
+    the aggregated table first, then one per log (CSV: one table with a log column).
+    ``wide``: text tables with every header spelled out, whatever their width
+    (:func:`to_text`)."""
     if fmt not in FORMATS:
         raise ValueError(f"unknown table format {fmt!r}")
     per = [build_table([r]) for r in results]
@@ -376,7 +536,7 @@ def render_tables(results: Sequence[EvaluationResult], fmt: str = "text") -> str
             return to_markdown(t)
         if fmt == "csv":
             return to_csv(t)
-        return to_latex(t) if fmt == "tex" else to_text(t)
+        return to_latex(t) if fmt == "tex" else to_text(t, wide=wide)
     agg = build_table(results)
     if fmt == "csv":
         return to_csv(agg, per_log=per)
@@ -389,5 +549,5 @@ def render_tables(results: Sequence[EvaluationResult], fmt: str = "text") -> str
             parts.append(f"% {name}\n" + to_latex(t, caption=f"Comparison of variance and RMSE: "
                                                             f"{name}"))
         else:
-            parts.append(f"== {name} ==\n\n" + to_text(t))
+            parts.append(f"== {name} ==\n\n" + to_text(t, wide=wide))
     return "\n".join(parts)

@@ -9,12 +9,16 @@ the bag's receive time where a stamp is zero), positions m, angles rad, speeds m
   ``twist.angular.z``; the odometry's frame is the vehicle frame;
 - ``sensor_msgs/Imu``: ``angular_velocity.z``;
 - ``sick_scan_xd/NAVPoseData``: the telegram's own ``x``, ``y`` (mm) and ``phi`` (mdeg) in the
-  device's map frame, valid when ``pose_valid`` > 0; a ``geometry_msgs`` pose as it is;
+  device's map frame, valid when ``pose_valid`` > 0; a ``geometry_msgs`` pose or an Odometry's
+  ``pose`` as it is, with the frames each message names (:attr:`BagContent.nav_frames`); a
+  ``tf2_msgs/TFMessage`` on the nav role: every transform from ``map``, by child frame
+  (:attr:`BagContent.map_poses`), one of which the importer takes;
 - ``sick_scan_xd/NAVLandmarkData``: each reflector with polar data as range ``dist`` (mm) and
   bearing ``phi`` (mdeg, counter-clockwise from the head's x axis), id its ``global_id`` when the
   optional block is present, else -1; with reflector times on all, ``time_in_scan`` after the
   earliest and the NAV350's revolution as the scan period;
-- ``tf2_msgs/TFMessage``: the first transform seen for each child frame.
+- ``tf2_msgs/TFMessage``: the first transform seen for each child frame;
+- the circle role (a pose topic named by ``--circle-from``): poses as the truth's.
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ MDEG = math.pi / 180000.0
 """rad per mdeg (NAV350 angles)."""
 NAV350_PERIOD_S = 0.125
 """Revolution of the NAV350 head, s (8 Hz): the scan period when reflector times are known."""
+MAP_FRAME = "map"
+"""REP 105's world frame: the parent of the transforms a /tf NAV pose topic is read from."""
 
 
 @dataclass
@@ -50,6 +56,13 @@ class BagContent:
     """t, x, y, heading, reflectors used, valid."""
     scans: list[tuple[int, float, list[dict[str, Any]]]] = field(default_factory=list)
     truth: list[tuple[int, float, float, float]] = field(default_factory=list)
+    circle: list[tuple[int, float, float, float]] = field(default_factory=list)
+    """Poses of the topic named by ``--circle-from`` (t, x, y, heading)."""
+    nav_frames: list[tuple[str, str]] = field(default_factory=list)
+    """(header frame, child frame or '') of the nav messages, each pair once, in order seen."""
+    map_poses: dict[str, list[tuple[int, float, float, float, int, bool]]] = field(
+        default_factory=dict)
+    """A /tf nav topic's poses by child frame (transforms from ``map``), as :attr:`nav`."""
     transforms: dict[str, tuple[str, float, float, float]] = field(default_factory=dict)
     """child frame -> (parent frame, x m, y m, yaw rad), first seen."""
     vehicle_frames: list[str] = field(default_factory=list)
@@ -133,7 +146,36 @@ def _read_gyro(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
     c.gyro.append((_ns(msg.header, ns), w))
 
 
+def _nav_frames(c: BagContent, header: str, child: str) -> None:
+    pair = (frame_name(header), frame_name(child))
+    if pair not in c.nav_frames:
+        c.nav_frames.append(pair)
+
+
+def _read_map_poses(c: BagContent, msg: Any, ns: int) -> int:
+    """The transforms from ``map`` of a TFMessage on the nav role; returns how many."""
+    n = 0
+    for tr in msg.transforms:
+        if frame_name(tr.header.frame_id) != MAP_FRAME:
+            continue
+        t, q = tr.transform.translation, tr.transform.rotation
+        x, y, h = float(t.x), float(t.y), _yaw(q)
+        child = frame_name(tr.child_frame_id)
+        _nav_frames(c, MAP_FRAME, child)
+        if not _finite(x, y, h):
+            c.count("dropped_nav_not_finite")
+            continue
+        c.map_poses.setdefault(child, []).append((_ns(tr.header, ns), x, y, wrap_scalar(h), 0,
+                                                  True))
+        n += 1
+    return n
+
+
 def _read_nav(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+    if msgtype == R.TF:
+        if _read_map_poses(c, msg, ns):
+            c.count("nav")
+        return
     if msgtype == NAV_POSE_DATA:
         x, y, h = msg.x / 1000.0, msg.y / 1000.0, wrap_scalar(msg.phi * MDEG)
         used = int(msg.quant_used_reflectors) if msg.opt_pose_data_valid else 0
@@ -141,9 +183,12 @@ def _read_nav(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
         if msg.header.frame_id and frame_name(msg.header.frame_id) not in c.sensor_frames:
             c.sensor_frames.append(frame_name(msg.header.frame_id))
     else:
-        pose = msg.pose.pose if msgtype == R.POSE_COV else msg.pose
+        pose = msg.pose.pose if msgtype in (R.POSE_COV, R.ODOMETRY) else msg.pose
         x, y, h = float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)
         used, valid = 0, True
+        _nav_frames(c, msg.header.frame_id,
+                    msg.child_frame_id if msgtype == R.ODOMETRY else "")
+    c.count("nav")
     if not _finite(x, y, h):
         c.count("dropped_nav_not_finite")
         return
@@ -174,13 +219,26 @@ def _read_reflectors(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
     c.scans.append((_ns(msg.header, ns), period, obs))
 
 
-def _read_truth(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+def _pose_of(msg: Any, msgtype: str, ns: int) -> tuple[int, float, float, float]:
     pose = msg.pose.pose if msgtype in (R.POSE_COV, R.ODOMETRY) else msg.pose
-    x, y, h = float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)
+    return (_ns(msg.header, ns), float(pose.position.x), float(pose.position.y),
+            _yaw(pose.orientation))
+
+
+def _read_truth(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+    t, x, y, h = _pose_of(msg, msgtype, ns)
     if not _finite(x, y, h):
         c.count("dropped_truth_not_finite")
         return
-    c.truth.append((_ns(msg.header, ns), x, y, h))
+    c.truth.append((t, x, y, h))
+
+
+def _read_circle(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+    t, x, y, h = _pose_of(msg, msgtype, ns)
+    if not _finite(x, y, h):
+        c.count("dropped_circle_not_finite")
+        return
+    c.circle.append((t, x, y, h))
 
 
 def _read_tf(c: BagContent, msg: Any, _msgtype: str, _ns_: int) -> None:
@@ -194,8 +252,9 @@ def _read_tf(c: BagContent, msg: Any, _msgtype: str, _ns_: int) -> None:
 
 _READERS: dict[str, Callable[[BagContent, Any, str, int], None]] = {
     "odom": _read_odom, "gyro": _read_gyro, "nav": _read_nav, "reflectors": _read_reflectors,
-    "truth": _read_truth, "tf": _read_tf,
+    "truth": _read_truth, "tf": _read_tf, "circle": _read_circle,
 }
+"""Role -> its reader; each counts its messages itself only where it says so (nav)."""
 
 
 def read_content(reader: Reader, chosen: Mapping[str, Sequence[str]]) -> BagContent:
@@ -203,8 +262,11 @@ def read_content(reader: Reader, chosen: Mapping[str, Sequence[str]]) -> BagCont
 
     :raises InputError: a message that does not decode as its topic's type.
     """
-    role_of = {t: role for role, ts in chosen.items() for t in ts}
-    conns = [c for c in reader.connections if c.topic in role_of]
+    roles_of: dict[str, list[str]] = {}
+    for role, ts in chosen.items():
+        for t in ts:
+            roles_of.setdefault(t, []).append(role)
+    conns = [c for c in reader.connections if c.topic in roles_of]
     store = typestore(conns)
     for conn in conns:
         if conn.msgtype not in store.types:
@@ -212,14 +274,15 @@ def read_content(reader: Reader, chosen: Mapping[str, Sequence[str]]) -> BagCont
                              f"(neither a standard ROS 2 type nor defined in the bag)")
     content = BagContent()
     for conn, bag_ns, raw in _messages(reader, conns):
-        role = role_of[conn.topic]
         try:
             msg = store.deserialize_cdr(raw, conn.msgtype)
         except Exception as exc:  # rosbags raises whatever a truncated buffer gives
             raise InputError(f"topic {conn.topic}: a message at {bag_ns / 1e9:.3f} s is not a "
                              f"valid {conn.msgtype} ({type(exc).__name__})") from None
-        _READERS[role](content, msg, conn.msgtype, bag_ns)
-        content.count(role)
+        for role in roles_of[conn.topic]:
+            _READERS[role](content, msg, conn.msgtype, bag_ns)
+            if role != "nav":
+                content.count(role)
     return content
 
 

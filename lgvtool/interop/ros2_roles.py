@@ -8,7 +8,9 @@ role          types                                                             
 odom          nav_msgs/Odometry, geometry_msgs/TwistStamped                          /odom/twist
 gyro          sensor_msgs/Imu                                                        /odom/twist
 nav           sick_scan_xd/NAVPoseData, geometry_msgs/PoseWithCovarianceStamped,      /nav/pose
-              geometry_msgs/PoseStamped
+              geometry_msgs/PoseStamped; with ``--topic nav=`` only: nav_msgs/
+              Odometry (its ``pose``), tf2_msgs/TFMessage (a ``map`` -> frame
+              transform)
 reflectors    sick_scan_xd/NAVLandmarkData                                           /nav/reflectors
 truth         geometry_msgs/PoseStamped, geometry_msgs/PoseWithCovarianceStamped,     /truth/pose
               nav_msgs/Odometry
@@ -17,8 +19,9 @@ tf            tf2_msgs/TFMessage (every such topic: /tf, /tf_static)            
 
 Chosen automatically: a topic whose name says ground truth (truth, groundtruth, gt, vicon,
 mocap, optitrack) is the truth and nothing else; every other role takes the topic of its most
-preferred type; two candidates of one type are ambiguous and need ``--topic ROLE=/name``.
-``--topic ROLE=none`` leaves a role out.
+preferred type (among the types it reads without ``--topic``); two candidates of one type
+are ambiguous and need ``--topic ROLE=/name``. ``--topic ROLE=none`` leaves a role out. A
+topic named for the nav role may also serve the tf role (``--topic nav=/tf``).
 """
 
 from __future__ import annotations
@@ -40,18 +43,30 @@ TF = "tf2_msgs/msg/TFMessage"
 ROLES: dict[str, tuple[str, ...]] = {
     "odom": (ODOMETRY, TWIST),
     "gyro": (IMU,),
-    "nav": (NAV_POSE_DATA, POSE_COV, POSE),
+    "nav": (NAV_POSE_DATA, POSE_COV, POSE, ODOMETRY, TF),
     "reflectors": (NAV_LANDMARK_DATA,),
     "truth": (POSE, POSE_COV, ODOMETRY),
     "tf": (TF,),
 }
 """Role -> the message types it reads, most preferred first."""
 
+NAMED_ONLY: dict[str, tuple[str, ...]] = {"nav": (ODOMETRY, TF)}
+"""Role -> the types it reads only from a topic that ``--topic ROLE=/name`` names: a second
+odometry is rarely a localisation, and /tf is the tf role's."""
+
+POSE_TYPES = (POSE, POSE_COV, ODOMETRY)
+"""The message types whose poses can be the truth or a reference circle's."""
+
 NONE = "none"
 """``--topic ROLE=none``: leave the role out."""
 
 _TRUTH_NAME = re.compile(r"(^|[/_\-.])(ground_?truth|groundtruth|truth|gt|vicon|mocap|optitrack)"
                          r"($|[/_\-.])", re.IGNORECASE)
+
+
+def auto_types(role: str) -> tuple[str, ...]:
+    """The types ``role`` takes a topic of without ``--topic``, most preferred first."""
+    return tuple(m for m in ROLES[role] if m not in NAMED_ONLY.get(role, ()))
 
 
 def short(msgtype: str) -> str:
@@ -79,6 +94,8 @@ def looks_like_truth(topic: str) -> bool:
 def _pick(role: str, free: Mapping[str, str]) -> str | None:
     """The topic of the most preferred type among ``free`` (topic -> type) for ``role``."""
     for msgtype in ROLES[role]:
+        if msgtype in NAMED_ONLY.get(role, ()):
+            continue
         found = sorted(t for t, m in free.items() if m == msgtype)
         if len(found) > 1:
             raise InputError(f"several {short(msgtype)} topics could be the {role} "
@@ -128,7 +145,7 @@ def choose_topics(types: Mapping[str, str], overrides: Mapping[str, str] | None 
                          f"{short(TWIST)} topic (choose one with --topic odom=/name)")
     if not chosen["nav"] and not chosen["reflectors"]:
         raise InputError(
-            f"no observation topic in the bag: no NAV pose ({', '.join(map(short, ROLES['nav']))})"
+            f"no observation topic in the bag: no NAV pose ({', '.join(map(short, auto_types('nav')))})"
             f" or reflector ({short(NAV_LANDMARK_DATA)}) topic (choose one with --topic "
             f"nav=/name or reflectors=/name)")
     return chosen

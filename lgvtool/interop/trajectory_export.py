@@ -86,7 +86,7 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
     """The estimates of the log (source 'log'), else those of the estimators run over it, and
     the tables of the log's ground truth and NAV poses (those it has), read in the same pass
     as the log's estimates or as the estimators' reading."""
-    from lgvtool.localize.registry import in_run_order
+    from lgvtool.localize.registry import check_names, in_run_order
     from lgvtool.log import topics
 
     others = [t for t in (topics.TRUTH, topics.NAV_POSE) if reader.has_topic(t)]
@@ -94,6 +94,7 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
     present = in_run_order(topics.estimator_names(reader.topic_names()))
     if present:
         chosen = list(names) if names else present
+        check_names(chosen, also=present)  # a mistyped name: "did you mean ...?"
         missing = [n for n in chosen if n not in present]
         if missing:
             raise InputError(f"{reader.path}: no estimates of {', '.join(missing)} in the log "

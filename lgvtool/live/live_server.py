@@ -8,11 +8,18 @@ oldest message of a client that cannot keep up, so a slow or vanished client nev
 caller (the recorder's writer thread). A client that subscribes to a channel is sent the last
 message of that channel at once (the map and the scene are published once, at the start; a
 client connecting later still sees them).
+
+foxglove-sdk's server listens on ``127.0.0.1`` at a port of its own; the user's address is
+served by :class:`lgvtool.live.front.SubprotocolFront`, which accepts clients offering the
+subprotocol ``foxglove.sdk.v1`` or its older name ``foxglove.websocket.v1`` (which the SDK
+refuses) and relays them to the SDK's server.
 """
 
 from __future__ import annotations
 
+import sys
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +32,13 @@ DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
 #: the WebSocket subprotocol foxglove-sdk speaks (the foxglove.websocket.v1 protocol, renamed)
 SUBPROTOCOL = "foxglove.sdk.v1"
+#: the SDK server's message backlog per client (its default): past it a slow client's oldest
+#: messages are dropped
+BACKLOG = 1024
+
+
+def _to_stderr(line: str) -> None:
+    print(f"lgvtool: live view: {line}", file=sys.stderr, flush=True)
 
 
 @dataclass(frozen=True)
@@ -92,29 +106,48 @@ class _Listener:
 class LiveServer:
     """A Foxglove WebSocket server publishing log messages.
 
-    :param address: where to listen.
+    :param address: where to listen (the front, :class:`lgvtool.live.front.SubprotocolFront`;
+        foxglove-sdk's server itself listens on ``127.0.0.1`` at a port of its own).
     :param name: server name shown by Foxglove.
+    :param warn: called with one line when the front refuses a client (what it offered, what
+        is accepted) or a client falls behind; default: printed on stderr, after
+        ``lgvtool: live view:``.
     :raises InputError: the host does not resolve, the port is in use, or ``foxglove-sdk`` is
         not installed.
     """
 
-    def __init__(self, address: LiveAddress, *, name: str = "lgvtool") -> None:
+    def __init__(self, address: LiveAddress, *, name: str = "lgvtool",
+                 warn: Callable[[str], None] | None = None) -> None:
         _check_host(address)
         require("--live", "live", "foxglove")
         import foxglove
         from foxglove.websocket import Capability
+
+        from lgvtool.live.front import SubprotocolFront
 
         self._fox = foxglove
         self._context = foxglove.Context()
         self._last: dict[str, tuple[bytes, int]] = {}
         try:
             self._server = foxglove.start_server(
-                name=name, host=address.host, port=address.port, context=self._context,
-                capabilities=[Capability.Time], server_listener=_Listener(self))
+                name=name, host="127.0.0.1", port=0, context=self._context,
+                capabilities=[Capability.Time], server_listener=_Listener(self),
+                message_backlog_size=BACKLOG)
         except (RuntimeError, OSError, ValueError) as exc:
             why = str(exc).removeprefix("FoxgloveError: ")
-            raise InputError(f"--live {address}: cannot listen: {why}") from None
-        self.address = LiveAddress(address.host, int(self._server.port))
+            raise InputError(f"--live {address}: cannot start the server: {why}") from None
+        #: where foxglove-sdk's own server listens (loopback; clients offering foxglove.sdk.v1
+        #: only; for measurements)
+        self.sdk_address = LiveAddress("127.0.0.1", int(self._server.port))
+        self.front = SubprotocolFront(address.host, address.port, self.sdk_address.port,
+                                      warn=warn or _to_stderr, backlog=BACKLOG)
+        try:
+            port = self.front.start()
+        except OSError as exc:
+            self._server.stop()
+            raise InputError(f"--live {address}: cannot listen: {exc.strerror or exc}"
+                             ) from None
+        self.address = LiveAddress(address.host, port)
         self._channels: dict[str, Any] = {}
         self._lock = threading.Lock()
         self._closed = False
@@ -124,8 +157,13 @@ class LiveServer:
     @property
     def url(self) -> str:
         """The ``ws://`` URL clients connect to."""
-        host = f"[{self.address.host}]" if ":" in self.address.host else self.address.host
-        return f"ws://{host}:{self.address.port}"
+        return f"ws://{self.address}"
+
+    @property
+    def sdk_url(self) -> str:
+        """The ``ws://`` URL of foxglove-sdk's own server, behind the front (loopback,
+        ``foxglove.sdk.v1`` only): for measuring the front."""
+        return f"ws://{self.sdk_address}"
 
     def channel_id(self, topic: str) -> int | None:
         """The id of the channel of ``topic``, None before its first message."""
@@ -186,6 +224,7 @@ class LiveServer:
         for ch in self._channels.values():
             ch.close()
         self._server.stop()
+        self.front.close()
 
     def __enter__(self) -> LiveServer:
         return self

@@ -180,8 +180,11 @@ class LiveFeed:
                     self.latency_of[est.name].append(lag)
 
     def stats(self) -> dict[str, Any]:
-        """Published counts, estimator latency (ms) and failures, for the command's summary."""
+        """Published counts, estimator latency (ms), failures and the clients served and
+        refused (:class:`lgvtool.live.front.FrontStats`), for the command's summary."""
+        front = getattr(self.server, "front", None)
         return {"url": self.server.url, "published": sum(self.server.counts.values()),
+                "clients": None if front is None else front.stats.as_dict(),
                 "estimators": [e.name for e in self.estimators],
                 "latency": latency_summary(self.latencies),
                 "latency_by_estimator": {n: latency_summary(v)
@@ -205,6 +208,15 @@ def describe(stats: dict[str, Any]) -> str:
     if lat.get("count"):
         text += (f"; estimate latency median {lat['median_ms']:.1f} ms, p95 {lat['p95_ms']:.1f} ms"
                  f" over {lat['count']} updates")
+    clients = stats.get("clients") or {}
+    if clients.get("served") or clients.get("refused"):
+        names = ", ".join(f"{n} {p}" for p, n in sorted(clients["by_subprotocol"].items()))
+        n = clients["served"]
+        text += f"; {n} client{'' if n == 1 else 's'} served ({names or 'none'})"
+        if clients["refused"]:
+            text += f", {clients['refused']} refused"
+        if clients["stalled"]:
+            text += f", {clients['stalled']} disconnected for not keeping up"
     if stats.get("shed"):
         text += f"; {stats['shed']} observations skipped to keep up"
     if stats.get("failures"):

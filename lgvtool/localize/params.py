@@ -13,6 +13,7 @@ from dataclasses import MISSING, Field, field, fields, replace
 from typing import Any, TypeVar
 
 from lgvtool.errors import InputError
+from lgvtool.suggest import unknown_tail
 from lgvtool.values import coerce
 
 P = TypeVar("P")
@@ -53,8 +54,10 @@ def make_params(cls: type[P], owner: str, overrides: Mapping[str, Any] | None = 
     changes: dict[str, Any] = {}
     for key, value in (overrides or {}).items():
         if key not in known:
-            raise InputError(f"unknown parameter '{owner}.{key}' (known: "
-                             f"{', '.join(sorted(known))})")
+            raise InputError(f"unknown parameter '{owner}.{key}'"
+                             + unknown_tail(key, sorted(known), prefix=f"{owner}.", more=(
+                                 f"{len(known)} parameters of {owner}; docs/filter.md#parameters"
+                                 " lists them")))
         changes[key] = _coerce(owner, known[key], value)
     return replace(out, **changes) if changes else out  # type: ignore[type-var]
 

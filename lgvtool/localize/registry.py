@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import importlib
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from typing import TYPE_CHECKING, Any
 
 from lgvtool.errors import InputError
 from lgvtool.localize.params import make_params
+from lgvtool.suggest import unknown_tail
 
 if TYPE_CHECKING:
     from lgvtool.localize.estimator import Estimator
@@ -63,12 +64,23 @@ def in_run_order(names: list[str] | tuple[str, ...]) -> list[str]:
     return sorted(names, key=lambda n: (known.get(n, len(known)), n))
 
 
-def check_names(names: list[str] | tuple[str, ...]) -> list[str]:
-    """The names, deduplicated in order; InputError for an unknown one."""
+def unknown_estimator(name: str, also: Iterable[str] = (), where: str = "") -> InputError:
+    """The one error for an estimator name that is none of :data:`ESTIMATORS` (nor of
+    ``also``, e.g. the estimates a log holds): the closest names first ("did you mean
+    'pf-paper'?"), then the known ones. ``where`` follows the name (`` in setting 'x.y'``)."""
+    known = [*ESTIMATORS, *(n for n in also if n not in ESTIMATORS)]
+    return InputError(f"unknown estimator '{name}'{where}{unknown_tail(name, known)}")
+
+
+def check_names(names: list[str] | tuple[str, ...], also: Iterable[str] = ()) -> list[str]:
+    """The names, deduplicated in order; InputError for one that is neither an estimator nor
+    one of ``also`` (names accepted besides, e.g. the estimates a log holds), suggesting the
+    closest ("unknown estimator 'pf-papr': did you mean 'pf-paper'? (known: ...)")."""
+    accepted = set(also)
     out: list[str] = []
     for n in names:
-        if n not in ESTIMATORS:
-            raise InputError(f"unknown estimator '{n}' (known: {', '.join(ESTIMATORS)})")
+        if n not in ESTIMATORS and n not in accepted:
+            raise unknown_estimator(n, also)
         if n not in out:
             out.append(n)
     return out
@@ -90,8 +102,7 @@ def split_settings(settings: Mapping[str, Any] | None) -> dict[str, dict[str, An
                                  f"(estimators: {', '.join(ESTIMATORS)})")
             sub = {param_name: value}
         if name not in ESTIMATORS:
-            raise InputError(f"unknown estimator '{name}' in setting '{key}' (known: "
-                             f"{', '.join(ESTIMATORS)})")
+            raise unknown_estimator(name, where=f" in setting '{key}'")
         out.setdefault(name, {}).update(sub)
     return out
 

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import orjson
 
+from lgvtool import colours
 from lgvtool.angles import wrap_angle
 from lgvtool.log import topics
 from lgvtool.log.messages import FRAME_ID, pose, quaternion_from_yaw
@@ -50,16 +51,12 @@ SCAN_POINT_STRIDE = 20
 _SCAN_DTYPE = [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("rgba", "u1", (4,)), ("id", "<i4")]
 
 PALETTE: dict[str, tuple[float, float, float]] = {
-    "truth": (1.0, 1.0, 1.0),
-    "nav": (0.95, 0.75, 0.1),
-    "laser": (0.12, 0.47, 0.71),
-    "deadreckoning": (0.55, 0.55, 0.55),
-    "ekf": (0.17, 0.63, 0.17),
-    "pf-paper": (0.84, 0.15, 0.16),
-    "pf": (0.58, 0.40, 0.74),
+    "truth": colours.rgb(colours.TRUTH_ON_DARK),
+    **{source: colours.rgb(c) for source, c in colours.SOURCE_COLOURS.items()},
 }
-"""RGB (0..1) of each known source; others take :data:`OTHER`."""
-OTHER = (0.09, 0.75, 0.81)
+"""RGB (0..1) of each known source, from lgvtool's one colour table (:mod:`lgvtool.colours`,
+shared with the report and docs/foxglove-layout.json); others take :data:`OTHER`."""
+OTHER = colours.rgb(colours.OTHER_COLOUR)
 
 
 class Mounting(NamedTuple):

@@ -6,16 +6,23 @@ Modules, one purpose each:
 - :mod:`~lgvtool.sim.routes`, :mod:`~lgvtool.sim.scenarios`: routes, speed profiles and the
   scenario catalogue;
 - :mod:`~lgvtool.sim.mcu_model`: encoders, gyro, drive unit and MCU clock (its serial link is
-  the MCU family's :mod:`lgvtool.devices.mcu.mcu_simlink`);
+  :mod:`~lgvtool.sim.mcu_simlink`);
 - :mod:`~lgvtool.sim.nav_model`: the NAV200 head (one instant per reflector) and its pose fit
   (the device answering the host is the family's shared model,
-  :mod:`lgvtool.devices.nav200.nav200_device`, polled by :mod:`lgvtool.devices.nav200.nav200_simlink`);
+  :mod:`lgvtool.devices.nav200.nav200_device`, polled by :mod:`~lgvtool.sim.nav200_simlink`);
+  :mod:`~lgvtool.sim.nav350_simlink`: the NAV350 mode (the recorder's own NAV350 session against
+  the family's shared model, :mod:`lgvtool.devices.nav350.nav350_device`);
 - :mod:`~lgvtool.sim.serial_timing`: serial timing and read chunking;
   :mod:`~lgvtool.sim.faults`: landmarks, occlusions and injected faults;
 - :mod:`~lgvtool.sim.settings`: every setting and ``--set`` overrides;
 - :mod:`~lgvtool.sim.simulation`: resolve settings and run; :mod:`~lgvtool.sim.event_stream`:
   the run as a time-ordered device-side event stream (for emulators);
-  :mod:`~lgvtool.sim.logfile`: the run as a log.
+  :mod:`~lgvtool.sim.logfile`: the run as a log;
+- :mod:`~lgvtool.sim.emulate`: the run (or a log) served as virtual devices, each family's
+  emulator in ``sim/emulate/<family>/``.
+
+The simulator sits above the device families (:mod:`lgvtool.devices`): it imports their device
+models, codecs and sessions, and no device module imports it.
 
 Typical use::
 

@@ -64,7 +64,7 @@ def _records(sim: Simulation) -> Iterator[Record]:
                _numbered(_FAULT, _in_time_order(sim, [(f.t, f) for f in sim.faults])),
                _numbered(_MCU, _in_time_order(sim, [(c.t, c.data) for c in sim.mcu_traffic.rx]))]
     if sim.settings.sim.nav_device == "nav350":  # the host side of a NAV350 instead
-        from lgvtool.devices.nav350.nav350_simlink import nav350_traffic
+        from lgvtool.sim.nav350_simlink import nav350_traffic
 
         traffic = nav350_traffic(sim)
         tx = [(t, data) for t, direction, data in traffic if direction != "rx"]

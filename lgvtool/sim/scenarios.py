@@ -17,6 +17,7 @@ from lgvtool.config import Vehicle
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.sim.kinematics import Controls
 from lgvtool.sim.routes import Leg, lay_out, sample, straight, turn
+from lgvtool.suggest import unknown_tail
 from lgvtool.values import coerce
 
 MAX_REPEATS = 10_000.0
@@ -58,8 +59,10 @@ class Scenario:
         out = dict(self.defaults)
         for key, value in overrides.items():
             if key not in out:
-                raise ConfigError(f"unknown setting 'scenario.{key}' for scenario {self.name} "
-                                  f"(known: {', '.join(sorted(out))})")
+                raise ConfigError(f"unknown setting 'scenario.{key}' for scenario {self.name}"
+                                  + unknown_tail(key, sorted(out), prefix="scenario.", more=(
+                                      f"{len(out)} settings of {self.name}; lgvtool simulate "
+                                      "--list lists them")))
             limit = MAX_REPEATS if key in ("laps", "rotations") else MAX_SCENARIO_VALUE
             out[key] = coerce(f"scenario.{key}", value, float, minimum=-limit, maximum=limit)
         return out
@@ -259,4 +262,4 @@ def get_scenario(name: str) -> Scenario:
     try:
         return SCENARIOS[name]
     except KeyError:
-        raise InputError(f"unknown scenario '{name}' (known: {', '.join(SCENARIOS)})") from None
+        raise InputError(f"unknown scenario '{name}'" + unknown_tail(name, SCENARIOS)) from None

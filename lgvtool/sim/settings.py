@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
 from lgvtool.errors import ConfigError
+from lgvtool.suggest import unknown_tail
 from lgvtool.values import MAX_COUNT, MAX_RATE_HZ, coerce
 
 
@@ -34,7 +35,7 @@ class RunSettings:
     """Master switch: false turns off every random error (NAV, MCU, timing jitter)."""
     nav_device: str = "nav200"
     """The laser device of the log: 'nav200' (serial, polled PP) or 'nav350' (SOPAS over
-    Ethernet, pose and landmarks of every revolution; lgvtool.devices.nav350.nav350_simlink)."""
+    Ethernet, pose and landmarks of every revolution; lgvtool.sim.nav350_simlink)."""
 
 
 @dataclass(frozen=True)
@@ -346,12 +347,14 @@ def apply_overrides(settings: SimSettings, overrides: Mapping[str, Any]) -> SimS
             continue
         cls = SECTIONS.get(section)
         if cls is None:
-            raise ConfigError(f"unknown setting section '{section}' in '{full_key}' "
-                              f"(sections: {', '.join([*SECTIONS, 'scenario', 'vehicle'])})")
+            raise ConfigError(f"unknown setting section '{section}' in '{full_key}'"
+                              + unknown_tail(section, [*SECTIONS, "scenario", "vehicle"],
+                                             label="sections"))
         types = _field_types(cls)
         if key not in types:
-            raise ConfigError(f"unknown setting '{full_key}' (known in {section}: "
-                              f"{', '.join(types)})")
+            raise ConfigError(f"unknown setting '{full_key}'" + unknown_tail(
+                key, types, prefix=f"{section}.", label=f"known in {section}",
+                more=f"{len(types)} settings in {section}; docs/simulator.md#settings lists them"))
         default = getattr(cls(), key)
         grouped.setdefault(section, {})[key] = _coerce(full_key, value, types[key], default)
     out = replace(settings, scenario=scenario)

@@ -19,14 +19,11 @@ from typing import Any
 import numpy as np
 
 from lgvtool.config import Config, Vehicle, config_from_dict, default_config
-from lgvtool.devices.mcu import mcu_simlink
-from lgvtool.devices.nav200 import nav200_simlink
 from lgvtool.devices.nav200.nav200_device import Nav200Device
-from lgvtool.devices.nav200.nav200_simlink import NavTraffic
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.sim import event_stream as ev
 from lgvtool.sim import faults as faultlib
-from lgvtool.sim import mcu_model, nav_model
+from lgvtool.sim import mcu_model, mcu_simlink, nav200_simlink, nav_model
 from lgvtool.sim.faults import FaultEvent, Landmarks, Occlusions
 from lgvtool.sim.kinematics import Trajectory, integrate
 from lgvtool.sim.mcu_model import McuOutput
@@ -92,7 +89,7 @@ class Simulation:
     device: Nav200Device
     mcu: McuOutput
     mcu_traffic: mcu_simlink.McuTraffic
-    nav_traffic: NavTraffic
+    nav_traffic: nav200_simlink.NavTraffic
     faults: tuple[FaultEvent, ...]
     """Every injected fault, in time order."""
 

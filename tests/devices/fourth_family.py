@@ -1,14 +1,14 @@
-"""A fourth device family, ``fake``, registered only by tests: the registration interface of
-:mod:`lgvtool.devices.device_registry`, with a log decoder that turns every raw chunk of
-``/fake/rx`` into one diagnostic."""
+"""A fourth device family, ``fake``, registered only by tests: a
+:class:`~lgvtool.devices.device_registry.DeviceFamily` (declarations only: no click, no
+simulator), with a log decoder that turns every raw chunk of ``/fake/rx`` into one diagnostic.
+Its emulator is :mod:`fourth_family_emulation`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
-import click
-
+from lgvtool.devices.device_registry import JSON, JSONObject, RecordOption
 from lgvtool.devices.log_decoding import DecodedQueue
 from lgvtool.log import topics
 from lgvtool.wire.decode_events import INFO, DecodeEvent
@@ -19,10 +19,11 @@ ODOMETRY = False
 RX = topics.raw_topic(DEVICE, "rx")
 RAW_TOPICS = (RX,)
 TOPICS = {RX: "lgvtool.RawBytes"}
-ABSENT_REPORT: dict[str, Any] | None = None
+ABSENT_REPORT: JSONObject | None = None
 ABSENT_METADATA: dict[str, dict[str, int]] = {}
 RECORD_URL_OPTION, RECORD_URL_PARAM = "--fake", "fake_url"
-SERVE_PARAM, SERVE_DEFAULT = "fake", None
+RECORD_OPTIONS = (RecordOption(RECORD_URL_OPTION, RECORD_URL_PARAM, metavar="URL",
+                               help="Fake device link, recorded by no one."),)
 
 
 class FakeLogDecoder(DecodedQueue):
@@ -61,13 +62,8 @@ class FakeLogDecoder(DecodedQueue):
         return {DEVICE: {"chunks": self.chunks}}
 
 
-def log_decoder(metadata: Mapping[str, Any]) -> FakeLogDecoder:
+def log_decoder(metadata: Mapping[str, Mapping[str, JSON]]) -> FakeLogDecoder:
     return FakeLogDecoder()
-
-
-def record_options(f: Callable[..., Any]) -> Callable[..., Any]:
-    return click.option("--fake", RECORD_URL_PARAM, metavar="URL",
-                        help="Fake device link, recorded by no one.")(f)
 
 
 def recorder_settings(options: dict[str, Any], *, layout: Any, speed_input: bool,
@@ -86,45 +82,5 @@ def recorder_worker(*args: Any, **kwargs: Any) -> Any:
     raise AssertionError("the fake device is never recorded")
 
 
-def recorder_metadata(device: Any) -> dict[str, Any]:
+def recorder_metadata(device: Any) -> JSONObject:
     return {"fake_url": None if device is None else device.url}
-
-
-def serve_options(f: Callable[..., Any]) -> Callable[..., Any]:
-    return click.option("--fake", SERVE_PARAM, default="none", show_default=True,
-                        metavar="PORT", help="Where the fake device listens.")(f)
-
-
-class FakeEmulator:
-    """Sends :data:`GREETING` once the run's clock has started; echoes what it receives."""
-
-    FAULT_KINDS: tuple[str, ...] = ()
-    GREETING = b"fake says hello"
-
-    def __init__(self) -> None:
-        self.greeted = False
-
-    def serve(self, ep: Any, now: float, t: float | None, log: Callable[[str, bytes], None],
-              silent: Callable[[], bool]) -> None:
-        if ep is None or t is None:
-            return
-        if not self.greeted and ep.write(self.GREETING, now):
-            self.greeted = True
-            log("sent", self.GREETING)
-        data = ep.read()
-        if data:
-            log("received", data)
-            if ep.write(data, now):
-                log("sent", data)
-
-    def apply_fault(self, kind: str, t: float, arg: float, code: int) -> None:
-        raise AssertionError("the fake device takes no faults of its own")
-
-
-def emulator_class() -> Any:
-    return FakeEmulator
-
-
-def serve_emulator(playback: Any, spec: str | None, *, loop: bool = False
-                   ) -> tuple[str | None, Any]:
-    return spec, FakeEmulator()

@@ -9,11 +9,21 @@ from typing import Any
 import pytest
 
 from lgvtool.app.decode_job import decode_log
-from lgvtool.devices.device_registry import FAMILIES, family_of_topic, registration
+from lgvtool.devices.device_registry import (
+    FAMILIES,
+    DeviceFamily,
+    OptionValue,
+    RecordOption,
+    family_of_topic,
+    registration,
+)
 from lgvtool.devices.layout_plan import LayoutPlan
 from lgvtool.devices.log_decoding import decode_chunk, finish_decoding
+from lgvtool.devices.mcu import mcu_registration
+from lgvtool.devices.nav200 import nav200_registration
 from lgvtool.devices.nav200.nav200_replies import build_pose_reply
 from lgvtool.devices.nav200.nav200_requests import request_pose
+from lgvtool.devices.nav350 import nav350_registration
 from lgvtool.log import LogReader, topics
 from lgvtool.sim import simulate, write_log
 from lgvtool.wire.decode_events import DecodeEvent
@@ -31,29 +41,49 @@ class _Out:
         self.events.append((event.kind, t_ns))
 
 
-#: what every registration holds (lgvtool.devices.device_registry): names, then functions
-INTERFACE_NAMES = ("DEVICE", "TITLE", "ODOMETRY", "RAW_TOPICS", "TOPICS", "ABSENT_REPORT",
-                   "ABSENT_METADATA", "RECORD_URL_OPTION", "RECORD_URL_PARAM", "SERVE_PARAM",
-                   "SERVE_DEFAULT")
-INTERFACE_FUNCTIONS = ("log_decoder", "record_options", "recorder_settings", "recorder_link",
-                       "recorder_worker", "recorder_metadata", "serve_options",
-                       "serve_emulator", "emulator_class")
+#: every registration satisfies the Protocol: mypy checks each module against it (``mypy
+#: tests``), so a family missing a name, or declaring one of another type, fails the check
+CHECKED: tuple[DeviceFamily, ...] = (mcu_registration, nav200_registration, nav350_registration)
+
+
+def _members(protocol: type) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The names (properties) and the functions a Protocol declares."""
+    own = [(n, v) for n, v in vars(protocol).items() if not n.startswith("_")]
+    return (tuple(n for n, v in own if isinstance(v, property)),
+            tuple(n for n, v in own if callable(v)))
+
+
+#: what every registration holds (DeviceFamily): names, then functions
+INTERFACE_NAMES, INTERFACE_FUNCTIONS = _members(DeviceFamily)
+
+
+def test_the_interface_is_the_protocol() -> None:
+    assert INTERFACE_NAMES == ("DEVICE", "TITLE", "ODOMETRY", "RAW_TOPICS", "TOPICS",
+                               "ABSENT_REPORT", "ABSENT_METADATA", "RECORD_URL_OPTION",
+                               "RECORD_URL_PARAM", "RECORD_OPTIONS")
+    assert INTERFACE_FUNCTIONS == ("log_decoder", "recorder_settings", "recorder_link",
+                                   "recorder_worker", "recorder_metadata")
 
 
 def test_every_family_has_the_same_interface() -> None:
+    assert [registration(f) for f in FAMILIES] == list(CHECKED)
     for family in FAMILIES:
         reg = registration(family)
         assert [n for n in INTERFACE_NAMES if not hasattr(reg, n)] == [], family
         assert [n for n in INTERFACE_FUNCTIONS if not callable(getattr(reg, n, None))] == [], \
             family
+        options = reg.RECORD_OPTIONS
+        assert all(isinstance(o, RecordOption) for o in options), family
+        assert (options[0].flag, options[0].param) == (reg.RECORD_URL_OPTION,
+                                                        reg.RECORD_URL_PARAM), family
     assert [registration(f).ODOMETRY for f in FAMILIES] == [True, False, False]
 
 
 def test_a_family_takes_only_its_own_record_options() -> None:
-    options = {"nav_url": "tcp://h:1", "poll_period": 0.2, "mcu_url": "tcp://h:2",
-               "nav350_cola": "ascii"}
-    shared = {"layout": LayoutPlan(), "speed_input": False, "reply_timeout": 1.0,
-              "config": None}
+    options: dict[str, OptionValue] = {"nav_url": "tcp://h:1", "poll_period": 0.2,
+                                       "mcu_url": "tcp://h:2", "nav350_cola": "ascii"}
+    shared: dict[str, Any] = {"layout": LayoutPlan(), "speed_input": False,
+                              "reply_timeout": 1.0, "config": None}
     mcu = registration("mcu").recorder_settings(options, **shared)
     assert mcu.url == "tcp://h:2" and mcu.settings is None
     nav = registration("nav200").recorder_settings(options, **shared)
@@ -72,7 +102,7 @@ def test_every_family_registers_its_parts() -> None:
             assert family_of_topic(topic) == family
         decoder = reg.log_decoder({})
         assert decoder.sources == frozenset({family})
-        assert callable(reg.emulator) and callable(reg.recorder_worker)
+        assert callable(reg.recorder_worker)
     assert family_of_topic(topics.NAV_POSE) is None
     with pytest.raises(KeyError):
         registration("nav300")

@@ -11,7 +11,6 @@ from pathlib import Path
 import pytest
 from devices_helpers import Procs, circle_playback, messages, raw_stream
 
-from lgvtool.devices.mcu.mcu_emulator import VirtualMcu
 from lgvtool.errors import InputError
 from lgvtool.log import LogWriter, topics
 from lgvtool.log.reader import LogWarning
@@ -21,6 +20,7 @@ from lgvtool.sim.emulate import (
     playback_from_log,
     playback_from_scenario,
 )
+from lgvtool.sim.emulate.mcu.mcu_emulator import VirtualMcu
 from lgvtool.timestamps import stamp
 
 

@@ -7,7 +7,6 @@ import math
 from devices_helpers import circle_playback
 
 from lgvtool.devices.nav200.nav200_commands import Request
-from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
 from lgvtool.devices.nav200.nav200_payloads import SpeedOmega
 from lgvtool.devices.nav200.nav200_replies import (
     build_ack_reply,
@@ -22,6 +21,7 @@ from lgvtool.devices.nav200.nav200_session import (
     PoseReceived,
 )
 from lgvtool.devices.session_events import DeviceSilent, PositioningEntered
+from lgvtool.sim.emulate.nav200.nav200_emulator import VirtualNav200
 from lgvtool.wire.decode_events import DecodeEvent
 
 PLAYBACK = circle_playback(10.0)

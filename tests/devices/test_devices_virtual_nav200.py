@@ -17,7 +17,6 @@ from lgvtool.devices.nav200.nav200_commands import (
     decode_reply,
 )
 from lgvtool.devices.nav200.nav200_device import PoseFix
-from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
 from lgvtool.devices.nav200.nav200_payloads import Pose
 from lgvtool.devices.nav200.nav200_requests import (
     request_action_radii,
@@ -33,6 +32,7 @@ from lgvtool.devices.nav200.nav200_requests import (
     request_version,
 )
 from lgvtool.sim.emulate import Playback, playback_from_scenario
+from lgvtool.sim.emulate.nav200.nav200_emulator import VirtualNav200
 
 
 def ask(dev: VirtualNav200, request: Request, t: float = 1.0) -> AnyReply:

@@ -1,22 +1,35 @@
-"""A device family is its folder and a line in the registry: a fourth family, registered by
-patching the registry's table only, gets its ``record`` and ``simulate serve`` options and
-its log decoder with no other lgvtool file changed."""
+"""A device family is its declarations and a line in the registry: a fourth family (its
+registration, :mod:`fourth_family`, and its emulation, :mod:`fourth_family_emulation`),
+registered by patching the registry's table only, gets its ``record`` and ``simulate serve``
+options, its log decoder and its emulator with no other lgvtool file changed."""
 
 from __future__ import annotations
 
+import ast
 import importlib
 import socket
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import fourth_family
+import fourth_family_emulation
 import pytest
 from click.testing import CliRunner
 
 from lgvtool.app.decode_job import decode_log
 from lgvtool.devices import device_registry
+from lgvtool.devices.device_registry import DeviceFamily
 from lgvtool.log import LogReader, LogWriter, topics
+from lgvtool.sim.emulate import emulator_registry
+from lgvtool.sim.emulate.emulator_registry import FamilyEmulation
+
+if TYPE_CHECKING:  # the two declarations satisfy their Protocols (checked by ``mypy tests``)
+    from tests.devices import fourth_family as typed_family
+    from tests.devices import fourth_family_emulation as typed_emulation
+
+    CHECKED: tuple[DeviceFamily, FamilyEmulation] = (typed_family, typed_emulation)
 
 #: the modules that apply every family's options when they are imported
 _COMMAND_MODULES = ("lgvtool.commands.record", "lgvtool.sim.emulate.serve")
@@ -34,6 +47,8 @@ def fourth() -> Iterator[None]:
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(device_registry, "FAMILIES", (*device_registry.FAMILIES, "fake"))
         mp.setitem(sys.modules, "lgvtool.devices.fake.fake_registration", fourth_family)
+        mp.setitem(sys.modules, "lgvtool.sim.emulate.fake.fake_emulation",
+                   fourth_family_emulation)
         _reload_commands()
         yield
     _reload_commands()
@@ -54,6 +69,15 @@ def test_the_fourth_family_is_registered(fourth: None) -> None:
     assert device_registry.registration("fake") is fourth_family
     assert device_registry.registrations()[-1] is fourth_family
     assert device_registry.family_of_topic("/fake/rx") == "fake"
+    assert emulator_registry.emulation("fake") is fourth_family_emulation
+    assert emulator_registry.emulations()[-2] is fourth_family_emulation  # the MCU is last
+
+
+def test_its_registration_knows_neither_click_nor_the_simulator() -> None:
+    tree = ast.parse(Path(fourth_family.__file__).read_text(encoding="utf-8"))
+    imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names} | {
+        n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert not {m for m in imported if m.split(".")[0] == "click" or m.startswith("lgvtool.sim")}
 
 
 def test_record_and_serve_show_its_options(fourth: None) -> None:
@@ -113,13 +137,13 @@ def test_simulate_serve_serves_its_emulator(fourth: None) -> None:
         assert set(server.urls) == {"fake"}
         host, _, port = server.urls["fake"][len("tcp://"):].rpartition(":")
         with socket.create_connection((host, int(port)), timeout=10.0) as sock:
-            assert _recv_until(sock, fourth_family.FakeEmulator.GREETING) \
-                == fourth_family.FakeEmulator.GREETING
+            assert _recv_until(sock, fourth_family_emulation.FakeEmulator.GREETING) \
+                == fourth_family_emulation.FakeEmulator.GREETING
             sock.sendall(b"ping")
             assert _recv_until(sock, b"ping") == b"ping"
     finally:
         server.stop()
-    assert server.sent("fake") == fourth_family.FakeEmulator.GREETING + b"ping"
+    assert server.sent("fake") == fourth_family_emulation.FakeEmulator.GREETING + b"ping"
     assert server.received("fake") == b"ping"
     assert [e.direction for e in server.transcript if e.device == "fake"] == \
         ["sent", "received", "sent"]

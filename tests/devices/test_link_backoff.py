@@ -26,11 +26,11 @@ from devices_helpers import circle_playback, diagnostics, messages
 from lgvtool.devices import device_links
 from lgvtool.devices.link_worker import LinkTiming
 from lgvtool.devices.mcu.mcu_frame import McuFrame
-from lgvtool.devices.nav200.nav200_emulator import VirtualNav200
 from lgvtool.devices.nav200.nav200_replies import build_error_reply
 from lgvtool.devices.nav200.nav200_session import Nav200Session, Nav200Settings, PoseReceived
 from lgvtool.devices.recorder import RecordedDevice, Recorder, RecorderSettings
 from lgvtool.log import topics
+from lgvtool.sim.emulate.nav200.nav200_emulator import VirtualNav200
 from lgvtool.wire.decode_events import DecodeEvent
 
 #: how long each recording against an accept-and-close server runs, s

@@ -218,12 +218,12 @@ def test_a_recording_against_garbage_clock_replies_keeps_the_pose_rate(tmp_path,
                                                                         ) -> None:
     """The record-level check: the virtual NAV350 answers every clock read with garbage."""
     from lgvtool.devices.nav350 import nav350_device as device_module
-    from lgvtool.devices.nav350.nav350_loopback import loopback
     from lgvtool.log import LogReader
     from lgvtool.sim.emulate.emulator_playback import playback_from_scenario
+    from lgvtool.sim.emulate.nav350.nav350_loopback import loopback
 
     monkeypatch.setattr(device_module, "Nav350Device", _GarbageClock)
-    monkeypatch.setattr("lgvtool.devices.nav350.nav350_emulator.Nav350Device", _GarbageClock)
+    monkeypatch.setattr("lgvtool.sim.emulate.nav350.nav350_emulator.Nav350Device", _GarbageClock)
     pb = playback_from_scenario("paper-circle", seed=6, duration=20.0)
     out = tmp_path / "clock.mcap"
     r = loopback(pb, out, seconds=6.0)

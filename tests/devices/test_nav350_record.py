@@ -11,10 +11,10 @@ from pathlib import Path
 import jsonschema
 import pytest
 
-from lgvtool.devices.nav350.nav350_loopback import loopback
 from lgvtool.log import LogReader
 from lgvtool.log.schemas import schema_json
 from lgvtool.sim.emulate.emulator_playback import playback_from_scenario
+from lgvtool.sim.emulate.nav350.nav350_loopback import loopback
 from lgvtool.wire.decode_events import STREAM_EVENT_KINDS
 
 FAULTS = ("garbage:nav350:2:400", "badsum:nav350:3:2", "sfa:nav350:4:13",

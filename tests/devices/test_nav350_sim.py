@@ -74,7 +74,7 @@ def test_bad_nav350_fault_specs(spec: str) -> None:
 
 
 def test_port_spec_clock_parameters() -> None:
-    from lgvtool.devices.nav350.nav350_emulator import split_port_spec
+    from lgvtool.sim.emulate.nav350.nav350_emulator import split_port_spec
 
     assert split_port_spec("tcp://h:1?drift_ppm=50&offset_ms=7") == (
         "tcp://h:1", {"drift_ppm": 50.0, "offset_ms": 7.0})

@@ -121,7 +121,7 @@ def test_help_stays_light() -> None:
             "print('HEAVY' if {'numpy', 'pandas', 'mcap'} & set(sys.modules) else 'LIGHT')\n")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=60, check=True)
-    assert "DATASET_DIR" in res.stdout and "--robot" in res.stdout
+    assert "[OPTIONS] DIR" in res.stdout and "--robot" in res.stdout
     assert res.stdout.strip().endswith("LIGHT")
 
 

@@ -2,8 +2,8 @@
 
 It speaks the foxglove.websocket.v1 protocol: it reads ``serverInfo`` and ``advertise``,
 subscribes to the topics asked for and decodes the binary ``messageData`` frames (opcode 1,
-subscription id u32, log time u64, payload). foxglove-sdk accepts the protocol under its newer
-subprotocol name ``foxglove.sdk.v1`` (the same protocol), so the client offers both names.
+subscription id u32, log time u64, payload). It offers both subprotocol names, the protocol's
+own and foxglove-sdk's (``foxglove.sdk.v1``, the same protocol), unless told which to offer.
 """
 
 from __future__ import annotations
@@ -32,8 +32,9 @@ class Received:
     times: list[int] = field(default_factory=list)
 
 
-async def _collect(url: str, topics: set[str] | None, *, until: float, wanted: int,
-                   disconnect_after: int | None) -> Received:
+async def _collect(url: str, topics: set[str] | None, *, until: float,
+                   wanted: int | dict[str, int],
+                   disconnect_after: int | None, subprotocols: list[str]) -> Received:
     import websockets
 
     got = Received()
@@ -41,8 +42,11 @@ async def _collect(url: str, topics: set[str] | None, *, until: float, wanted: i
     sub_time: dict[str, float] = {}
     next_id = 1
     total = 0
-    async with websockets.connect(url, subprotocols=SUBPROTOCOLS,  # type: ignore[arg-type]
-                                  open_timeout=5, max_size=None) as ws:
+    async with websockets.connect(url, subprotocols=subprotocols,  # type: ignore[arg-type]
+                                  open_timeout=5, max_size=None,
+                                  # foxglove-sdk 0.30 often leaves a client's close frame
+                                  # unanswered while it streams (the close times out)
+                                  close_timeout=1) as ws:
         got.subprotocol = ws.subprotocol
         while time.monotonic() < until:
             try:
@@ -81,16 +85,20 @@ async def _collect(url: str, topics: set[str] | None, *, until: float, wanted: i
             total += 1
             if disconnect_after is not None and total >= disconnect_after:
                 break
-            if topics is not None and all(len(got.messages.get(t, [])) >= wanted
-                                          for t in topics):
+            if topics is not None and all(
+                    len(got.messages.get(t, [])) >= (wanted.get(t, 1) if isinstance(wanted, dict)
+                                                     else wanted) for t in topics):
                 break
     return got
 
 
 def collect(url: str, topics: set[str] | None = None, *, timeout: float = 20.0,
-            wanted: int = 1, disconnect_after: int | None = None) -> Received:
-    """Connect to ``url``, subscribe to ``topics`` (None: every channel) as they are
-    advertised, and receive until each has ``wanted`` messages, ``disconnect_after`` messages
-    in all have arrived (then drop the connection), or ``timeout`` s have passed."""
+            wanted: int | dict[str, int] = 1, disconnect_after: int | None = None,
+            subprotocols: list[str] | None = None) -> Received:
+    """Connect to ``url`` offering ``subprotocols`` (None: both names), subscribe to
+    ``topics`` (None: every channel) as they are advertised, and receive until each has
+    ``wanted`` messages (a dict: per topic, 1 for a topic it lacks), ``disconnect_after``
+    messages in all have arrived (then drop the connection), or ``timeout`` s have passed."""
     return asyncio.run(_collect(url, topics, until=time.monotonic() + timeout, wanted=wanted,
-                                disconnect_after=disconnect_after))
+                                disconnect_after=disconnect_after,
+                                subprotocols=subprotocols or SUBPROTOCOLS))

@@ -39,9 +39,11 @@ def test_record_live_serves_the_recording_and_survives_a_vanishing_client(tmp_pa
     try:
         worker.start()
         assert wait_for(lambda: rec.live.server.channel_id(topics.MCU_FRAME) is not None, 10.0)
-        # a client that drops the connection mid-stream
+        # a client that drops the connection mid-stream, offering only the protocol's older
+        # name (foxglove.websocket.v1: @foxglove/ws-protocol, Lichtblick)
         dropped = collect(url, {topics.MCU_FRAME, topics.MCU_RX}, disconnect_after=5, wanted=99,
-                          timeout=10.0)
+                          timeout=10.0, subprotocols=["foxglove.websocket.v1"])
+        assert dropped.subprotocol == "foxglove.websocket.v1"
         assert sum(len(v) for v in dropped.messages.values()) == 5
         # another one that stays: it sees the raw bytes, the decoded frames and poses, the
         # uploaded map and the online estimate

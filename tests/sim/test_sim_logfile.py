@@ -29,7 +29,7 @@ def _sorted_at_once(sim: Simulation) -> list[tuple[int, int, Any]]:
     for chunk in sim.mcu_traffic.rx:
         add(chunk.t, logfile._MCU, chunk.data)
     if sim.settings.sim.nav_device == "nav350":
-        from lgvtool.devices.nav350.nav350_simlink import nav350_traffic
+        from lgvtool.sim.nav350_simlink import nav350_traffic
 
         for t, direction, data in nav350_traffic(sim):
             add(t + late if direction == "rx" else t,

@@ -10,9 +10,9 @@ import pytest
 from lgvtool.devices.nav200.nav200_commands import decode_reply
 from lgvtool.devices.nav200.nav200_framing import parse_telegram
 from lgvtool.devices.nav200.nav200_requests import request_pose, request_positioning_mode
-from lgvtool.devices.nav200.nav200_simlink import simulated_device
 from lgvtool.log import LogReader, topics
 from lgvtool.sim import nav_model
+from lgvtool.sim.nav200_simlink import simulated_device
 from lgvtool.timestamps import from_stamp
 
 QUIET = {"sim.noise": False, "nav.map_sigma_mm": 0.0, "nav.angle_step_deg": 0.0}

@@ -3,10 +3,11 @@
 - codec (pure): :mod:`~lgvtool.devices.mcu.mcu_frame` (the frame), :mod:`~lgvtool.devices.mcu.mcu_stream`
   (its resynchronising stream decoder with sequence-gap events);
 - host session (pure): :mod:`~lgvtool.devices.mcu.mcu_session` (decoding plus the vehicle's motion);
-- device model: the simulator's :mod:`lgvtool.sim.mcu_model` makes the frames, which the
-  emulator (:mod:`~lgvtool.devices.mcu.mcu_emulator`) plays; simulator link:
-  :mod:`~lgvtool.devices.mcu.mcu_simlink`;
 - log: :mod:`~lgvtool.devices.mcu.mcu_logdecode`; recorder: :mod:`~lgvtool.devices.mcu.mcu_worker`;
-- :mod:`~lgvtool.devices.mcu.mcu_registration`: topics, decoder, serve and record options,
-  emulator, recorder settings and worker.
+- :mod:`~lgvtool.devices.mcu.mcu_registration`: topics, decoder, record options (declared),
+  recorder settings and worker.
+
+Its simulation is the simulator's, which sits above the device families: the frames come from
+the simulator's MCU model, its serial link is ``sim/mcu_simlink.py`` and the virtual
+MCU of ``simulate serve`` is in ``sim/emulate/mcu/``.
 """

@@ -5,8 +5,11 @@
   ``nav200_stream`` and ``nav200_matcher`` (replies paired with their requests);
 - host session (pure, time passed in): :mod:`~lgvtool.devices.nav200.nav200_session`;
 - device model (shared by the simulator and the emulator): :mod:`~lgvtool.devices.nav200.nav200_device`;
-  emulator: ``nav200_emulator``; simulator link: ``nav200_simlink``;
 - log: ``nav200_logdecode``; recorder: ``nav200_worker``;
-- :mod:`~lgvtool.devices.nav200.nav200_registration`: topics, decoder, serve and record
-  options, emulator, recorder settings and worker.
+- :mod:`~lgvtool.devices.nav200.nav200_registration`: topics, decoder, record options
+  (declared), recorder settings and worker.
+
+Its simulator link (``sim/nav200_simlink.py``) and the virtual NAV200 of ``simulate
+serve`` (``sim/emulate/nav200/``) are the simulator's, which sits above the device
+families.
 """

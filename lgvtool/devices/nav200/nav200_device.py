@@ -112,8 +112,7 @@ class PoseFix:
 
 class Nav200Source(Protocol):
     """What the device reports: pose solutions in time order and the stored map
-    (:class:`lgvtool.sim.emulate.emulator_playback.Playback` is one, the simulator's
-    :class:`lgvtool.devices.nav200.nav200_simlink.SolutionSource` another)."""
+    (the emulator's playback is one, the simulator's solution source another)."""
 
     @property
     def poses(self) -> Sequence[PoseFix]:

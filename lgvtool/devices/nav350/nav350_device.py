@@ -1,6 +1,6 @@
 """The NAV350 device model: what the sensor answers to each telegram, given its head's output.
 
-Shared by the simulator's NAV350 mode and the virtual NAV350 of ``lgvtool simulate serve``.
+Shared by the simulator's NAV350 mode and the virtual NAV350 of ``simulate serve``.
 Pure: the caller passes the device's run time ``t`` (s) with every call; the model keeps the
 device's millisecond clock (a 32-bit counter, +1 per ms, running ``drift_ppm`` fast from
 ``offset_ms`` at t = 0), its access level, operating mode, layer, data formats and stored

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any
 
 from lgvtool.devices.log_decoding import error_summary
 from lgvtool.devices.nav350.nav350_clock import ClockEstimator
@@ -32,10 +32,9 @@ class Nav350LogDecoder:
     ``(topic, message, log_time_ns)`` from :meth:`pop_messages` and events from
     :meth:`pop_events`. ``map_id``: device global id -> map id (None: the same)."""
 
-    decoded_topics: ClassVar[frozenset[str]] = frozenset({topics.NAV_POSE,
-                                                          topics.NAV_REFLECTORS})
-    sources: ClassVar[frozenset[str]] = frozenset({"nav350"})
-    event_kinds: ClassVar[frozenset[str]] = STREAM_EVENT_KINDS
+    decoded_topics: frozenset[str] = frozenset({topics.NAV_POSE, topics.NAV_REFLECTORS})
+    sources: frozenset[str] = frozenset({"nav350"})
+    event_kinds: frozenset[str] = STREAM_EVENT_KINDS
 
     map_id: Mapping[int, int] | None = None
     requests: Nav350StreamDecoder = field(default_factory=Nav350StreamDecoder)

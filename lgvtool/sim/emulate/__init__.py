@@ -1,8 +1,11 @@
 """Device emulators: a simulated or logged run served as a virtual NAV200, NAV350 and MCU.
 
-The virtual devices are their families' emulators (``lgvtool/devices/<family>/<family>_emulator.py``,
-made through :mod:`lgvtool.devices.device_registry`); this package serves them:
+The virtual devices are their families' emulators, one folder per family
+(``lgvtool/sim/emulate/<family>/``: ``<family>_emulator.py`` and ``<family>_emulation.py``,
+found through :mod:`~lgvtool.sim.emulate.emulator_registry`); this package serves them:
 
+- :mod:`~lgvtool.sim.emulate.emulator_registry`: each family's emulation (its port option and
+  emulator), the :class:`~lgvtool.sim.emulate.emulator_registry.Emulator` interface;
 - :mod:`~lgvtool.sim.emulate.emulator_playback`: the run to play (from a scenario or a log);
 - :mod:`~lgvtool.sim.emulate.endpoints`: pseudo-terminals and TCP ports;
 - :mod:`~lgvtool.sim.emulate.emulator_server`: the real-time loop, fault injection, the transcript;

@@ -30,24 +30,25 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, TypeGuard
 
-from lgvtool.devices.device_registry import listed
+from lgvtool.devices.device_registry import registration
 from lgvtool.errors import InputError
 from lgvtool.sim.emulate.emulator_playback import Playback
+from lgvtool.sim.emulate.emulator_registry import Emulator, FamilyEmulation, Pacer, emulations
 from lgvtool.sim.emulate.endpoints import PTY_SETTLE, Endpoint, PtyEndpoint, TcpEndpoint
 from lgvtool.values import MAX_GARBAGE_BYTES, MAX_SIM_DURATION_S, coerce, parse_scalar
 
 __all__ = ["DEVICES", "EmulatorServer", "Fault", "TranscriptEntry", "parse_fault"]
 
 #: The order in which a fault on ``all`` hits the families (it fixes which garbage bytes each
-#: gets); a family not named here follows, in :func:`listed` order.
+#: gets); a family not named here follows, in :func:`emulations` order.
 DEVICES = ("nav200", "mcu", "nav350")
 #: The syntax of each fault kind: its ARG required (True), absent (False) or optional (None).
 _KINDS = {"drop": True, "silent": True, "garbage": True, "reset": False, "sfa": None,
           "error": True, "badsum": True}
 #: The faults the server applies itself, to any device; the others are the devices' own
-#: (their emulators' ``FAULT_KINDS``).
+#: (their emulators' ``FAULT_KINDS``, the emulations' ``fault_kinds()``).
 _GENERIC = ("drop", "silent", "garbage")
 #: What follows ``KIND:DEVICE:`` in the usage line, for the devices' own faults.
 _SYNTAX = {"reset": "AT", "sfa": "AT[:CODE]", "error": "AT:SECONDS[:CODE]",
@@ -77,14 +78,25 @@ class Fault:
 
 def _all_devices() -> tuple[str, ...]:
     """Every family's device, in the order a fault on ``all`` hits them (:data:`DEVICES`)."""
-    names = [str(r.DEVICE) for r in listed()]
+    names = [e.DEVICE for e in emulations()]
     return (*[d for d in DEVICES if d in names], *[d for d in names if d not in DEVICES])
 
 
-def _takers(kind: str) -> list[Any]:
-    """The registrations whose emulators take the device fault ``kind``, in :func:`listed`
+def _takers(kind: str) -> list[FamilyEmulation]:
+    """The emulations whose emulators take the device fault ``kind``, in :func:`emulations`
     order."""
-    return [r for r in listed() if kind in r.emulator_class().FAULT_KINDS]
+    return [e for e in emulations() if kind in e.fault_kinds()]
+
+
+def _paces(emulator: Emulator | None) -> TypeGuard[Pacer]:
+    """``emulator`` paces the run (a :class:`Pacer`: it has ``next_time()``, and
+    ``finished``)."""
+    return hasattr(emulator, "next_time")
+
+
+def _title(emulated: FamilyEmulation) -> str:
+    """The emulated device in messages (its family's ``TITLE``: "the NAV200")."""
+    return registration(emulated.DEVICE).TITLE
 
 
 def _joined(words: list[str], last: str) -> str:
@@ -95,9 +107,9 @@ def _joined(words: list[str], last: str) -> str:
 def parse_fault(text: str) -> Fault:
     """Parse ``KIND:DEVICE:AT[:ARG]`` (see the module docstring); InputError if malformed."""
     parts = text.strip().split(":")
-    own = [f"{k}:{'|'.join(str(r.DEVICE) for r in _takers(k))}:{_SYNTAX[k]}"
+    own = [f"{k}:{'|'.join(e.DEVICE for e in _takers(k))}:{_SYNTAX[k]}"
            for k in _KINDS if k not in _GENERIC]
-    names = [str(r.DEVICE) for r in listed()]
+    names = [e.DEVICE for e in emulations()]
     usage = (f"fault {text!r}: expected drop|silent:DEVICE:AT:SECONDS, garbage:DEVICE:AT:BYTES, "
              f"{_joined(own, 'or')} (DEVICE: {', '.join(names)}, all)")
     if len(parts) < 3 or parts[0] not in _KINDS:
@@ -125,8 +137,8 @@ def parse_fault(text: str) -> Fault:
         raise InputError(usage) from None
     if not 0 <= code <= 7:
         raise InputError(f"fault {text!r}: CODE must be 0..7")
-    if len(takers) > 1 and device not in (*(r.DEVICE for r in takers), "all"):
-        who = _joined([str(r.TITLE) for r in takers], "and")
+    if len(takers) > 1 and device not in (*(e.DEVICE for e in takers), "all"):
+        who = _joined([_title(e) for e in takers], "and")
         raise InputError(f"fault {text!r}: only {who} can "
                          f"{'be reset' if kind == 'reset' else f'take {kind} faults'}")
     return Fault(kind, device, at, arg, code)
@@ -146,10 +158,11 @@ class TranscriptEntry:
 class EmulatorServer:
     """Serve a :class:`Playback` as a virtual NAV200 and a virtual MCU.
 
-    :param ports: by each family's ``SERVE_PARAM`` (``nav``: the NAV200, ``nav350``, ``mcu``),
-        where its device listens: ``"pty"``, ``"tcp://HOST:PORT"`` (port 0: any free port) or
-        None (not served); an unnamed family gets its ``SERVE_DEFAULT`` (the NAV200 and the
-        MCU ``"pty"``, the NAV350 None).
+    :param ports: by the parameter of each family's port option (``SERVE_OPTION.param`` of its
+        emulation, :mod:`~lgvtool.sim.emulate.emulator_registry`: ``nav``: the NAV200,
+        ``nav350``, ``mcu``), where its device listens: ``"pty"``, ``"tcp://HOST:PORT"`` (port
+        0: any free port) or None (not served); an unnamed family gets its option's default
+        (the NAV200 and the MCU ``"pty"``, the NAV350 None).
     :param link_dir: where the pseudo-terminal links go (default: a new temporary folder).
     :param speed: run-clock seconds per wall-clock second.
     :param faults: scheduled faults.
@@ -166,31 +179,32 @@ class EmulatorServer:
                  seed: int = 0, **ports: str | None) -> None:
         if not speed > 0:
             raise InputError(f"speed must be positive, got {speed}")
-        regs = listed()
-        unknown = set(ports) - {r.SERVE_PARAM for r in regs}
+        regs = emulations()
+        unknown = set(ports) - {e.SERVE_OPTION.param for e in regs}
         if unknown:
             raise TypeError(f"EmulatorServer: no device family serves {', '.join(sorted(unknown))}")
-        specs = {r.DEVICE: ports.get(r.SERVE_PARAM, r.SERVE_DEFAULT) for r in regs}
+        specs = {e.DEVICE: ports.get(e.SERVE_OPTION.param, e.SERVE_OPTION.served_at)
+                 for e in regs}
         if all(spec is None for spec in specs.values()):
-            *first, last = [str(r.TITLE) for r in regs]
+            *first, last = [_title(e) for e in regs]
             raise InputError(f"serve: at least one of {', '.join(first)} and {last} must be "
                              f"served")
         self.playback = playback
         self.speed = float(speed)
         self.wait = wait
         self.faults = sorted(faults, key=lambda f: f.at)
-        # the devices, made by their families' registrations
-        self.emulators: dict[str, Any] = {}
-        for reg in regs:
-            specs[reg.DEVICE], self.emulators[reg.DEVICE] = reg.serve_emulator(
-                playback, specs[reg.DEVICE], loop=loop)
+        # the devices, made by their families' emulations
+        self.emulators: dict[str, Emulator | None] = {}
+        for e in regs:
+            specs[e.DEVICE], self.emulators[e.DEVICE] = e.serve_emulator(
+                playback, specs[e.DEVICE], loop=loop)
         #: the emulators that pace the run (their ``finished`` and ``next_time()``)
-        self._pacers = [e for e in self.emulators.values() if hasattr(e, "next_time")]
+        self._pacers: list[Pacer] = [e for e in self.emulators.values() if _paces(e)]
         self._rng = random.Random(seed)
         self._own_dir: Path | None = None
         self._file: IO[str] | None = None
         self.endpoints: dict[str, Endpoint] = {}
-        titles = {r.DEVICE: r.TITLE for r in regs}
+        titles = {e.DEVICE: _title(e) for e in regs}
         named = [(titles[name], listen) for name, listen in specs.items()
                  if listen is not None and listen != "pty" and not listen.endswith(":0")]
         for i, (who, where) in enumerate(named):

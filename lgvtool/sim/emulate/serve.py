@@ -1,6 +1,6 @@
 """``lgvtool simulate serve``: a virtual NAV200 and a virtual MCU (and a NAV350) for ``lgvtool
-record``; each device family's port option comes from its registration
-(:mod:`lgvtool.devices.device_registry`)."""
+record``; each device family's port option comes from its emulation
+(:mod:`lgvtool.sim.emulate.emulator_registry`)."""
 
 from __future__ import annotations
 
@@ -9,23 +9,24 @@ from typing import Any
 
 import click
 
-from lgvtool.devices.device_registry import listed
-from lgvtool.options import Number, force_option, positive, set_option
+from lgvtool.options import Number, force_option, positive, scenario_option, set_option
+from lgvtool.sim.emulate.emulator_registry import emulations
 from lgvtool.values import MAX_SEED, MAX_SIM_DURATION_S, MAX_WALL_S
 
 
 def _port_options(f: Callable[..., Any]) -> Callable[..., Any]:
     """Every registered device family's ``serve`` port option, in the order the ports are
     listed."""
-    for reg in reversed(listed()):
-        f = reg.serve_options(f)
+    for e in reversed(emulations()):
+        o = e.SERVE_OPTION
+        f = click.option(o.flag, o.param, default=o.default, show_default=True,
+                         metavar=o.metavar, help=o.help)(f)
     return f
 
 
 @click.command()
 @click.argument("log", required=False, type=click.Path(dir_okay=False, exists=True))
-@click.option("--scenario", "-s", metavar="NAME",
-              help="Simulate this scenario and serve it (default when no LOG: paper-circle).")
+@scenario_option("Simulate this scenario and serve it (default when no LOG: paper-circle).")
 @click.option("--seed", type=Number(int, 0, MAX_SEED),
               help="Seed of the scenario and of injected garbage.")
 @click.option("--duration", type=positive(MAX_SIM_DURATION_S), metavar="S",

@@ -54,6 +54,7 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
     from lgvtool.devices.recorder import RecordedDevice, Recorder, RecorderSettings
     from lgvtool.log import LogReader, topics
     from lgvtool.sim.emulate.emulator_server import EmulatorServer, parse_fault
+    from lgvtool.sim.emulate.nav350.nav350_emulator import VirtualNav350
 
     server = EmulatorServer(playback, nav=None, mcu="tcp://127.0.0.1:0",
                             nav350=f"tcp://127.0.0.1:0?drift_ppm={drift_ppm}"
@@ -64,6 +65,7 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
         nav350 = recorder_settings({"nav350_url": server.urls["nav350"], "nav350_cola": dialect},
                                    layout=LayoutPlan(), speed_input=speed_input,
                                    reply_timeout=1.0, config=config)
+        assert nav350 is not None  # its URL is given
         settings = RecorderSettings(output=out, devices={"mcu": RecordedDevice(server.urls["mcu"]),
                                                          "nav350": nav350},
                                     duration=seconds, config=config, status=False, fsync=False,
@@ -92,7 +94,7 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
     if failed:
         raise failed[0]
     emulator = server.emulators["nav350"]
-    assert emulator is not None
+    assert isinstance(emulator, VirtualNav350)
     device = emulator.device
     reader = LogReader(out)
     with server._lock:
