@@ -14,3 +14,18 @@ The package is split along the data flow:
 """
 
 __version__ = "0.1.0"
+
+
+def _register_config_checks() -> None:
+    """Give :mod:`lgvtool.config` the checks of its ``[estimators.*]`` and ``[simulator]``
+    tables (:mod:`lgvtool.config_checks`, a layer above it). Here, at the package's import,
+    because every ``lgvtool.*`` import runs this first: no configuration is ever loaded
+    unchecked, whatever the caller imported before (docs/architecture.md)."""
+    from lgvtool.config import register_section_check
+    from lgvtool.config_checks import check_estimators, check_simulator
+
+    register_section_check("estimators", check_estimators)
+    register_section_check("simulator", check_simulator)
+
+
+_register_config_checks()

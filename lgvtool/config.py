@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -323,48 +323,34 @@ def config_from_dict(data: Mapping[str, Any], base: Config | None = None) -> Con
         if section in data and not isinstance(data[section], dict):
             raise ConfigError(f"[{section}] must be a table")
     if "estimators" in data:
-        cfg = replace(cfg, estimators=_check_estimators(data["estimators"]))
+        cfg = replace(cfg, estimators=_section_check("estimators")(data["estimators"], cfg))
     if "simulator" in data:
-        cfg = replace(cfg, simulator=_check_simulator(data["simulator"], cfg))
+        cfg = replace(cfg, simulator=_section_check("simulator")(data["simulator"], cfg))
     return _validate(cfg)
 
 
-def _check_estimators(table: Mapping[str, Any]) -> dict[str, Any]:
-    """``[estimators.*]`` checked as a replay would check it: known estimators and parameters,
-    values of the right type and range."""
-    from lgvtool.localize.registry import ESTIMATORS, resolve_params
+SectionCheck = Callable[[Mapping[str, Any], Config], dict[str, Any]]
+"""Checks a table (``[estimators]``, ``[simulator]``) against the layer that owns its names, given
+the configuration built so far; returns the table to keep. Raises :class:`ConfigError`."""
 
-    for name, params in table.items():
-        if name not in ESTIMATORS:
-            raise ConfigError(f"unknown estimator [estimators.{name}]"
-                              + unknown_tail(name, ESTIMATORS, prefix="estimators."))
-        if not isinstance(params, dict):
-            raise ConfigError(f"[estimators.{name}] must be a table")
-        resolve_params(name, None, params)
-    return dict(table)
+_SECTION_CHECKS: dict[str, SectionCheck] = {}
+"""Section -> its check: ``[estimators]`` by the estimators, ``[simulator]`` by the simulator.
+They live above this module (``lgvtool/config_checks.py``), which imports neither
+``lgvtool.localize`` nor ``lgvtool.sim``; ``lgvtool/__init__.py`` registers them, so they are
+there before any configuration is loaded (docs/architecture.md)."""
 
 
-def _check_simulator(table: Mapping[str, Any], cfg: Config) -> dict[str, Any]:
-    """``[simulator]`` checked as ``lgvtool simulate`` would check it (keys, types, ranges)."""
-    from lgvtool.sim.scenarios import SCENARIOS
-    from lgvtool.sim.settings import SimSettings, apply_overrides, flatten
+def register_section_check(section: str, check: SectionCheck) -> None:
+    """Check ``[section]`` with ``check`` whenever a configuration holding it is built."""
+    _SECTION_CHECKS[section] = check
 
-    flat = flatten(table)
-    vehicle = {k.partition(".")[2]: v for k, v in flat.items() if k.startswith("vehicle.")}
-    if vehicle:
-        config_from_dict({"vehicle": vehicle}, base=cfg)
-    rest = {k: v for k, v in flat.items() if not k.startswith("vehicle.")}
-    settings = apply_overrides(SimSettings(), rest)
-    known = {k for sc in SCENARIOS.values() for k in sc.defaults}
-    for key, value in settings.scenario.items():
-        if key not in known:
-            raise ConfigError(f"unknown setting 'scenario.{key}'"
-                              + unknown_tail(key, sorted(known), prefix="scenario.", more=(
-                                  f"{len(known)} scenario settings; lgvtool simulate --list "
-                                  "lists them")))
-        sc = next(sc for sc in SCENARIOS.values() if key in sc.defaults)
-        sc.parameters({key: value})
-    return dict(table)
+
+def _section_check(section: str) -> SectionCheck:
+    try:
+        return _SECTION_CHECKS[section]
+    except KeyError:  # never skip a check: lgvtool/__init__.py registers every one
+        raise RuntimeError(f"no check registered for [{section}] (lgvtool/__init__.py "
+                           "registers them)") from None
 
 
 def load_config(path: str | Path | None) -> Config:

@@ -8,6 +8,9 @@
 - a device family holds no command-line code: no module under ``lgvtool/devices`` imports click
   (or lgvtool's option and command modules, which do);
 - nothing outside the command line imports ``lgvtool.commands``;
+- nothing outside the command line and the jobs (``lgvtool/app``) imports ``lgvtool.app``;
+- the configuration (``lgvtool/config.py``) imports neither the estimators nor the simulator: their
+  tables' checks (``lgvtool/config_checks.py``) are registered into it, by ``lgvtool/__init__.py``;
 - the log layer (``lgvtool.log``) imports none of the layers above it: the estimators, the
   evaluation, the jobs, the commands;
 - importing the pure core opens no file.
@@ -104,6 +107,66 @@ def test_only_the_command_line_imports_the_commands() -> None:
     importers = {_rel(p) for p in _modules()
                  if not _rel(p).startswith(COMMAND_LINE) and _imports_any(p, ("lgvtool.commands",))}
     assert not importers, f"import lgvtool.commands from outside the command line: {sorted(importers)}"
+
+
+APP_USERS = ("lgvtool/commands/", "lgvtool/app/", "lgvtool/cli.py")
+"""The only modules that import ``lgvtool.app``: the command line and the jobs themselves."""
+
+
+def test_only_the_command_line_and_the_jobs_import_the_app_layer() -> None:
+    importers = {_rel(p) for p in _modules()
+                 if not _rel(p).startswith(APP_USERS) and _imports_any(p, ("lgvtool.app",))}
+    assert not importers, (f"import lgvtool.app from below it (move the core into its stage, "
+                           f"e.g. lgvtool/evaluate): {sorted(importers)}")
+
+
+CONFIG_BELOW = ("lgvtool.localize", "lgvtool.sim")
+"""What ``lgvtool/config.py`` must not import: the layers whose tables it checks sit above it."""
+
+
+def test_the_configuration_imports_neither_the_estimators_nor_the_simulator() -> None:
+    bad = _offenders([PACKAGE / "config.py"], CONFIG_BELOW)
+    assert not bad, f"lgvtool/config.py importing a layer above it (register a check): {bad}"
+
+
+def test_a_configuration_is_checked_without_importing_the_estimators_first(
+        tmp_path: Path) -> None:
+    """The checks of ``[estimators.*]`` and ``[simulator]`` are there whatever was imported:
+    a fresh interpreter that imports only ``lgvtool.config`` still refuses a bad table."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[estimators.bogus]\nx = 1\n[simulator]\nfoo = 1\n")
+    sim = tmp_path / "sim.toml"
+    sim.write_text("[simulator]\nfoo = 1\n")
+    probe = ("import sys\n"
+             "from lgvtool.config import load_config\n"
+             "from lgvtool.errors import ConfigError\n"
+             "assert not [m for m in sys.modules if m.startswith(('lgvtool.localize', "
+             "'lgvtool.sim'))], 'imported too early'\n"
+             "for path in sys.argv[1:]:\n"
+             "    try:\n"
+             "        load_config(path)\n"
+             "    except ConfigError as exc:\n"
+             "        print(exc)\n")
+    res = subprocess.run([sys.executable, "-c", probe, str(bad), str(sim)], capture_output=True,
+                         text=True, cwd=ROOT, timeout=120, check=False)
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.splitlines()
+    assert len(lines) == 2, res.stdout
+    assert "unknown estimator [estimators.bogus]" in lines[0]
+    assert "foo" in lines[1]
+
+
+def test_the_app_and_config_rules_see_imports_inside_functions(tmp_path: Path) -> None:
+    src = tmp_path / "lgvtool" / "fleet" / "probe.py"
+    src.parent.mkdir(parents=True)
+    src.write_text("def f():\n    from ..app.evaluate_job import evaluate_log\n")
+    cfg = tmp_path / "lgvtool" / "config.py"
+    cfg.write_text("def g():\n    from lgvtool.sim.settings import flatten\n"
+                   "    from .localize import registry\n")
+    assert _imports_any(src, ("lgvtool.app",), tmp_path)
+    assert _offenders([cfg], CONFIG_BELOW, tmp_path) == {"lgvtool/config.py": [
+        "lgvtool.localize", "lgvtool.localize.registry", "lgvtool.sim.settings",
+        "lgvtool.sim.settings.flatten"]}
 
 
 DEVICES_BELOW = ("lgvtool.sim",)

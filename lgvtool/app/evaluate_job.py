@@ -1,6 +1,7 @@
-"""Evaluating logs: :func:`evaluate_log` (one log, from Python, the fleet engine and
-calibration) and :func:`evaluate_logs` (what ``lgvtool evaluate`` runs: several logs, their
-document, tables, files and threshold checks).
+"""Evaluating logs: :func:`evaluate_log` (one log, from Python, with other tools'
+trajectories; its core, :func:`lgvtool.evaluate.log_evaluation.evaluate_log`, is what the fleet
+engine and calibration call) and :func:`evaluate_logs` (what ``lgvtool
+evaluate`` runs: several logs, their document, tables, files and threshold checks).
 
 A log's ``/estimate/<name>/pose`` channels are scored if it has any, else the estimators are
 run over it (:mod:`lgvtool.localize`); the figures come from :mod:`lgvtool.evaluate`.
@@ -9,7 +10,6 @@ Positions in m, headings in rad, times in s; the tables print mm and mm^2 (docs/
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -20,57 +20,10 @@ if TYPE_CHECKING:
 
     from lgvtool.config import Config
     from lgvtool.evaluate.evaluation import EvaluationResult
-    from lgvtool.evaluate.log_inputs import EvaluationInputs
     from lgvtool.evaluate.regress import Check
     from lgvtool.evaluate.verdict import Verdict
     from lgvtool.log import LogReader
     from lgvtool.progress import Progress
-
-def _estimates_from_log(
-    reader: LogReader, names: Sequence[str] | None, read: EvaluationInputs
-) -> dict[str, pd.DataFrame] | None:
-    """The log's own estimates of O (t, x, y, heading), read in one pass with what ``read``
-    takes (the truth, the steering, the data quality); None when the log holds none."""
-    from lgvtool.errors import InputError
-    from lgvtool.localize.registry import check_names, in_run_order
-    from lgvtool.log import topics
-
-    present = in_run_order(topics.estimator_names(reader.topic_names()))
-    if not present:
-        return None
-    if names:
-        check_names(list(names), also=present)  # a mistyped name: "did you mean ...?"
-        missing = [n for n in names if n not in present]
-        if missing:
-            raise InputError(f"{reader.path}: no estimates of {', '.join(missing)} in the log "
-                             f"(it holds {', '.join(present)}); run lgvtool replay first")
-        present = list(names)
-    tables = reader.dataframes([topics.estimate_pose(n) for n in present], tap=read)
-    return {n: tables[topics.estimate_pose(n)][["t", "x", "y", "heading"]] for n in present}
-
-
-def _run_estimators(
-    reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
-    settings: Mapping[str, Any] | None, warnings: list[str], start_at_truth: bool = False,
-    progress: Progress | None = None, read: EvaluationInputs | None = None,
-    threads: int | None = None,
-) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
-    from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
-    from lgvtool.log import topics
-
-    chosen = list(names) if names else list(DEFAULT_ESTIMATORS)
-    start: dict[str, Any] = {"initial_pose": "truth"} if start_at_truth else {}
-    if progress is not None and progress.enabled:
-        # at most every scan and every NAV pose, per estimator
-        infos = reader.topics()
-        per = sum(infos[t].count for t in (topics.NAV_REFLECTORS, topics.NAV_POSE) if t in infos)
-        progress.stage(f"{Path(str(reader.path)).name}: estimators", len(chosen) * per)
-        start["progress"] = progress.advance
-    out = run_replay(reader, chosen, config=cfg, seed=seed, settings=dict(settings or {}),
-                     tap=read, threads=threads, **start)
-    for name, reason in (getattr(out, "skipped", None) or {}).items():
-        warnings.append(f"estimator '{name}' left out: {reason}")
-    return dict(out.trajectories), dict(out.settings)
 
 
 def evaluate_log(
@@ -89,156 +42,21 @@ def evaluate_log(
     progress: Progress | None = None,
     threads: int | None = 1,
 ) -> EvaluationResult:
-    """Evaluate one log.
+    """Evaluate one log: :func:`lgvtool.evaluate.log_evaluation.evaluate_log` (see there), with
+    other tools' ``trajectories`` (name -> DataFrame t, x, y, heading of O; ``--trajectory``)
+    added by :func:`lgvtool.interop.foreign_trajectories.add_foreign`."""
+    from lgvtool.evaluate import log_evaluation
 
-    The log's ``/estimate/<name>/pose`` channels are scored if it has any (``estimators``
-    picks among them); otherwise the estimators (default: ``DEFAULT_ESTIMATORS`` of
-    :mod:`lgvtool.localize`) are run with ``run_replay`` using ``seed`` and ``settings``, and
-    with ``start_at_truth`` every estimator starts at the log's ground truth (``/truth/pose``)
-    at its first observation instead of initialising itself (a warning when the log's own
-    estimates are scored, since nothing is run then).
-    ``config`` overrides the configuration stored in the log. The steering angle of the
-    reference circle is the median logged steering angle (MCU frames), else
-    ``config.reference.steering_angle_deg``, else the reference circle is fitted to the truth;
-    a log may name its circle reference (:func:`lgvtool.evaluate.reference.circle_from_log`,
-    ``import ros2 --circle-from``). Raises :class:`~lgvtool.errors.InputError` (or a
-    subclass) for a log that cannot be evaluated. ``replay=True`` runs the estimators even when
-    the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
-    ``trajectories`` (name -> DataFrame t, x, y, heading of O) are scored beside them
-    (``--trajectory``, :mod:`lgvtool.interop.foreign_trajectories`).
-    ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress;
-    ``threads``: threads the estimators run on at once (None: one per estimator, at most one
-    per CPU; the same results for any count); one by default, as two filters side by side hold
-    their working memory at once (docs/performance.md).
-    """
-    from lgvtool.circle import median_steering
-    from lgvtool.evaluate.evaluation import evaluate_trajectories
-    from lgvtool.evaluate.log_inputs import EvaluationInputs
-    from lgvtool.evaluate.reference import circle_from_log
-    from lgvtool.gc_pause import collector_paused
-    from lgvtool.log import LogReader, topics
-
-    reader = (path_or_reader if isinstance(path_or_reader, LogReader)
-              else LogReader(path_or_reader))
-    cfg = config if config is not None else reader.config()
-    warnings: list[str] = list(reader.warnings)
-    # the truth, the steering and the data quality, taken in the pass that reads the log's
-    # estimates or in the estimators' reading
-    read = EvaluationInputs(reader)
-    trajs = None if replay else _estimates_from_log(reader, estimators, read)
-    source = "log"
-    used: dict[str, Any] = {}
-    if trajs is None:
-        with collector_paused():
-            trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
-                                          start_at_truth, progress, read, threads)
-        source = "replay"
-    else:
-        if start_at_truth:
-            warnings.append("--start-at-truth has no effect: the log's own estimates are scored "
-                            "(evaluate a log without /estimate/* channels to run the estimators)")
-        if settings:
-            warnings.append("--set has no effect: the log's own estimates are scored (evaluate a "
-                            "log without /estimate/* channels to run the estimators)")
-    truth: pd.DataFrame | None = read.truth_table()
-    if truth is not None and truth.empty:
-        truth = None
+    add_trajectories = None
     if trajectories:
         from lgvtool.interop.foreign_trajectories import add_foreign
 
-        trajs = add_foreign(trajs, trajectories, truth, log=str(reader.path))
-    steering = None
-    steering_source = "none"
-    drive_speed = None
-    if reader.has_topic(topics.MCU_FRAME):
-        angles, speeds = read.steering_columns()
-        steering = median_steering(angles, speeds)
-        steering_source = "log" if steering is not None else "none"
-        drive_speed = _median_moving_speed(speeds)
-    if steering is None and cfg.reference.steering_angle_deg is not None:
-        steering = math.radians(cfg.reference.steering_angle_deg)
-        steering_source = "config"
-    result = evaluate_trajectories(
-        trajs, truth=truth, steering_angle=steering, steering_source=steering_source,
-        h=cfg.vehicle.h, shared_centre=shared_centre, free_radius=free_radius,
-        name=Path(str(reader.path)).stem, reflectors=reader.reflector_map() or cfg.reflectors,
-        lap_source=lap_source, circle_from=circle_from_log(reader.metadata),
-    )
-    result.path = str(reader.path)
-    result.quality = read.quality(result.t0)
-    result.source = source
-    result.settings = used
-    result.drive_speed = drive_speed
-    result.observations = _observations_used(
-        reader, cfg, list(result.estimators), used, source, set(trajectories or ()),
-        start_at_truth and source == "replay", result.quality)
-    late = [w for w in reader.warnings if w not in warnings]  # corrupt chunks met in reading
-    result.warnings[:0] = warnings + late
-    return result
-
-
-def _median_moving_speed(speeds: Any) -> float | None:
-    """Median |drive-wheel speed| of the MCU frames while moving, m/s (None: never moving)."""
-    import numpy as np
-
-    from lgvtool.circle import MOVING_SPEED
-
-    v = np.abs(np.asarray(speeds, dtype=float))
-    v = v[np.isfinite(v) & (v > MOVING_SPEED)]
-    return float(np.median(v)) if v.size else None
-
-
-def _observations_used(
-    reader: LogReader, cfg: Config, names: Sequence[str], used: Mapping[str, Any], source: str,
-    foreign: set[str], from_truth: bool, quality: Any,
-) -> dict[str, str]:
-    """What each estimator updated with, from its class, its settings (those evaluate ran it
-    with, else those ``replay`` stored in the log's metadata) and what the log holds, as the
-    replay driver chooses them (:func:`lgvtool.localize.observations.sources`)."""
-    from lgvtool.log import topics
-
-    try:
-        from lgvtool.localize.observations import sources
-        from lgvtool.localize.registry import ESTIMATORS
-    except ImportError:  # estimators stood in for (lgvtool.localize replaced by a module)
-        return dict.fromkeys(names, "unknown")
-    settings: Mapping[str, Any] = used
-    if source == "log":
-        stored = (reader.metadata.get("replay") or {}).get("settings")
-        settings = stored if isinstance(stored, Mapping) else {}
-    has_scans = reader.has_topic(topics.NAV_REFLECTORS) and bool(cfg.reflectors)
-    has_poses = reader.has_topic(topics.NAV_POSE) and (
-        quality is None or quality.nav_replies > quality.nav_no_position)
-    out: dict[str, str] = {}
-    for n in names:
-        params = settings.get(n)
-        if n in foreign:
-            out[n] = "unknown (another tool's trajectory)"
-            continue
-        if n not in ESTIMATORS or not isinstance(params, Mapping):
-            out[n] = "unknown (estimates read from the log)"
-            continue
-        try:
-            cls = ESTIMATORS[n]
-        except ImportError:  # as above
-            out[n] = "unknown"
-            continue
-        if not cls.uses_motion and not cls.uses_scans:
-            out[n] = "NAV poses (the laser itself)"
-            continue
-        if not getattr(cls, "corrects", True):
-            out[n] = "odometry only, from the truth" if from_truth else "odometry only"
-            continue
-        scans, poses = sources(str(params.get("observations", "both")),
-                               has_scans and cls.uses_scans, has_poses and cls.uses_poses)
-        what = []
-        if scans:
-            what.append("reflector scans at NAV polls" if params.get("scans") == "nav-poll"
-                        else "reflector scans")
-        if poses:
-            what.append("NAV poses")
-        out[n] = " and ".join(what) if what else "none"
-    return out
+        add_trajectories = add_foreign
+    return log_evaluation.evaluate_log(
+        path_or_reader, estimators=estimators, config=config, seed=seed, settings=settings,
+        shared_centre=shared_centre, free_radius=free_radius, lap_source=lap_source,
+        start_at_truth=start_at_truth, replay=replay, trajectories=trajectories,
+        add_trajectories=add_trajectories, progress=progress, threads=threads)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ def sweep_logs(logs: Sequence[str], outdir: str, *, estimators: Sequence[str] = 
                retry_failed: bool = False, show_progress: bool = True) -> SweepResult:
     """Run ``estimators`` over every log of ``logs`` (files, or directories searched for
     *.mcap) for every setting of the grid and every seed 0 .. ``seeds`` - 1, and evaluate each
-    run as :func:`lgvtool.app.evaluate_job.evaluate_log` does: one task per (log, setting,
+    run as :func:`lgvtool.evaluate.log_evaluation.evaluate_log` does: one task per (log, setting,
     seed), on a local Dask cluster of ``workers`` processes or on ``scheduler`` (with the
     ``tls`` CA file, certificate and key). ``grid_items`` are ``KEY=V1,V2,...`` (their
     product is swept), ``sets`` ``KEY=VALUE`` settings fixed for every task, ``config_path``

@@ -61,7 +61,7 @@ def compare(paths: Sequence[str], estimators: Sequence[str], before: Config, aft
     ground truth (``lgvtool evaluate --start-at-truth``)."""
     import warnings as pywarnings
 
-    from lgvtool.app.evaluate_job import evaluate_log
+    from lgvtool.evaluate.log_evaluation import evaluate_log
 
     rows: list[Row] = []
     notes: list[str] = []

@@ -2,7 +2,7 @@
 
 The core is pure (no files, no logs): it takes pandas DataFrames with columns t (s), x (m),
 y (m), heading (rad) and returns plain objects. Reading logs and running estimators is the job
-of :func:`lgvtool.app.evaluate_job.evaluate_log`; plots and the HTML report live in
+of :func:`lgvtool.evaluate.log_evaluation.evaluate_log`; plots and the HTML report live in
 :mod:`lgvtool.evaluate.plots` and :mod:`lgvtool.evaluate.html_report` (they import plotly).
 
 >>> from lgvtool.evaluate import evaluate_trajectories, build_table, to_markdown

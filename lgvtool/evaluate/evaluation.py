@@ -133,7 +133,7 @@ class EvaluationResult:
     reads it: :func:`lgvtool.evaluate.quality.quality_of_log`)."""
     observations: dict[str, str] = field(default_factory=dict)
     """Estimator name -> what it updated with ("reflector scans", "NAV poses", "odometry
-    only", ...), as :func:`lgvtool.app.evaluate_job.evaluate_log` finds it (empty: unknown)."""
+    only", ...), as :func:`lgvtool.evaluate.log_evaluation.evaluate_log` finds it (empty: unknown)."""
     drive_speed: float | None = None
     """Median drive-wheel speed of the MCU frames while moving, m/s (None: no MCU frames);
     tells the paper's experiment (:func:`lgvtool.evaluate.verdict.is_paper_experiment`)."""

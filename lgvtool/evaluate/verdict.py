@@ -282,7 +282,7 @@ def verdict_of(
     :param result: the evaluation of the log (figures in m, times in s).
     :param paths: the files written for it (report.html first), as the user named them.
     :param observations: estimator name -> what it updated with; default
-        ``result.observations`` (set by :func:`lgvtool.app.evaluate_job.evaluate_log`), and
+        ``result.observations`` (set by :func:`lgvtool.evaluate.log_evaluation.evaluate_log`), and
         "unknown" for a name it lacks.
     :param quality: the log's data quality (the NAV's record, used without a reference);
         default ``result.quality``.

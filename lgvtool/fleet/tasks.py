@@ -248,7 +248,7 @@ def missing_files(paths: Sequence[str], limit: int = 5) -> list[str]:
 
 def evaluate_task(task: SweepTask) -> dict[str, Any]:
     """Run the estimators over the task's log with its settings and seed, and evaluate them
-    (:func:`lgvtool.app.evaluate_job.evaluate_log`, the same figures as ``lgvtool evaluate
+    (:func:`lgvtool.evaluate.log_evaluation.evaluate_log`, the same figures as ``lgvtool evaluate
     --json``). Runs on a worker; opens only this task's log.
 
     Returns :func:`document_metrics` of the evaluation. Raises
@@ -256,8 +256,8 @@ def evaluate_task(task: SweepTask) -> dict[str, Any]:
     FileNotFoundError (not an input error: the task runs again next time) when this worker
     does not see the log at its path.
     """
-    from lgvtool.app.evaluate_job import evaluate_log
     from lgvtool.evaluate.document import build_document
+    from lgvtool.evaluate.log_evaluation import evaluate_log
     from lgvtool.log import LogReader
 
     if not Path(task.log).is_file():
