@@ -76,7 +76,7 @@ def _family_options(f: Callable[..., Any]) -> Callable[..., Any]:
               help="Old name of --no-read-layout.")
 @click.option("--write-layout", "write_layout", metavar="FILE",
               type=click.Path(dir_okay=False, path_type=str),
-              help="NAV350: ERASE the device's stored layout of --layer and write FILE's "
+              help="ERASE the device's (NAV350 or NAV200) stored layout of --layer and write FILE's "
                    "reflectors of that layer instead (lgvtool TOML [[reflectors]] or SICK "
                    ".imk), once per recording; the layout before and after is logged. "
                    "Nothing is ever written to a device without this option.")

@@ -12,7 +12,8 @@ One vocabulary for every laser family (the NAV200 and the NAV350):
   NAV head's pose in the layout frame, m and degrees), while the odometry shows no motion;
   the landmarks found are logged and, with ``--map-layout FILE``, merged into a layout file.
 
-A family that cannot do one of these refuses it in one line (:class:`~lgvtool.errors.InputError`).
+A family that cannot do one of these refuses it in one line (:class:`~lgvtool.errors.InputError`):
+the NAV200 writes its layout (a download) but does not map.
 """
 
 from __future__ import annotations

@@ -206,3 +206,31 @@ def test_after_a_device_reset_the_map_is_read_again_and_compared() -> None:
     assert changed.details["reflectors"] == changed.details["before"] - 1
     assert w.session.map is not None and len(w.session.map) == len(held or ()) - 1
     assert w.device.mode == "positioning"
+
+
+def test_a_requested_layout_is_downloaded_once_between_two_uploads() -> None:
+    """Nothing is written unless asked; asked, the map is read before, downloaded once (DA,
+    DR x n, the end marker) and read back, and a device reset does not write it again."""
+    layout = ((1, 2.0, 3.0), (2, 10.0, 3.0), (5, 6.0, 9.5))
+    w = Wire(Nav200Settings(poll_period=0.2, write_layout=layout))
+    w.session.start(0.0)
+    w.run(0.0, 3.0)
+    assert w.sent.count("DA") == 1 and w.sent.count("DR") == len(layout) + 1
+    assert w.sent.index("UA") < w.sent.index("DA") < len(w.sent) - 1 - w.sent[::-1].index("UA")
+    before, after = w.of(MapUploaded)
+    assert len(before.reflectors) == len(PLAYBACK.reflectors)
+    assert [(rp.number, rp.x, rp.y) for rp in after.reflectors] == list(layout)
+    assert [e.kind for e in w.events if isinstance(e, DecodeEvent) and e.kind.startswith(
+        "layout_")] == ["layout_erasing", "layout_written"]
+    assert w.device.mode == "positioning"
+    w.device.reset()
+    w.run(3.0, 5.0)
+    assert w.sent.count("DA") == 1  # not written again
+    assert len(w.of(MapUploaded)) == 3 and len(w.diags("map_verified")) == 1
+
+
+def test_without_a_requested_layout_nothing_is_downloaded() -> None:
+    w = Wire(Nav200Settings(poll_period=0.2))
+    w.session.start(0.0)
+    w.run(0.0, 2.0)
+    assert "DA" not in w.sent and "DR" not in w.sent

@@ -109,11 +109,15 @@ def test_bad_layout_options_give_one_line(run_cli, tmp_path: Path, args: list[st
     assert r.stderr.count("\n") == 1 and says in r.stderr
 
 
-def test_a_nav200_refuses_a_layout_write_in_one_line(run_cli, tmp_path: Path) -> None:
+def test_a_nav200_refuses_what_it_cannot_do_in_one_line(run_cli, tmp_path: Path) -> None:
     layout = tmp_path / "l.toml"
     layout.write_text("".join(f"[[reflectors]]\nid = {i}\nx = {i}.0\ny = 1.0\n"
-                              for i in range(1, 5)))
+                              for i in (1, 2, 300)))
     r = run_cli("record", "--nav", "tcp://127.0.0.1:9", "-o", tmp_path / "x.mcap",
                 "--duration", "1", "--write-layout", layout)
     assert r.returncode == 2
-    assert r.stderr.count("\n") == 1 and "nothing is written to a NAV200" in r.stderr
+    assert r.stderr.count("\n") == 1 and "0..254" in r.stderr
+    r = run_cli("record", "--nav", "tcp://127.0.0.1:9", "-o", tmp_path / "x.mcap",
+                "--duration", "1", "--map-at", "0,0,0")
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "for the NAV350" in r.stderr

@@ -105,9 +105,10 @@ def recorder_settings(options: dict[str, OptionValue], *, layout: LayoutPlan,
     :class:`~lgvtool.devices.recorder.RecordedDevice` with
     :class:`~lgvtool.devices.nav200.nav200_session.Nav200Settings` (``layout``: the shared
     :class:`~lgvtool.devices.layout_plan.LayoutPlan`, whose read is the NAV200's map upload;
-    ``speed_input``, ``reply_timeout`` s), None without ``--nav``; InputError for action radii
-    out of order, and for a layout write or a mapping run, which the NAV200 recorder does not
-    do (nothing is ever written to a NAV200)."""
+    ``speed_input``, ``reply_timeout`` s; a layout write is a download of the plan's reflectors
+    numbered by their ids), None without ``--nav``; InputError for action radii out of order,
+    reflector ids a NAV200 cannot number (0..254) and a mapping run (the NAV200 recorder does
+    not map)."""
     from lgvtool.devices.nav200.nav200_session import Nav200Settings
     from lgvtool.devices.recorder import RecordedDevice
     from lgvtool.errors import InputError
@@ -124,14 +125,17 @@ def recorder_settings(options: dict[str, OptionValue], *, layout: LayoutPlan,
         raise InputError("record: --action-radii RMIN must be below RMAX")
     if url is None:
         return None
-    if layout.write or layout.map_at is not None:
-        what = "--write-layout" if layout.write else "--map-at"
-        raise InputError(f"record: {what} is for the NAV350; the NAV200 recorder only reads "
-                         "its stored layout (nothing is written to a NAV200)")
+    if layout.map_at is not None:
+        raise InputError("record: --map-at is for the NAV350; the NAV200 recorder does not map")
+    bad = [r.id for r in layout.write if not 0 <= r.id <= 254]
+    if bad:
+        raise InputError(f"record: --write-layout: a NAV200 numbers its reflectors 0..254; "
+                         f"reflector id {bad[0]} cannot be written")
     return RecordedDevice(url, Nav200Settings(
         poll_period=poll_period, reply_timeout=reply_timeout, layer=layout.layer,
         sliding_mean=sliding_mean, action_radii=action_radii, nearest_reflectors=nearest,
         upload_map=layout.read, speed_input=speed_input,
+        write_layout=tuple((r.id, r.x, r.y) for r in layout.write),
         omega_scale=OMEGA_UNITS_PER_RAD_S if omega_units == "rev"
         else OMEGA_UNITS_PER_RAD_S_HALF_DEG,
     ))

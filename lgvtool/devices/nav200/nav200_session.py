@@ -11,6 +11,9 @@ Sequence (the player driver's order; docs/recording.md)::
     SA                  standby
     SV, SS              software version, serial number (device identity)
     UA, UR x n, SA      upload the stored reflector map of one layer, back to standby
+    [DA, DR x n, DR end, SA, then UA, UR x n, SA]
+                        only with ``write_layout``, once per session object (one recording):
+                        download a layout into the layer (replacing it), then read it back
     PN n  (or PA)       enter positioning, with a sliding mean over n poses if configured
     PO rmin rmax        action radii, if configured
     PC n                use the n nearest reflectors, if configured
@@ -47,6 +50,9 @@ from lgvtool.devices.nav200.nav200_payloads import Pose, ReflectorPosition, Seri
 from lgvtool.devices.nav200.nav200_requests import (
     DOWNLOAD_END_NUMBER,
     request_action_radii,
+    request_download_end,
+    request_download_mode,
+    request_download_reflector,
     request_nearest_reflectors,
     request_pose,
     request_pose_with_speed,
@@ -102,6 +108,10 @@ class Nav200Settings:
     """PC: use the N nearest reflectors; None: leave the device's setting."""
     upload_map: bool = True
     """Upload the stored reflector map at start (UA/UR)."""
+    write_layout: tuple[tuple[int, float, float], ...] = ()
+    """Reflectors to download into ``layer`` (number, x m, y m), replacing its stored map:
+    once per session object (one recording), never again after a reconnect, with the map
+    uploaded before and after. Empty: nothing is written."""
     max_upload: int = 255
     """Upper bound of UR requests in one upload."""
     speed_input: bool = False
@@ -134,6 +144,7 @@ class Nav200Settings:
             "action_radii_m": list(self.action_radii) if self.action_radii else None,
             "nearest_reflectors": self.nearest_reflectors,
             "poll_period_s": self.poll_period,
+            "layout_written": len(self.write_layout),
             "speed_input": "Pw" if self.speed_input else None,
             "omega_units_per_rad_s": self.omega_scale if self.speed_input else None,
         }
@@ -194,6 +205,8 @@ class Nav200Session:
         self._host = Nav200ReplyMatcher()
         self._events: list[SessionEvent] = []
         self._plan: deque[str] = deque()
+        #: the requested layout write is done once per session object
+        self.layout_written = False
         self._pending: _Pending | None = None
         self._retry_at = -math.inf
         self._failures = 0
@@ -354,21 +367,23 @@ class Nav200Session:
             steps.append("nearest")
         return steps
 
-    def _insert_upload(self) -> None:
-        """Put the upload steps right after the identity steps (before 'enter')."""
-        rest = list(self._plan)
-        self._upload = _Upload()
-        self._plan = deque(["upload_mode", "upload_next", "standby_after_upload", *rest])
-
     def _request_for(self, step: str) -> Request:
         s = self.settings
-        if step in ("standby", "standby_after_upload"):
+        if step in ("standby", "standby_after_upload", "standby_after_download"):
             return request_standby()
+        if step == "download_mode":
+            return request_download_mode()
+        if step.startswith("download:"):
+            number, x, y = s.write_layout[int(step[9:])]
+            return request_download_reflector(s.layer, number, x, y)
+        if step == "download_end":
+            return request_download_end(s.layer)
         if step == "version":
             return request_version()
         if step == "serial":
             return request_serial_number()
         if step == "upload_mode":
+            self._upload = _Upload()
             return request_upload_mode()
         if step == "upload_next":
             return request_upload_next(s.layer)
@@ -462,6 +477,18 @@ class Nav200Session:
             self._identified(serial)
         elif step == "upload_next":
             self._uploaded_one(reply)
+        elif step == "download_mode":
+            stored = 0 if self.map is None else len(self.map)
+            self._diag("layout_erasing", f"erasing the NAV200's map of layer "
+                       f"{self.settings.layer} ({stored} reflectors, uploaded before) to write "
+                       f"{len(self.settings.write_layout)}", level=WARNING,
+                       layer=self.settings.layer, stored=stored,
+                       writing=len(self.settings.write_layout))
+        elif step == "download_end":
+            self.layout_written = True
+            self._diag("layout_written", f"{len(self.settings.write_layout)} reflectors written "
+                       f"into the NAV200's layer {self.settings.layer}", level=WARNING,
+                       layer=self.settings.layer, reflectors=len(self.settings.write_layout))
         elif step == "enter":
             self._entered_with = "PA" if self._use_pa else "PN"
         if not self._plan:
@@ -475,8 +502,16 @@ class Nav200Session:
         if serial is not None:
             self.serial = serial
         self._events.append(DeviceIdentity(self.version, serial))
-        if self.settings.upload_map and (self.map is None or changed or self._verify_map):
-            self._insert_upload()
+        write = bool(self.settings.write_layout) and not self.layout_written
+        steps: list[str] = []
+        if self.settings.upload_map and (self.map is None or changed or self._verify_map
+                                         or write):
+            steps += _UPLOAD_STEPS  # with a write: the map before it
+        if write:
+            steps += ["download_mode",
+                      *[f"download:{i}" for i in range(len(self.settings.write_layout))],
+                      "download_end", "standby_after_download", *_UPLOAD_STEPS]
+        self._plan = deque(steps + list(self._plan))
         self._verify_map = False
 
     def _uploaded_one(self, reply: Reply) -> None:
@@ -547,6 +582,16 @@ class Nav200Session:
                     self._plan.remove(s)
             self.map = self.map if self.map is not None else ()
             return
+        if step == "download_mode" or step.startswith("download"):
+            # nothing more is sent of this layout (the device keeps its map unless the end
+            # marker went through), never again in this recording; the map is read back
+            self.layout_written = True
+            self._diag("layout_failed", f"NAV200 {pending.request.code} refused: "
+                       f"{reply.describe()}; the layout is not written", level=ERROR,
+                       request=pending.request.code)
+            while self._plan and self._plan[0].startswith("download"):
+                self._plan.popleft()
+            return
         if step == "enter" and not self._use_pa:
             self._diag("setting_refused", f"NAV200 refused PN (sliding mean): "
                        f"{reply.describe()}; entering positioning with PA", level=WARNING)
@@ -601,6 +646,10 @@ class Nav200Session:
                    f"({reply.describe()}): entering positioning again", level=WARNING,
                    tries=self._resumes, **details)
         self._restart_plan()
+
+
+#: the steps of one map upload (UA, UR until the end, SA)
+_UPLOAD_STEPS = ["upload_mode", "upload_next", "standby_after_upload"]
 
 
 def _positions(reflectors: tuple[ReflectorPosition, ...]) -> list[tuple[int, int, int, int]]:
