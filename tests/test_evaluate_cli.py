@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from inprocess import run_command
 
-from lgvtool.cli import main
 from lgvtool.config import Config, Reference, default_config
 from lgvtool.errors import InputError
 from lgvtool.log import LogWriter, topics
@@ -71,14 +71,8 @@ def write_log(path: Path, *, rotations: float = 2.3, estimates: bool = True,
 
 
 def run(capsys: pytest.CaptureFixture[str], *args: object) -> tuple[int, str, str]:
-    """Run the CLI in this process: (exit code, stdout, stderr)."""
-    code = 0
-    try:
-        main(["evaluate", *map(str, args)])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
+    """``lgvtool evaluate ARGS`` in this process: (exit code, stdout, stderr)."""
+    return run_command(capsys, "evaluate", *args)
 
 
 @pytest.fixture(scope="module")

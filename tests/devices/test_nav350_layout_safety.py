@@ -220,10 +220,13 @@ def test_a_recording_against_garbage_clock_replies_keeps_the_pose_rate(tmp_path,
     from lgvtool.devices.nav350 import nav350_device as device_module
     from lgvtool.log import LogReader
     from lgvtool.sim.emulate.emulator_playback import playback_from_scenario
+    from lgvtool.sim.emulate.nav350 import nav350_emulator
     from lgvtool.sim.emulate.nav350.nav350_loopback import loopback
 
+    # the emulator module is imported before either patch, so that undoing them restores the
+    # real device model there too (imported under the patch, it would keep the fake one)
+    monkeypatch.setattr(nav350_emulator, "Nav350Device", _GarbageClock)
     monkeypatch.setattr(device_module, "Nav350Device", _GarbageClock)
-    monkeypatch.setattr("lgvtool.sim.emulate.nav350.nav350_emulator.Nav350Device", _GarbageClock)
     pb = playback_from_scenario("paper-circle", seed=6, duration=20.0)
     out = tmp_path / "clock.mcap"
     r = loopback(pb, out, seconds=6.0)

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from evaluate_synth import DELTA, PERIOD, SPEED, T0, H, circle_drive
+from inprocess import run_command
 
 from lgvtool.cli import main
 from lgvtool.config import default_config
@@ -38,13 +39,7 @@ SAMPLE = Path(__file__).resolve().parents[2] / "sample_logs" / "paper-circle.mca
 
 def run(capsys: pytest.CaptureFixture[str], *args: object) -> tuple[int, str, str]:
     """``lgvtool evaluate ARGS`` in this process: (exit code, stdout, stderr)."""
-    code = 0
-    try:
-        main(["evaluate", *map(str, args)])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
+    return run_command(capsys, "evaluate", *args)
 
 
 def verdict_block(out: str) -> list[str]:

@@ -629,11 +629,16 @@ class Nav350Session:
             if step == "navigate":
                 self._entered(now)
             return
-        if step in ("layer_ids", "layer_ids_after"):
-            self._on_layer_ids(step, t.value)
-            return
-        if step.startswith(("get:", "got:")):
-            self._on_landmarks(step, t.value)
+        if step in ("layer_ids", "layer_ids_after") or step.startswith(("get:", "got:")):
+            code = t.value.error_code
+            if code != 0:
+                self._layout_unreadable(f"{p.request.name} errorCode {code} "
+                                        f"({ERROR_CODES.get(code, 'unknown')})",
+                                        error_code=code, popped=True)
+            elif isinstance(t.value, LayerIds):
+                self._on_layer_ids(step, t.value)
+            else:
+                self._on_landmarks(step, t.value)
             return
         if step == "do_mapping":
             self._on_mapping(t.value)
@@ -660,11 +665,6 @@ class Nav350Session:
 
     # ------------------------------------------------------------------ layout and mapping
     def _on_layer_ids(self, step: str, value: LayerIds) -> None:
-        if value.error_code != 0:
-            self._layout_unreadable(f"mNLAYGetLayer errorCode {value.error_code} "
-                                    f"({ERROR_CODES.get(value.error_code, 'unknown')})",
-                                    error_code=value.error_code, popped=True)
-            return
         self._layer_ids = tuple(value.ids)
         self._stored = []
         prefix = "got:" if step == "layer_ids_after" else "get:"
@@ -674,11 +674,6 @@ class Nav350Session:
             self._layout_read(prefix)
 
     def _on_landmarks(self, step: str, value: StoredLandmarks) -> None:
-        if value.error_code != 0:
-            self._layout_unreadable(f"mNLAYGetLandmark errorCode {value.error_code} "
-                                    f"({ERROR_CODES.get(value.error_code, 'unknown')})",
-                                    error_code=value.error_code, popped=True)
-            return
         self._stored.extend(value.landmarks)
         if not self._plan or not self._plan[0].startswith(step[:4]):
             self._layout_read(step[:4])
