@@ -4,7 +4,7 @@ The package is split along the data flow:
 
 - :mod:`lgvtool.wire` the generic codec base (checksums, units, resync stream, events), pure;
 - :mod:`lgvtool.log` the MCAP log contract: topics, schemas, writer, reader, salvage;
-- :mod:`lgvtool.devices` one folder per device family (codec, session, model, emulator),
+- :mod:`lgvtool.devices` one folder per device family (codec, session, device model, worker),
   links and the recorder;
 - :mod:`lgvtool.sim` the simulator and device emulators;
 - :mod:`lgvtool.importers` real datasets into the log contract;
