@@ -315,6 +315,19 @@ def reference_info(
     raise InputError(f"{who}: an unknown circle reference '{cf.kind}'")
 
 
+def _laps_about(name: str, df: pd.DataFrame, circle: Circle, what: str,
+                warnings: list[str]) -> Laps | None:
+    """The laps of trajectory ``name`` (t s, x, y m) about ``circle`` (``what``: how the
+    warning names it); None, with a warning, when the trajectory does not follow it."""
+    spread = radial_stats(circle.radial_error(df["x"], df["y"])).rmse
+    if not follows_circle(spread, circle.r):
+        warnings.append(
+            f"the trajectory '{name}' does not follow {what} (radial RMSE {spread * 1e3:.0f} mm "
+            f"about a {circle.r:.3f} m circle): circle metrics left out")
+        return None
+    return segment_laps(df["t"], df["x"], df["y"], circle, source=name)
+
+
 def circles_and_laps(
     trajs: dict[str, pd.DataFrame],
     true_df: pd.DataFrame | None,
@@ -343,13 +356,10 @@ def circles_and_laps(
         raise InputError(f"lap source '{lap_source}' is not among {', '.join(candidates)}")
     src = choose_lap_source(candidates, fitted, prefer)
     src_df, src_circle = candidates[src], fitted[src]
-    spread = radial_stats(src_circle.radial_error(src_df["x"], src_df["y"])).rmse
-    if not follows_circle(spread, src_circle.r):
-        warnings.append(
-            f"the trajectory '{src}' does not follow a circle (radial RMSE {spread * 1e3:.0f} mm "
-            f"about a {src_circle.r:.3f} m circle): circle metrics left out")
+    found = _laps_about(src, src_df, src_circle, "a circle", warnings)
+    if found is None:
         return {}, Laps(source=src), None, None, warnings
-    laps = segment_laps(src_df["t"], src_df["x"], src_df["y"], src_circle, source=src)
+    laps = found
     if laps.complete == 0:
         warnings.append(
             f"fewer than one full rotation ({np.degrees(laps.swept):.0f} deg about the centre "
@@ -410,14 +420,10 @@ def reference_circles(
     if src in fits:
         laps = fits[src].laps
     else:
-        src_df = candidates[src]
-        spread = radial_stats(ref.radial_error(src_df["x"], src_df["y"])).rmse
-        if not follows_circle(spread, ref.r):
-            warnings.append(
-                f"the trajectory '{src}' does not follow the reference circle (radial RMSE "
-                f"{spread * 1e3:.0f} mm about a {ref.r:.3f} m circle): circle metrics left out")
+        found = _laps_about(src, candidates[src], ref, "the reference circle", warnings)
+        if found is None:
             return {}, Laps(source=src), None, None, warnings
-        laps = segment_laps(src_df["t"], src_df["x"], src_df["y"], ref, source=src)
+        laps = found
     circles = dict.fromkeys(scored, ref)
     if not scored:
         warnings.append(f"estimator '{ref_name}' is the circle reference and the only "

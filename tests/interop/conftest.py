@@ -25,15 +25,9 @@ def sim_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture
 def cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., tuple[int, str, str]]:
     """``cli(*args)``: run ``lgvtool ARGS`` in this process -> (exit code, stdout, stderr)."""
-    from lgvtool.cli import main
+    from inprocess import run_command
 
     def run(*args: object) -> tuple[int, str, str]:
-        code = 0
-        try:
-            main([str(a) for a in args])
-        except SystemExit as exc:
-            code = int(exc.code or 0)
-        out, err = capsys.readouterr()
-        return code, out, err
+        return run_command(capsys, *args)
 
     return run
