@@ -47,9 +47,20 @@ def _tree_env(tree: Path | None) -> dict[str, str] | None:
     return None if tree is None else dict(os.environ, PYTHONPATH=str(tree))
 
 
+def _paper_setup(tree: Path | None) -> list[str]:
+    """``--set sim.paper_scans=true`` when the checkout ``tree`` (default: this one) has that
+    setting (earlier versions logged the scans by default)."""
+    root = tree if tree is not None else Path(__file__).resolve().parents[1]
+    settings = root / "lgvtool" / "sim" / "settings.py"
+    known = settings.exists() and "paper_scans" in settings.read_text(encoding="utf-8")
+    return ["--set", "sim.paper_scans=true"] if known else []
+
+
 def simulate(path: Path, hours: float, tree: Path | None = None) -> None:
     """Simulate a paper-circle log of ``hours`` into ``path`` unless it exists (with the
-    lgvtool of the checkout ``tree`` when given, as :func:`measure` runs it)."""
+    lgvtool of the checkout ``tree`` when given, as :func:`measure` runs it), in the paper's
+    setup (the NAV200's reflector scans logged, so that the filters weigh reflectors) when the
+    checkout's simulator knows it."""
     if path.exists():
         return
     tmp = path.with_suffix(".part.mcap")

@@ -141,10 +141,10 @@ def main() -> None:
 def kernels() -> str:
     """Which inner loops the filters run: numba (with its version) or numpy."""
     try:
-        from lgvtool.localize.particles import fused_kernels
+        from lgvtool.localize.kernel_choice import uses_kernels
     except ImportError:  # a tree without kernels
         return "numpy"
-    if fused_kernels() is None:
+    if not uses_kernels():
         return "numpy"
     import numba
 

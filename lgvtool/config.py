@@ -40,58 +40,82 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from lgvtool.declared import REQUIRED, check_table, setting
 from lgvtool.errors import ConfigError
 from lgvtool.suggest import unknown_tail
-from lgvtool.values import coerce, parse_setting, split_assignment
+from lgvtool.values import parse_setting, split_assignment
 
 
 @dataclass(frozen=True)
 class Vehicle:
     """Geometry of the forklift LGV (domain.md section 1). Lengths in m, angles in rad."""
 
-    h: float = 1.20
-    """Distance from the target rotation centre O to the drive wheel contact point, m."""
-    track: float = 0.60
-    """Track ``l`` between the two encoder (auxiliary) wheels, m."""
-    wheel_radius_left: float = 0.075
-    """Left encoder wheel radius, m."""
-    wheel_radius_right: float = 0.075
-    """Right encoder wheel radius, m."""
-    encoder_ppr: int = 1000
-    """Encoder pulses per wheel revolution (LIB-49B: 1000)."""
-    gyro_range_dps: float = 360.0
-    """Gyro full scale, deg/s (my-Gyro-300 SPI: +-360)."""
-    nav_x: float = 1.00
-    """NAV200 head position in the vehicle frame, forward of O, m (d_x)."""
-    nav_y: float = 0.0
-    """NAV200 head position in the vehicle frame, left of O, m (d_y)."""
-    nav_height: float = 1.9
-    """NAV200 head height above the floor, m (not used in 2-D)."""
-    nav_yaw: float = 0.0
-    """Mounting yaw of the NAV200 head: its x axis is turned this much counter-clockwise from
-    the vehicle's, rad. The head measures bearings from, and reports the heading of, its axis."""
-    nav_time_offset: float = 0.0
-    """NAV-to-host time offset: NAV poses and scans are stamped this much later than they
-    happened on the motion data's clock, s (may be negative)."""
-    nav_pose_age: float = 0.0
-    """Age of a NAV pose when the host receives it, beyond ``nav_time_offset`` (the device's
-    own delay from the middle of the revolution to its reply), s; not negative."""
-    gyro_scale: float = 1.0
-    """Gyro scale factor: the MCU reports ``gyro_scale * rate + gyro_bias``, dimensionless."""
-    gyro_bias: float = 0.0
-    """Gyro bias, rad/s (see ``gyro_scale``)."""
-    odom_scale_v: float = 1.0
-    """Generic odometry (/odom/twist): the vehicle travels ``odom_scale_v * v``, dimensionless."""
-    odom_scale_w: float = 1.0
-    """Generic odometry: the vehicle turns ``odom_scale_w * omega``, dimensionless."""
-    odom_yaw_per_m: float = 0.0
-    """Generic odometry: the vehicle also turns this much per metre of reported travel
-    (``odom_yaw_per_m * v`` on top of ``odom_scale_w * omega``), rad/m; positive to the left. A
-    drift to one side while driving straight, as wheels of unequal size give."""
+    h: float = setting(
+        1.20,
+        "Distance from the target rotation centre O to the drive wheel contact point, m.",
+        unit="m", minimum=0.0, min_open=True)
+    track: float = setting(
+        0.60,
+        "Track ``l`` between the two encoder (auxiliary) wheels, m.",
+        unit="m", minimum=0.0, min_open=True)
+    wheel_radius_left: float = setting(
+        0.075, "Left encoder wheel radius, m.", unit="m", minimum=0.0, min_open=True)
+    wheel_radius_right: float = setting(
+        0.075, "Right encoder wheel radius, m.", unit="m", minimum=0.0, min_open=True)
+    encoder_ppr: int = setting(
+        1000,
+        "Encoder pulses per wheel revolution (LIB-49B: 1000).",
+        unit="", minimum=0, min_open=True, maximum=10**7)
+    gyro_range_dps: float = setting(
+        360.0,
+        "Gyro full scale, deg/s (my-Gyro-300 SPI: +-360).",
+        unit="deg/s", minimum=0.0, min_open=True)
+    nav_x: float = setting(
+        1.00, "NAV200 head position in the vehicle frame, forward of O, m (d_x).", unit="m")
+    nav_y: float = setting(
+        0.0, "NAV200 head position in the vehicle frame, left of O, m (d_y).", unit="m")
+    nav_height: float = setting(
+        1.9, "NAV200 head height above the floor, m (not used in 2-D).", unit="m", minimum=0.0)
+    nav_yaw: float = setting(
+        0.0,
+        "Mounting yaw of the NAV200 head: its x axis is turned this much counter-clockwise from "
+        "the vehicle's, rad. The head measures bearings from, and reports the heading of, its "
+        "axis.",
+        unit="rad")
+    nav_time_offset: float = setting(
+        0.0,
+        "NAV-to-host time offset: NAV poses and scans are stamped this much later than they "
+        "happened on the motion data's clock, s (may be negative).",
+        unit="s")
+    nav_pose_age: float = setting(
+        0.0,
+        "Age of a NAV pose when the host receives it, beyond ``nav_time_offset`` (the device's own "
+        "delay from the middle of the revolution to its reply), s; not negative.",
+        unit="s", minimum=0.0)
+    gyro_scale: float = setting(
+        1.0,
+        "Gyro scale factor: the MCU reports ``gyro_scale * rate + gyro_bias``, dimensionless.",
+        unit="", minimum=0.0, min_open=True)
+    gyro_bias: float = setting(
+        0.0, "Gyro bias, rad/s (see ``gyro_scale``).", unit="rad/s")
+    odom_scale_v: float = setting(
+        1.0,
+        "Generic odometry (/odom/twist): the vehicle travels ``odom_scale_v * v``, dimensionless.",
+        unit="", minimum=0.0, min_open=True)
+    odom_scale_w: float = setting(
+        1.0,
+        "Generic odometry: the vehicle turns ``odom_scale_w * omega``, dimensionless.",
+        unit="", minimum=0.0, min_open=True)
+    odom_yaw_per_m: float = setting(
+        0.0,
+        "Generic odometry: the vehicle also turns this much per metre of reported travel "
+        "(``odom_yaw_per_m * v`` on top of ``odom_scale_w * omega``), rad/m; positive to the left. "
+        "A drift to one side while driving straight, as wheels of unequal size give.",
+        unit="rad/m")
 
     def circle_radius(self, steering_angle: float) -> float:
         """Radius of the circle that O drives at a fixed steering angle, m: R = h / tan(delta)."""
@@ -110,25 +134,30 @@ class Vehicle:
 class Reflector:
     """A reflector (or landmark) at a known position in the map frame."""
 
-    id: int
-    x: float
-    """X of the centre, m."""
-    y: float
-    """Y of the centre, m."""
-    radius: float = 0.05
-    """Radius, m (the paper's cylinders are 10 cm in diameter)."""
-    layer: int = 0
-    """NAV200 layer."""
+    id: int = setting(
+        REQUIRED, "Id of the reflector, unique in its map.", unit="", maximum=2**31 - 1)
+    x: float = setting(
+        REQUIRED, "X of the centre, m.", unit="m")
+    y: float = setting(
+        REQUIRED, "Y of the centre, m.", unit="m")
+    radius: float = setting(
+        0.05, "Radius, m (the paper's cylinders are 10 cm in diameter).", unit="m", minimum=0.0)
+    layer: int = setting(
+        0, "NAV200 layer.", unit="", minimum=0, maximum=255)
 
 
 @dataclass(frozen=True)
 class Area:
     """An axis-aligned rectangle in the map frame, m."""
 
-    x_min: float = 0.0
-    x_max: float = 25.0
-    y_min: float = 0.0
-    y_max: float = 20.0
+    x_min: float = setting(
+        0.0, "West edge, m.", unit="m")
+    x_max: float = setting(
+        25.0, "East edge, m.", unit="m")
+    y_min: float = setting(
+        0.0, "South edge, m.", unit="m")
+    y_max: float = setting(
+        20.0, "North edge, m.", unit="m")
 
     @property
     def width(self) -> float:
@@ -145,8 +174,11 @@ class Area:
 class Reference:
     """What the evaluation compares against when the log does not say."""
 
-    steering_angle_deg: float | None = 60.0
-    """Nominal steering angle of a circle drive, deg; None (``false`` in TOML): from the log only."""
+    steering_angle_deg: float | None = setting(
+        60.0,
+        "Nominal steering angle of a circle drive, deg; None (``false`` in TOML): from the log "
+        "only.",
+        unit="deg")
 
 
 @dataclass(frozen=True)
@@ -216,16 +248,8 @@ def default_config() -> Config:
 
 
 def _check_section(name: str, table: Any, cls: type) -> dict[str, Any]:
-    if not isinstance(table, dict):
-        raise ConfigError(f"[{name}] must be a table")
-    known = {f.name: f for f in fields(cls)}
-    out: dict[str, Any] = {}
-    for key, value in table.items():
-        if key not in known:
-            raise ConfigError(f"unknown key '{key}' in [{name}]" + unknown_tail(
-                key, known, more=f"{len(known)} keys in [{name}]; lgvtool config prints them"))
-        out[key] = _coerce(f"{name}.{key}", value, known[key].type)
-    return out
+    return check_table(cls, name, table, what="key",
+                       more="{n} keys in [" + name + "]; lgvtool config --parameters lists them")
 
 
 def reflectors_from_tables(items: Any) -> tuple[Reflector, ...]:
@@ -249,38 +273,7 @@ def reflectors_from_tables(items: Any) -> tuple[Reflector, ...]:
     return tuple(refl)
 
 
-#: upper ends of configuration values, in their units; any other number is at most 10^6
-_MAXIMA: dict[str, float] = {"encoder_ppr": 10**7, "id": 2**31 - 1, "layer": 255}
-_MAGNITUDE = 1e6
-
-
-def _coerce(where: str, value: Any, type_name: Any) -> Any:
-    t = str(type_name)
-    if value is False and "None" in t and "float" in t:
-        return None  # TOML has no null: `false` says "not set"
-    if value is None:
-        if "None" in t:
-            return None
-        raise ConfigError(f"missing value for {where}")
-    kind = {"int": int, "float": float, "bool": bool, "str": str}.get(t.split(" ")[0])
-    if kind in (int, float):
-        top = _MAXIMA.get(where.rpartition(".")[2], _MAGNITUDE)
-        return coerce(where, value, kind, minimum=-_MAGNITUDE, maximum=top)
-    return value if kind is None else coerce(where, value, kind)
-
-
-_POSITIVE_VEHICLE = ("h", "track", "wheel_radius_left", "wheel_radius_right", "encoder_ppr",
-                     "gyro_range_dps", "gyro_scale", "odom_scale_v", "odom_scale_w")
-
-
 def _validate(cfg: Config) -> Config:
-    v = cfg.vehicle
-    for key in _POSITIVE_VEHICLE:
-        if getattr(v, key) <= 0:
-            raise ConfigError(f"vehicle.{key} must be positive, got {getattr(v, key)}")
-    for key in ("nav_height", "nav_pose_age"):
-        if getattr(v, key) < 0:
-            raise ConfigError(f"vehicle.{key} must not be negative, got {getattr(v, key)}")
     a = cfg.area
     if not (a.x_max > a.x_min and a.y_max > a.y_min):
         raise ConfigError("area: x_max must exceed x_min and y_max must exceed y_min")

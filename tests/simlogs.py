@@ -12,10 +12,14 @@ from typing import Any
 import numpy as np
 
 
-def simulate_log(path: Path, duration: float, seed: int, scenario: str = "paper-circle") -> Path:
-    """Simulate ``scenario`` for ``duration`` s into ``path`` with ``lgvtool simulate``."""
+def simulate_log(path: Path, duration: float, seed: int, scenario: str = "paper-circle",
+                 paper_scans: bool = True) -> Path:
+    """Simulate ``scenario`` for ``duration`` s into ``path`` with ``lgvtool simulate``; with
+    ``paper_scans`` in the paper's setup (the NAV200's reflector scans logged, as the sample
+    logs), else as a NAV200 recording (poses only)."""
     subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "--scenario", scenario,
-                    "--duration", str(duration), "--seed", str(seed), "-o", str(path)],
+                    "--duration", str(duration), "--seed", str(seed), "-o", str(path),
+                    "--set", f"sim.paper_scans={str(paper_scans).lower()}"],
                    check=True, capture_output=True)
     return path
 

@@ -137,10 +137,10 @@ def test_replay_imports_neither_pandas_nor_plotly(tmp_path: Path) -> None:
     no table library: pandas' import alone is 0.2-0.4 s of a replay."""
     import subprocess
 
-    code = ("import sys\nfrom lgvtool.app.replay_job import replay_log\n"
-            f"replay_log({str(ROOT / 'sample_logs' / 'paper-circle.mcap')!r}, "
+    code = ("import sys\nfrom lgvtool.app.replay_job import ReplayOptions, replay_log\n"
+            f"replay_log(ReplayOptions({str(ROOT / 'sample_logs' / 'paper-circle.mcap')!r}, "
             f"{str(tmp_path / 'out.mcap')!r}, "
-            "show_progress=False)\n"
+            "show_progress=False))\n"
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pandas', 'plotly')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=ROOT)

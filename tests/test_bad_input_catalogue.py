@@ -161,7 +161,9 @@ def world(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The shared inputs: a short simulated log, configurations, files that are not logs, a
     dataset folder, links to the log and an evaluation folder whose table1.json is a baseline."""
     w = tmp_path_factory.mktemp("catalogue")
-    for argv in (["simulate", "-s", "paper-circle", "--duration", "12", "-o", str(w / "log.mcap")],
+    # in the paper's setup: the log carries reflector scans, as the sample logs do
+    for argv in (["simulate", "-s", "paper-circle", "--duration", "12", "--set",
+                  "sim.paper_scans=true", "-o", str(w / "log.mcap")],
                  ["evaluate", str(w / "log.mcap"), "-e", "laser", "-o", str(w / "rep")]):
         try:
             main(argv)

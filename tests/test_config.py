@@ -36,9 +36,9 @@ def test_toml_round_trip(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("text,message", [
-    ("[vehicle]\nwheelbase = 1.0\n", "unknown key 'wheelbase' in [vehicle]"),
-    ("[vehicle]\nh = -1.0\n", "vehicle.h must be positive"),
-    ("[vehicle]\ntrack = 0\n", "vehicle.track must be positive"),
+    ("[vehicle]\nwheelbase = 1.0\n", "unknown key 'vehicle.wheelbase'"),
+    ("[vehicle]\nh = -1.0\n", "vehicle.h must be above 0, got -1"),
+    ("[vehicle]\ntrack = 0\n", "vehicle.track must be above 0, got 0"),
     ("[vehicle]\nh = 'long'\n", "vehicle.h must be a number"),
     ("[[reflectors]]\nid = 1\nx = 1.0\ny = 2.0\n[[reflectors]]\nid = 1\nx = 3.0\ny = 2.0\n",
      "duplicate id 1"),
@@ -76,7 +76,7 @@ def test_config_cli(tmp_path: Path, run_cli) -> None:
     bad.write_text("[vehicle]\nh = -2\n")
     out = run_cli("config", bad)
     assert out.returncode == 2
-    assert out.stderr.strip().count("\n") == 0 and "vehicle.h must be positive" in out.stderr
+    assert out.stderr.strip().count("\n") == 0 and "vehicle.h must be above 0" in out.stderr
 
 
 def test_config_of_a_log_is_the_one_its_replay_uses(tmp_path: Path, run_cli) -> None:

@@ -98,7 +98,7 @@ def test_mistyped_parameter_is_a_short_line(capsys: pytest.CaptureFixture[str],
     line = _error_line(["replay", SAMPLE, "--set", "pf.partcles=100",
                         "-o", str(tmp_path / "r.mcap")], capsys)
     assert "unknown parameter 'pf.partcles': did you mean 'pf.particles'?" in line
-    assert "docs/filter.md" in line and "alpha_fast" not in line and len(line) < 200
+    assert "lgvtool config --parameters" in line and "alpha_fast" not in line and len(line) < 200
     # a short list is still shown in full
     line = _error_line(["replay", SAMPLE, "--set", "laser.sigma_xy=1",
                         "-o", str(tmp_path / "r.mcap")], capsys)
@@ -115,7 +115,7 @@ def test_mistyped_scenario_and_simulator_setting(capsys: pytest.CaptureFixture[s
                           ("nva.skew=1", "unknown setting section 'nva' in 'nva.skew': did you "
                                          "mean 'nav'?"),
                           ("scenario.sped=1", "did you mean 'scenario.speed'?"),
-                          ("vehicle.nav_xx=1", "did you mean 'nav_x'?")):
+                          ("vehicle.nav_xx=1", "did you mean 'vehicle.nav_x'?")):
         line = _error_line(["simulate", "-s", "paper-circle", "--set", setting, "-o", out],
                            capsys)
         assert said in line, line
@@ -123,8 +123,8 @@ def test_mistyped_scenario_and_simulator_setting(capsys: pytest.CaptureFixture[s
 
 
 @pytest.mark.parametrize(("text", "said"), [
-    ("[vehicle]\nnav_xx = 1.0\n", "unknown key 'nav_xx' in [vehicle]: did you mean 'nav_x'? "
-                                  "(17 keys in [vehicle]; lgvtool config prints them)"),
+    ("[vehicle]\nnav_xx = 1.0\n", "unknown key 'vehicle.nav_xx': did you mean 'vehicle.nav_x'? "
+                                  "(17 keys in [vehicle]; lgvtool config --parameters lists them)"),
     ("[vehicel]\nh = 1.0\n", "unknown section 'vehicel': did you mean 'vehicle'?"),
     ("[estimators.pf-papr]\nparticles = 10\n", "did you mean 'estimators.pf-paper'?"),
     ("[estimators.pf]\npartcles = 10\n", "did you mean 'pf.particles'?"),

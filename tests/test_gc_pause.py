@@ -74,7 +74,7 @@ def test_replay_evaluate_and_export_run_the_estimators_with_it_off(
     from simlogs import simulate_log
 
     from lgvtool.app.evaluate_job import evaluate_log
-    from lgvtool.app.replay_job import replay_log
+    from lgvtool.app.replay_job import ReplayOptions, replay_log
     from lgvtool.interop.trajectory_export import export_log
     from lgvtool.localize import replay_driver
 
@@ -87,7 +87,8 @@ def test_replay_evaluate_and_export_run_the_estimators_with_it_off(
         return original(*args, **kwargs)
 
     monkeypatch.setattr(replay_driver, "replay_data", spy)
-    replay_log(str(log), str(tmp_path / "out.mcap"), estimators=["laser"], show_progress=False)
+    replay_log(ReplayOptions(str(log), str(tmp_path / "out.mcap"), estimators=("laser",),
+                             show_progress=False))
     evaluate_log(log, estimators=["laser"])
     export_log(log, tmp_path / "tum", "tum", estimators=["laser"])
     assert seen == [False, False, False]

@@ -30,7 +30,8 @@ def _cli(*args: object) -> None:
 @pytest.fixture(scope="module")
 def replayed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     d = tmp_path_factory.mktemp("view")
-    _cli("simulate", "-s", "paper-circle", "--duration", 30, "-o", d / "sim.mcap")
+    _cli("simulate", "-s", "paper-circle", "--duration", 30, "--set", "sim.paper_scans=true",
+         "-o", d / "sim.mcap")
     _cli("replay", d / "sim.mcap", "-o", d / "rep.mcap", "--particles", 200)
     return d / "rep.mcap"
 
@@ -162,7 +163,8 @@ def test_replaying_a_replayed_log_replaces_the_view(replayed: Path, tmp_path: Pa
 
 def test_no_view_leaves_them_out(replayed: Path, tmp_path: Path) -> None:
     src = tmp_path / "sim.mcap"
-    _cli("simulate", "-s", "paper-circle", "--duration", 12, "-o", src)
+    _cli("simulate", "-s", "paper-circle", "--duration", 12, "--set", "sim.paper_scans=true",
+         "-o", src)
     out = tmp_path / "plain.mcap"
     _cli("replay", src, "-o", out, "-e", "ekf", "--no-view")
     names = set(LogReader(out).topic_names())
@@ -223,13 +225,13 @@ def test_replay_reads_its_input_once_for_the_estimators_and_the_view(
     """The view's rows (NAV poses, truth, MCU frames) are gathered in the estimators' reading
     of the log (a tap of load_log): one pass over the chunks before the copy, and the rows are
     those of the view's own reading, topic for topic, array for array."""
-    from lgvtool.app.replay_job import replay_log
+    from lgvtool.app.replay_job import ReplayOptions, replay_log
     from lgvtool.localize.logdata import LazyScans, load_log
     from lgvtool.log.view_channels import LogRows, RowCollector
 
     log = REPO / "sample_logs" / "degraded.mcap"
-    replay_log(str(log), str(tmp_path / "out.mcap"), estimators=["laser", "ekf"],
-               show_progress=False)
+    replay_log(ReplayOptions(str(log), str(tmp_path / "out.mcap"), estimators=("laser", "ekf"),
+                             show_progress=False))
     assert len(chunk_passes) == 1 and {topics.TRUTH, topics.MCU_FRAME} <= set(chunk_passes[0])
     chunk_passes.clear()
 
@@ -269,9 +271,10 @@ def test_a_replay_whose_estimators_use_no_scan_decodes_them_for_the_view_in_its_
         tmp_path: Path, chunk_passes: list[list[str]]) -> None:
     """With only the laser baseline (NAV poses), no estimator uses the scans, but the view
     draws them: they are decoded in the one pass over the log, not read again after it."""
-    from lgvtool.app.replay_job import replay_log
+    from lgvtool.app.replay_job import ReplayOptions, replay_log
 
-    replay_log(str(REPO / "sample_logs" / "degraded.mcap"), str(tmp_path / "out.mcap"),
-               estimators=["laser"], show_progress=False)
+    replay_log(ReplayOptions(str(REPO / "sample_logs" / "degraded.mcap"),
+                             str(tmp_path / "out.mcap"), estimators=("laser",),
+                             show_progress=False))
     assert len(chunk_passes) == 1 and topics.NAV_REFLECTORS in chunk_passes[0]
     assert len(_msgs(LogReader(tmp_path / "out.mcap"), topics.NAV_SCAN)) > 100

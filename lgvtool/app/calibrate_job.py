@@ -4,7 +4,7 @@ calibrate``)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from lgvtool.app.job_output import JobOutput
@@ -85,22 +85,46 @@ def _unobservable_refusal(exc: InputError) -> UnobservableRefusal | None:
     return UnobservableRefusal(line, {"unobservable": details}, lines)
 
 
-def calibrate_logs(logs: Sequence[str], output: str, *, config_path: str | None = None,
-                   estimate: Sequence[str] | None = None, fix: Sequence[str] = (),
-                   observations: str = "auto", allow_unobservable: bool = False,
-                   compare_with: Sequence[str] = ("laser", "ekf"), seed: int = 0,
-                   start_at_truth: bool = False, force: bool = False,
-                   show_progress: bool = True) -> JobOutput:
+@dataclass(frozen=True, slots=True)
+class CalibrateOptions:
+    """What :func:`calibrate_logs` calibrates from, and how (``lgvtool calibrate``)."""
+
+    logs: tuple[str, ...]
+    """The logs (MCAP) whose whole drives are solved together, in order."""
+    output: str
+    """The calibrated configuration (TOML) to write; an existing file is replaced only with
+    :attr:`force`, an input never."""
+    config_path: str | None = None
+    """The starting configuration (TOML); None: the first log's stored one."""
+    estimate: tuple[str, ...] | None = None
+    """The quantities to estimate (names as in docs/calibration.md); None: all the data has."""
+    fix: tuple[str, ...] = ()
+    """The quantities held at their starting values."""
+    observations: str = "auto"
+    """What the solve observes: auto, scans (reflector scans, with the poses beside them for
+    their age) or poses (NAV poses)."""
+    allow_unobservable: bool = False
+    """Hold what the drives cannot observe at its starting value (a warning) instead of
+    refusing."""
+    compare_with: tuple[str, ...] = ("laser", "ekf")
+    """Estimators replayed with the starting and the calibrated configuration for the
+    before/after table; empty: no table."""
+    seed: int = 0
+    """Seed of the before/after table's estimators."""
+    start_at_truth: bool = False
+    """Start the before/after table's estimators at the logs' ground truth."""
+    force: bool = False
+    """Replace an existing :attr:`output`."""
+    show_progress: bool = True
+    """Progress on stderr once the calibration takes over a second."""
+
+
+def calibrate_logs(options: CalibrateOptions) -> JobOutput:
     """Estimate the installation (NAV mounting nav_x, nav_y mm and nav_yaw deg, wheel radii
     and track mm, gyro scale and bias deg/s, NAV time offset and pose age ms, or the generic
-    odometry's two scales and its drift deg/m) from ``logs`` by a batch least squares over the
-    whole drives, and write the starting configuration (``config_path``, default: the first
-    log's) with the calibrated vehicle into ``output`` (TOML; an existing file is replaced only
-    with ``force``, an input never). ``estimate``: the quantities to estimate (default: all the
-    data has), ``fix``: those held at their starting values, ``observations``: auto, scans or
-    poses, ``allow_unobservable``: hold what the drives cannot observe (a warning) instead of
-    refusing. ``compare_with`` estimators are replayed (``seed``, ``start_at_truth``) with
-    the starting and the calibrated configuration for the before/after table (empty: none).
+    odometry's two scales and its drift deg/m) from the ``options``' logs by a batch least
+    squares over the whole drives, and write the starting configuration with the calibrated
+    vehicle into its output (TOML); see :class:`CalibrateOptions`.
 
     The document is the calibration (each estimate with its 1-sigma, the table, the warnings)
     with the output's path; the text the estimates and the before/after table; the warnings
@@ -115,15 +139,17 @@ def calibrate_logs(logs: Sequence[str], output: str, *, config_path: str | None 
     from lgvtool.outputs import atomic_output, guard_output, printable
     from lgvtool.progress import Progress
 
-    out = guard_output(output, [*logs, config_path], force=force)
-    cfg = load_config(config_path) if config_path else None
-    with Progress(0, "calibrate", enabled=show_progress, delay_s=1.0) as bar:
+    o = options
+    out = guard_output(o.output, [*o.logs, o.config_path], force=o.force)
+    cfg = load_config(o.config_path) if o.config_path else None
+    with Progress(0, "calibrate", enabled=o.show_progress, delay_s=1.0) as bar:
         try:
-            result = calibrate(list(logs), config=cfg,
-                               estimate=list(estimate) if estimate else None, fix=list(fix),
-                               observations=observations, allow_unobservable=allow_unobservable,
-                               compare_with=list(compare_with), seed=seed,
-                               start_at_truth=start_at_truth, progress=bar)
+            result = calibrate(list(o.logs), config=cfg,
+                               estimate=list(o.estimate) if o.estimate else None,
+                               fix=list(o.fix), observations=o.observations,
+                               allow_unobservable=o.allow_unobservable,
+                               compare_with=list(o.compare_with), seed=o.seed,
+                               start_at_truth=o.start_at_truth, progress=bar)
         except InputError as exc:
             short = _unobservable_refusal(exc)
             if short is None:

@@ -23,7 +23,7 @@ from lgvtool.log.messages import kind_of_log_message
 if TYPE_CHECKING:
     from lgvtool.log import LogReader
 
-__all__ = ["DecodeReport", "decode_file", "decode_log"]
+__all__ = ["DecodeOptions", "DecodeReport", "decode_file", "decode_log"]
 
 
 @dataclass
@@ -187,12 +187,25 @@ def decode_log(reader: LogReader, output: str | Path, compression: str = "zstd")
     return report
 
 
-def decode_file(log: str, output: str, *, compression: str = "zstd",
-                force: bool = False) -> JobOutput:
-    """``lgvtool decode``: :func:`decode_log` of the log at ``log`` into ``output`` (through a
-    temporary file; an existing one is replaced only with ``force``, an input never). The
-    document is :meth:`DecodeReport.as_dict`, the text its summary; the warnings are the
-    reader's (e.g. corrupt chunks skipped).
+@dataclass(frozen=True, slots=True)
+class DecodeOptions:
+    """What :func:`decode_file` decodes, and into what (``lgvtool decode``)."""
+
+    log: str
+    """The log (MCAP) whose raw device traffic is decoded."""
+    output: str
+    """The re-decoded log to write (through a temporary file); an existing one is replaced
+    only with :attr:`force`, an input never."""
+    compression: str = "zstd"
+    """Chunk compression of :attr:`output`: zstd, lz4 or none."""
+    force: bool = False
+    """Replace an existing :attr:`output`."""
+
+
+def decode_file(options: DecodeOptions) -> JobOutput:
+    """``lgvtool decode``: :func:`decode_log` of the ``options``' log into its output (see
+    :class:`DecodeOptions`). The document is :meth:`DecodeReport.as_dict`, the text its
+    summary; the warnings are the reader's (e.g. corrupt chunks skipped).
 
     :raises InputError: (exit 2) an unreadable log, no raw device traffic, a refused output.
     """
@@ -201,12 +214,12 @@ def decode_file(log: str, output: str, *, compression: str = "zstd",
     from lgvtool.log import LogReader
     from lgvtool.outputs import atomic_output, guard_output, printable
 
-    guard_output(output, [log], force=force)
+    guard_output(options.output, [options.log], force=options.force)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        reader = LogReader(log)
-    with atomic_output(output) as tmp:
-        report = decode_log(reader, tmp, compression=compression)
-    report.output = output
+        reader = LogReader(options.log)
+    with atomic_output(options.output) as tmp:
+        report = decode_log(reader, tmp, compression=options.compression)
+    report.output = options.output
     return JobOutput(report.as_dict(), printable(report.summary()),
                      warnings=list(reader.warnings))

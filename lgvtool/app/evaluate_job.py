@@ -18,10 +18,12 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     import pandas as pd
 
+    from lgvtool.app.option_values import Bound, SettingValue
     from lgvtool.config import Config
     from lgvtool.evaluate.evaluation import EvaluationResult
     from lgvtool.evaluate.regress import Check
     from lgvtool.evaluate.verdict import Verdict
+    from lgvtool.fleet.connect import SchedulerSpec
     from lgvtool.log import LogReader
     from lgvtool.progress import Progress
 
@@ -32,7 +34,7 @@ def evaluate_log(
     estimators: Sequence[str] | None = None,
     config: Config | None = None,
     seed: int = 0,
-    settings: Mapping[str, Any] | None = None,
+    settings: Mapping[str, object] | None = None,
     shared_centre: bool = False,
     free_radius: bool = False,
     lap_source: str | None = None,
@@ -59,12 +61,49 @@ def evaluate_log(
         add_trajectories=add_trajectories, progress=progress, threads=threads)
 
 
+@dataclass(frozen=True, slots=True)
+class LogEvaluationOptions:
+    """How each log of :func:`evaluate_logs` is evaluated (:func:`evaluate_log`'s options):
+    small and picklable, they travel with every log to a worker of the fleet engine."""
+
+    estimators: tuple[str, ...] | None = None
+    """Estimators to score or run; None: the log's estimates, else the default set."""
+    config: Config | None = None
+    """Configuration used instead of the log's own; None: the log's."""
+    seed: int = 0
+    """Seed of the estimators when they are run."""
+    settings: Mapping[str, SettingValue] | None = None
+    """Estimator settings (``pf.particles`` -> 500) when they are run; None: none."""
+    shared_centre: bool = False
+    """Fit one circle centre to all estimators instead of one each."""
+    free_radius: bool = False
+    """Fit the radius too (geometric fit) instead of R = h / tan(delta)."""
+    start_at_truth: bool = False
+    """Start the estimators run at the log's ground truth."""
+    trajectories: Mapping[str, pd.DataFrame] | None = None
+    """Other tools' trajectories of O (name -> DataFrame t s, x m, y m, heading rad)."""
+    threads: int | None = 1
+    """Threads a log's estimators run on at once (None: one per estimator, at most one per
+    CPU)."""
+
+
+def _evaluate_one(path: str, options: LogEvaluationOptions,
+                  progress: Progress | None = None) -> EvaluationResult:
+    """:func:`evaluate_log` of the log at ``path`` with ``options``."""
+    o = options
+    return evaluate_log(path, estimators=None if o.estimators is None else list(o.estimators),
+                        config=o.config, seed=o.seed, settings=o.settings,
+                        shared_centre=o.shared_centre, free_radius=o.free_radius,
+                        start_at_truth=o.start_at_truth, trajectories=o.trajectories,
+                        progress=progress, threads=o.threads)
+
+
 @dataclass(frozen=True)
 class _LogTask:
     """What one worker needs to evaluate one log: its path and the options (small, picklable)."""
 
     path: str
-    options: dict[str, Any]
+    options: LogEvaluationOptions
 
 
 def _evaluate_task(task: _LogTask) -> EvaluationResult:
@@ -73,11 +112,12 @@ def _evaluate_task(task: _LogTask) -> EvaluationResult:
 
     with pywarnings.catch_warnings():
         pywarnings.simplefilter("ignore")
-        return evaluate_log(task.path, **task.options)
+        return _evaluate_one(task.path, task.options)
 
 
-def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: Any,
-                  workers: int | None, bar: Progress | None = None) -> list[EvaluationResult]:
+def _evaluate_all(logs: Sequence[str], options: LogEvaluationOptions, *,
+                  scheduler: SchedulerSpec | None, workers: int | None,
+                  bar: Progress | None = None) -> list[EvaluationResult]:
     """Evaluate every log: in this process for one log, else on the fleet engine (a local Dask
     cluster, or ``scheduler``); the first log that fails stops the command with its error.
     ``bar``: progress on stderr (the estimators of one log, or the logs done)."""
@@ -90,7 +130,7 @@ def _evaluate_all(logs: Sequence[str], options: dict[str, Any], *, scheduler: An
 
         with pywarnings.catch_warnings():
             pywarnings.simplefilter("ignore")
-            return [evaluate_log(t.path, **t.options, progress=bar) for t in tasks]
+            return [_evaluate_one(t.path, t.options, progress=bar) for t in tasks]
     from lgvtool.fleet.engine import run_tasks
 
     results: list[EvaluationResult | None] = [None] * len(tasks)
@@ -156,55 +196,89 @@ class EvaluationRun:
         regress.raise_failures(self.failures)
 
 
-def evaluate_logs(
-    logs: Sequence[str],
-    *,
-    outdir: str | None = None,
-    fmt: str = "text",
-    estimators: Sequence[str] | None = None,
-    maxima: Sequence[str] = (),
-    minima: Sequence[str] = (),
-    baseline: str | None = None,
-    tolerance: str | None = None,
-    seed: int = 0,
-    sets: Sequence[str] = (),
-    config_path: str | None = None,
-    shared_centre: bool = False,
-    free_radius: bool = False,
-    png: bool = False,
-    workers: int | None = None,
-    threads: int | None = None,
-    scheduler: str | None = None,
-    tls: tuple[str | None, str | None, str | None] = (None, None, None),
-    force: bool = False,
-    start_at_truth: bool = False,
-    foreign: Sequence[str] = (),
-    show_progress: bool = True,
-    wide: bool = False,
-) -> EvaluationRun:
-    """Evaluate ``logs`` as ``lgvtool evaluate`` does and check the figures.
+@dataclass(frozen=True, slots=True)
+class EvaluateOptions:
+    """What :func:`evaluate_logs` evaluates and checks, and what it writes (``lgvtool
+    evaluate``)."""
+
+    logs: tuple[str, ...]
+    """The logs (MCAP) to evaluate, in order."""
+    outdir: str | None = None
+    """Folder that receives :data:`OUTPUT_FILES` (and PNGs with :attr:`png`); None: nothing
+    is written."""
+    fmt: str = "text"
+    """Format of the text: text, md, csv, tex or json."""
+    estimators: tuple[str, ...] | None = None
+    """Estimators to score or run; None: the logs' estimates, else the default set."""
+    maxima: tuple[Bound, ...] = ()
+    """Upper bounds on the document's figures (``pf.circle.rmse_mm`` -> 25, in the unit the
+    key's suffix names)."""
+    minima: tuple[Bound, ...] = ()
+    """Lower bounds on the document's figures (``rotations.complete`` -> 8)."""
+    baseline: str | None = None
+    """A previous ``table1.json`` whose error figures may not get worse."""
+    tolerance: float | None = None
+    """Worsening allowed against :attr:`baseline`, a fraction (0.1: 10 %); None: 0, and
+    refused without a baseline."""
+    seed: int = 0
+    """Seed of the estimators when they are run."""
+    settings: Mapping[str, SettingValue] = field(default_factory=dict)
+    """Estimator settings (``pf.particles`` -> 500) when they are run."""
+    config_path: str | None = None
+    """Configuration (TOML) used instead of each log's own; None: the logs' own."""
+    shared_centre: bool = False
+    """Fit one circle centre to all estimators instead of one each."""
+    free_radius: bool = False
+    """Fit the radius too (geometric fit) instead of R = h / tan(delta)."""
+    png: bool = False
+    """Also write every figure of the report as PNG into :attr:`outdir` (needs kaleido)."""
+    workers: int | None = None
+    """Processes of a local Dask cluster for several logs; None: one per CPU, or (one log, or
+    no fleet extra) this process."""
+    threads: int | None = None
+    """Threads a log's estimators run on at once; None: 1."""
+    scheduler: str | None = None
+    """Address of a Dask scheduler (``tls://HOST:PORT`` or ``tcp://HOST:PORT``) that runs
+    the logs; None: none."""
+    tls_ca_file: str | None = None
+    """CA file (PEM) of a ``tls://`` :attr:`scheduler`."""
+    tls_cert: str | None = None
+    """This client's certificate (PEM) for a ``tls://`` :attr:`scheduler`."""
+    tls_key: str | None = None
+    """Private key of :attr:`tls_cert` (PEM), when not in that file."""
+    force: bool = False
+    """Replace existing files in :attr:`outdir`."""
+    start_at_truth: bool = False
+    """Start the estimators run at each log's ground truth."""
+    trajectories: Mapping[str, str] = field(default_factory=dict)
+    """Other tools' trajectories of O to score too: name -> file (TUM or CSV, stamped in the
+    log's time, s); one log only."""
+    show_progress: bool = True
+    """Progress on stderr once the evaluation takes over a second."""
+    wide: bool = False
+    """Text tables with every header spelled out (default: at most 120 columns)."""
+
+
+def evaluate_logs(options: EvaluateOptions) -> EvaluationRun:
+    """Evaluate the ``options``' logs as ``lgvtool evaluate`` does and check the figures
+    (see :class:`EvaluateOptions`).
 
     Every log goes through :func:`evaluate_log` (in this process for one log, else on a local
-    Dask cluster of ``workers`` processes or on ``scheduler`` with the ``tls`` (CA file,
-    certificate, key) files); a log's estimators run on ``threads`` threads (default one).
-    ``maxima``/``minima`` are ``KEY=VALUE`` bounds on the document's figures
-    (``pf.circle.rmse_mm=25``); ``baseline`` a previous ``table1.json``, worse by at most
-    ``tolerance`` (``"10%"``; default 0 %; refused without ``baseline``). Every check is
-    listed in :attr:`EvaluationRun.checks` and the document's ``checks``; each log's verdict
-    (with the files written) in :attr:`EvaluationRun.verdicts`, the result's ``verdict`` and
-    the document's ``verdict``. ``sets`` are ``KEY=VALUE`` estimator settings,
-    ``config_path`` a configuration TOML used instead of the logs' own, ``foreign``
-    ``NAME=FILE`` trajectories of other tools (one log only). With ``outdir`` the files
+    Dask cluster of ``workers`` processes or on ``scheduler`` with its TLS files); a log's
+    estimators run on ``threads`` threads (default one). ``maxima``/``minima`` bound the
+    document's figures; ``baseline`` is a previous ``table1.json``, worse by at most
+    ``tolerance``. Every check is listed in :attr:`EvaluationRun.checks` and the document's
+    ``checks``; each log's verdict (with the files written) in :attr:`EvaluationRun.verdicts`,
+    the result's ``verdict`` and the document's ``verdict``. With ``outdir`` the files
     :data:`OUTPUT_FILES` (and PNGs with ``png``) are written there; an existing one is
-    replaced only with ``force``. ``fmt``: text, md, csv, tex or json; ``wide``: text tables
-    with every header spelled out (default: at most 120 columns).
+    replaced only with ``force``.
 
     :raises InputError: (or a subclass; exit 2) a bad option, file or log; the first log that
         fails stops the evaluation.
     """
     import json
 
-    from lgvtool.config import load_config, parse_set_options
+    from lgvtool.config import load_config
     from lgvtool.errors import InputError
     from lgvtool.evaluate import regress
     from lgvtool.evaluate.document import build_document, to_json
@@ -213,25 +287,24 @@ def evaluate_logs(
     from lgvtool.fleet.connect import require_fleet, scheduler_spec
     from lgvtool.progress import Progress
 
+    o = options
+    logs, outdir, baseline, fmt, png = o.logs, o.outdir, o.baseline, o.fmt, o.png
     if png and outdir is None:
         raise InputError("--png needs -o DIR to write the images into")
     if png:
         from lgvtool.evaluate.plots import require_kaleido
 
         require_kaleido()
-    if tolerance is not None and baseline is None:
+    if o.tolerance is not None and baseline is None:
         raise InputError("--tolerance needs --baseline: it is the worsening allowed against a "
                          "baseline (a previous table1.json)")
     if outdir is not None:
         from lgvtool.outdir import guard_directory
 
-        trajectory_files = [spec.partition("=")[2] for spec in foreign]
-        inputs = [*logs, config_path, baseline, *trajectory_files]
+        inputs = [*logs, o.config_path, baseline, *o.trajectories.values()]
         _refuse_input_as_outdir(outdir, inputs)
-        guard_directory(outdir, OUTPUT_FILES, inputs, force=force)
-    upper = [regress.parse_bound(b, "--max") for b in maxima]
-    lower = [regress.parse_bound(b, "--min") for b in minima]
-    tol = regress.parse_tolerance(tolerance if tolerance is not None else "0%")
+        guard_directory(outdir, OUTPUT_FILES, inputs, force=o.force)
+    tol = o.tolerance if o.tolerance is not None else 0.0
     base_doc = None
     if baseline is not None:
         try:
@@ -241,30 +314,29 @@ def evaluate_logs(
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise InputError(f"{baseline}: not JSON ({exc})") from None
         regress.validate_baseline(base_doc, baseline)
-    cfg = load_config(config_path) if config_path else None
-    settings = parse_set_options(list(sets))
+    cfg = load_config(o.config_path) if o.config_path else None
 
-    if workers is not None and scheduler is not None:
+    if o.workers is not None and o.scheduler is not None:
         raise InputError("give --workers or --scheduler, not both")
-    if workers is not None:
+    if o.workers is not None:
         require_fleet("--workers")
-    cluster = scheduler_spec(scheduler, *tls)
-    options = {"estimators": list(estimators) if estimators else None, "config": cfg,
-               "seed": seed, "shared_centre": shared_centre, "free_radius": free_radius,
-               "start_at_truth": start_at_truth, "settings": settings or None}
-    if threads is not None:
-        options["threads"] = threads
-    if foreign:
-        from lgvtool.interop.foreign_trajectories import load_trajectories
+    cluster = scheduler_spec(o.scheduler, o.tls_ca_file, o.tls_cert, o.tls_key)
+    trajectories = None
+    if o.trajectories:
+        from lgvtool.interop.trajfile import read_trajectory
 
         if len(logs) > 1:
             raise InputError("--trajectory scores a file against one log; give one LOG")
-        trajectories: Any = load_trajectories(foreign)
-        options["trajectories"] = trajectories
+        trajectories = {name: read_trajectory(path) for name, path in o.trajectories.items()}
+    per_log = LogEvaluationOptions(
+        estimators=tuple(o.estimators) if o.estimators else None, config=cfg, seed=o.seed,
+        settings=dict(o.settings) or None, shared_centre=o.shared_centre,
+        free_radius=o.free_radius, start_at_truth=o.start_at_truth, trajectories=trajectories,
+        threads=1 if o.threads is None else o.threads)
 
-    bar = Progress(0, "evaluate", enabled=show_progress, delay_s=1.0)
+    bar = Progress(0, "evaluate", enabled=o.show_progress, delay_s=1.0)
     try:
-        results = _evaluate_all(logs, options, scheduler=cluster, workers=workers, bar=bar)
+        results = _evaluate_all(logs, per_log, scheduler=cluster, workers=o.workers, bar=bar)
         warnings = [f"{res.name}: {w}" for res in results for w in res.warnings]
         _unique_names(results)
         planned = ([str(Path(outdir) / name) for name in _REPORT_FIRST]
@@ -272,7 +344,7 @@ def evaluate_logs(
         for res in results:
             res.verdict = verdict_of(res, paths=planned)
         doc = build_document(results)
-        checks = regress.bound_checks(doc, upper, lower)
+        checks = regress.bound_checks(doc, o.maxima, o.minima)
         notes: list[str] = []
         if base_doc is not None:
             more, notes = regress.baseline_checks(doc, base_doc, tol,
@@ -281,7 +353,7 @@ def evaluate_logs(
         doc["checks"] = regress.check_dicts(checks)
         if outdir is not None:
             bar.stage("report", len(results))
-            written = write_outputs(Path(outdir), results, doc, png, force, bar)
+            written = write_outputs(Path(outdir), results, doc, png, o.force, bar)
             pngs = [str(p) for p in written if p.suffix == ".png"]
             if pngs:
                 for res in results:
@@ -289,7 +361,7 @@ def evaluate_logs(
                         res.verdict = replace(res.verdict, paths=(*res.verdict.paths, *pngs))
     finally:
         bar.close()
-    text = to_json(doc) if fmt == "json" else render_tables(results, fmt, wide=wide)
+    text = to_json(doc) if fmt == "json" else render_tables(results, fmt, wide=o.wide)
     failures = [c.text for c in checks if not c.passed]
     verdicts = [r.verdict for r in results if r.verdict is not None]
     return EvaluationRun(results, doc, text, warnings, notes, failures, verdicts, checks)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -10,18 +11,41 @@ if TYPE_CHECKING:
     from lgvtool.interop.ros2_import import Ros2ImportSummary
 
 
-def import_mrclam(dataset_dir: str, output: str, *, robot: int | None = None,
-                  all_robots: bool = False, gap_threshold: float = 0.5,
-                  landmark_radius: float = 0.05, area_margin: float = 1.5,
-                  odometry_delay: str | float | None = "auto", compression: str = "zstd",
-                  force: bool = False, show_progress: bool = True) -> list[ImportSummary]:
-    """Import robot ``robot`` (``output``: an .mcap file), or with ``all_robots`` every robot
-    (``output``: a folder receiving robotN.mcap), of the UTIAS MRCLAM dataset in
-    ``dataset_dir``. ``gap_threshold`` (s): steps between stamps longer than this are
-    reported as gaps; ``landmark_radius`` (m) of every landmark in the map; ``area_margin``
-    (m) around the landmarks' bounding box forms the work area; ``odometry_delay``: the
-    odometry is written this many s (0 to 5) after its stamps, ``"auto"`` or None measures it
-    per robot. Returns one summary per robot imported (counts and quirks).
+@dataclass(frozen=True, slots=True)
+class MrclamImportOptions:
+    """What :func:`import_mrclam` imports, and how (``lgvtool import mrclam``)."""
+
+    dataset_dir: str
+    """The UTIAS MRCLAM dataset folder (e.g. MRCLAM_Dataset6)."""
+    output: str
+    """With :attr:`robot`: the log (.mcap) to write; with :attr:`all_robots`: the folder that
+    receives robotN.mcap."""
+    robot: int | None = None
+    """The robot to import (1-5 in the published datasets); None: with :attr:`all_robots`."""
+    all_robots: bool = False
+    """Import every robot (exactly one of this and :attr:`robot`)."""
+    gap_threshold: float = 0.5
+    """Steps between odometry or ground-truth stamps longer than this are reported as gaps, s
+    (above 0)."""
+    landmark_radius: float = 0.05
+    """Radius given to every landmark in the map, m (at least 0)."""
+    area_margin: float = 1.5
+    """Margin around the landmarks' bounding box that forms the work area, m (at least 0)."""
+    odometry_delay: float | None = None
+    """The odometry is written this many s (0 to 5) after its stamps; None: measured per
+    robot from the camera data."""
+    compression: str = "zstd"
+    """Chunk compression of the logs: zstd, lz4 or none."""
+    force: bool = False
+    """Replace existing output files."""
+    show_progress: bool = True
+    """Progress on stderr once the import takes over a second."""
+
+
+def import_mrclam(options: MrclamImportOptions) -> list[ImportSummary]:
+    """Import one robot, or every robot, of the UTIAS MRCLAM dataset in the ``options``'
+    folder (see :class:`MrclamImportOptions`). Returns one summary per robot imported (counts
+    and quirks).
 
     :raises InputError: (exit 2) not exactly one of ``robot`` and ``all_robots``, a bad
         setting, a dataset that cannot be read, or a refused output.
@@ -36,63 +60,75 @@ def import_mrclam(dataset_dir: str, output: str, *, robot: int | None = None,
     from lgvtool.outputs import guard_output
     from lgvtool.progress import Progress
 
-    if (robot is None) == (not all_robots):
+    o = options
+    dataset_dir, output, robot = o.dataset_dir, o.output, o.robot
+    if (robot is None) == (not o.all_robots):
         raise InputError("lgvtool import mrclam: give exactly one of --robot N and --all")
-    if not gap_threshold > 0:
-        raise InputError(f"--gap-threshold must be positive, got {gap_threshold}")
-    if not landmark_radius >= 0:
-        raise InputError(f"--landmark-radius must not be negative, got {landmark_radius}")
-    if not area_margin >= 0:
-        raise InputError(f"--area-margin must not be negative, got {area_margin}")
+    if not o.gap_threshold > 0:
+        raise InputError(f"--gap-threshold must be positive, got {o.gap_threshold}")
+    if not o.landmark_radius >= 0:
+        raise InputError(f"--landmark-radius must not be negative, got {o.landmark_radius}")
+    if not o.area_margin >= 0:
+        raise InputError(f"--area-margin must not be negative, got {o.area_margin}")
     inputs: list[str | Path] = [dataset_dir, *(Path(dataset_dir).glob("*.dat")
                                                 if Path(dataset_dir).is_dir() else [])]
     if robot is not None:
-        guard_output(output, inputs, force=force)
+        guard_output(output, inputs, force=o.force)
     else:
-        guard_directory(output, [f"robot{r}.mcap" for r in ROBOT_SUBJECTS], inputs, force=force)
-    delay = _delay(odometry_delay) if isinstance(odometry_delay, str) else odometry_delay
-    settings = ImportSettings(gap_threshold_s=gap_threshold, landmark_radius_m=landmark_radius,
-                              area_margin_m=area_margin, odometry_delay_s=delay)
-    with Progress(0, "import", enabled=show_progress, delay_s=1.0) as bar:
+        guard_directory(output, [f"robot{r}.mcap" for r in ROBOT_SUBJECTS], inputs,
+                        force=o.force)
+    settings = ImportSettings(gap_threshold_s=o.gap_threshold,
+                              landmark_radius_m=o.landmark_radius,
+                              area_margin_m=o.area_margin, odometry_delay_s=o.odometry_delay)
+    with Progress(0, "import", enabled=o.show_progress, delay_s=1.0) as bar:
         if robot is not None:
             return [import_robot(dataset_dir, robot, output, settings=settings,
-                                 compression=compression, progress=bar)]
-        return import_all(dataset_dir, output, settings=settings, compression=compression,
+                                 compression=o.compression, progress=bar)]
+        return import_all(dataset_dir, output, settings=settings, compression=o.compression,
                           progress=bar)
 
 
-def _delay(text: str) -> float | None:
-    """``--odometry-delay``: None for auto, else seconds in [0, 5]."""
-    from lgvtool.errors import InputError
+@dataclass(frozen=True, slots=True)
+class Ros2ImportOptions:
+    """What :func:`import_ros2` imports, and how (``lgvtool import ros2``)."""
 
-    if text.strip().lower() == "auto":
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(f"--odometry-delay expects seconds or auto, got '{text}'") from None
-    if not 0.0 <= value <= 5.0:
-        raise InputError(f"--odometry-delay must be within 0 to 5 s, got '{text}'")
-    return value
+    bag: str
+    """The rosbag2 bag: a bag folder, or one .mcap or .db3 file."""
+    output: str
+    """The log (.mcap) to write (replaced atomically; an existing one only with
+    :attr:`force`)."""
+    topics: Mapping[str, str] = field(default_factory=dict)
+    """Topic of a role instead of the automatic choice: role (odom, gyro, nav, reflectors,
+    truth, tf) -> topic name, or ``none`` to leave the role out."""
+    config_path: str | None = None
+    """Vehicle geometry and reflector map (TOML) stored in the log."""
+    sensor_frame: str | None = None
+    """Frame of the navigation sensor in /tf; None: found as ``import ros2 --help`` says."""
+    nav_frame: str | None = None
+    """Frame whose pose a generic NAV pose topic gives; None: as the messages say, else the
+    vehicle frame (REP 105)."""
+    circle_from: str = "auto"
+    """What evaluate fits the reference circle to: auto, truth, none, a pose /topic of the
+    bag or an estimator's name."""
+    compression: str = "zstd"
+    """Chunk compression of the log: zstd, lz4 or none."""
+    force: bool = False
+    """Replace an existing :attr:`output`."""
 
 
-def import_ros2(bag: str, output: str, *, topic_options: Sequence[str] = (),
-                config_path: str | None = None, sensor_frame: str | None = None,
-                nav_frame: str | None = None, circle_from: str = "auto",
-                compression: str = "zstd", force: bool = False) -> Ros2ImportSummary:
-    """Import the rosbag2 ``bag`` (a bag folder, or one .mcap or .db3 file) into the log
-    ``output`` (replaced atomically; an existing one only with ``force``). ``topic_options``
-    are ``ROLE=/name`` choices (odom, gyro, nav, reflectors, truth, tf; ``ROLE=none`` leaves a
-    role out), ``config_path`` the vehicle geometry and reflector map (TOML) stored in the
-    log, ``sensor_frame`` the navigation sensor's frame in /tf, ``nav_frame`` the frame whose
-    pose a generic NAV pose topic gives, ``circle_from`` what evaluate fits the reference
-    circle to (auto, truth, none, a /topic or an estimator). Returns the import summary.
+def import_ros2(options: Ros2ImportOptions) -> Ros2ImportSummary:
+    """Import the ``options``' rosbag2 bag into its log (see :class:`Ros2ImportOptions`).
+    Returns the import summary.
 
     :raises InputError: (exit 2) a bag that cannot be read, a bad topic choice, a refused
         output.
     """
     from lgvtool.interop.ros2_import import import_bag
 
-    return import_bag(bag, output, topic_options=topic_options, config=config_path,
-                      sensor_frame=sensor_frame, nav_frame=nav_frame, circle_from=circle_from,
-                      compression=compression, force=force)
+    o = options
+    # import_bag takes the choices as --topic gives them (ROLE=/name), and reads them back
+    return import_bag(o.bag, o.output,
+                      topic_options=[f"{role}={name}" for role, name in o.topics.items()],
+                      config=o.config_path, sensor_frame=o.sensor_frame,
+                      nav_frame=o.nav_frame, circle_from=o.circle_from,
+                      compression=o.compression, force=o.force)

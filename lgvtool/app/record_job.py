@@ -3,41 +3,81 @@ crash-safe log (``lgvtool record``)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 from lgvtool.app.job_output import JobOutput
 
+if TYPE_CHECKING:
+    from lgvtool.devices.device_registry import OptionValue
+    from lgvtool.live.live_server import LiveAddress
 
-def record_devices(output: str, *, duration: float | None = None, speed_input: bool = False,
-                   layer: int = 0, read_layout: bool = True, write_layout: str | None = None,
-                   map_at: tuple[float, float, float] | None = None,
-                   map_layout: str | None = None, warn: str | None = None,
-                   reply_timeout: float = 1.0,
-                   split_size: float | None = None, split_duration: float | None = None,
-                   config_file: str | None = None, status: bool = True, force: bool = False,
-                   live: str | None = None, live_estimators: Sequence[str] = (),
-                   command: str = "", **device_options: Any) -> JobOutput:
-    """Record the devices into ``output`` until ``duration`` s have passed, Ctrl-C or SIGTERM.
 
-    ``device_options`` are the device families' ``record`` options, by parameter name (each
-    family's registration takes its own, :mod:`lgvtool.devices.device_registry`): the link URLs
-    ``nav_url`` (NAV200), ``mcu_url`` and ``nav350_url`` (``serial:///dev/ttyS0?baud=19200&
-    parity=E`` or ``tcp://HOST:PORT``); the NAV200's ``poll_period`` s (default 0.45),
-    ``omega_units`` (rev or half-deg: the yaw rate unit of its speed input), ``sliding_mean``,
-    ``action_radii`` (m) and ``nearest``; the NAV350's ``nav350_cola`` (binary or ascii).
-    Shared by the laser devices (:mod:`lgvtool.devices.layout_plan`): replies are awaited
-    ``reply_timeout`` s, ``speed_input`` sends the MCU odometry's speed, ``layer`` is the
-    reflector layer, ``read_layout`` reads the device's stored layout into the log,
-    ``write_layout`` (a layout file) is written as the device's layout (erasing the stored
-    one: said on stderr first), ``map_at`` (x m, y m, heading deg of the NAV head) runs one
-    mapping from there and ``map_layout`` (a layout file, created or merged into) receives the
-    landmarks found. ``warn``: a line for stderr before recording (e.g. an old option's new
-    name). A new file starts every ``split_size`` MB (10^6 bytes) or
-    ``split_duration`` s. ``config_file``: the vehicle and reflector configuration (TOML)
-    stored in the log. ``live`` (``[HOST:]PORT``) also serves the recording live, with the
-    online ``live_estimators``. ``command`` is stored in the log's metadata as the command line
-    that recorded it.
+@dataclass(frozen=True, slots=True)
+class RecordOptions:
+    """What :func:`record_devices` records, from which devices, and how (``lgvtool
+    record``)."""
+
+    output: str
+    """The log (MCAP) to write, in place (crash-safe; with splitting
+    OUT-YYYYmmddTHHMMSSZ.mcap files)."""
+    device_options: Mapping[str, OptionValue] = field(default_factory=dict)
+    """The device families' ``record`` options by parameter name, each taken by its family's
+    registration (:attr:`lgvtool.devices.device_registry.DeviceFamily.RECORD_OPTIONS`): the
+    link URLs ``nav_url`` (NAV200), ``mcu_url`` and ``nav350_url`` (``serial:///dev/ttyS0?
+    baud=19200&parity=E`` or ``tcp://HOST:PORT``); the NAV200's ``poll_period`` s (default
+    0.45), ``omega_units`` (rev or half-deg: the yaw rate unit of its speed input),
+    ``sliding_mean``, ``action_radii`` (m, m) and ``nearest``; the NAV350's ``nav350_cola``
+    (binary or ascii). A family's option left out takes its declared default; a link left out
+    (or None) is not recorded."""
+    duration: float | None = None
+    """Recording length, s; None: until Ctrl-C or SIGTERM."""
+    speed_input: bool = False
+    """Poll the laser devices with the MCU odometry's speed (needs ``mcu_url``)."""
+    layer: int = 0
+    """Reflector layer (0-255) read, written, mapped and navigated on."""
+    read_layout: bool = True
+    """Read the device's stored layout of :attr:`layer` into the log."""
+    write_layout: str | None = None
+    """A layout file (lgvtool TOML or SICK .imk) written as the device's layout of
+    :attr:`layer`, erasing the stored one (said on stderr first); None: nothing is written to
+    a device."""
+    map_at: tuple[float, float, float] | None = None
+    """Run the device's mapping once from the NAV head at (x m, y m, heading deg) in the
+    layout frame; None: no mapping."""
+    map_layout: str | None = None
+    """With :attr:`map_at`: the layout file (created or merged into) that receives the
+    landmarks found."""
+    warning: str | None = None
+    """A line for stderr before recording (e.g. an old option's new name)."""
+    reply_timeout: float = 1.0
+    """Reply timeout of the NAV200 and the NAV350, s."""
+    split_size: float | None = None
+    """Start a new file once the current one holds this many MB (10^6 bytes); None: never."""
+    split_duration: float | None = None
+    """Start a new file every this many s; None: never."""
+    config_file: str | None = None
+    """Vehicle and reflector configuration (TOML) stored in the log; None: the defaults."""
+    status: bool = True
+    """Live status line on stderr."""
+    force: bool = False
+    """Replace an existing :attr:`output`."""
+    live: LiveAddress | None = None
+    """Also serve the recording live (Foxglove WebSocket) on this address; None: not."""
+    live_estimators: tuple[str, ...] = ()
+    """Online estimators shown live (needs :attr:`live`)."""
+    command: str = ""
+    """The command line that recorded the log, stored in its metadata."""
+
+
+def record_devices(options: RecordOptions) -> JobOutput:
+    """Record the devices of the ``options`` into their output until their duration has
+    passed, Ctrl-C or SIGTERM (see :class:`RecordOptions`).
+
+    The device families' options (``device_options``) are each taken by its family's
+    registration (:mod:`lgvtool.devices.device_registry`); the layout options are shared by
+    the laser devices (:mod:`lgvtool.devices.layout_plan`).
 
     The document holds the files written, the message counts, the errors, the elapsed s, the
     bytes, why the recording stopped, the devices and the live view's figures; the text is the
@@ -59,8 +99,11 @@ def record_devices(output: str, *, duration: float | None = None, speed_input: b
     from lgvtool.layout_file import read_layout as read_layout_file
     from lgvtool.outputs import guard_output
 
+    o = options
+    output, layer, write_layout, map_layout = o.output, o.layer, o.write_layout, o.map_layout
+    config_file, device_options = o.config_file, o.device_options
     # the recording is written where it is (crash-safe, no rename), so /dev/null may take it
-    guard_output(output, [config_file, write_layout, map_layout], force=force, in_place=True)
+    guard_output(output, [config_file, write_layout, map_layout], force=o.force, in_place=True)
     if map_layout is not None:
         guard_output(map_layout, [output, config_file, write_layout], force=True)
     regs = registrations()
@@ -73,10 +116,10 @@ def record_devices(output: str, *, duration: float | None = None, speed_input: b
             if shared:
                 raise InputError(f"record: {a.TITLE} and {b.TITLE} would both write "
                                  f"{', '.join(shared)}; record one of them")
-    if speed_input and all(device_options.get(r.RECORD_URL_PARAM) is None
-                           for r in regs if r.ODOMETRY):
+    if o.speed_input and all(device_options.get(r.RECORD_URL_PARAM) is None
+                             for r in regs if r.ODOMETRY):
         raise InputError("record: --speed-input needs the MCU's odometry (--mcu URL)")
-    live_at = _live_options(live, live_estimators)
+    _check_live(o.live, o.live_estimators)
     config = load_config(config_file)
     written: tuple[Any, ...] = ()
     if write_layout is not None:
@@ -93,28 +136,29 @@ def record_devices(output: str, *, duration: float | None = None, speed_input: b
             existing = read_layout_file(map_layout)
         except ConfigError as exc:
             raise InputError(f"record: --map-layout: {exc}") from None
-    plan = LayoutPlan(layer=layer, read=read_layout, write=written, write_source=write_layout,
+    map_at = o.map_at
+    plan = LayoutPlan(layer=layer, read=o.read_layout, write=written, write_source=write_layout,
                       map_at=None if map_at is None else MapPose(
                           map_at[0], map_at[1], math.radians(map_at[2])))
-    options = dict(device_options)
+    untaken = dict(device_options)  # each family takes its own options out
     devices = {}
     for reg in regs:
-        device = reg.recorder_settings(options, layout=plan, speed_input=speed_input,
-                                       reply_timeout=reply_timeout, config=config)
+        device = reg.recorder_settings(untaken, layout=plan, speed_input=o.speed_input,
+                                       reply_timeout=o.reply_timeout, config=config)
         if device is not None:
             devices[reg.DEVICE] = device
-    if options:
+    if untaken:
         raise TypeError(f"record_devices: no device family has the option(s) "
-                        f"{', '.join(sorted(options))}")
+                        f"{', '.join(sorted(untaken))}")
     settings = RecorderSettings(
-        output=Path(output), devices=devices, duration=duration,
-        split_bytes=None if split_size is None else int(split_size * 1e6),
-        split_seconds=split_duration, config=config, status=status,
-        overwrite=force, command=command,
-        live=live_at, live_estimators=tuple(live_estimators),
+        output=Path(output), devices=devices, duration=o.duration,
+        split_bytes=None if o.split_size is None else int(o.split_size * 1e6),
+        split_seconds=o.split_duration, config=config, status=o.status,
+        overwrite=o.force, command=o.command,
+        live=o.live, live_estimators=tuple(o.live_estimators),
     )
-    if warn is not None:
-        print(f"lgvtool: warning: {warn}", file=sys.stderr)
+    if o.warning is not None:
+        print(f"lgvtool: warning: {o.warning}", file=sys.stderr)
     if written:
         print(f"lgvtool: warning: record: --write-layout {write_layout}: the device's stored "
               f"layout of layer {layer} will be ERASED and replaced by {len(written)} "
@@ -148,16 +192,14 @@ def record_devices(output: str, *, duration: float | None = None, speed_input: b
     return JobOutput(document, result.summary(), epilogue=epilogue)
 
 
-def _live_options(live: str | None, estimators: Sequence[str]) -> object:
-    """The live server's address (None without ``live``); checks the estimators' names."""
+def _check_live(live: LiveAddress | None, estimators: Sequence[str]) -> None:
+    """Check the online estimators: their names, and that they have a live server."""
     from lgvtool.errors import InputError
 
     if live is None:
         if estimators:
             raise InputError("record: --live-estimator needs --live [HOST:]PORT")
-        return None
-    from lgvtool.live.live_server import parse_address
+        return
     from lgvtool.localize.registry import check_names
 
     check_names(list(estimators))
-    return parse_address(live)

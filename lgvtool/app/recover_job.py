@@ -2,28 +2,43 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from lgvtool.app.job_output import JobOutput
 
 
-def recover_log(broken: str, output: str, *, compression: str = "zstd",
-                force: bool = False) -> JobOutput:
-    """Write every intact message of ``broken`` (a log cut off by a crash, power loss or a
-    full disk) into ``output``, a complete, indexed log (through a temporary file; an existing
-    one is replaced only with ``force``, an input never). The document is the recovery report
+@dataclass(frozen=True, slots=True)
+class RecoverOptions:
+    """What :func:`recover_log` recovers, and into what (``lgvtool recover``)."""
+
+    broken: str
+    """The log cut off by a crash, power loss or a full disk."""
+    output: str
+    """The complete, indexed log to write (through a temporary file); an existing one is
+    replaced only with :attr:`force`, an input never."""
+    compression: str = "zstd"
+    """Chunk compression of :attr:`output`: zstd, lz4 or none."""
+    force: bool = False
+    """Replace an existing :attr:`output`."""
+
+
+def recover_log(options: RecoverOptions) -> JobOutput:
+    """Write every intact message of the ``options``' broken log into its output, a
+    complete, indexed log (see :class:`RecoverOptions`). The document is the recovery report
     (messages and bytes saved, what was lost), the text its summary and the time span of what
     was saved, in ISO-8601 UTC as ``lgvtool info`` prints it.
 
-    :raises InputError: (exit 2) nothing can be read from ``broken``, or a refused output.
+    :raises InputError: (exit 2) nothing can be read from the broken log, or a refused output.
     """
     import warnings
 
     from lgvtool.log import salvage
     from lgvtool.outputs import atomic_output, guard_output
 
-    guard_output(output, [broken], force=force)
-    with warnings.catch_warnings(), atomic_output(output) as tmp:
+    guard_output(options.output, [options.broken], force=options.force)
+    with warnings.catch_warnings(), atomic_output(options.output) as tmp:
         warnings.simplefilter("ignore")
-        report = salvage.recover(broken, tmp, compression=compression)
+        report = salvage.recover(options.broken, tmp, compression=options.compression)
     return JobOutput(report.__dict__, report.summary() + _time_line(report.first_s, report.last_s))
 
 

@@ -9,8 +9,12 @@ headings in rad, times in the log's own clock.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from lgvtool.app.option_values import SettingValue
 
 # The filters' matrix products are tiny (at most particles x reflectors): BLAS threads only add
 # their start-up and their spinning between calls (about 0.1 s of an hour's replay). Set before
@@ -22,24 +26,53 @@ def _ignore(text: str) -> None:
     """The default ``warn`` of :func:`replay_log`: warnings are dropped."""
 
 
-def replay_log(log: str, output: str, *, estimators: Sequence[str] = (),
-               particles: int | None = None, seed: int = 0, sets: Sequence[str] = (),
-               config_path: str | None = None, start_at_truth: bool = False,
-               cloud_period: float = 2.0, cloud_size: int = 50, compression: str = "zstd",
-               view: bool = True, force: bool = False, threads: int | None = None,
-               show_progress: bool = True, warn: Callable[[str], None] = _ignore
-               ) -> dict[str, Any]:
-    """Replay ``log`` through ``estimators`` (default: all five) and write ``output``.
+@dataclass(frozen=True, slots=True)
+class ReplayOptions:
+    """What :func:`replay_log` replays, through which estimators, and what it writes
+    (``lgvtool replay``)."""
 
-    ``particles`` sets the particle count of the particle filters chosen; ``sets`` are
-    ``KEY=VALUE`` estimator settings (``pf.particles=500``); ``config_path`` a configuration
-    TOML used instead of the log's own (and stored in the output); ``start_at_truth`` starts
-    every estimator at the log's ground truth. One particle cloud of at most ``cloud_size``
-    particles is kept per ``cloud_period`` s. ``output`` replaces an existing file only with
-    ``force`` and never an input; it is written through a temporary file. ``warn`` receives
-    each warning (corrupt chunks of the input, estimators left out) as it is met. The
-    estimators run on ``threads`` threads at once (default: one per estimator, at most one
-    per CPU, with the compiled kernels, else one; the same output for any count).
+    log: str
+    """The log (MCAP) to replay."""
+    output: str
+    """The log to write (through a temporary file): every message of :attr:`log` plus the
+    estimates; an existing one is replaced only with :attr:`force`, an input never."""
+    estimators: tuple[str, ...] = ()
+    """Estimators to run; empty: all five (an estimator that cannot run on the log is then
+    skipped with a warning, not refused)."""
+    particles: int | None = None
+    """Particle count of the particle filters chosen (pf-paper, pf); None: their setting."""
+    seed: int = 0
+    """Seed of every random draw; the same seed gives identical output."""
+    settings: Mapping[str, SettingValue] = field(default_factory=dict)
+    """Estimator settings (``pf.particles`` -> 500)."""
+    config_path: str | None = None
+    """Configuration (TOML) used instead of the log's own (and stored in the output); None:
+    the log's."""
+    start_at_truth: bool = False
+    """Start every estimator at the log's ground truth (/truth/pose)."""
+    cloud_period: float = 2.0
+    """One particle cloud kept per this many s of log time."""
+    cloud_size: int = 50
+    """At most this many particles per kept cloud (0: no clouds)."""
+    compression: str = "zstd"
+    """Chunk compression of :attr:`output`: zstd, lz4 or none."""
+    view: bool = True
+    """Also write the channels Foxglove draws (frames, NAV head and scans, covariance
+    ellipses, reference circle)."""
+    force: bool = False
+    """Replace an existing :attr:`output`."""
+    threads: int | None = None
+    """Threads the estimators run on at once; None: one per estimator, at most one per CPU,
+    with the compiled kernels, else one (the same output for any count)."""
+    show_progress: bool = True
+    """Progress on stderr once the replay takes over a second."""
+
+
+def replay_log(options: ReplayOptions, *, warn: Callable[[str], None] = _ignore
+               ) -> dict[str, Any]:
+    """Replay the ``options``' log through its estimators and write its output (see
+    :class:`ReplayOptions`). ``warn`` receives each warning (corrupt chunks of the input,
+    estimators left out) as it is met.
 
     Returns the summary ``lgvtool replay --json`` prints: output, seed, per estimator its
     estimates, clouds and seconds, skipped estimators with the reason, messages written and
@@ -51,24 +84,18 @@ def replay_log(log: str, output: str, *, estimators: Sequence[str] = (),
     from lgvtool.gc_pause import collector_paused
     from lgvtool.outputs import guard_output
 
-    guard_output(output, [log, config_path], force=force)
+    guard_output(options.output, [options.log, options.config_path], force=options.force)
     with collector_paused():
-        return _replay(log, output, list(estimators), particles, seed, sets, config_path,
-                       start_at_truth, cloud_period, cloud_size, compression, show_progress,
-                       view, warn, threads)
+        return _replay(options, warn)
 
 
-def _replay(log: str, output: str, estimators: list[str], particles: int | None,
-            seed: int, sets: Sequence[str], config_path: str | None, start_at_truth: bool,
-            cloud_period: float, cloud_size: int, compression: str,
-            show_progress: bool, view: bool, warn: Callable[[str], None],
-            threads: int | None) -> dict[str, Any]:
+def _replay(options: ReplayOptions, warn: Callable[[str], None]) -> dict[str, Any]:
     """The replay (see :func:`replay_log`)."""
     import time
     import warnings
     from dataclasses import fields
 
-    from lgvtool.config import load_config, parse_set_options
+    from lgvtool.config import load_config
     from lgvtool.errors import InputError, MissingDataError
     from lgvtool.localize.registry import DEFAULT_ESTIMATORS, ESTIMATORS, check_names
     from lgvtool.localize.replay_driver import LazyScans, load_log, replay_data
@@ -76,9 +103,12 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
     from lgvtool.log.view_channels import LogRows, RowCollector
     from lgvtool.outputs import atomic_output
 
+    o = options
+    log, output, estimators, particles, seed = o.log, o.output, o.estimators, o.particles, o.seed
+    config_path, start_at_truth, view = o.config_path, o.start_at_truth, o.view
     started = time.perf_counter()
     names = check_names(list(estimators) if estimators else list(DEFAULT_ESTIMATORS))
-    settings: dict[str, Any] = parse_set_options(list(sets))
+    settings: dict[str, Any] = dict(o.settings)
     if particles is not None:
         targets = [n for n in names
                    if any(f.name == "particles" for f in fields(ESTIMATORS[n].Params))]
@@ -104,11 +134,11 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
 
     total = len(names) * (len(data.scans) + (len(data.nav["t"]) if data.nav else 0))
     t0 = time.perf_counter()
-    with Progress(max(total, 1), "replay", enabled=show_progress, delay_s=1.0) as bar:
+    with Progress(max(total, 1), "replay", enabled=o.show_progress, delay_s=1.0) as bar:
         result = replay_data(data, names, config=cfg, seed=seed, settings=settings,
                              initial_pose="truth" if start_at_truth else None,
-                             progress=bar.advance, cloud_period_s=cloud_period,
-                             cloud_size=cloud_size, threads=threads)
+                             progress=bar.advance, cloud_period_s=o.cloud_period,
+                             cloud_size=o.cloud_size, threads=o.threads)
         bar.set(max(total, 1))
     t_filter = time.perf_counter() - t0
     if estimators:
@@ -126,7 +156,7 @@ def _replay(log: str, output: str, estimators: list[str], particles: int | None,
             scans = data.scans.decoded_columns() if isinstance(data.scans, LazyScans) else None
             rows = LogRows(reader, scans, collector)
         written = write_replay_log(reader, str(tmp), result, cfg if config_path else None, log,
-                                   compression, view_config=cfg if view else None, rows=rows)
+                                   o.compression, view_config=cfg if view else None, rows=rows)
     t_write = time.perf_counter() - t1
     return {
         "output": output,

@@ -2,36 +2,59 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from lgvtool.app.option_values import SettingValue
 
 
-def simulate_log(scenario: str, output: str, *, seed: int = 0, config_path: str | None = None,
-                 sets: Sequence[str] = (), duration: float | None = None,
-                 compression: str = "zstd", force: bool = False) -> dict[str, Any]:
-    """Simulate ``scenario`` with ``seed`` and write the log a recorder would have written
-    into ``output`` (through a temporary file; an existing one is replaced only with
-    ``force``). ``config_path``: vehicle, area, reflector map and [simulator] settings (TOML);
-    ``sets``: ``KEY=VALUE`` overrides (``nav.latency_s=0``, ``scenario.speed=0.5``);
-    ``duration``: length of the run, s (default: the scenario's own).
+@dataclass(frozen=True, slots=True)
+class SimulateOptions:
+    """What :func:`simulate_log` simulates, and into what (``lgvtool simulate``)."""
+
+    scenario: str
+    """The scenario to simulate (``lgvtool simulate --list``)."""
+    output: str
+    """The log (MCAP) to write (through a temporary file); an existing one is replaced only
+    with :attr:`force`."""
+    seed: int = 0
+    """Seed of every random draw; the same seed gives the same messages."""
+    config_path: str | None = None
+    """Vehicle, area, reflector map and [simulator] settings (TOML); None: the defaults."""
+    settings: Mapping[str, SettingValue] = field(default_factory=dict)
+    """Setting overrides (``nav.latency_s`` -> 0, ``scenario.speed`` -> 0.5; docs/simulator.md)."""
+    duration: float | None = None
+    """Length of the run, s of simulated time; None: the scenario's own."""
+    compression: str = "zstd"
+    """Chunk compression of :attr:`output`: zstd, lz4 or none."""
+    force: bool = False
+    """Replace an existing :attr:`output`."""
+
+
+def simulate_log(options: SimulateOptions) -> dict[str, Any]:
+    """Simulate the ``options``' scenario and write the log a recorder would have written into
+    its output (see :class:`SimulateOptions`).
 
     Returns output, scenario, seed, ``duration_s`` (s of simulated time), ``messages`` written
     and ``faults`` (injected fault kind -> count).
 
     :raises InputError: (exit 2) an unknown scenario or setting, or a refused output.
     """
-    from lgvtool.config import load_config, parse_set_options
+    from lgvtool.config import load_config
     from lgvtool.outputs import atomic_output, guard_output
     from lgvtool.sim.logfile import write_log
     from lgvtool.sim.simulation import simulate
 
-    guard_output(output, [config_path], force=force)
-    config = load_config(config_path)
-    overrides = parse_set_options(list(sets))
-    sim = simulate(scenario, seed=seed, config=config, overrides=overrides, duration=duration)
-    with atomic_output(output) as tmp:
-        summary = write_log(sim, tmp, compression=compression)
-    return {"output": output, "scenario": scenario, "seed": seed,
+    o = options
+    guard_output(o.output, [o.config_path], force=o.force)
+    config = load_config(o.config_path)
+    sim = simulate(o.scenario, seed=o.seed, config=config, overrides=dict(o.settings),
+                   duration=o.duration)
+    with atomic_output(o.output) as tmp:
+        summary = write_log(sim, tmp, compression=o.compression)
+    return {"output": o.output, "scenario": o.scenario, "seed": o.seed,
             "duration_s": summary.duration_s, "messages": summary.messages,
             "faults": summary.faults}
 

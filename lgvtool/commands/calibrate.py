@@ -59,13 +59,12 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
     input, a drive that cannot observe what is asked (unless --allow-unobservable), or an
     output that is an input.
     """
-    from lgvtool.app.calibrate_job import calibrate_logs
+    from lgvtool.app.calibrate_job import CalibrateOptions, calibrate_logs
 
     chosen = [] if compare_with.strip().lower() == "none" else _names(compare_with, "--compare")
-    print_output(calibrate_logs(logs, output, config_path=config_path,
-                                estimate=_names(estimate, "--estimate") or None,
-                                fix=_names(fix, "--fix"),
-                                observations=observations,
-                                allow_unobservable=allow_unobservable, compare_with=chosen,
-                                seed=seed, start_at_truth=start_at_truth, force=force,
-                                show_progress=show_progress), as_json)
+    print_output(calibrate_logs(CalibrateOptions(
+        tuple(logs), output, config_path=config_path,
+        estimate=tuple(_names(estimate, "--estimate")) or None,
+        fix=tuple(_names(fix, "--fix")), observations=observations,
+        allow_unobservable=allow_unobservable, compare_with=tuple(chosen), seed=seed,
+        start_at_truth=start_at_truth, force=force, show_progress=show_progress)), as_json)

@@ -29,6 +29,7 @@ def decode(log: str, output: str, compression: str, force: bool, as_json: bool) 
 
     Use it after a decoder fix: raw bytes are always logged, so nothing is lost.
     """
-    from lgvtool.app.decode_job import decode_file
+    from lgvtool.app.decode_job import DecodeOptions, decode_file
 
-    print_output(decode_file(log, output, compression=compression, force=force), as_json)
+    print_output(decode_file(DecodeOptions(log, output, compression=compression, force=force)),
+                 as_json)

@@ -115,20 +115,28 @@ def evaluate(
 ) -> None:
     import sys
 
-    from lgvtool.app.evaluate_job import evaluate_logs
+    from lgvtool.app.evaluate_job import EvaluateOptions, evaluate_logs
+    from lgvtool.app.option_values import (
+        parse_bounds,
+        parse_settings,
+        parse_tolerance,
+        parse_trajectories,
+    )
     from lgvtool.errors import InputError
     from lgvtool.outputs import printable
 
     if as_json and fmt not in ("text", "json"):
         raise InputError(f"--json prints JSON; it cannot be combined with --format {fmt}")
     fmt = "json" if as_json else fmt
-    run = evaluate_logs(
-        logs, outdir=outdir, fmt=fmt, estimators=split_names(estimators) or None,
-        maxima=maxima, minima=minima, baseline=baseline, tolerance=tolerance, seed=seed,
-        sets=sets, config_path=config_path, shared_centre=shared_centre,
+    run = evaluate_logs(EvaluateOptions(
+        tuple(logs), outdir=outdir, fmt=fmt, estimators=tuple(split_names(estimators)) or None,
+        maxima=parse_bounds(maxima, "--max"), minima=parse_bounds(minima, "--min"),
+        baseline=baseline, tolerance=parse_tolerance(tolerance), seed=seed,
+        settings=parse_settings(sets), config_path=config_path, shared_centre=shared_centre,
         free_radius=free_radius, png=png, workers=workers, threads=threads, scheduler=scheduler,
-        tls=(tls_ca_file, tls_cert, tls_key), force=force, start_at_truth=start_at_truth,
-        foreign=foreign, show_progress=show_progress, wide=wide)
+        tls_ca_file=tls_ca_file, tls_cert=tls_cert, tls_key=tls_key, force=force,
+        start_at_truth=start_at_truth, trajectories=parse_trajectories(foreign),
+        show_progress=show_progress, wide=wide))
     for w in run.warnings:
         warn(w)
     click.echo(run.text if fmt == "json" else printable(run.text), nl=False)

@@ -48,12 +48,13 @@ def export(log: str, outdir: str, fmt: str, estimators: tuple[str, ...], seed: i
     """
     import json
 
-    from lgvtool.app.export_job import export_trajectories
+    from lgvtool.app.export_job import ExportOptions, export_trajectories
+    from lgvtool.app.option_values import parse_settings
 
-    summary = export_trajectories(log, outdir, fmt, estimators=split_names(estimators) or None,
-                                  seed=seed, sets=sets, config_path=config_path,
-                                  start_at_truth=start_at_truth, force=force,
-                                  threads=threads if threads is not None else 1)
+    summary = export_trajectories(ExportOptions(
+        log, outdir, fmt, estimators=tuple(split_names(estimators)) or None, seed=seed,
+        settings=parse_settings(sets), config_path=config_path, start_at_truth=start_at_truth,
+        force=force, threads=threads if threads is not None else 1))
     for w in summary.warnings:
         warn(w)
     click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())

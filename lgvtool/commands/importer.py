@@ -53,12 +53,14 @@ def mrclam(dataset_dir: str, robot: int | None, all_robots: bool, output: str, a
     """
     import json
 
-    from lgvtool.app.import_job import import_mrclam
+    from lgvtool.app.import_job import MrclamImportOptions, import_mrclam
+    from lgvtool.app.option_values import parse_odometry_delay
 
-    summaries = import_mrclam(dataset_dir, output, robot=robot, all_robots=all_robots,
-                              gap_threshold=gap_threshold, landmark_radius=landmark_radius,
-                              area_margin=area_margin, odometry_delay=odometry_delay,
-                              compression=compression, force=force, show_progress=show_progress)
+    summaries = import_mrclam(MrclamImportOptions(
+        dataset_dir, output, robot=robot, all_robots=all_robots, gap_threshold=gap_threshold,
+        landmark_radius=landmark_radius, area_margin=area_margin,
+        odometry_delay=parse_odometry_delay(odometry_delay), compression=compression,
+        force=force, show_progress=show_progress))
     if robot is not None:
         (summary,) = summaries
         click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())
@@ -112,9 +114,11 @@ def ros2(bag: str, output: str, topic_options: tuple[str, ...], config_path: str
     """
     import json
 
-    from lgvtool.app.import_job import import_ros2
+    from lgvtool.app.import_job import Ros2ImportOptions, import_ros2
+    from lgvtool.app.option_values import parse_topics
 
-    summary = import_ros2(bag, output, topic_options=topic_options, config_path=config_path,
-                          sensor_frame=sensor_frame, nav_frame=nav_frame,
-                          circle_from=circle_from, compression=compression, force=force)
+    summary = import_ros2(Ros2ImportOptions(
+        bag, output, topics=parse_topics(topic_options), config_path=config_path,
+        sensor_frame=sensor_frame, nav_frame=nav_frame, circle_from=circle_from,
+        compression=compression, force=force))
     click.echo(json.dumps(summary.to_dict(), indent=2) if as_json else summary.format_text())

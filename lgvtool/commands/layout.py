@@ -27,6 +27,7 @@ def convert(source: str, output: str, layer: int | None, force: bool, as_json: b
     m, radius m, layer) and write its reflectors to the -o FILE in the format its suffix names. .imk lines
     are 'globID x_mm y_mm type subtype size_mm layer...': the size (mm) is the reflector's
     diameter, a landmark's first layer is its layer, and type and subtype are written as 1."""
-    from lgvtool.app.layout_job import convert_layout
+    from lgvtool.app.layout_job import LayoutConvertOptions, convert_layout
 
-    print_output(convert_layout(source, output, layer=layer, force=force), as_json)
+    print_output(convert_layout(LayoutConvertOptions(source, output, layer=layer, force=force)),
+                 as_json)

@@ -13,6 +13,7 @@ from lgvtool.devices.device_registry import (
     ChoiceValue,
     IntegerValue,
     NumberValue,
+    OptionValue,
     PairValue,
     RecordOption,
     TextValue,
@@ -117,7 +118,7 @@ def record(output: str, duration: float | None, speed_input: bool, layer: int,
            split_size: float | None,
            split_duration: float | None, config_file: str | None, status: bool, force: bool,
            as_json: bool, live: str | None = None, live_estimators: tuple[str, ...] = (),
-           **device_options: Any) -> None:
+           **device_options: OptionValue) -> None:
     """Record the MCU frame stream and the NAV200 (polled for its pose, --nav) or the NAV350
     (pose and landmarks, --nav350) into OUTPUT.
 
@@ -134,24 +135,26 @@ def record(output: str, duration: float | None, speed_input: bool, layer: int,
     import shlex
     import sys
 
-    from lgvtool.app.record_job import record_devices
+    from lgvtool.app.option_values import parse_live_address
+    from lgvtool.app.record_job import RecordOptions, record_devices
     from lgvtool.errors import InputError
 
-    warn = None
+    warning = None
     if no_map_upload:
-        warn = ("record: --no-map-upload is now --no-read-layout (nothing is written to a "
-                "device unless --write-layout names the file)")
+        warning = ("record: --no-map-upload is now --no-read-layout (nothing is written to a "
+                   "device unless --write-layout names the file)")
         read_layout = False
     if map_layout is not None and map_at is None:
         raise InputError("record: --map-layout needs --map-at X,Y,DEG")
-    print_output(record_devices(
-        output, duration=duration, speed_input=speed_input, layer=layer,
-        read_layout=read_layout, write_layout=write_layout,
+    print_output(record_devices(RecordOptions(
+        output, device_options=device_options, duration=duration, speed_input=speed_input,
+        layer=layer, read_layout=read_layout, write_layout=write_layout,
         map_at=None if map_at is None else _map_pose(map_at), map_layout=map_layout,
-        warn=warn, reply_timeout=reply_timeout, split_size=split_size,
+        warning=warning, reply_timeout=reply_timeout, split_size=split_size,
         split_duration=split_duration, config_file=config_file, status=status, force=force,
-        live=live, live_estimators=split_names(live_estimators, "--live-estimator"),
-        command=shlex.join(["lgvtool", *sys.argv[1:]]), **device_options), as_json)
+        live=None if live is None else parse_live_address(live),
+        live_estimators=tuple(split_names(live_estimators, "--live-estimator")),
+        command=shlex.join(["lgvtool", *sys.argv[1:]]))), as_json)
 
 
 def _map_pose(text: str) -> tuple[float, float, float]:

@@ -18,6 +18,7 @@ def recover(broken: str, output: str, compression: str, force: bool, as_json: bo
     """Write every intact message of LOG (a log cut off by a crash, power loss or a full
     disk) into a complete, indexed log FILE (-o), and say how much was saved and the time it
     spans (ISO-8601 UTC, as info prints it)."""
-    from lgvtool.app.recover_job import recover_log
+    from lgvtool.app.recover_job import RecoverOptions, recover_log
 
-    print_output(recover_log(broken, output, compression=compression, force=force), as_json)
+    print_output(recover_log(RecoverOptions(broken, output, compression=compression,
+                                            force=force)), as_json)

@@ -63,13 +63,14 @@ def replay(log: str, output: str, estimators: tuple[str, ...], particles: int | 
     effective estimator settings and the seed are stored in the metadata record 'replay'.
     Positions in m, headings in rad, times in the log's own clock.
     """
-    from lgvtool.app.replay_job import replay_log
+    from lgvtool.app.option_values import parse_settings
+    from lgvtool.app.replay_job import ReplayOptions, replay_log
 
-    summary = replay_log(log, output, estimators=split_names(estimators), particles=particles,
-                         seed=seed, sets=sets, config_path=config_path,
-                         start_at_truth=start_at_truth, cloud_period=cloud_period,
-                         cloud_size=cloud_size, compression=compression, view=view, force=force,
-                         threads=threads, show_progress=show_progress, warn=warn)
+    summary = replay_log(ReplayOptions(
+        log, output, estimators=tuple(split_names(estimators)), particles=particles, seed=seed,
+        settings=parse_settings(sets), config_path=config_path, start_at_truth=start_at_truth,
+        cloud_period=cloud_period, cloud_size=cloud_size, compression=compression, view=view,
+        force=force, threads=threads, show_progress=show_progress), warn=warn)
     if as_json:
         import json
 

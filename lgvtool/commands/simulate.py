@@ -60,6 +60,8 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
         return
     import json
 
+    from lgvtool.app.option_values import parse_settings
+    from lgvtool.app.simulate_job import SimulateOptions, describe_scenarios, simulate_log
     from lgvtool.errors import InputError
 
     if list_scenarios:
@@ -69,8 +71,6 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
         if given:
             raise InputError(f"--list describes the scenarios and writes nothing; "
                              f"drop {', '.join(given)}")
-        from lgvtool.app.simulate_job import describe_scenarios
-
         listing = describe_scenarios()
         click.echo(json.dumps(listing, indent=2) if as_json else _listing_text(listing))
         return
@@ -78,10 +78,9 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
         raise InputError("simulate needs --scenario NAME (see lgvtool simulate --list)")
     if output is None:
         raise InputError("simulate needs -o FILE, the log to write")
-    from lgvtool.app.simulate_job import simulate_log
-
-    result = simulate_log(scenario, output, seed=seed, config_path=config_path, sets=sets,
-                          duration=duration, compression=compression, force=force)
+    result = simulate_log(SimulateOptions(
+        scenario, output, seed=seed, config_path=config_path, settings=parse_settings(sets),
+        duration=duration, compression=compression, force=force))
     if as_json:
         click.echo(json.dumps(result, indent=2))
         return

@@ -71,13 +71,15 @@ def sweep(logs: tuple[str, ...], outdir: str, estimators: tuple[str, ...],
     """
     import json
 
-    from lgvtool.app.sweep_job import sweep_logs
+    from lgvtool.app.option_values import parse_grid, parse_settings
+    from lgvtool.app.sweep_job import SweepOptions, sweep_logs
 
-    result = sweep_logs(logs, outdir, estimators=split_names(estimators), grid_items=grid_items,
-                        sets=sets, seeds=seeds, scheduler=scheduler,
-                        tls=(tls_ca_file, tls_cert, tls_key), force=force, workers=workers,
-                        config_path=config_path, retry_failed=retry_failed,
-                        show_progress=show_progress)
+    result = sweep_logs(SweepOptions(
+        tuple(logs), outdir, estimators=tuple(split_names(estimators)),
+        grid=parse_grid(grid_items), settings=parse_settings(sets), seeds=seeds,
+        scheduler=scheduler, tls_ca_file=tls_ca_file, tls_cert=tls_cert, tls_key=tls_key,
+        force=force, workers=workers, config_path=config_path, retry_failed=retry_failed,
+        show_progress=show_progress))
     for i, f in enumerate(result.failures):
         if i == MAX_LISTED:
             warn(f"sweep: {len(result.failures) - MAX_LISTED} more failed task(s), see summary.csv")

@@ -42,10 +42,11 @@ def view(log: str, live: str, speed: float, live_estimators: tuple[str, ...], se
     at the recorded pace times --speed, and the estimates of --live-estimator computed online
     as the recorder's --live does. Ctrl-C stops. See docs/live.md.
     """
-    from lgvtool.app.view_job import view_log
+    from lgvtool.app.option_values import parse_live_address, parse_settings
+    from lgvtool.app.view_job import ViewOptions, view_log
 
-    print_output(view_log(log, live=live, speed=speed,
-                          live_estimators=split_names(live_estimators, "--live-estimator"),
-                          seed=seed, sets=sets,
-                          wait_s=wait_s, show_progress=show_progress, warn=warn,
-                          notify=lambda line: click.echo(line, err=True)), as_json)
+    print_output(view_log(ViewOptions(
+        log, parse_live_address(live), speed=speed,
+        live_estimators=tuple(split_names(live_estimators, "--live-estimator")), seed=seed,
+        settings=parse_settings(sets), wait_s=wait_s, show_progress=show_progress),
+        warn=warn, notify=lambda line: click.echo(line, err=True)), as_json)

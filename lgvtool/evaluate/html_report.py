@@ -404,6 +404,12 @@ def _what_was_run(res: EvaluationResult, col: dict[str, str]) -> str:
                 + (f", {res.laps.partial} partial one left out" if res.laps.partial else ""))
         parts.append(f"<p>The reference is the circle the kinematic model predicts, with "
                      f"{e(radius)} and {e(centre)}: {e(laps)}.</p>")
+        if res.truth_path is not None:
+            parts.append(
+                "<p>The vehicle's true path departs from that circle by "
+                f"{res.truth_path.rmse * 1e3:.1f} mm RMS (bias "
+                f"{res.truth_path.mean * 1e3:+.1f} mm): a real vehicle never drives the "
+                "kinematic circle exactly, and every circle figure below includes this.</p>")
     elif res.has_truth:
         parts.append("<p>No reference circle: the estimates are scored against the ground "
                      "truth only.</p>")

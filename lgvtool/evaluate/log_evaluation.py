@@ -193,6 +193,27 @@ def _median_moving_speed(speeds: Any) -> float | None:
     return float(np.median(v)) if v.size else None
 
 
+SCAN_KINDS: dict[str, str] = {
+    "paper-scans": "NAV200 scans (the paper's setup)",
+    "nav350-landmarks": "NAV350 landmarks",
+}
+"""The simulator's ``observations`` mark (``simulator`` metadata) -> how the verdict, the
+tables and the report name a log's reflector observations."""
+
+
+def scan_kind(metadata: Mapping[str, Any]) -> str:
+    """What a log's reflector observations (``/nav/reflectors``) are, in words: the NAV200's
+    scans of the paper's setup (a simulated log made with ``sim.paper_scans``), a NAV350's
+    landmarks (a NAV350 recording, simulated or real), else "reflector scans"."""
+    sim = metadata.get("simulator")
+    mark = sim.get("observations") if isinstance(sim, Mapping) else None
+    if isinstance(mark, str) and mark in SCAN_KINDS:
+        return SCAN_KINDS[mark]
+    if "device.nav350" in metadata:  # a NAV350 recording (lgvtool record)
+        return SCAN_KINDS["nav350-landmarks"]
+    return "reflector scans"
+
+
 def _observations_used(
     reader: LogReader, cfg: Config, names: Sequence[str], used: Mapping[str, Any], source: str,
     foreign: set[str], from_truth: bool, quality: Any,
@@ -212,6 +233,7 @@ def _observations_used(
         stored = (reader.metadata.get("replay") or {}).get("settings")
         settings = stored if isinstance(stored, Mapping) else {}
     has_scans = reader.has_topic(topics.NAV_REFLECTORS) and bool(cfg.reflectors)
+    scans_are = scan_kind(reader.metadata)
     has_poses = reader.has_topic(topics.NAV_POSE) and (
         quality is None or quality.nav_replies > quality.nav_no_position)
     out: dict[str, str] = {}
@@ -238,8 +260,8 @@ def _observations_used(
                                has_scans and cls.uses_scans, has_poses and cls.uses_poses)
         what = []
         if scans:
-            what.append("reflector scans at NAV polls" if params.get("scans") == "nav-poll"
-                        else "reflector scans")
+            what.append(scans_are + (" at NAV polls" if params.get("scans") == "nav-poll"
+                                     else ""))
         if poses:
             what.append("NAV poses")
         out[n] = " and ".join(what) if what else "none"

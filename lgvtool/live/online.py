@@ -89,7 +89,7 @@ class OnlineEstimator:
                  cloud_size: int = 100) -> None:
         check_names([name])
         self.name = name
-        self.cls: type[Estimator] = ESTIMATORS[name]
+        self.cls: type[Estimator[Any]] = ESTIMATORS[name]
         self.params = resolve_params(name, config.estimators, split_settings(settings).get(name))
         self.config = config
         self.seed = seed
@@ -97,7 +97,7 @@ class OnlineEstimator:
         self.motion = self.params.motion_settings() if self.cls.uses_motion else None
         self.cloud_period_s = cloud_period_s
         self.cloud_size = cloud_size
-        self.est: Estimator | None = None
+        self.est: Estimator[Any] | None = None
         self._mcu: list[tuple[float, int, int, int, int, float]] = []
         self._twist: list[tuple[float, float, float]] = []
         self._t0_ns: int | None = None
@@ -241,7 +241,7 @@ class OnlineEstimator:
                 del buf[:k]
 
     # ------------------------------------------------------------------ update
-    def _build(self) -> Estimator:
+    def _build(self) -> Estimator[Any]:
         return self.cls(self.params, vehicle=self.config.vehicle, reflectors=self.reflectors,
                         area=self.config.area, rng=estimator_rng(self.seed, self.name))
 

@@ -4,13 +4,18 @@ Pure estimators (no file, no clock) behind one interface (:class:`Estimator`), u
 Python without a log::
 
     from lgvtool.localize import ParticleFilter, Motion, ScanObservation
-    pf = ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                        rng=np.random.default_rng(1), particles=500)
+    pf = ParticleFilter(ParticleFilter.configure(particles=500), vehicle=cfg.vehicle,
+                        reflectors=cfg.reflectors, area=cfg.area, rng=np.random.default_rng(1))
     pf.predict(Motion(0.018, 0.0, 0.026))
     pf.update(ScanObservation.simple(t, ranges, bearings, nav_x=1.0))
     pf.estimate()
 
-and the replay driver that runs them over a log (:func:`run_replay`).
+and the replay driver that runs them over a log (:func:`run_replay`). An estimator's parameters
+are a frozen dataclass (``ParticleFilter.Params``, :class:`PfParams`); ``Cls.configure(**values)``
+makes them from overrides, each value checked. The filters' array operations go through one
+backend per filter (:mod:`lgvtool.localize.particle_backend`,
+:mod:`lgvtool.localize.gaussian_backend`), the compiled kernels or numpy chosen once
+(:mod:`lgvtool.localize.kernel_choice`).
 """
 
 from typing import TYPE_CHECKING

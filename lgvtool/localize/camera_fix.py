@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.angles import wrap_angle, wrap_scalar
-from lgvtool.localize.fix import pose_fix
+from lgvtool.localize.fix import pose_fix, scan_fix
 from lgvtool.localize.observations import PoseObservation, ReflectorMap, ScanObservation
 
 FloatArray = NDArray[np.float64]
@@ -39,13 +39,15 @@ def _residuals(pose: FloatArray, obs: ScanObservation, mx: FloatArray, my: Float
 
 
 def _known(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
-           sigma_range_per_m: float, sigma_bearing_rad: float
+           sigma_range_per_m: float, sigma_bearing_rad: float,
+           index: NDArray[np.int64] | None = None
            ) -> tuple[ScanObservation, FloatArray, FloatArray, NDArray[np.complex128], FloatArray,
                       FloatArray]:
-    """The landmarks of ``obs`` with a known id: the sub-scan, their map positions (m), the
-    sensor origins of the rays (m, body frame), the ray angles (rad) and the weights (inverse
-    variances) of the stacked range and bearing residuals."""
-    j = obs.map_index(rmap)
+    """The landmarks of ``obs`` with a known id (or, given ``index``, those it matches with a
+    layout reflector, -1 none): the sub-scan, their map positions (m), the sensor origins of
+    the rays (m, body frame), the ray angles (rad) and the weights (inverse variances) of the
+    stacked range and bearing residuals."""
+    j = obs.map_index(rmap) if index is None else index
     ok = j >= 0
     ranges = obs.ranges[ok]
     sub = ScanObservation(obs.t, obs.q[ok], obs.u[ok], ranges, obs.ids[ok])
@@ -70,20 +72,24 @@ def residual_chi2(pose: tuple[float, float, float], obs: ScanObservation, rmap: 
 
 
 def weighted_fix(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
-                 sigma_range_per_m: float, sigma_bearing_rad: float
+                 sigma_range_per_m: float, sigma_bearing_rad: float, *, use_ids: bool = True
                  ) -> tuple[tuple[float, float, float], FloatArray] | None:
-    """Pose of the body frame (m, m, rad) from a scan with at least two landmarks of known id,
-    and its 3x3 covariance (m^2, m rad, rad^2).
+    """Pose of the body frame (m, m, rad) from a scan that fixes it
+    (:func:`lgvtool.localize.fix.scan_fix`: two landmarks of known id that agree, or the
+    scan's geometry matched on the layout), refined on the landmarks that fix matched, and its
+    3x3 covariance (m^2, m rad, rad^2).
 
     The range noise of a landmark at range ``r`` is ``hypot(sigma_range_m, sigma_range_per_m
     r)`` (m), its bearing noise ``sigma_bearing_rad`` (rad). None when the scan does not fix
-    the pose (fewer than two known landmarks, degenerate geometry).
+    the pose (no fix, degenerate geometry).
     """
-    seed = pose_fix(obs, 0.0, 0.0, rmap, use_ids=True)
-    if seed is None:
+    fix = scan_fix(obs, rmap, use_ids=use_ids,
+                   noise=(sigma_range_m, sigma_range_per_m, sigma_bearing_rad))
+    if fix is None:
         return None
+    seed = fix.pose
     sub, mx, my, origin, ray, w = _known(obs, rmap, sigma_range_m, sigma_range_per_m,
-                                         sigma_bearing_rad)
+                                         sigma_bearing_rad, fix.index)
     ranges = sub.ranges
     pose = np.array(seed, dtype=np.float64)
     jac = np.empty((2 * len(ranges), 3))
@@ -124,10 +130,13 @@ def start_fix(obs: PoseObservation | ScanObservation, nav_x: float, nav_y: float
     no (good enough) fix.
     """
     use_ids = getattr(params, "use_ids", True)
-    if isinstance(obs, ScanObservation) and use_ids and \
+    noise: tuple[float, float, float] | None = None
+    if hasattr(params, "sigma_range_m"):
+        noise = (params.sigma_range_m, params.sigma_range_per_m, params.sigma_bearing_rad)
+    if isinstance(obs, ScanObservation) and \
             getattr(params, "init_fix", "points") == "weighted":
         fix = weighted_fix(obs, rmap, params.sigma_range_m, params.sigma_range_per_m,
-                           params.sigma_bearing_rad)
+                           params.sigma_bearing_rad, use_ids=use_ids)
         if fix is None:
             return None
         pose, cov = fix
@@ -136,5 +145,5 @@ def start_fix(obs: PoseObservation | ScanObservation, nav_x: float, nav_y: float
         if limit > 0.0 and worst > limit:
             return None
         return pose, cov
-    point = pose_fix(obs, nav_x, nav_y, rmap, use_ids=use_ids)
+    point = pose_fix(obs, nav_x, nav_y, rmap, use_ids=use_ids, noise=noise)
     return None if point is None else (point, None)

@@ -1,8 +1,10 @@
 """``deadreckoning``: odometry alone from a first pose.
 
 The first pose is the caller's initial pose (e.g. ground truth) when given, else the first
-valid NAV pose converted to O (or, with ``init = landmarks``, the first scan with two reflectors
-of known id). After that, observations are ignored and the covariance only grows.
+valid NAV pose converted to O (or, with ``init = landmarks``, the first scan that fixes the pose:
+two reflector ids that agree, or three reflectors matched on the layout by their geometry,
+:func:`lgvtool.localize.fix.scan_fix`). After that, observations are ignored and the covariance
+only grows.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ class DeadReckoningParams(MotionParams, GaussianInitParams):
     use_ids: bool = param(True, "a landmark fix may use reflector ids")
 
 
-class DeadReckoning(GaussianPoseEstimator):
+class DeadReckoning(GaussianPoseEstimator[DeadReckoningParams]):
     """Integrates the odometry from a first pose; never corrected."""
 
     name = "deadreckoning"

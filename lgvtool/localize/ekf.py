@@ -6,10 +6,13 @@ mean, ``P <- F P F^T + G Q G^T`` with the motion noise of :mod:`lgvtool.localize
 Update from a reflector scan: each reflector's measured range and bearing are compared with
 the range and bearing of the map reflector seen from the sensor (its origin and heading in the
 body frame include the mounting offset and, when de-skewed, the motion since the reflector was
-measured), with noise ``diag(sigma_range^2, sigma_bearing^2)``. Association: the reflector's
-id when known, else the map reflector with the smallest Mahalanobis distance. An innovation
-whose squared Mahalanobis distance exceeds the chi-square quantile (2 dof) of
-``gate_probability`` is rejected as an outlier. The accepted reflectors are applied together in
+measured), with noise ``diag(sigma_range^2, sigma_bearing^2)``. Association
+(:mod:`lgvtool.localize.association`): the map reflector of the reflector's id when its
+squared Mahalanobis distance is inside the gate, the chi-square quantile (2 dof) of
+``gate_probability``; otherwise (no id, an id not in the map, or a wrong one) the map reflector
+with the smallest Mahalanobis distance, inside the gate, unless a second one is inside it too
+at less than ``ambiguity_ratio`` times that distance (ambiguous: dropped). A reflector with
+nothing inside the gate is rejected as an outlier. The accepted reflectors are applied together in
 information form (exact for the linearised model). Update from a NAV pose: ``h = pose of the
 head`` (eq. 5 inverted), 3 dof gate.
 
@@ -20,7 +23,7 @@ commanded velocities of a robot that travels and turns less than commanded, then
 state the observations estimate: they see the pose only, and reach the scales through the
 correlation the prediction builds between them and the pose. The scales follow a random walk
 whose variance grows with the distance travelled and the angle turned (:func:`scaled_motion`,
-:meth:`GaussianPoseEstimator._predict_scaled`).
+:meth:`Ekf._predict_scaled`).
 """
 
 from __future__ import annotations
@@ -28,24 +31,23 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from types import ModuleType
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol, TypeVar, Unpack
 
 import numpy as np
 
 from lgvtool.angles import wrap_angle, wrap_scalar
+from lgvtool.localize.association import AMBIGUOUS, BY_ID, associate
 from lgvtool.localize.camera_fix import start_fix
-from lgvtool.localize.chunks import KIND_OTHER, chunks, scan_chunk
 from lgvtool.localize.estimator import (
     Estimate,
     EstimateRows,
     Estimator,
+    EstimatorContext,
     Motion,
     Observation,
-    Reporter,
-    RowRecorder,
 )
-from lgvtool.localize.kernel_choice import compiled
+from lgvtool.localize.gaussian_backend import GaussianBackend, GaussianModel
+from lgvtool.localize.kernel_choice import gaussian_backend
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
@@ -60,20 +62,15 @@ POSE = 3
 SCALED = 5
 """Size of the state with the odometry scales, ``(x, y, theta, s_v, s_w)``."""
 
-def gaussian_kernels() -> ModuleType | None:
-    """The compiled loops of the Gaussian estimators (:mod:`lgvtool.localize.ekf_kernels`), or
-    None for the numpy path (numba not installed, or ``LGVTOOL_KERNELS=numpy``)."""
-    return compiled("lgvtool.localize.ekf_kernels")
-
-
 @dataclass(frozen=True)
 class GaussianInitParams:
     """How a Gaussian estimator starts."""
 
     init: str = param("auto", "first pose: auto (first NAV pose or landmark fix, whichever "
-                      "comes first), laser (first valid NAV pose), landmarks (first scan with "
-                      "two known ids); a caller's initial pose always wins",
-                      choices=("auto", "laser", "landmarks"))
+                      "comes first), laser (first valid NAV pose), landmarks (first scan that "
+                      "fixes the pose: two reflector ids that agree, or three reflectors "
+                      "matched on the layout by their geometry); a caller's initial pose "
+                      "always wins", choices=("auto", "laser", "landmarks"))
     init_sigma_xy_m: float = param(0.05, "initial position standard deviation, m", minimum=0.0)
     init_sigma_heading_rad: float = param(0.02, "initial heading standard deviation, rad",
                                           minimum=0.0)
@@ -92,8 +89,16 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams):
     sigma_pose_xy_m: float = param(0.05, "position noise of a NAV pose, m", minimum=1e-6)
     sigma_pose_heading_rad: float = param(0.01, "heading noise of a NAV pose, rad",
                                           minimum=1e-9)
-    gate_probability: float = param(0.99, "chi-square gate: innovations less likely than this "
-                                    "are rejected", minimum=0.5, maximum=0.999999)
+    gate_probability: float = param(0.99, "chi-square gate (2 degrees of freedom for a "
+                                    "reflector, 3 for a NAV pose): innovations less likely "
+                                    "than this are rejected, and a reflector's id is used only "
+                                    "when its layout reflector is inside this gate (else the "
+                                    "reflector is associated as if it had none)",
+                                    minimum=0.5, maximum=0.999999)
+    ambiguity_ratio: float = param(2.0, "a reflector without a usable id is dropped as "
+                                   "ambiguous when a second layout reflector is inside the gate "
+                                   "at less than this times the Mahalanobis distance of the "
+                                   "nearest, dimensionless (1: never)", minimum=1.0)
     odometry_scales: bool = param(False, "estimate a distance scale s_v and a heading-change "
                                   "scale s_w of the odometry in the state (x, y, theta, s_v, "
                                   "s_w); for biased odometry such as commanded velocities")
@@ -112,6 +117,30 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams):
     init_max_sigma_xy_m: float = param(0.0, "weighted fix: start only from a scan whose fix has "
                                        "a position standard deviation (the larger axis) at "
                                        "most this, m; 0 takes the first fix", minimum=0.0)
+
+
+class GaussianParams(Protocol):
+    """What :class:`GaussianPoseEstimator` reads of its parameters (a start and the motion
+    noise: :class:`GaussianInitParams`, :class:`lgvtool.localize.noise.MotionParams`)."""
+
+    @property
+    def init(self) -> str: ...
+    @property
+    def init_sigma_xy_m(self) -> float: ...
+    @property
+    def init_sigma_heading_rad(self) -> float: ...
+    @property
+    def noise_dist(self) -> float: ...
+    @property
+    def noise_lat(self) -> float: ...
+    @property
+    def noise_rot(self) -> float: ...
+    @property
+    def noise_rot_per_m(self) -> float: ...
+    def noise_sigmas(self, dist: float, rot: float) -> tuple[float, float, float]: ...
+
+
+GP = TypeVar("GP", bound=GaussianParams)
 
 
 def scaled_motion(dx: float, dy: float, dth: float, s_v: float, s_w: float
@@ -139,15 +168,19 @@ def scaled_motion(dx: float, dy: float, dth: float, s_v: float, s_w: float
     return sd * math.cos(sa), sd * math.sin(sa), s_w * dth, a, d
 
 
-class GaussianPoseEstimator(Estimator):
-    """Shared state and prediction of the Gaussian estimators (EKF, dead reckoning)."""
+class GaussianPoseEstimator(Estimator[GP]):
+    """Shared state and prediction of the Gaussian estimators (EKF, dead reckoning); a replay
+    runs through the estimator's backend (:mod:`lgvtool.localize.gaussian_backend`)."""
 
-    kernel_modules: ClassVar[tuple[str, ...]] = ("lgvtool.localize.ekf_kernels",)
+    kernel_family: ClassVar[str] = "gaussian"
     #: False when observations after the start never change the state (dead reckoning)
     corrects: ClassVar[bool] = True
 
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+    def __init__(self, params: GP | None = None, *, backend: GaussianBackend | None = None,
+                 **context: Unpack[EstimatorContext]) -> None:
+        super().__init__(params, **context)
+        #: how a replay runs (the numpy reference or the compiled kernels), chosen once
+        self.backend = backend if backend is not None else gaussian_backend()
         #: True when the state carries the odometry scales ``(s_v, s_w)`` after the pose
         self.scaled = bool(getattr(self.params, "odometry_scales", False))
         n = SCALED if self.scaled else POSE
@@ -161,13 +194,18 @@ class GaussianPoseEstimator(Estimator):
         p = self.params
         mu = [pose[0], pose[1], wrap_scalar(pose[2])]
         var = [p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2, p.init_sigma_heading_rad ** 2]
-        if self.scaled:
-            mu += [1.0, 1.0]
-            var += [p.scale_sigma_v ** 2, p.scale_sigma_w ** 2]
+        extra_mu, extra_var = self._scale_prior()
+        mu += extra_mu
+        var += extra_var
         self.mu = np.array(mu, dtype=np.float64)
         self.P = np.diag(var)
         if fix_covariance is not None:
             self.P[:POSE, :POSE] += fix_covariance
+
+    def _scale_prior(self) -> tuple[list[float], list[float]]:
+        """Means and variances of the state after the pose at the start (none here: the
+        odometry scales are the EKF's, :meth:`Ekf._scale_prior`)."""
+        return [], []
 
     @property
     def odometry_calibration(self) -> dict[str, float]:
@@ -196,9 +234,6 @@ class GaussianPoseEstimator(Estimator):
     def predict(self, motion: Motion) -> None:
         if self.mu is None:
             return
-        if self.scaled:
-            self._predict_scaled(motion)
-            return
         x, y, th = self.mu
         c, s = math.cos(th), math.sin(th)
         dx, dy = motion.dx, motion.dy
@@ -210,6 +245,65 @@ class GaussianPoseEstimator(Estimator):
         G = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         Q = np.diag([sa * sa, sl * sl, st * st])
         self.P = F @ self.P @ F.T + G @ Q @ G.T
+
+    def model(self) -> GaussianModel:
+        """What a replay of this estimator computes with: the motion noise (the reflector
+        noise and gate of :class:`Ekf`)."""
+        p = self.params
+        return GaussianModel(p.noise_dist, p.noise_lat, p.noise_rot, p.noise_rot_per_m)
+
+    def run(self, times: FloatArray, observations: Sequence[Observation | None],
+            steps: Deltas | None, *, progress: Callable[[int], None] | None = None,
+            cloud_period_s: float = 2.0, cloud_size: int = 50) -> EstimateRows:
+        """As :meth:`Estimator.run`, run by the estimator's backend (step by step, or in
+        compiled chunks: the same rows within the last bits)."""
+        return self.backend.run(self, times, observations, steps, progress=progress,
+                                cloud_period_s=cloud_period_s, cloud_size=cloud_size)
+
+    def count_reflectors(self, accepted: int, rejected: int, id_rejected: int,
+                         ambiguous: int) -> None:
+        """Add the reflectors a replay accepted, rejected, whose id it rejected and that it
+        dropped as ambiguous (:class:`Ekf` counts them)."""
+
+    def estimate(self) -> Estimate | None:
+        if self.mu is None:
+            return None
+        P = self.P[:POSE, :POSE]
+        return Estimate(float(self.mu[0]), float(self.mu[1]), float(self.mu[2]),
+                        0.5 * (P + P.T))
+
+
+class Ekf(GaussianPoseEstimator[EkfParams]):
+    """Extended Kalman filter: odometry + gyro prediction, reflector or NAV pose updates."""
+
+    name = "ekf"
+    Params = EkfParams
+    summary = "EKF: odometry + gyro, reflector range/bearing or NAV pose updates, chi2 gating"
+
+    def __init__(self, params: EkfParams | None = None, *,
+                 backend: GaussianBackend | None = None,
+                 **context: Unpack[EstimatorContext]) -> None:
+        super().__init__(params, backend=backend, **context)
+        self._gate2 = chi2_quantile(self.params.gate_probability, 2)
+        self._gate3 = chi2_quantile(self.params.gate_probability, 3)
+        self.rejected = 0
+        self.accepted = 0
+        #: reflectors whose id failed its gate (then associated without it, or dropped)
+        self.id_rejected = 0
+        #: reflectors dropped as ambiguous (two layout reflectors alike inside the gate)
+        self.ambiguous = 0
+
+    def _scale_prior(self) -> tuple[list[float], list[float]]:
+        if not self.scaled:
+            return [], []
+        p = self.params
+        return [1.0, 1.0], [p.scale_sigma_v ** 2, p.scale_sigma_w ** 2]
+
+    def predict(self, motion: Motion) -> None:
+        if self.scaled and self.mu is not None:
+            self._predict_scaled(motion)
+            return
+        super().predict(motion)
 
     def _predict_scaled(self, motion: Motion) -> None:
         """Prediction of the state ``(x, y, theta, s_v, s_w)``: the odometry motion scaled by
@@ -237,124 +331,18 @@ class GaussianPoseEstimator(Estimator):
         P[4, 4] += p.scale_walk_w ** 2 * motion.rot
         self.P = P
 
-    def _kernel_params(self) -> FloatArray:
-        """The parameter vector of the compiled loops (:mod:`lgvtool.localize.ekf_kernels`):
-        the motion noise here, the measurement model in :class:`Ekf`."""
-        from lgvtool.localize import ekf_kernels as k
-
+    def model(self) -> GaussianModel:
         p = self.params
-        prm = np.zeros(k.N_PARAMS)
-        prm[[k.P_NOISE_DIST, k.P_NOISE_LAT, k.P_NOISE_ROT, k.P_NOISE_ROT_PER_M]] = (
-            p.noise_dist, p.noise_lat, p.noise_rot, p.noise_rot_per_m)
-        return prm
+        return GaussianModel(p.noise_dist, p.noise_lat, p.noise_rot, p.noise_rot_per_m,
+                             p.sigma_range_m, p.sigma_range_per_m, p.sigma_bearing_rad,
+                             self._gate2, p.use_ids, p.ambiguity_ratio)
 
-    def run(self, times: FloatArray, observations: Sequence[Observation | None],
-            steps: Deltas | None, *, progress: Callable[[int], None] | None = None,
-            cloud_period_s: float = 2.0, cloud_size: int = 50) -> EstimateRows:
-        """As :meth:`Estimator.run`, one compiled call per observation (and one for all the
-        predictions of dead reckoning after its start) when numba is installed; the numpy
-        path otherwise and for the state with the odometry scales. The same rows (within the
-        last bits: :mod:`lgvtool.localize.ekf_kernels`)."""
-        kern = None if self.scaled else gaussian_kernels()
-        if kern is None:
-            return super().run(times, observations, steps, progress=progress,
-                               cloud_period_s=cloud_period_s, cloud_size=cloud_size)
-        f64 = np.float64
-        n = len(observations)
-        ts = np.ascontiguousarray(times, dtype=f64)
-        moving = steps is not None and self.uses_motion and n > 1
-        moves = tuple(np.ascontiguousarray(a, dtype=f64) for a in (
-            (steps.dx, steps.dy, steps.dth, steps.dist, steps.rot) if steps is not None
-            and moving else ((),) * 5))
-        # the rows (no particles: counts and ESS 0), written by the kernels
-        rec = RowRecorder(ts, cloud_period_s, 0)
-        rec.particles[:] = 0
-        rec.ess[:] = 0.0
-        prm = self._kernel_params()
-        counts = np.zeros(2, dtype=np.int64)
-        mx, my = np.ascontiguousarray(self.map.x), np.ascontiguousarray(self.map.y)
-        mids = np.ascontiguousarray(self.map.ids, dtype=np.int64)
-        rows = (rec.t, rec.x, rec.y, rec.heading, rec.covariance)
-        k = i0 = 0
-        report = Reporter(progress)
-        tl = ts.tolist()
-        coasted = False
-        for chunk in chunks(observations):
-            c = scan_chunk(chunk, lambda o: o.ids)
-            j = 0
-            while j < len(chunk) and not coasted:
-                i = i0 + j
-                o = chunk[j]
-                if self.mu is None:  # not started: predictions are no-ops until then
-                    if o is not None:
-                        self.update(o)
-                    if self.mu is not None:
-                        kern._record(self.mu, self.P, tl[i], k, *rows)
-                        k += 1
-                    j += 1
-                elif not self.corrects:
-                    k = kern.coast(self.mu, self.P, i, *moves, prm, ts, k, *rows)
-                    coasted = True
-                elif c.kinds[j] == KIND_OTHER:
-                    if moving and i > 0:
-                        kern._predict(self.mu, self.P, *(float(a[i - 1]) for a in moves), prm)
-                    assert o is not None
-                    self.update(o)
-                    kern._record(self.mu, self.P, tl[i], k, *rows)
-                    k += 1
-                    j += 1
-                else:
-                    # the scans and times without an observation from here, in one call
-                    j, k = kern.track(self.mu, self.P, j, i0, *moves, c.kinds, c.offs, c.q,
-                                      c.u, c.ranges, c.ints, mx, my, mids, prm, counts, ts, k,
-                                      *rows)
-            i0 += len(chunk)
-            report.at(i0)
-            if coasted:
-                break
-        self._count_kernel_updates(int(counts[0]), int(counts[1]))
-        report.at(n, last=True)
-        rec.k = k
-        return rec.rows()
-
-    def _count_kernel_updates(self, accepted: int, rejected: int) -> None:
-        """Add the reflectors the compiled loop accepted and rejected (:class:`Ekf`)."""
-
-    def estimate(self) -> Estimate | None:
-        if self.mu is None:
-            return None
-        P = self.P[:POSE, :POSE]
-        return Estimate(float(self.mu[0]), float(self.mu[1]), float(self.mu[2]),
-                        0.5 * (P + P.T))
-
-
-class Ekf(GaussianPoseEstimator):
-    """Extended Kalman filter: odometry + gyro prediction, reflector or NAV pose updates."""
-
-    name = "ekf"
-    Params = EkfParams
-    summary = "EKF: odometry + gyro, reflector range/bearing or NAV pose updates, chi2 gating"
-
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)
-        self._gate2 = chi2_quantile(self.params.gate_probability, 2)
-        self._gate3 = chi2_quantile(self.params.gate_probability, 3)
-        self.rejected = 0
-        self.accepted = 0
-
-    def _kernel_params(self) -> FloatArray:
-        from lgvtool.localize import ekf_kernels as k
-
-        p = self.params
-        prm = super()._kernel_params()
-        prm[[k.P_SIGMA_RANGE, k.P_SIGMA_RANGE_PER_M, k.P_SIGMA_BEARING, k.P_GATE2,
-             k.P_USE_IDS]] = (p.sigma_range_m, p.sigma_range_per_m, p.sigma_bearing_rad,
-                              self._gate2, 1.0 if p.use_ids else 0.0)
-        return prm
-
-    def _count_kernel_updates(self, accepted: int, rejected: int) -> None:
+    def count_reflectors(self, accepted: int, rejected: int, id_rejected: int,
+                         ambiguous: int) -> None:
         self.accepted += accepted
         self.rejected += rejected
+        self.id_rejected += id_rejected
+        self.ambiguous += ambiguous
 
     def update(self, obs: Observation) -> bool:
         if self.mu is None:
@@ -428,9 +416,13 @@ class Ekf(GaussianPoseEstimator):
         k_idx = np.arange(len(obs))
         known = (obs.map_index(self.map) if p.use_ids
                  else np.full(len(obs), -1, dtype=np.int64))
-        j = np.where(known >= 0, known, np.argmin(d2, axis=1))
-        ok = d2[k_idx, j] <= self._gate2
+        # the id's reflector when inside the gate, else the nearest inside it unless a second
+        # is nearly as near (lgvtool.localize.association)
+        j, how = associate(d2, known, self._gate2, p.ambiguity_ratio)
+        ok = j >= 0
         self.rejected += int((~ok).sum())
+        self.id_rejected += int(((known >= 0) & (how != BY_ID)).sum())
+        self.ambiguous += int((how == AMBIGUOUS).sum())
         if not ok.any():
             return False
         kk, jj = k_idx[ok], j[ok]

@@ -9,8 +9,9 @@ products, the sums over reflectors and the matrix inverse are summed in order he
 uses BLAS and LAPACK), which differs in the last bits only (well within 1e-9 m and 1e-9 of
 the covariances' scale).
 
-Importing this module imports numba; the estimators import it when they run
-(:func:`lgvtool.localize.ekf.gaussian_kernels`), never at start-up. The compiled code is
+Importing this module imports numba; only the estimators' compiled backend imports it
+(:mod:`lgvtool.localize.ekf_compiled`, when an estimator is made with the kernels chosen:
+:func:`lgvtool.localize.kernel_choice.gaussian_backend`), never at start-up. The compiled code is
 cached on disk (``cache=True``, in ``__pycache__`` beside this file), so only the first run on
 a machine pays the compilation.
 
@@ -38,7 +39,9 @@ _TWO_PI = 2.0 * math.pi
 # indexes into the parameter vector of :func:`step`
 P_NOISE_DIST, P_NOISE_LAT, P_NOISE_ROT, P_NOISE_ROT_PER_M = 0, 1, 2, 3
 P_SIGMA_RANGE, P_SIGMA_RANGE_PER_M, P_SIGMA_BEARING, P_GATE2, P_USE_IDS = 4, 5, 6, 7, 8
-N_PARAMS = 9
+#: the square of the association's ambiguity ratio (lgvtool.localize.association)
+P_RATIO2 = 9
+N_PARAMS = 10
 
 
 def _jit(f: _F) -> _F:
@@ -128,12 +131,56 @@ def _invert(A: FloatArray) -> FloatArray:
 
 
 @_jit
+def _innovation(j: int, ox: float, oy: float, ray: float, rng_k: float, c: float, s: float,
+                hx: FloatArray, hy: FloatArray, P: FloatArray, sr2: float, sb2: float,
+                hr: FloatArray, hb: FloatArray) -> tuple[float, float, float]:
+    """Map reflector ``j`` (body frame ``hx[j], hy[j]``, m) seen from the sensor origin
+    ``(ox, oy)`` (m, body frame) of a reflector measured at range ``rng_k`` (m) along the ray
+    angle ``ray`` (rad): the range and ray-angle Jacobians into ``hr``, ``hb`` and the squared
+    Mahalanobis distance of the innovation (not-a-number as infinite), the range and the
+    bearing innovation (m, rad)."""
+    vx = hx[j] - ox
+    vy = hy[j] - oy
+    r2 = max(vx * vx + vy * vy, 1e-12)
+    rng = math.sqrt(r2)
+    nr = rng_k - rng
+    a = ray - math.atan2(vy, vx)
+    nb = _wrap(a)
+    dvx0, dvx1, dvx2 = -c, -s, hy[j]
+    dvy0, dvy1, dvy2 = s, -c, -hx[j]
+    hr[0] = (vx * dvx0 + vy * dvy0) / rng
+    hr[1] = (vx * dvx1 + vy * dvy1) / rng
+    hr[2] = (vx * dvx2 + vy * dvy2) / rng
+    hb[0] = (vx * dvy0 - vy * dvx0) / r2
+    hb[1] = (vx * dvy1 - vy * dvx1) / r2
+    hb[2] = (vx * dvy2 - vy * dvx2) / r2
+    srr = 0.0
+    srb = 0.0
+    sbb = 0.0
+    for i in range(3):
+        for m in range(3):
+            srr += hr[i] * P[i, m] * hr[m]
+            srb += hr[i] * P[i, m] * hb[m]
+            sbb += hb[i] * P[i, m] * hb[m]
+    srr += sr2
+    sbb += sb2
+    det = srr * sbb - srb * srb
+    d2 = (sbb * nr * nr - 2.0 * srb * nr * nb + srr * nb * nb) / det
+    if math.isnan(d2):
+        d2 = math.inf
+    return d2, nr, nb
+
+
+@_jit
 def _update_scan(mu: FloatArray, P: FloatArray, q: ComplexArray, u: ComplexArray,
                  ranges: FloatArray, ids: IntArray, map_x: FloatArray, map_y: FloatArray,
                  map_ids: IntArray, prm: FloatArray, counts: IntArray) -> bool:
-    """The reflector update of :meth:`lgvtool.localize.ekf.Ekf._update_scan` in place; adds
-    the accepted and rejected reflectors to ``counts[0]`` and ``counts[1]``; True when at least
-    one reflector was accepted."""
+    """The reflector update of :meth:`lgvtool.localize.ekf.Ekf._update_scan` in place, with
+    its association (:func:`lgvtool.localize.association.associate`: the id's reflector inside
+    the gate, else the nearest inside it unless a second is inside at less than the ambiguity
+    ratio times its distance); adds the accepted and rejected reflectors, those whose id failed
+    its gate and those dropped as ambiguous to ``counts[0:4]``; True when at least one
+    reflector was accepted."""
     K = ranges.shape[0]
     J = map_x.shape[0]
     n = P.shape[0]
@@ -149,6 +196,7 @@ def _update_scan(mu: FloatArray, P: FloatArray, q: ComplexArray, u: ComplexArray
         hy[j] = -s * ex + c * ey
     sb2 = prm[P_SIGMA_BEARING] ** 2
     gate2 = prm[P_GATE2]
+    ratio2 = prm[P_RATIO2]
     use_ids = prm[P_USE_IDS] != 0.0
     # the accepted measurements: H rows (range, bearing) over the pose, innovations, weights
     Hr = np.empty((K, 3))
@@ -158,8 +206,6 @@ def _update_scan(mu: FloatArray, P: FloatArray, q: ComplexArray, u: ComplexArray
     w_r = np.empty(K)
     hr = np.empty(3)
     hb = np.empty(3)
-    best_hr = np.empty(3)
-    best_hb = np.empty(3)
     n_ok = 0
     rejected = 0
     for k in range(K):
@@ -172,54 +218,42 @@ def _update_scan(mu: FloatArray, P: FloatArray, q: ComplexArray, u: ComplexArray
             for j in range(J):
                 if map_ids[j] == ids[k]:
                     known = j  # the last reflector of a repeated id
-        best_d2 = math.inf
-        best_j = -1
-        best_nr = 0.0
-        best_nb = 0.0
-        for j in range(J):
-            if known >= 0 and j != known:
-                continue
-            vx = hx[j] - ox
-            vy = hy[j] - oy
-            r2 = max(vx * vx + vy * vy, 1e-12)
-            rng = math.sqrt(r2)
-            nr = ranges[k] - rng
-            a = ray - math.atan2(vy, vx)
-            nb = _wrap(a)
-            dvx0, dvx1, dvx2 = -c, -s, hy[j]
-            dvy0, dvy1, dvy2 = s, -c, -hx[j]
-            hr[0] = (vx * dvx0 + vy * dvy0) / rng
-            hr[1] = (vx * dvx1 + vy * dvy1) / rng
-            hr[2] = (vx * dvx2 + vy * dvy2) / rng
-            hb[0] = (vx * dvy0 - vy * dvx0) / r2
-            hb[1] = (vx * dvy1 - vy * dvx1) / r2
-            hb[2] = (vx * dvy2 - vy * dvx2) / r2
-            srr = 0.0
-            srb = 0.0
-            sbb = 0.0
+        chosen = -1
+        nr = 0.0
+        nb = 0.0
+        if known >= 0:
+            d2, nr, nb = _innovation(known, ox, oy, ray, ranges[k], c, s, hx, hy, P, sr2, sb2,
+                                     hr, hb)
+            if d2 <= gate2:
+                chosen = known
+            else:
+                counts[2] += 1
+        if chosen < 0:
+            best_d2 = math.inf
+            second = math.inf
+            best_j = -1
+            for j in range(J):
+                d2, _, _ = _innovation(j, ox, oy, ray, ranges[k], c, s, hx, hy, P, sr2, sb2,
+                                       hr, hb)
+                if d2 < best_d2:
+                    second = best_d2
+                    best_d2 = d2
+                    best_j = j
+                elif d2 < second:
+                    second = d2
+            if best_d2 <= gate2:
+                if second <= gate2 and second < ratio2 * best_d2:
+                    counts[3] += 1
+                else:
+                    chosen = best_j
+                    _, nr, nb = _innovation(best_j, ox, oy, ray, ranges[k], c, s, hx, hy, P,
+                                            sr2, sb2, hr, hb)
+        if chosen >= 0:
             for i in range(3):
-                for m in range(3):
-                    srr += hr[i] * P[i, m] * hr[m]
-                    srb += hr[i] * P[i, m] * hb[m]
-                    sbb += hb[i] * P[i, m] * hb[m]
-            srr += sr2
-            sbb += sb2
-            det = srr * sbb - srb * srb
-            d2 = (sbb * nr * nr - 2.0 * srb * nr * nb + srr * nb * nb) / det
-            if best_j < 0 or d2 < best_d2 or (math.isnan(d2) and not math.isnan(best_d2)):
-                best_d2 = d2
-                best_j = j
-                best_nr = nr
-                best_nb = nb
-                for i in range(3):
-                    best_hr[i] = hr[i]
-                    best_hb[i] = hb[i]
-        if best_d2 <= gate2:
-            for i in range(3):
-                Hr[n_ok, i] = best_hr[i]
-                Hb[n_ok, i] = best_hb[i]
-            nu_r[n_ok] = best_nr
-            nu_b[n_ok] = best_nb
+                Hr[n_ok, i] = hr[i]
+                Hb[n_ok, i] = hb[i]
+            nu_r[n_ok] = nr
+            nu_b[n_ok] = nb
             w_r[n_ok] = 1.0 / sr2
             n_ok += 1
         else:

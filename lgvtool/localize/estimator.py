@@ -12,7 +12,7 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypedDict, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,6 +25,8 @@ if TYPE_CHECKING:
     from lgvtool.localize.motion import Deltas
 
 Observation = PoseObservation | ScanObservation
+#: an estimator's parameter group (a frozen dataclass of declared settings)
+P = TypeVar("P")
 FloatArray = NDArray[np.float64]
 #: a kept particle cloud: time (s), particle x (m), y (m) and heading (rad)
 Cloud = tuple[float, FloatArray, FloatArray, FloatArray]
@@ -88,6 +90,17 @@ class EstimateRows:
         self.clouds = clouds
 
 
+class EstimatorContext(TypedDict, total=False):
+    """The keyword arguments of :class:`Estimator` besides its parameters (what a subclass
+    passes on with ``**context: Unpack[EstimatorContext]``)."""
+
+    vehicle: Vehicle | None
+    reflectors: tuple[Reflector, ...] | list[Reflector]
+    area: Area | None
+    rng: np.random.Generator | None
+    initial_pose: tuple[float, float, float] | None
+
+
 _SAMPLES: dict[tuple[int, int], NDArray[np.intp]] = {}
 
 
@@ -101,39 +114,47 @@ def cloud_sample(k: int, size: int) -> NDArray[np.intp]:
     return sel
 
 
-class Estimator(ABC):
-    """Base of the estimators: parameters, vehicle geometry, reflector map, work area, RNG."""
+class Estimator(ABC, Generic[P]):
+    """Base of the estimators: parameters (``P``, the class's :attr:`Params`), vehicle
+    geometry, reflector map, work area, RNG."""
 
     #: registry name, e.g. ``"pf"``
     name: ClassVar[str] = ""
-    #: the parameter dataclass of this estimator
-    Params: ClassVar[type]
+    #: the parameter dataclass of this estimator (``P``)
+    Params: ClassVar[type[Any]]
     #: one-line description
     summary: ClassVar[str] = ""
     #: True if the estimator consumes motion, scans, NAV poses
     uses_motion: ClassVar[bool] = True
     uses_scans: ClassVar[bool] = True
     uses_poses: ClassVar[bool] = True
-    #: the compiled-kernel modules the estimator may run (:mod:`lgvtool.localize.kernel_choice`)
-    kernel_modules: ClassVar[tuple[str, ...]] = ()
+    #: the family of compiled kernels the estimator may run, made ready before estimators run
+    #: side by side (:func:`lgvtool.localize.kernel_choice.ready`; "" for none)
+    kernel_family: ClassVar[str] = ""
 
-    def __init__(self, params: Any = None, *, vehicle: Vehicle | None = None,
+    params: P
+
+    def __init__(self, params: P | None = None, *, vehicle: Vehicle | None = None,
                  reflectors: tuple[Reflector, ...] | list[Reflector] = (),
                  area: Area | None = None, rng: np.random.Generator | None = None,
-                 initial_pose: tuple[float, float, float] | None = None,
-                 **overrides: Any) -> None:
-        if params is None or isinstance(params, dict):
-            merged = dict(params or {})
-            merged.update(overrides)
-            params = make_params(self.Params, self.name, merged)
-        elif overrides:
-            params = make_params(self.Params, self.name, overrides, base=params)
-        self.params = params
+                 initial_pose: tuple[float, float, float] | None = None) -> None:
+        self.params = params if params is not None else self.configure()
         self.vehicle = vehicle or Vehicle()
         self.map = ReflectorMap(reflectors)
         self.area = area or Area()
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.initial_pose = initial_pose
+
+    @classmethod
+    def configure(cls, **values: Any) -> P:
+        """The parameters with ``values`` (``{param: value}``) over the defaults, each checked
+        (:func:`lgvtool.localize.params.make_params`): ``Ekf.configure(sigma_range_m=0.03)``.
+
+        :raises lgvtool.errors.ConfigError: an unknown parameter or a bad value, named
+            ``<estimator>.<param>``.
+        """
+        made: P = make_params(cls.Params, cls.name, values)
+        return made
 
     @property
     def settings(self) -> dict[str, Any]:
@@ -173,15 +194,8 @@ class Estimator(ABC):
         ``cloud_size`` particles is kept per ``cloud_period_s`` s. ``progress`` is called with
         the number of observations processed since its last call.
         """
-        n = len(observations)
-        moves = Moves(steps) if steps is not None and self.uses_motion and n > 1 else None
-        rec = RowRecorder(times, cloud_period_s, cloud_size)
-        report = Reporter(progress)
-        for i, o in enumerate(observations):
-            self.step(i, o, moves, rec)
-            report.at(i)
-        report.at(n, last=True)
-        return rec.rows()
+        return step_loop(self, times, observations, steps, progress=progress,
+                         cloud_period_s=cloud_period_s, cloud_size=cloud_size)
 
     def step(self, i: int, o: Observation | None, moves: Moves | None,
              rec: RowRecorder) -> None:
@@ -195,6 +209,23 @@ class Estimator(ABC):
         if e is not None:
             rec.add(i, e)
             rec.maybe_cloud(i, self)
+
+
+def step_loop(est: Estimator[Any], times: FloatArray,
+              observations: Sequence[Observation | None], steps: Deltas | None, *,
+              progress: Callable[[int], None] | None = None, cloud_period_s: float = 2.0,
+              cloud_size: int = 50) -> EstimateRows:
+    """:meth:`Estimator.run` as ``predict``, ``update`` and ``estimate`` in turn
+    (:meth:`Estimator.step`) at every observation: the reference every faster loop equals."""
+    n = len(observations)
+    moves = Moves(steps) if steps is not None and est.uses_motion and n > 1 else None
+    rec = RowRecorder(times, cloud_period_s, cloud_size)
+    report = Reporter(progress)
+    for i, o in enumerate(observations):
+        est.step(i, o, moves, rec)
+        report.at(i)
+    report.at(n, last=True)
+    return rec.rows()
 
 
 class Reporter:
@@ -247,7 +278,7 @@ class RowRecorder:
         self.ess[k] = e.ess
         self.k = k + 1
 
-    def maybe_cloud(self, i: int, est: Estimator) -> None:
+    def maybe_cloud(self, i: int, est: Estimator[Any]) -> None:
         """Keep ``est``'s particle cloud at observation ``i`` if one is due."""
         t = self._tl[i]
         if t >= self.next_cloud:

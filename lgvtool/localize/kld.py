@@ -11,6 +11,8 @@ probability ``1 - delta``:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from functools import cached_property
 from statistics import NormalDist
 
 import numpy as np
@@ -62,3 +64,30 @@ def kld_count(keys_in_draw_order: NDArray[np.int64], epsilon: float, delta: floa
     chosen = int(ok[0]) + 1 if len(ok) else m
     return int(min(max(chosen, n_min), n_max))
 
+
+
+@dataclass(frozen=True)
+class KldSizing:
+    """A filter's KLD-sampling: error bound ``epsilon`` with probability ``1 - delta``, between
+    ``n_min`` and ``cap`` particles, over bins of ``bin_m`` (x and y, m) by ``bin_rad``
+    (heading, rad)."""
+
+    epsilon: float
+    delta: float
+    n_min: int
+    cap: int
+    bin_m: float
+    bin_rad: float
+
+    @cached_property
+    def need(self) -> NDArray[np.float64]:
+        """The particles needed for 1 to :attr:`cap` occupied bins (:func:`kld_bound`), made
+        once (the compiled resampling looks each count up)."""
+        return kld_bound(np.arange(1, self.cap + 1), self.epsilon, self.delta)
+
+    def count(self, x: NDArray[np.float64], y: NDArray[np.float64],
+              th: NDArray[np.float64]) -> int:
+        """The sample size for poses drawn in this order (x, y m, heading rad):
+        :func:`kld_count` of their bins."""
+        return kld_count(bin_keys(x, y, th, self.bin_m, self.bin_rad), self.epsilon,
+                         self.delta, self.n_min, self.cap)

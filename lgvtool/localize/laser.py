@@ -4,10 +4,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Unpack
 
 import numpy as np
 
-from lgvtool.localize.estimator import Estimate, Estimator, Motion, Observation
+from lgvtool.localize.estimator import (
+    Estimate,
+    Estimator,
+    EstimatorContext,
+    Motion,
+    Observation,
+)
 from lgvtool.localize.observations import PoseObservation
 from lgvtool.localize.params import param
 
@@ -23,7 +30,7 @@ class LaserParams:
                             "allows since the last accepted one (docs/reading.md)")
 
 
-class LaserBaseline(Estimator):
+class LaserBaseline(Estimator[LaserParams]):
     """Each valid NAV pose converted to O with eq. 5 (corrected); motion is ignored.
 
     The covariance maps the nominal head noise through the lever arm ``(nav_x, nav_y)``, which
@@ -36,8 +43,9 @@ class LaserBaseline(Estimator):
     uses_motion = False
     uses_scans = False
 
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+    def __init__(self, params: LaserParams | None = None,
+                 **context: Unpack[EstimatorContext]) -> None:
+        super().__init__(params, **context)
         self._est: Estimate | None = None
 
     @property

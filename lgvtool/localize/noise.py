@@ -12,12 +12,16 @@ deviations that grow linearly with the path length ``dist`` (m) and the absolute
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.localize.motion import FUSIONS, STEP_FORMS, MotionSettings
 from lgvtool.localize.params import param
+
+#: a motion's size: one (float) or one per motion (an array)
+_Size = TypeVar("_Size", float, NDArray[np.float64])
 
 
 @dataclass(frozen=True)
@@ -44,8 +48,9 @@ class MotionParams:
         """The settings of the odometry track these parameters ask for."""
         return MotionSettings(self.fusion, self.gyro_weight, self.max_gyro_gap_s, self.step_form)
 
-    def noise_sigmas(self, dist: float, rot: float) -> tuple[float, float, float]:
-        """Body-frame standard deviations (along m, across m, heading rad) of one motion."""
+    def noise_sigmas(self, dist: _Size, rot: _Size) -> tuple[_Size, _Size, _Size]:
+        """Body-frame standard deviations (along m, across m, heading rad) of one motion of
+        length ``dist`` (m) and rotation ``rot`` (rad), or of each of arrays of them."""
         return (self.noise_dist * dist, self.noise_lat * dist,
                 self.noise_rot * rot + self.noise_rot_per_m * dist)
 

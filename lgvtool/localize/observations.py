@@ -293,6 +293,17 @@ class ReflectorMap:
         self._cell = cell
         self._margin = margin
         self._grid: tuple[float, float, int, int, list[NDArray[np.int64]]] | None = None
+        self._pairs: tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]] | None = None
+
+    def pair_table(self) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
+        """Every ordered pair of distinct reflectors ``(i, j)`` sorted by their distance: the
+        distances (m) and the two indices, made once."""
+        if self._pairs is None:
+            i, j = np.nonzero(~np.eye(len(self.z), dtype=bool))
+            d = np.abs(self.z[j] - self.z[i])
+            order = np.argsort(d, kind="stable")
+            self._pairs = (d[order], i[order].astype(np.int64), j[order].astype(np.int64))
+        return self._pairs
 
     def __len__(self) -> int:
         return len(self.reflectors)
@@ -363,6 +374,32 @@ class ReflectorMap:
             idx[out], d2[out] = bi, bd
         return idx.reshape(shape), d2.reshape(shape)
 
+    def nearest_two(self, px: NDArray[np.float64], py: NDArray[np.float64]
+                    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Index of the nearest reflector to each point (1-D arrays, m; the first of equals),
+        the squared distance to it and to the second nearest (m^2; infinite for a map of one
+        reflector), searching the whole map."""
+        fx = np.asarray(px, dtype=np.float64)
+        fy = np.asarray(py, dtype=np.float64)
+        n = fx.size
+        idx = np.zeros(n, dtype=np.int64)
+        best = np.full(n, np.inf)
+        second = np.full(n, np.inf)
+        if len(self.x) == 0:
+            return idx, best, second
+        block = max(1, 2_000_000 // len(self.x))
+        for a in range(0, n, block):
+            ex = self.x - fx[a:a + block, None]
+            ey = self.y - fy[a:a + block, None]
+            dd = ex * ex + ey * ey
+            j = np.argmin(dd, axis=1)
+            rows = np.arange(len(j))
+            idx[a:a + block] = j
+            best[a:a + block] = dd[rows, j]
+            if dd.shape[1] > 1:
+                second[a:a + block] = np.partition(dd, 1, axis=1)[:, 1]
+        return idx, best, second
+
     def nearest_distance(self, z: NDArray[np.complex128]) -> NDArray[np.float64]:
         """Distance (m) from each point (complex ``x + iy``, 1-D) to its nearest reflector."""
         if z.size * len(self.z) > 1_000_000:
@@ -398,8 +435,10 @@ class SourceParams:
     observations: str = param("auto", "observation source: auto (reflector scans when the log "
                               "has them, else NAV poses), scans, poses, or both",
                               choices=OBSERVATION_SOURCES)
-    use_ids: bool = param(True, "associate reflectors by their id when the scan gives one "
-                          "that is in the map; otherwise by nearest neighbour")
+    use_ids: bool = param(True, "use a reflector's id when the scan gives one that is in the "
+                          "map and its layout reflector is inside the association gate (a wrong "
+                          "id from the device is set aside); otherwise, and when false, "
+                          "associate by nearest neighbour inside the gate")
     min_range_m: float = param(0.0, "ignore reflectors measured closer than this, m",
                                minimum=0.0)
     max_range_m: float = param(math.inf, "ignore reflectors measured farther than this, m",

@@ -27,8 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,6 +37,7 @@ from lgvtool.localize.estimator import (
     Cloud,
     Estimate,
     EstimateRows,
+    EstimatorContext,
     Motion,
     Observation,
     Reporter,
@@ -48,6 +48,14 @@ from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.obsstream import BlockwiseMap
 from lgvtool.localize.params import param
+from lgvtool.localize.particle_backend import (
+    KnownSpread,
+    PaperBlock,
+    PaperMotions,
+    PaperScan,
+    ParticleBackend,
+    Spread,
+)
 from lgvtool.localize.particles import ParticleInitParams, ParticleSet
 from lgvtool.localize.resampling import RedistributionDraws, RedistributionPlan
 
@@ -60,9 +68,6 @@ ComplexArray = NDArray[np.complex128]
 #: redistributions whose random numbers are drawn in one call (about 2^14 numbers at most:
 #: larger blocks no longer fit the caches)
 _DRAW_NUMBERS = 1 << 14
-#: particle sets of about this many particles in all are weighed in one block by
-#: :meth:`PaperParticleFilter.run`, and their covariances computed together
-_COVARIANCE_BLOCK = 1 << 14
 
 #: heading spread of the redistribution, rad. The paper gives none. A heading offset moves a
 #: reflector at range r by r times the offset; this spread moves a reflector 25 m away (across
@@ -100,6 +105,10 @@ class PaperPfParams(MotionParams, SourceParams, ParticleInitParams):
                                    minimum=0.0)
     use_ids: bool = param(False, "use reflector ids for association (the paper associates "
                           "with the nearest known reflector)")
+    id_gate_m: float = param(1.0, "with use_ids: a reflector's distance to its id's layout "
+                             "reflector counts at most this plus its distance to the nearest "
+                             "layout reflector (a wrong id from the device costs the particles "
+                             "near the truth alike and cannot pull them), m", minimum=0.0)
     deskew: bool = param(True, "weigh each reflector at the particle carried by the "
                          "odometry to its own measurement time in the revolution (eq. 9 "
                          "applied within the revolution); false: all reflectors of a "
@@ -115,13 +124,14 @@ class PaperPfParams(MotionParams, SourceParams, ParticleInitParams):
                        "completed before the poll) or all", choices=("nav-poll", "all"))
 
 
-class PaperParticleFilter(ParticleSet):
+class PaperParticleFilter(ParticleSet[PaperPfParams]):
     """The paper's particle filter (section 3.2), every constant a parameter.
 
-    The particles are kept packed as the rows of one (M, 3) complex array: position ``z``,
-    heading rotor ``rot`` and 1. Putting a scan's reflectors into the world at every particle
-    and comparing them with candidate map reflectors is then one matrix product, and the
-    weighted sums of eq. 11 (with the sum of the weights) another. The redistribution's random
+    The particles are kept packed as the rows of one complex array (position ``z``, heading
+    rotor ``rot`` and what else the backend keeps: the numpy reference a column of ones, so
+    that putting a scan's reflectors into the world at every particle and comparing them with
+    candidate map reflectors is one matrix product, and the weighted sums of eq. 11 another;
+    :class:`lgvtool.localize.particle_backend.PaperBackend`). The redistribution's random
     numbers are drawn ahead for several updates at once when the filter draws nothing else
     per update (no motion noise, the paper's default): the same numbers in the same order as
     one draw per update, so results do not depend on it.
@@ -131,15 +141,15 @@ class PaperParticleFilter(ParticleSet):
     Params = PaperPfParams
     summary = "the paper's particle filter: 150 particles, eq. 9-11, 95/25 redistribution"
 
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(self, params: PaperPfParams | None = None, *,
+                 backend: ParticleBackend | None = None,
+                 **context: Unpack[EstimatorContext]) -> None:
+        super().__init__(params, backend=backend, **context)
         p = self.params
         #: pose of the last estimate (x, y m, heading rad), moved by the odometry since
         self._mean: tuple[float, float, float] | None = None
-        #: what the covariance and ESS of the last estimate are computed from: the packed
-        #: weighted particles, their (unnormalised) weights and the weighted sums of z and rot;
-        #: replaced by (covariance, ESS) once computed
-        self._cov: _Weighted | tuple[FloatArray, float] | None = None
+        #: the covariance and ESS of the last estimate (made when first asked for)
+        self._cov: Spread | None = None
         self._plan: RedistributionPlan | None = None
         self._draws: RedistributionDraws | None = None
         self._drawn = 0
@@ -148,12 +158,6 @@ class PaperParticleFilter(ParticleSet):
         #: exponent factor of eq. 10: w = exp(factor D^2)
         self._factor = -0.5 / (p.sigma_m * p.sigma_m)
         self._packing: tuple[ComplexArray, ComplexArray, ComplexArray] | None = None
-        self._buffers: dict[tuple[int, int, int], tuple[FloatArray, ...]] = {}
-        self._map_z3 = self.map.z[:, None, None]
-        self._map_z = np.ascontiguousarray(self.map.z)
-        #: eq. 11's sums of the last weighing with the kernels (x, y m, cos, sin, weights)
-        self._sums = np.zeros(5)
-        self._work = self._kern.paper_scratch() if self._kern is not None else None
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
         #: updates left before a large uniform start set shrinks to ``particles``
@@ -169,16 +173,11 @@ class PaperParticleFilter(ParticleSet):
 
     # ------------------------------------------------------------------ packed particles
     def _packed(self) -> ComplexArray:
-        """The particles as one (M, 3) complex array with columns ``z``, ``rot`` and ones
-        (with the kernels (M, 2), without the ones)."""
+        """The particles packed as the backend keeps them (:meth:`PaperBackend.pack`)."""
         pk = self._packing
         if pk is not None and pk[1] is self.z and pk[2] is self.rot:
             return pk[0]
-        s = np.empty((len(self.z), 2 if self._kern is not None else 3), dtype=np.complex128)
-        s[:, 0] = self.z
-        s[:, 1] = self.rot
-        if self._kern is None:
-            s[:, 2] = 1.0
+        s = self.backend.pack(self.z, self.rot)
         self._adopt(s, self._th)
         return s
 
@@ -201,15 +200,13 @@ class PaperParticleFilter(ParticleSet):
             if self._mean is not None:
                 self._mean = _moved(self._mean, motion.dx, motion.dy, motion.dth)
             return
-        step = _motion_matrices(np.array([motion.dx]), np.array([motion.dy]),
-                                np.array([motion.dth]))[0]
-        if self._kern is not None:
-            s = self._packed()
-            new = np.empty_like(s)
-            self._kern.paper_move(s, new, complex(step[1, 0]), complex(step[1, 1]))
-            self._adopt(new)
-        else:
-            self._adopt(self._packed() @ step)
+        b = self.backend
+        step = b.paper_motions(np.array([motion.dx]), np.array([motion.dy]),
+                               np.array([motion.dth]))
+        s = self._packed()
+        new = np.empty_like(s)
+        b.paper_move(s, new, step, 0)
+        self._adopt(new)
         self._move_refs(motion.dx, motion.dy, motion.dth)
 
     # ------------------------------------------------------------------ correction
@@ -220,67 +217,41 @@ class PaperParticleFilter(ParticleSet):
             out: FloatArray = np.sqrt(dx * dx + dy * dy) + self.params.pose_heading_m * np.abs(dh)
             return out
         if self.params.use_ids:
-            summed: FloatArray = np.abs(self.scan_residuals(obs, True)).sum(axis=1)
+            return self._id_sums(obs)
+        s = self._packed()
+        return self.backend.paper_exponents(s, self._scan(obs), self.map, self._near(len(s)),
+                                            None, None)
+
+    def _id_sums(self, obs: ScanObservation) -> FloatArray:
+        """``D_m`` with ``use_ids``: a reflector with an id in the map counts its distance to
+        the id's reflector, but at most ``id_gate_m`` plus its distance to its nearest
+        reflector (a wrong id costs the particles near the truth about the same, so it cannot
+        pull them, and still costs the particles that the ids rule out); the others their
+        distance to their nearest reflector, m."""
+        p = self.world_points(obs)
+        j = obs.map_index(self.map)
+        known = j >= 0
+        if known.all() and math.isinf(self.params.id_gate_m):
+            summed: FloatArray = np.abs(self.map.z[j] - p).sum(axis=1)
             return summed
-        return self._nearest_sums(self._packed(), self._scan(obs))
+        d = np.abs(self._nearest_residuals(p, obs))
+        if known.any():
+            by_id = np.abs(self.map.z[j[known]] - p[:, known])
+            d[:, known] = np.minimum(by_id, self.params.id_gate_m + d[:, known])
+        out: FloatArray = d.sum(axis=1)
+        return out
 
-    def _scan(self, obs: ScanObservation) -> _Scan | ComplexArray:
-        """``obs`` laid out for :meth:`_nearest_sums`, each point's candidate the map reflector
-        of its id or the nearest one seen from the reference pose (with the kernels as
-        :func:`_kernel_scan`)."""
+    def _scan(self, obs: ScanObservation) -> PaperScan:
+        """``obs`` laid out for :meth:`PaperBackend.paper_exponents`, each point's candidate
+        the map reflector of its id or the nearest one seen from the reference pose."""
         j1 = self._reference_nearest(obs)
-        cand = self.map.z[j1]
-        if self._kern is not None:
-            return _kernel_scan(obs.q, cand, self.map.half_sep[j1])
-        return _Scan(np.stack((np.ones(len(obs)), obs.q, -cand)), self.map.half_sep[j1], cand)
+        return self.backend.paper_scan(obs.q, self.map.z[j1], self.map.half_sep[j1])
 
-    def _nearest_sums(self, s: ComplexArray, scan: _Scan | ComplexArray,
-                      exponent: FloatArray | None = None) -> FloatArray:
-        """``D_m``: the summed distances from every particle's measured points to their nearest
-        map reflectors, m (``s``: the packed particles). With
-        ``exponent``, writes the exponent of eq. 10, ``-D_m^2 / (2 sigma^2)``, there instead
-        and returns it.
-
-        Each point is compared with its candidate map reflector; a point within half the
-        candidate's spacing to its nearest neighbour has no nearer one, the others are
-        compared with the whole map. The particles spread uniformly by the last
-        redistribution (the last ones) are compared with the whole map.
-        """
-        m = len(s)
-        kern = self._kern
-        if kern is not None:
-            out = np.empty(m) if exponent is None else exponent
-            assert not isinstance(scan, _Scan)
-            kern.paper_exponents(s, s, 0j, 1 + 0j, scan, self._map_z,
-                                 1.0 if exponent is None else self._factor, out, self._work)
-            if exponent is None:
-                np.sqrt(out, out=out)
-            return out
-        assert isinstance(scan, _Scan)
+    def _near(self, m: int) -> int:
+        """How many of ``m`` particles were redistributed around parents (the others, uniform
+        over the work area, are compared with the whole map)."""
         plan = self._plan
-        n = m if plan is None or plan.m != m else plan.n_local
-        k = scan.k
-        bufs = self._buffers.get((m, n, k))
-        if bufs is None:
-            d = np.empty((m, k))
-            bufs = self._buffers[(m, n, k)] = (d, d[:n], d[n:], np.ones(k), np.empty(m))
-        d, near, tail, ones, sums = bufs
-        # z + rot q - candidate, for every particle and point, in one product
-        np.abs(s[:n] @ scan.b, out=near)
-        if n < m:
-            pts = s[n:, :2] @ scan.b2
-            _min(np.abs(self._map_z3 - pts), axis=0, out=tail)
-        if _max(near, axis=None) >= scan.half_min:
-            far = near >= scan.half
-            if far.any():
-                mi, ki = np.nonzero(far)
-                near[mi, ki] = self.map.nearest_distance(s[mi, 0] + s[mi, 1] * scan.b[1, ki])
-        np.dot(d, ones, out=sums)
-        if exponent is None:
-            return sums.copy()
-        np.multiply(sums, sums, out=exponent)
-        exponent *= self._factor
-        return exponent
+        return m if plan is None or plan.m != m else plan.n_local
 
     def update(self, obs: Observation) -> bool:
         p = self.params
@@ -295,7 +266,9 @@ class PaperParticleFilter(ParticleSet):
             return False
         s = self._packed()
         if isinstance(obs, ScanObservation) and not p.use_ids:
-            exponent = self._nearest_sums(s, self._scan(obs), np.empty(len(s)))
+            exponent = self.backend.paper_exponents(s, self._scan(obs), self.map,
+                                                    self._near(len(s)), self._factor,
+                                                    np.empty(len(s)))
         else:
             d = self.distances(obs)
             exponent = d * d
@@ -312,64 +285,32 @@ class PaperParticleFilter(ParticleSet):
         return True
 
     def _correct(self, s: ComplexArray, exponent: FloatArray, w: FloatArray,
-                 out: ComplexArray) -> _Weighted | tuple[FloatArray, float]:
+                 out: ComplexArray) -> Spread:
         """Weigh the packed particles ``s`` with eq. 10, given its exponent
         ``-D_m^2 / (2 sigma^2)``, into ``w`` (unnormalised), estimate with eq. 11
-        (``self._mean``) and redistribute into ``out``. Returns what the estimate's covariance
-        is computed from; with the kernels the covariance (3, 3) and the ESS themselves."""
-        # eq. 10 up to its constant factor, which the normalisation removes; taken relative to
-        # the best particle, so that the weights of far particles (the uniform start's) cannot
-        # all underflow and the covariance's sums stay finite
-        kern = self._kern
-        if kern is not None:
-            kern.paper_weights(s, exponent, w, self._sums)
-            cov = np.empty((3, 3))
-            return (cov, self._correct_weighed(s, exponent, w, out, cov))
-        exponent -= exponent.max()
-        np.exp(exponent, out=w)
-        # the weighted sums of x, y, cos th, sin th and the sum of the weights, in one product
-        sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
-        if not (total > 0.0 and math.isfinite(total)):
-            # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
-            np.equal(exponent, exponent.max(), out=w)
-            sx, sy, sc, ss, total, _ = (w @ s.view(np.float64)).tolist()
-        self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
-        plan, draws, b = self._redistribution(len(s))
-        plan.apply_packed(s, w, draws, b, out)
-        return (s, w, total, complex(sx, sy), complex(sc, ss))
+        (``self._mean``) and redistribute into ``out``. Returns the weighed set's spread."""
+        b = self.backend
+        sums = b.paper_weigh(s, exponent, w)
+        self._estimate_from(sums.tolist())
+        plan, draws, k = self._redistribution(len(s))
+        return b.paper_redistribute(s, w, sums, plan, draws, k, out)
 
-    def _correct_weighed(self, s: ComplexArray, exponent: FloatArray, w: FloatArray,
-                         out: ComplexArray, cov: FloatArray) -> float:
-        """:meth:`_correct` with the kernels, once the particles are weighed (``w`` and
-        eq. 11's sums in ``self._sums``, by :func:`lgvtool.localize.pf_kernels.paper_weigh`
-        or ``paper_weights``): the estimate, and the covariance (into ``cov``, 3 x 3) and
-        redistribution in one kernel call. Returns the ESS."""
-        kern = self._kern
-        assert kern is not None
-        sums = self._sums
-        sx, sy, sc, ss, total = sums.tolist()
-        if not (total > 0.0 and math.isfinite(total)):
-            # every weight underflowed: the limit of eq. 11 is the particle(s) with least D
-            np.equal(exponent, exponent.max(), out=w)
-            kern.paper_sums(s, w, sums)
-            sx, sy, sc, ss, total = sums.tolist()
+    def _estimate_from(self, sums: list[float]) -> None:
+        """Eq. 11 from the weighed set's sums (of x, y, cos, sin weighted, and of the
+        weights): the estimate, which is the reference pose too."""
+        sx, sy, sc, ss, total = sums
         self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
-        m = len(s)
-        plan, draws, b = self._plan, self._draws, self._drawn
-        if plan is None or draws is None or plan.m != m or b >= draws.count:
-            plan, draws, b = self._redistribution(m)
-        else:
-            self._drawn = b + 1
-            self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
-        ess: float = kern.paper_resample(s, w, plan.top(w), draws.u[b], plan.kernel_plan, sums, out,
-                                         cov, self._work)
-        return ess
 
     def _redistribution(self, m: int) -> tuple[RedistributionPlan, RedistributionDraws, int]:
         """The plan of the redistribution of ``m`` particles, its random numbers and which of
         them (drawn ahead) the next redistribution takes; sets the filter's weights uniform
         (the redistributed set's)."""
-        plan = self._plan
+        plan, draws, b = self._plan, self._draws, self._drawn
+        if plan is not None and draws is not None and plan.m == m and b < draws.count:
+            # (the common case, first: numbers drawn ahead are left)
+            self._drawn = b + 1
+            self.w = self._uniform_w if len(self._uniform_w) == m else np.full(m, 1.0 / m)
+            return plan, draws, b
         if plan is None or plan.m != m:
             p = self.params
             plan = self._plan = RedistributionPlan(
@@ -379,8 +320,7 @@ class PaperParticleFilter(ParticleSet):
         draws = self._draws
         if draws is None:
             count = max(1, _DRAW_NUMBERS // (4 * m)) if self._quiet_motion else 1
-            draws = self._draws = plan.draw(self.rng, count, packed=True,
-                                            raw=self._kern is not None)
+            draws = self._draws = self.backend.paper_draws(plan, self.rng, count)
             self._drawn = 0
         elif self._drawn >= draws.count:
             draws.refill(self.rng)
@@ -396,13 +336,7 @@ class PaperParticleFilter(ParticleSet):
         cov = self._cov
         if cov is None:
             return np.zeros((3, 3)), 0.0
-        if len(cov) == 5:
-            s, w, total, sum_z, sum_rot = cov
-            c, e = _covariances_and_ess(s[None], w[None], np.array([total]),
-                                        np.array([sum_z]), np.array([sum_rot]))
-            self._cov = (c[0], float(e[0]))
-            return self._cov
-        return cov
+        return cov.value()
 
     def estimate(self) -> Estimate | None:
         if self._mean is None:
@@ -418,16 +352,17 @@ class PaperParticleFilter(ParticleSet):
             cloud_period_s: float = 2.0, cloud_size: int = 50) -> EstimateRows:
         """:meth:`Estimator.run` with the same results as ``predict``, ``update`` and
         ``estimate`` in turn, faster: the scans' candidate map reflectors are looked up and
-        the motions turned into matrices for all observations at once, and the particle sets
-        of consecutive updates are kept in one block whose covariances and effective sample
-        sizes are computed together."""
+        the motions laid out for all observations at once, and the particle sets of
+        consecutive updates are weighed in one block of the backend
+        (:class:`lgvtool.localize.particle_backend.PaperBlock`), which keeps their
+        covariances and effective sample sizes."""
         n = len(observations)
         if steps is not None and n > 1:
             moves: list[tuple[float, float, float, float, float]] | None = list(zip(
                 steps.dx.tolist(), steps.dy.tolist(), steps.dth.tolist(), steps.dist.tolist(),
                 steps.rot.tolist(), strict=True))
-            motion = _motion_matrices(steps.dx, steps.dy, steps.dth) if self._quiet_motion \
-                else None
+            motion = self.backend.paper_motions(steps.dx, steps.dy, steps.dth) \
+                if self._quiet_motion else None
         else:
             moves = motion = None
         prepared = BlockwiseMap(self._prepare_scans, observations)  # a block at a time
@@ -438,133 +373,93 @@ class PaperParticleFilter(ParticleSet):
         clouds: list[Cloud] = []
         next_cloud = -math.inf
         report = Reporter(progress)
-        block = self._block()
+        block = self._block(motion)
         m = len(self.z)
         rows, which = rec.rows, rec.which
-        # the particles are in ``block.current``, or in ``block.spare`` when ``pending``
-        pending = False
-        matmul, copyto = np.matmul, np.copyto
-        kern = self._kern
-        if kern is not None and motion is not None:
-            # the motions as (step, turn) pairs of the kernels
-            steps_z, steps_rot = motion[:, 1, 0].tolist(), motion[:, 1, 1].tolist()
-        map_z, factor, sums, work = self._map_z, self._factor, self._sums, self._work
-        correct = self._correct_weighed
         for i, o in enumerate(observations):
             scan = prepared.get(i) if o is not None else None
             # the index of the motion still to apply to the estimate and the reference pose
             # (-1: none; a scan weighed below sets both anew)
             refs_behind = -1
-            # the motion the kernel applies while weighing the particles
-            step_z, step_rot = 0j, 1 + 0j
+            # the motion the weighing below applies (-1: none)
+            fused = -1
             if i > 0 and moves is not None:
                 if motion is not None and block is not None:
-                    if kern is None:
-                        if pending:
-                            matmul(block.spare, motion[i - 1], out=block.current)
-                        else:
-                            matmul(block.current, motion[i - 1], out=block.spare)
-                        pending = not pending
-                    elif scan is not None and self._start_left == 0:
-                        step_z, step_rot = steps_z[i - 1], steps_rot[i - 1]
+                    if scan is not None and self._start_left == 0:
+                        fused = i - 1
                     else:
-                        if pending:
-                            kern.paper_move(block.spare, block.current, steps_z[i - 1],
-                                            steps_rot[i - 1])
-                        else:
-                            kern.paper_move(block.current, block.spare, steps_z[i - 1],
-                                            steps_rot[i - 1])
-                        pending = not pending
+                        block.move(i - 1)
                     if scan is None:
                         self._move_refs(*moves[i - 1][:3])
                     else:
                         refs_behind = i - 1
                 else:
-                    self._leave(block, rec, pending)
-                    pending = False
+                    self._leave(block, rec)
                     self.predict(Motion(*moves[i - 1]))
-                    block = self._block()
+                    block = self._block(motion)
                     m = len(self.z)
             if o is not None:
                 if scan is not None and block is not None and self._start_left == 0:
-                    s = block.current
-                    k = block.k
-                    if kern is not None:
-                        # motion, transform, association, eq. 10 and eq. 11's sums in one
-                        # pass; then the covariance and the redistribution in another
-                        kern.paper_weigh(block.spare if pending else s, s, step_z, step_rot,
-                                         scan, map_z, factor, block.exponent,
-                                         block.weights, sums, work)
-                        block.ess[k] = correct(s, block.exponent, block.weights, block.spare,
-                                               block.cov_rows[k])
-                    else:
-                        if pending:
-                            copyto(s, block.spare)
-                        exponent = self._nearest_sums(s, scan, block.exponent)
-                        _, _, total, sum_z, sum_rot = self._correct(  # type: ignore[misc]
-                            s, exponent, block.weights, block.spare)
-                        block.totals.append(total)
-                        block.sum_z.append(sum_z)
-                        block.sum_rot.append(sum_rot)
-                    pending = True
-                    # on to the next row of the block (recording the block when it is full)
+                    # motion (when fused), transform, association, eq. 10 and eq. 11's sums;
+                    # the estimate; the redistribution with the set's spread
+                    sx, sy, sc, ss, total = block.weigh(scan, fused)
+                    self._mean = self._ref = (sx / total, sy / total, math.atan2(ss, sc))
                     rec.count += 1
-                    k = block.k = k + 1
-                    if k < block.size:
-                        if kern is None:
-                            block.current = block.states[k]
-                            block.weights = block.w[k]
-                    else:
+                    if not block.redistribute(*self._redistribution(m)):
                         rec.close(block)
                         block.restart()
                 else:
                     if refs_behind >= 0:
                         self._move_refs(*moves[refs_behind][:3])  # type: ignore[index]
-                    self._leave(block, rec, pending)
-                    pending = False
+                    self._leave(block, rec)
                     before = self._cov
                     self.update(o)
                     if self._cov is not before:
                         rec.fixed(*self._spread())
-                    block = self._block()
+                    block = self._block(motion)
                     m = len(self.z)
             if self._mean is not None and block is not None:
                 t = ts[i]
                 rows.append((t, *self._mean, m))
                 which.append(rec.count - 1)
                 if cloud_size > 0 and t >= next_cloud:
-                    now = block.spare if pending else block.current
+                    now = block.particles()
                     c = now[cloud_sample(len(now), cloud_size)]
                     clouds.append((t, c[:, 0].real.copy(), c[:, 0].imag.copy(),
                                    np.angle(c[:, 1])))
                     next_cloud = t + cloud_period_s
             report.at(i)
         report.at(n, last=True)
-        self._leave(block, rec, pending)
+        self._leave(block, rec)
         out = rec.finish(clouds)
         if len(out.covariance):
-            self._cov = (out.covariance[-1].reshape(3, 3).copy(), float(out.ess[-1]))
+            self._cov = KnownSpread(out.covariance[-1].reshape(3, 3).copy(), float(out.ess[-1]))
             self.last_ess = float(out.ess[-1])
         return out
 
-    def _block(self) -> _Block | None:
-        """A block starting with the current particles (None without particles)."""
-        return _Block(self._packed(), self._kern) if len(self.z) else None
+    def _block(self, motions: PaperMotions | None) -> PaperBlock | None:
+        """A block starting with the current particles, moved by the run's ``motions`` (None
+        without particles)."""
+        m = len(self.z)
+        if not m:
+            return None
+        return self.backend.paper_block(self._packed(), motions, self.map, self._factor,
+                                        self._near(m))
 
-    def _leave(self, block: _Block | None, rec: _Recorder, pending: bool) -> None:
-        """Hand the particles of ``block`` (in its spare row when ``pending``) back to the
-        filter and record the covariances of its weighed sets."""
+    def _leave(self, block: PaperBlock | None, rec: _Recorder) -> None:
+        """Hand the particles of ``block`` back to the filter and record the covariances of
+        its weighed sets."""
         if block is not None:
-            self._adopt((block.spare if pending else block.current).copy())
+            self._adopt(block.particles().copy())
             rec.close(block)
             block.restart()
 
     def _prepare_scans(self, observations: Sequence[Observation | None]
-                       ) -> dict[int, _Scan] | dict[int, ComplexArray]:
+                       ) -> dict[int, PaperScan]:
         """For the scans whose reflectors all have an id in the map (and when association is
-        by nearest neighbour): per observation index, the scan for :meth:`_nearest_sums` with
-        the reflector of each point's id as its candidate (with the kernels as
-        :func:`_kernel_scan`)."""
+        by nearest neighbour): per observation index, the scan for
+        :meth:`PaperBackend.paper_exponents` with the reflector of each point's id as its
+        candidate."""
         if self.params.use_ids or len(self.map) == 0:
             return {}
         idx = [i for i, o in enumerate(observations)
@@ -575,170 +470,12 @@ class PaperParticleFilter(ParticleSet):
         j = self.map.index_of(np.concatenate([o.ids for o in scans]))
         known = j >= 0
         j = np.where(known, j, 0)
-        cand = self.map.z[j]
         q = np.concatenate([o.q for o in scans])
-        half = self.map.half_sep[j]
         bounds = np.cumsum([0] + [len(o.q) for o in scans])
-        starts = bounds[:-1]
-        complete = np.logical_and.reduceat(known, starts).tolist()
-        bounds_list = bounds.tolist()
-        if self._kern is not None:
-            pack = _kernel_scan(q, cand, half)
-            return {i: pack[a:e] for i, a, e, ok in zip(idx, bounds_list[:-1], bounds_list[1:],
-                                                        complete, strict=True) if ok}
-        b = np.stack((np.ones(len(j)), q, -cand))
-        least = np.minimum.reduceat(half, starts).tolist()
-        out: dict[int, _Scan] = {}
-        for i, a, e, ok, h in zip(idx, bounds_list[:-1], bounds_list[1:], complete, least,
-                                  strict=True):
-            if ok:
-                out[i] = _Scan(b[:, a:e], half[a:e], cand[a:e], h)
-        return out
-
-
-def _kernel_scan(q: ComplexArray, cand: ComplexArray, half: FloatArray) -> ComplexArray:
-    """A scan laid out for :func:`lgvtool.localize.pf_kernels.paper_exponents`, (K, 3): per
-    point its position in the body frame (m), its candidate map reflector (m) and, as the
-    real part, half the candidate's distance to its nearest neighbour (m)."""
-    return np.stack((q, cand, half), axis=1)
-
-
-_max = np.maximum.reduce
-_min = np.minimum.reduce
-
-
-class _Scan:
-    """A scan laid out for :meth:`PaperParticleFilter._nearest_sums`: ``b`` (3, K) rows ones,
-    the measured points ``q`` (body frame, m) and minus a candidate map reflector per point
-    (m); ``b2`` its first two rows; ``q`` the points and ``cand`` the candidates (m);
-    ``half``: half each candidate's distance to its nearest neighbour (m), and the least of
-    those."""
-
-    __slots__ = ("b", "b2", "cand", "half", "half_min", "k", "q")
-
-    def __init__(self, b: ComplexArray, half: FloatArray, cand: ComplexArray,
-                 half_min: float | None = None) -> None:
-        self.b = b
-        self.b2 = b[:2]
-        self.q = b[1]
-        self.cand = cand
-        self.half = half
-        if half_min is None:
-            half_min = float(half.min()) if len(half) else math.inf
-        self.half_min = half_min
-        self.k = b.shape[1]
-
-
-#: a weighted particle set: packed particles (M, 3), unnormalised weights, their sum and the
-#: weighted sums of z and rot
-_Weighted = tuple[ComplexArray, FloatArray, float, complex, complex]
-
-
-def _motion_matrices(dx: FloatArray, dy: FloatArray, dth: FloatArray) -> ComplexArray:
-    """Eq. 9 for packed particles as matrices, (n, 3, 3): the packed particles times matrix
-    ``k`` are the particles moved by the body-frame motion ``(dx[k], dy[k])`` (m) and turned by
-    ``dth[k]`` (rad): ``z + rot (dx + i dy)``, ``rot exp(i dth)``, 1."""
-    out = np.zeros((len(dx), 3, 3), dtype=np.complex128)
-    out[:, 0, 0] = 1.0
-    out[:, 1, 0].real = dx
-    out[:, 1, 0].imag = dy
-    out[:, 1, 1].real = np.cos(dth)
-    out[:, 1, 1].imag = np.sin(dth)
-    out[:, 2, 2] = 1.0
-    return out
-
-
-def _covariances_and_ess(s: ComplexArray, w: FloatArray, total: FloatArray, sum_z: ComplexArray,
-                         sum_rot: ComplexArray, work: _Work | None = None
-                         ) -> tuple[FloatArray, FloatArray]:
-    """Covariances (B, 3, 3) and effective sample sizes (B,) of ``B`` weighted particle sets:
-    packed particles ``s`` (B, M, 3), unnormalised weights ``w`` (B, M), their sums ``total``
-    (B,) and the weighted sums of z and rot (B,). ``work``: scratch for at least B sets.
-
-    With ``d = z - mean`` and ``h`` the heading deviations from the circular mean (rad), the
-    covariance entries are the weighted sums of the products of ``(Re d, Im d, h)``.
-    """
-    b, m = w.shape
-    if work is None or len(work.wn) < b or work.wn.shape[1] != m:
-        work = _Work(b, m)
-    wn, a, aw = work.wn[:b], work.a[:, :b], work.aw[:, :b]
-    d, r = work.d[:b], work.r[:b]
-    np.divide(w, total[:, None], out=wn)
-    np.subtract(s[:, :, 0], (sum_z / total)[:, None], out=d)
-    a[0] = d.real
-    a[1] = d.imag
-    np.multiply(s[:, :, 1], sum_rot.conj()[:, None], out=r)
-    np.arctan2(r.imag, r.real, out=a[2])
-    np.multiply(a, wn, out=aw)
-    cov = np.einsum("ibm,jbm->bij", aw, a)
-    ess = 1.0 / np.einsum("bm,bm->b", wn, wn)
-    return cov, ess
-
-
-class _Work:
-    """Scratch arrays of :func:`_covariances_and_ess` for ``b`` sets of ``m`` particles."""
-
-    __slots__ = ("a", "aw", "d", "r", "wn")
-
-    def __init__(self, b: int, m: int) -> None:
-        self.wn = np.empty((b, m))
-        self.a = np.empty((3, b, m))
-        self.aw = np.empty((3, b, m))
-        self.d = np.empty((b, m), dtype=np.complex128)
-        self.r = np.empty((b, m), dtype=np.complex128)
-
-
-class _Block:
-    """Consecutive particle sets of :meth:`PaperParticleFilter.run`: row ``k`` holds the
-    particles of the ``k``-th weighing, so the weighed sets stay for the covariances without
-    copies; a redistribution writes ``spare``, from which the next motion moves the particles
-    into the next row. A full block starts over at row 0. With the kernels, which compute
-    each set's covariance and ESS as they redistribute it (into ``cov_rows[k]`` and
-    ``ess[k]``), the particles stay in row 0 and ``spare``."""
-
-    def __init__(self, first: ComplexArray, kernels: ModuleType | None = None) -> None:
-        m, cols = first.shape
-        self.kernels = kernels
-        self.size = max(1, _COVARIANCE_BLOCK // max(1, m))
-        rows = 1 if kernels is not None else self.size
-        self.states = np.empty((rows, m, cols), dtype=np.complex128)
-        self.states[0] = first
-        #: where a redistribution or a motion writes the particles before they are weighed
-        self.spare = np.empty((m, cols), dtype=np.complex128)
-        self.w = np.empty((rows, m))
-        #: the exponent of eq. 10 of the set being weighed
-        self.exponent = np.empty(m)
-        if kernels is not None:
-            self.cov = np.empty((self.size, 3, 3))
-            self.cov_rows = list(self.cov)
-            self.ess = np.empty(self.size)
-        else:
-            self.work = _Work(self.size, m)
-        self.k = 0
-        self.current = self.states[0]
-        self.weights = self.w[0]
-        self.totals: list[float] = []
-        self.sum_z: list[complex] = []
-        self.sum_rot: list[complex] = []
-
-    def spread(self) -> tuple[FloatArray, FloatArray]:
-        """Covariances (k, 9) and ESS (k,) of the sets weighed so far."""
-        k = self.k
-        if k == 0:
-            return np.zeros((0, 9)), np.zeros(0)
-        if self.kernels is not None:
-            return self.cov[:k].reshape(k, 9).copy(), self.ess[:k].copy()
-        cov, ess = _covariances_and_ess(self.states[:k], self.w[:k], np.array(self.totals),
-                                        np.array(self.sum_z), np.array(self.sum_rot),
-                                        self.work)
-        return cov.reshape(k, 9), ess
-
-    def restart(self) -> None:
-        """Start over at row 0 (the weighed sets are recorded)."""
-        self.k = 0
-        self.current = self.states[0]
-        self.weights = self.w[0]
-        self.totals, self.sum_z, self.sum_rot = [], [], []
+        complete = np.logical_and.reduceat(known, bounds[:-1]).tolist()
+        laid = self.backend.paper_scans(q, self.map.z[j], self.map.half_sep[j],
+                                        bounds.tolist(), complete)
+        return {i: sc for i, sc in zip(idx, laid, strict=True) if sc is not None}
 
 
 class _Recorder:
@@ -759,7 +496,7 @@ class _Recorder:
         self.ess.append(np.array([ess]))
         self.count += 1
 
-    def close(self, block: _Block) -> None:
+    def close(self, block: PaperBlock) -> None:
         """Record the covariances and ESS of the sets weighed in ``block``."""
         cov, ess = block.spread()
         if len(cov):

@@ -20,6 +20,16 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
   range (``sigma_range_m``) and bearing (``sigma_bearing_rad``, i.e. ``r sigma_b`` across the
   ray) plus a uniform density over a disc of radius ``outlier_gate_m``, so a false reflector
   (a shiny object) or a wrong association cannot zero a good particle.
+- association (:mod:`lgvtool.localize.association`, per particle): a reflector's id is a hint
+  the navigation device gives, sometimes wrong and often absent. It is used only when the id's
+  layout reflector lies inside the gate (``association_gate_probability``: a radius of 4.3 x
+  the larger of the reflector's range and cross-range noise); otherwise the reflector goes to
+  its nearest layout reflector inside the gate, and counts as an outlier (the mixture's floor)
+  when the gate holds none or two alike (``ambiguity_ratio``). A particle that puts a reflector
+  on another layout reflector than its id's is weighed by ``id_error_prob / ((J - 1)(1 -
+  id_error_prob))``, so the ids still tell the particles apart where they agree. Recovery and
+  the start fix the pose from the scan's geometry when its ids are missing or disagree
+  (:func:`lgvtool.localize.fix.scan_fix`).
 - ``start_particles`` (off by default): a uniform start with more particles, kept for the first
   ``start_updates`` updates, then resampled down to ``particles``.
 - ``fix_reset_probability`` (off by default): a frame that the cloud's mean does not explain,
@@ -51,31 +61,41 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.localize.camera_fix import residual_chi2, start_fix
-from lgvtool.localize.estimator import Estimate, EstimateRows, Motion, Observation
-from lgvtool.localize.kld import bin_keys, kld_bound, kld_count
+from lgvtool.localize.estimator import (
+    Estimate,
+    EstimateRows,
+    EstimatorContext,
+    Motion,
+    Observation,
+)
+from lgvtool.localize.kld import KldSizing
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
+from lgvtool.localize.particle_backend import (
+    ParticleArrays,
+    ParticleBackend,
+    Survivors,
+    TrackSettings,
+    TrackState,
+)
 from lgvtool.localize.particles import ParticleInitParams, ParticleSet
+from lgvtool.localize.pf_likelihood import ScanModel, associate, mixed
 from lgvtool.localize.pf_proposal import (
     Proposal,
-    draw,
     gaussian_offsets,
     kalman_proposal,
-    log_weight_correction,
-    predict_covariance,
     ray_residuals,
 )
 from lgvtool.localize.resampling import (
+    RESAMPLERS,
     effective_sample_size,
-    low_variance,
-    multinomial,
     uniform_poses,
 )
 from lgvtool.quantiles import chi2_quantile
@@ -119,8 +139,9 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams):
     recovery: bool = param(True, "recovery: augmented-MCL injection, and sensor resetting when "
                            "the likelihood shows the filter is lost")
     inject: str = param("sensor", "where recovery particles come from: sensor (around the pose "
-                        "the observation itself fixes: a landmark fix from reflector ids or the "
-                        "NAV pose; uniform when it fixes none) or uniform",
+                        "the observation itself fixes: a landmark fix from reflector ids that "
+                        "agree or from the scan's geometry matched on the layout, or the NAV "
+                        "pose; uniform when it fixes none) or uniform",
                         choices=("sensor", "uniform"))
     reset_likelihood: float = param(1.0, "sensor resetting: mean likelihood per measurement "
                                     "(density, per m^2 for a reflector) below which the filter "
@@ -134,6 +155,25 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams):
                                 minimum=1e-9, maximum=0.999)
     outlier_gate_m: float = param(1.0, "radius of the disc over which an outlier is uniform, m",
                                   minimum=1e-6)
+    association_gate_probability: float = param(
+        0.9999, "association gate: a layout reflector is inside the gate of a measured one when "
+        "their distance is within the square root of the chi-square quantile (2 degrees of "
+        "freedom) of this probability times the larger of the measurement's range and "
+        "cross-range noise (4.3 x at 0.9999); per particle, a reflector's id is used only when "
+        "the id's layout reflector is inside the gate, else (and without an id) the nearest "
+        "inside it, and none (the outlier density) when the gate holds nothing or two alike "
+        "(ambiguity_ratio)", minimum=0.5, maximum=0.999999999)
+    ambiguity_ratio: float = param(2.0, "per particle, a reflector without a usable id counts "
+                                   "as none (the outlier density) when a second layout "
+                                   "reflector is inside the gate at less than this times the "
+                                   "distance of the nearest, dimensionless (1: never)",
+                                   minimum=1.0)
+    id_error_prob: float = param(0.1, "probability that the navigation device reports a wrong "
+                                 "layout id for a reflector: a particle that associates a "
+                                 "reflector with another layout reflector than its id's is "
+                                 "weighed by this / ((J - 1) (1 - this)), J the layout's "
+                                 "reflectors; 0: ids only select, never weigh",
+                                 minimum=0.0, maximum=0.999)
     init_fix: str = param("points", "landmark fix of a start around a pose: points (align the "
                           "measured points on the map) or weighted (least squares in range and "
                           "bearing with this filter's measurement noise)",
@@ -185,19 +225,19 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams):
                                              "weight)", minimum=0.5, maximum=0.999999999)
 
 
-class ParticleFilter(ParticleSet):
-    """The improved particle filter (``pf``)."""
+class ParticleFilter(ParticleSet[PfParams]):
+    """The improved particle filter (``pf``); its array operations by its backend
+    (:class:`lgvtool.localize.particle_backend.PfBackend`)."""
 
     name = "pf"
     Params = PfParams
     summary = "the paper's filter with log weights, ESS/low-variance resampling, KLD, " \
               "augmented MCL, de-skew, outlier-tolerant and pose-only likelihoods"
-    #: from this many particles on, the prediction's normal numbers are drawn inside the
-    #: kernel (the same numbers; cheaper per number, but a fixed cost per call)
-    DRAW_IN_KERNEL = 2048
 
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(self, params: PfParams | None = None, *,
+                 backend: ParticleBackend | None = None,
+                 **context: Unpack[EstimatorContext]) -> None:
+        super().__init__(params, backend=backend, **context)
         p = self.params
         self.logw = np.zeros(0)
         self.w_slow: dict[str, float] = {}
@@ -214,8 +254,20 @@ class ParticleFilter(ParticleSet):
         #: the covariance of each particle's pose Gaussian; (N, 3, 3) in x m, y m, heading rad
         #: (None: zero, the particles are draws)
         self._pcov: FloatArray | None = None
-        #: KLD-sampling's bound for 1, 2, ... occupied bins (the kernels' resampling)
-        self._need: FloatArray | None = None
+        #: KLD-sampling's rule (its count between min_particles and particles)
+        self.kld_sizing = KldSizing(p.kld_epsilon, p.kld_delta, p.min_particles,
+                                    max(p.particles, p.min_particles), p.kld_bin_m,
+                                    p.kld_bin_rad)
+        eps = p.outlier_prob
+        #: the reflector likelihood's constants (the association gate in standard deviations:
+        #: the square root of its chi-square quantile, 2 dof)
+        self.model = ScanModel(p.sigma_range_m, p.sigma_range_per_m, p.sigma_bearing_rad,
+                               p.use_ids, p.outlier, math.log1p(-eps),
+                               math.log(eps) + self._log_outlier(2),
+                               math.sqrt(chi2_quantile(p.association_gate_probability, 2)),
+                               p.ambiguity_ratio, self._log_mismatch())
+        #: log(eps) + the log density of an outlier NAV pose (the pose likelihood's mixture)
+        self._log_pose_outlier = math.log(eps) + self._log_outlier(3)
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":
@@ -227,14 +279,6 @@ class ParticleFilter(ParticleSet):
         self.logw = np.full(len(self.z), -math.log(max(1, len(self.z))))
 
     # ------------------------------------------------------------------ likelihoods
-    def _mix(self, loglik: FloatArray, dims: int) -> FloatArray:
-        """Outlier mixture of per-measurement log-likelihoods (``dims``-D Gaussians)."""
-        p = self.params
-        if not p.outlier:
-            return loglik
-        eps = p.outlier_prob
-        return np.logaddexp(math.log1p(-eps) + loglik, math.log(eps) + self._log_outlier(dims))
-
     def _log_outlier(self, dims: int) -> float:
         """Log density of an outlier: uniform over the gate's disc (2-D, per m^2), and over
         every heading too (3-D)."""
@@ -244,37 +288,38 @@ class ParticleFilter(ParticleSet):
     def ray_sigmas(self, obs: ScanObservation) -> tuple[FloatArray, FloatArray]:
         """Noise standard deviations (m) of each reflector of ``obs`` along its ray (range)
         and across it (range x bearing noise)."""
-        p = self.params
-        if p.sigma_range_per_m > 0.0:
-            sr = np.sqrt(p.sigma_range_m ** 2 + (p.sigma_range_per_m * obs.ranges) ** 2)
-        else:
-            sr = np.full(len(obs), p.sigma_range_m)
-        return sr, np.sqrt((obs.ranges * p.sigma_bearing_rad) ** 2 + 1e-12)
+        return self.model.ray_sigmas(obs.ranges)
+
+    def gate_radii(self, obs: ScanObservation) -> FloatArray:
+        """The association gate of each reflector of ``obs``, m: the square root of the
+        chi-square quantile (2 dof) of ``association_gate_probability`` times the larger of
+        its range and cross-range noise (:meth:`ray_sigmas`)."""
+        return self.model.gate_radii(obs.ranges)
+
+    def associate_scan(self, obs: ScanObservation
+                       ) -> tuple[ComplexArray, NDArray[np.bool_], NDArray[np.bool_]]:
+        """Every particle's association of the reflectors of ``obs``
+        (:func:`lgvtool.localize.pf_likelihood.associate`, the candidates seen from the
+        reference pose): the residual ``L_j - p_mk`` (M, K complex, m) from each measured
+        point to its layout reflector (the nearest when it has none), whether the point has
+        none (nothing inside the gate, or two alike: ambiguous) and whether a point with an id
+        went to another reflector than the id's."""
+        return associate(self.z, self.rot, obs, self.map, self._reference_nearest(obs),
+                         self.model)
+
+    def _log_mismatch(self) -> float:
+        """The log weight of a particle that associates a reflector with an id with another
+        layout reflector than the id's: ``log(id_error_prob / (J - 1)) - log(1 -
+        id_error_prob)`` for a layout of ``J`` reflectors (0 when off or ``J < 2``)."""
+        eps = self.params.id_error_prob
+        if eps <= 0.0 or len(self.map) < 2:
+            return 0.0
+        return math.log(eps / (len(self.map) - 1)) - math.log1p(-eps)
 
     def scan_loglik(self, obs: ScanObservation) -> tuple[FloatArray, int]:
         """Log-likelihood of each particle for a scan, and the number of reflectors used."""
-        p = self.params
-        if self._kern is not None:
-            # the per-point inputs (association candidates, noise, constants) made in the kernel
-            ref = self._reference_pose()
-            eps = p.outlier_prob
-            ll_k = np.empty(len(self.z))
-            self._kern.pf_scan(
-                self.z, self.rot, np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u),
-                np.ascontiguousarray(obs.ranges), obs.map_index(self.map),
-                complex(ref[0], ref[1]), complex(math.cos(ref[2]), math.sin(ref[2])),
-                self.map.z, self.map.half_sep, p.sigma_range_m, p.sigma_range_m ** 2,
-                p.sigma_range_per_m, p.sigma_bearing_rad, p.use_ids, p.outlier,
-                math.log1p(-eps), math.log(eps) + self._log_outlier(2), ll_k)
-            return ll_k, len(obs)
-        sr, st = self.ray_sigmas(obs)
-        const = _LOG_2PI + np.log(sr) + np.log(st)
-        e = self.scan_residuals(obs, p.use_ids)
-        # the residual along (er) and across (et) each reflector's ray
-        ray = e * np.multiply.outer(self.rot.conj(), obs.u.conj())
-        er, et = ray.real, ray.imag
-        ll = -0.5 * ((er / sr) ** 2 + (et / st) ** 2) - const
-        return self._mix(ll, 2).sum(axis=1), len(obs)
+        return (self.backend.scan_loglik(self.z, self.rot, obs, self.map,
+                                         self._reference_pose(), self.model), len(obs))
 
     def pose_loglik(self, obs: PoseObservation) -> FloatArray:
         """Log-likelihood of each particle for a NAV head pose."""
@@ -283,7 +328,7 @@ class ParticleFilter(ParticleSet):
         sp, sh = p.sigma_pose_xy_m, p.sigma_pose_heading_rad
         ll = -0.5 * ((dx * dx + dy * dy) / (sp * sp) + (dh / sh) ** 2) \
             - (1.5 * _LOG_2PI + 2.0 * math.log(sp) + math.log(sh))
-        return self._mix(ll, 3)
+        return mixed(ll, p.outlier, self.model.log_inlier, self._log_pose_outlier)
 
     # ------------------------------------------------------------------ update
     def update(self, obs: Observation) -> bool:
@@ -306,28 +351,12 @@ class ParticleFilter(ParticleSet):
                 return False
             ll, count = self.proposal_loglik(obs) if gaussian else self.scan_loglik(obs)
             kind = "scan"
-        ess: float | None = None
-        pose: tuple[float, float, float, FloatArray] | None = None
-        if p.log_weights and self._kern is not None:
-            # the weights and the weighted pose in one call
-            w, logw = np.empty(len(ll)), np.empty(len(ll))
-            cov = np.empty((3, 3))
-            log_avg, ess, x, y, t = self._kern.pf_weigh(self.logw, ll, self.z, self.rot, w,
-                                                        logw, cov)
-            if not math.isfinite(log_avg):
-                return False
-            self.w, self.logw = w, logw
-            pose = (x, y, t, cov)
-        elif p.log_weights:
-            lw = self.logw + ll
-            top = float(lw.max())
-            if not math.isfinite(top):
-                return False
-            e = np.exp(lw - top)
-            total = float(e.sum())
-            log_avg = top + math.log(total)  # log sum_m w_m p_m: the weighted mean likelihood
-            self.w = e / total
-            self.logw = lw - log_avg
+        if p.log_weights:
+            weighed = self.backend.weigh(self.logw, ll, self.z, self.rot)
+            if weighed is None:
+                return False  # every weight is 0: the observation cannot be used
+            self.w, self.logw = weighed.w, weighed.logw
+            log_avg, ess, pose = weighed.log_avg, weighed.ess, weighed.pose
         else:
             e = self.w * np.exp(ll)
             total = float(e.sum())
@@ -336,18 +365,19 @@ class ParticleFilter(ParticleSet):
             log_avg = math.log(total)
             self.w = e / total
             self.logw = np.log(np.maximum(self.w, 1e-300))
+            ess, pose = effective_sample_size(self.w), self.weighted_pose(self.w)
         per_obs = log_avg / count
         self._track_likelihood(kind, per_obs)
-        self.last_ess = effective_sample_size(self.w) if ess is None else ess
-        self._cached = self._with_spread(self.weighted_pose(self.w) if pose is None else pose)
+        self.last_ess = ess
+        self._cached = self._with_spread(pose)
         self._ref = self._cached[:3]
-        self._after_weigh(kind, obs, per_obs)
+        self.after_weighing(kind, obs, per_obs)
         return True
 
-    def _after_weigh(self, kind: str, obs: Observation, per_obs: float) -> None:
-        """The end of :meth:`update` once the particles are weighed (the log-likelihood
-        ``per_obs`` per measurement): the resampling when due, with recovery's re-drawn
-        particles."""
+    def after_weighing(self, kind: str, obs: Observation, per_obs: float) -> None:
+        """The end of :meth:`update` once the particles are weighed with ``obs`` (``kind``
+        "scan" or "pose"; the log-likelihood ``per_obs`` per measurement): the resampling
+        when due, with recovery's re-drawn particles."""
         p = self.params
         n = len(self.z)
         lost = 0.0
@@ -370,14 +400,47 @@ class ParticleFilter(ParticleSet):
                 self._cached = self._with_spread(self.weighted_pose(self.w))
                 self._ref = self._cached[:3]
 
+    # ------------------------------------------------------------------ fused replay
+    @property
+    def tracking(self) -> bool:
+        """Whether the filter is started and past a large start set: its reflector scans
+        may be tracked by a fused replay (:mod:`lgvtool.localize.pf_run`)."""
+        return self.initialized and self._start_left == 0
+
+    def track_settings(self) -> TrackSettings:
+        """What a fused replay of scans needs of the parameters."""
+        p = self.params
+        return TrackSettings(self.model, p.alpha_slow, p.alpha_fast, p.reset_likelihood,
+                             p.recovery, p.ess_threshold, p.resample == "always", p.kld,
+                             self.kld_sizing, p.particles)
+
+    def particle_arrays(self) -> ParticleArrays:
+        """The particles and their weights."""
+        return ParticleArrays(self.z, self.th, self.rot, self.w, self.logw)
+
+    def tracking_state(self) -> TrackState:
+        """The scalars a fused replay of scans carries, as they are now."""
+        return TrackState(self.w_slow.get("scan", 0.0), self.w_fast.get("scan", 0.0),
+                          self.last_ess, self._ref, self._cached, self.resamplings)
+
+    def resume(self, particles: ParticleArrays, state: TrackState) -> None:
+        """Take over the particles and the scalars a fused replay of scans leaves."""
+        self.z, self.th, self.rot, self.w, self.logw = particles
+        if state.tracked:
+            self.w_slow["scan"] = state.slow
+            self.w_fast["scan"] = state.fast
+        self.last_ess = state.ess
+        if state.ref is not None:
+            self._ref = state.ref
+        self._cached = state.cached
+        self.resamplings = state.resamplings
+
     def ekf_proposal(self, obs: ScanObservation) -> tuple[Proposal, FloatArray]:
         """Every particle's motion Gaussian updated by the landmarks of ``obs`` (linearised at
-        the particle, each landmark associated as :meth:`scan_residuals` does), and the
+        the particle, each landmark associated as :meth:`associate_scan` does), and the
         Gaussians' prior covariances (N, 3, 3)."""
-        n = len(self.z)
-        cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
-            np.zeros((n, 3, 3))
-        landmarks = self.scan_residuals(obs, self.params.use_ids) + self.world_points(obs)
+        cov = self._gaussians()
+        landmarks = self.associate_scan(obs)[0] + self.world_points(obs)
         r, jac = ray_residuals(self.z, self.rot, landmarks, obs.q, obs.u)
         sr, st = self.ray_sigmas(obs)
         gate = chi2_quantile(self.params.proposal_gate_probability, 2)
@@ -391,29 +454,24 @@ class ParticleFilter(ParticleSet):
         (corrected at the mean by the true likelihood over the linearised one)."""
         n = len(self.z)
         marginal = self.params.proposal == "marginal"
-        post: FloatArray
-        if self._kern is not None:
-            # the Kalman step, the draw and the correction in one pass
-            cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
-                np.zeros((n, 3, 3))
-            landmarks = self.scan_residuals(obs, self.params.use_ids) + self.world_points(obs)
-            sr, st = self.ray_sigmas(obs)
-            g = np.zeros((n, 3)) if marginal else self.rng.standard_normal((n, 3))
-            dx, corr, post = np.empty((n, 3)), np.empty(n), np.empty((n, 3, 3))
-            self._kern.pf_ekf_proposal(
-                self.z, self.rot, np.ascontiguousarray(cov), np.ascontiguousarray(landmarks),
-                np.ascontiguousarray(obs.q), np.ascontiguousarray(obs.u.conj()), sr, st,
-                chi2_quantile(self.params.proposal_gate_probability, 2), g, dx, corr, post)
-        else:
-            prop, _ = self.ekf_proposal(obs)
-            dx = prop.d if marginal else draw(prop, self.rng.standard_normal((n, 3)))
-            corr = log_weight_correction(prop, dx)
-            post = prop.cov
+        cov = self._gaussians()
+        landmarks = self.associate_scan(obs)[0] + self.world_points(obs)
+        sr, st = self.ray_sigmas(obs)
+        g = None if marginal else self.rng.standard_normal((n, 3))
+        dx, corr, post = self.backend.gaussian_proposal(
+            self.z, self.rot, cov, landmarks, obs, sr, st,
+            chi2_quantile(self.params.proposal_gate_probability, 2), g)
         self._shift(dx)
         if marginal:
             self._pcov = post
         ll, count = self.scan_loglik(obs)
         return ll + corr, count
+
+    def _gaussians(self) -> FloatArray:
+        """The covariances of the particles' Gaussians (N, 3, 3; zero when they are draws)."""
+        n = len(self.z)
+        pcov = self._pcov
+        return pcov if pcov is not None and len(pcov) == n else np.zeros((n, 3, 3))
 
     def _shift(self, dx: FloatArray) -> None:
         """Move every particle by its offset (N, 3: x m, y m, heading rad); the particles are
@@ -518,14 +576,16 @@ class ParticleFilter(ParticleSet):
     def run(self, times: FloatArray, observations: Sequence[Observation | None],
             steps: Deltas | None, *, progress: Callable[[int], None] | None = None,
             cloud_period_s: float = 2.0, cloud_size: int = 50) -> EstimateRows:
-        """:meth:`Estimator.run`, its tracking of reflector scans in compiled chunks when the
-        settings allow (:mod:`lgvtool.localize.pf_run`: the same rows and random stream)."""
+        """:meth:`Estimator.run`, its reflector scans tracked by the backend's fused replay
+        when it has one and the settings allow (:mod:`lgvtool.localize.pf_run`: the same rows
+        and random stream)."""
         from lgvtool.localize import pf_run
 
-        if not pf_run.tracks_in_kernel(self):
+        tracker = pf_run.tracker(self, steps, len(observations))
+        if tracker is None:
             return super().run(times, observations, steps, progress=progress,
                                cloud_period_s=cloud_period_s, cloud_size=cloud_size)
-        return pf_run.track(self, times, observations, steps, progress=progress,
+        return pf_run.track(self, tracker, times, observations, steps, progress=progress,
                             cloud_period_s=cloud_period_s, cloud_size=cloud_size)
 
     def predict(self, motion: Motion) -> None:
@@ -536,21 +596,8 @@ class ParticleFilter(ParticleSet):
             self._predict_mean(motion, sigmas)
         elif p.odometry_scales and n > 0:
             self._predict_scaled(motion)
-        elif self._kern is not None and n > 0 and any(v != 0.0 for v in sigmas):
-            # eq. 9 with the numpy path's draw, in one pass
-            z, th, rot = np.empty(n, dtype=np.complex128), np.empty(n), \
-                np.empty(n, dtype=np.complex128)
-            if n >= self.DRAW_IN_KERNEL:
-                self._kern.pf_predict_drawn(self.rng, self.z, self.th, self.rot, motion.dx,
-                                            motion.dy, motion.dth, *sigmas, z, th, rot)
-            else:
-                g = self.rng.standard_normal((3, n))
-                self._kern.pf_predict(self.z, self.th, self.rot, g, motion.dx, motion.dy,
-                                      motion.dth, *sigmas, z, th, rot)
-            self.z, self.th, self.rot = z, th, rot
-            self._move_ref(motion)
-        else:
-            super().predict(motion)
+        elif n > 0:
+            self._move(motion, sigmas)
         self._cached = None
 
     def _prior_scales(self, n: int) -> tuple[FloatArray, FloatArray]:
@@ -606,15 +653,7 @@ class ParticleFilter(ParticleSet):
         else:
             body, dth = complex(motion.dx, motion.dy), motion.dth
         step = self.rot * body
-        cov = self._pcov if self._pcov is not None and len(self._pcov) == n else \
-            np.zeros((n, 3, 3))
-        if self._kern is not None:
-            out = np.empty_like(cov)
-            self._kern.pf_predict_covariance(cov, self.rot, np.ascontiguousarray(step),
-                                             *sigmas, out)
-            self._pcov = out
-        else:
-            self._pcov = predict_covariance(cov, self.rot, step, sigmas)
+        self._pcov = self.backend.predict_covariance(self._gaussians(), self.rot, step, sigmas)
         self.z = self.z + step
         self._set_headings(self.th + dth)
         self._move_ref(motion)
@@ -638,61 +677,75 @@ class ParticleFilter(ParticleSet):
         self.w_fast[kind] = fast + p.alpha_fast * (w_avg - fast)
 
     def _resample(self, kind: str, obs: Observation, lost: float) -> None:
+        """Resample (:meth:`_survivors`), the particles' odometry scales and Gaussians
+        following theirs (:meth:`_carry`); recovery re-draws a part of the new set
+        (:meth:`_recovery_count`, :meth:`_inject`); equal weights."""
+        kept = self._survivors()
+        n_new = len(kept.idx)
+        n_inject = self._recovery_count(kind, lost, n_new)
+        scaled, pcov = self._carry(kept.idx)
+        if n_inject > 0:
+            # (the re-drawn headings wrapped with the others, from the parents' as they were)
+            z, th = (kept.z, kept.th) if kept.rot is None else \
+                (self.z[kept.idx], self.th[kept.idx])
+            self._inject(kind, obs, n_inject, z, th, scaled, pcov)
+        elif kept.rot is None:
+            self.z = kept.z
+            self._set_headings(kept.th)
+        else:
+            self.z, self.th, self.rot = kept.z, kept.th, kept.rot
+        self.w = np.full(n_new, 1.0 / n_new)
+        self.logw = np.full(n_new, -math.log(n_new))
+        self.resamplings += 1
+
+    def _survivors(self) -> Survivors:
+        """The particles a resampling keeps: as many as the set has while a large start set
+        has not shrunk, else KLD-sampling's count (``kld``) or ``particles``, drawn by the
+        ``resampler`` (systematic by the backend, with the copy)."""
         p = self.params
-        draw = low_variance if p.resampler == "low-variance" else multinomial
-        idx: NDArray[np.intp] | None
-        z: ComplexArray | None = None
-        th: FloatArray | None = None
-        rot: ComplexArray | None = None
+        rng = self.rng
+        systematic = p.resampler == "low-variance"
         if self._start_left > 0:
             # the large start set keeps its size until it shrinks
-            n_new = len(self.z)
-            idx = draw(self.w, n_new, self.rng)
-        elif p.kld and self._kern is not None and draw is low_variance:
-            # the draw (its offset, then the permutation, as the numpy path's), the bins, the
-            # count and the copy in one pass
-            cap = max(p.particles, p.min_particles)
-            u0 = self.rng.random()
-            perm = self.rng.permutation(cap)
-            z, th = np.empty(cap, dtype=np.complex128), np.empty(cap)
-            rot, idx = np.empty(cap, dtype=np.complex128), np.empty(cap, dtype=np.intp)
-            n_new = self._kern.pf_kld_resample(self.w, u0, perm, self._kld_need(cap),
-                                               p.min_particles, p.kld_bin_m, p.kld_bin_rad,
-                                               self.z, self.th, self.rot, z, th, rot, idx)
-            z, th, rot, idx = z[:n_new], th[:n_new], rot[:n_new], idx[:n_new]
-        elif p.kld:
-            cap = max(p.particles, p.min_particles)
-            idx = draw(self.w, cap, self.rng)
-            idx = idx[self.rng.permutation(cap)]
-            keys = bin_keys(self.z.real[idx], self.z.imag[idx], self.th[idx], p.kld_bin_m,
-                            p.kld_bin_rad)
-            n_new = kld_count(keys, p.kld_epsilon, p.kld_delta, p.min_particles, cap)
-            idx = idx[:n_new]
-        else:
-            n_new = p.particles
-            idx = None if self._kern is not None and draw is low_variance else \
-                draw(self.w, n_new, self.rng)
-        n_inject = 0
-        if p.recovery:
-            frac = lost
-            slow, fast = self.w_slow.get(kind, 0.0), self.w_fast.get(kind, 0.0)
-            if slow > 0.0:
-                frac = max(frac, 1.0 - fast / slow)
-            n_inject = min(n_new, round(frac * n_new))
-        if idx is None:
-            # low-variance resampling and the copy in one pass (the numpy path's one draw);
-            # the headings wrapped there unless recovery re-draws some below
-            idx = np.empty(n_new, dtype=np.intp)
-            z, th = np.empty(n_new, dtype=np.complex128), np.empty(n_new)
-            rot = np.empty(n_new, dtype=np.complex128)
-            assert self._kern is not None
-            self._kern.low_variance_gather(self.w, self.rng.random(), n_new, self.z, self.th,
-                                           self.rot, z, th, rot, idx, n_inject == 0)
-        elif z is None or (n_inject > 0 and rot is not None):
-            # (recovery wraps the headings once, the re-drawn ones with them)
-            z, th = self.z[idx], self.th[idx]
-        assert z is not None and th is not None
-        scaled = p.odometry_scales and len(self.s_v) == len(self.z)
+            return self._gathered(RESAMPLERS[p.resampler](self.w, len(self.z), rng))
+        if p.kld:
+            sizing = self.kld_sizing
+            if systematic:
+                # the draw (its offset, then the permutation), the bins, the count, the copy
+                u0 = rng.random()
+                perm = rng.permutation(sizing.cap)
+                return self.backend.kld_systematic(self.w, u0, perm, sizing, self.z, self.th,
+                                                   self.rot)
+            idx = RESAMPLERS[p.resampler](self.w, sizing.cap, rng)
+            idx = idx[rng.permutation(sizing.cap)]
+            return self._gathered(idx[:sizing.count(self.z.real[idx], self.z.imag[idx],
+                                                    self.th[idx])])
+        if systematic:
+            return self.backend.systematic(self.w, p.particles, rng.random(), self.z, self.th,
+                                           self.rot)
+        return self._gathered(RESAMPLERS[p.resampler](self.w, p.particles, rng))
+
+    def _gathered(self, idx: NDArray[np.intp]) -> Survivors:
+        """The particles ``idx`` (their headings as they were)."""
+        return Survivors(idx, self.z[idx], self.th[idx], None)
+
+    def _recovery_count(self, kind: str, lost: float, n_new: int) -> int:
+        """How many of ``n_new`` resampled particles recovery re-draws (none without
+        ``recovery``): the larger of the fraction ``lost`` (sensor resetting) and augmented
+        MCL's ``1 - w_fast / w_slow`` for the ``kind`` of observation."""
+        if not self.params.recovery:
+            return 0
+        frac = lost
+        slow, fast = self.w_slow.get(kind, 0.0), self.w_fast.get(kind, 0.0)
+        if slow > 0.0:
+            frac = max(frac, 1.0 - fast / slow)
+        return min(n_new, round(frac * n_new))
+
+    def _carry(self, idx: NDArray[np.intp]) -> tuple[bool, FloatArray | None]:
+        """The odometry scales and the Gaussians' covariances of the resampled particles
+        ``idx`` (before the particles are replaced); returns whether the particles carry
+        scales and their new covariances (None: the particles are draws)."""
+        scaled = self.params.odometry_scales and len(self.s_v) == len(self.z)
         if scaled:
             self.s_v, self.s_w = self.s_v[idx], self.s_w[idx]
         pcov = self._pcov
@@ -700,32 +753,24 @@ class ParticleFilter(ParticleSet):
             pcov = self._pcov = pcov[idx]
         else:
             pcov = None
-        if n_inject > 0:
-            gx, gy, gt = self._recovery_poses(obs, n_inject)
-            z[:n_inject] = gx + 1j * gy
-            th[:n_inject] = gt
-            if scaled:
-                self.s_v[:n_inject], self.s_w[:n_inject] = self._prior_scales(n_inject)
-            if pcov is not None:
-                pcov[:n_inject] = 0.0   # draws: no spread of their own
-            self.injected += n_inject
-            self.w_slow[kind] = self.w_fast[kind] = 0.0
-        if rot is not None and n_inject == 0:
-            self.z, self.th, self.rot = z, th, rot
-        else:
-            self.z = z
-            self._set_headings(th)
-        self.w = np.full(n_new, 1.0 / n_new)
-        self.logw = np.full(n_new, -math.log(n_new))
-        self.resamplings += 1
+        return scaled, pcov
 
-    def _kld_need(self, cap: int) -> FloatArray:
-        """KLD-sampling's particle count for 1 to ``cap`` occupied bins
-        (:func:`lgvtool.localize.kld.kld_bound`), made once."""
-        if self._need is None or len(self._need) != cap:
-            p = self.params
-            self._need = kld_bound(np.arange(1, cap + 1), p.kld_epsilon, p.kld_delta)
-        return self._need
+    def _inject(self, kind: str, obs: Observation, n: int, z: ComplexArray, th: FloatArray,
+                scaled: bool, pcov: FloatArray | None) -> None:
+        """Recovery: the first ``n`` of the resampled particles ``z``, ``th`` (new arrays)
+        re-drawn (:meth:`_recovery_poses`; their scales from the prior, no spread of their
+        own), then the set is theirs; the likelihood averages of ``kind`` start over."""
+        gx, gy, gt = self._recovery_poses(obs, n)
+        z[:n] = gx + 1j * gy
+        th[:n] = gt
+        if scaled:
+            self.s_v[:n], self.s_w[:n] = self._prior_scales(n)
+        if pcov is not None:
+            pcov[:n] = 0.0   # draws: no spread of their own
+        self.injected += n
+        self.w_slow[kind] = self.w_fast[kind] = 0.0
+        self.z = z
+        self._set_headings(th)
 
     def _recovery_poses(self, obs: Observation, n: int
                         ) -> tuple[FloatArray, FloatArray, FloatArray]:

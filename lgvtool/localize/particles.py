@@ -1,5 +1,6 @@
 """What the two particle filters share: the particle set, the prediction, the measurement
-geometry per particle, and the weighted estimate.
+geometry per particle, the weighted estimate, and the backend (its one seam,
+:mod:`lgvtool.localize.particle_backend`) that does their array operations.
 
 Each particle is a pose of the target rotation centre O (the paper's choice: no eq. 5
 conversion of noisy data). Positions are kept as complex numbers ``z = x + iy`` and headings
@@ -12,28 +13,22 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from types import ModuleType
-from typing import ClassVar
+from typing import ClassVar, Protocol, TypeVar, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.angles import wrap_angle
-from lgvtool.localize.estimator import Estimate, Estimator, Motion
-from lgvtool.localize.kernel_choice import compiled
-from lgvtool.localize.noise import perturbed_motion
+from lgvtool.localize.estimator import Estimate, Estimator, EstimatorContext, Motion
+from lgvtool.localize.kernel_choice import particle_backend
 from lgvtool.localize.observations import PoseObservation, ScanObservation
 from lgvtool.localize.params import param
+from lgvtool.localize.particle_backend import ParticleBackend, Pose
+from lgvtool.localize.pf_likelihood import reference_candidates, world_points
 from lgvtool.localize.resampling import uniform_poses
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
-
-def fused_kernels() -> ModuleType | None:
-    """The compiled kernels (:mod:`lgvtool.localize.pf_kernels`) the filters use, or None for
-    the numpy path (numba not installed, or ``LGVTOOL_KERNELS=numpy``). Importing them imports
-    numba, so this is called when a filter is made, never at start-up."""
-    return compiled("lgvtool.localize.pf_kernels")
 
 
 @dataclass(frozen=True)
@@ -49,13 +44,31 @@ class ParticleInitParams:
                                           minimum=0.0)
 
 
-class ParticleSet(Estimator):
-    """Particles (positions ``z`` m, headings ``th`` rad) and their normalised weights ``w``."""
+class ParticleParams(Protocol):
+    """What :class:`ParticleSet` reads of its parameters (:class:`ParticleInitParams`, the
+    motion noise of :class:`lgvtool.localize.noise.MotionParams`)."""
 
-    kernel_modules: ClassVar[tuple[str, ...]] = ("lgvtool.localize.pf_kernels",)
+    @property
+    def init_sigma_xy_m(self) -> float: ...
+    @property
+    def init_sigma_heading_rad(self) -> float: ...
+    def noise_sigmas(self, dist: float, rot: float) -> tuple[float, float, float]: ...
 
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+
+PP = TypeVar("PP", bound=ParticleParams)
+
+
+class ParticleSet(Estimator[PP]):
+    """Particles (positions ``z`` m, headings ``th`` rad) and their normalised weights ``w``;
+    the array operations by :attr:`backend`."""
+
+    kernel_family: ClassVar[str] = "particles"
+
+    def __init__(self, params: PP | None = None, *, backend: ParticleBackend | None = None,
+                 **context: Unpack[EstimatorContext]) -> None:
+        super().__init__(params, **context)
+        #: the array operations (the numpy reference or the compiled kernels), chosen once
+        self.backend = backend if backend is not None else particle_backend()
         self.z: ComplexArray = np.zeros(0, dtype=np.complex128)
         self._th: FloatArray | None = np.zeros(0)
         self.rot: ComplexArray = np.zeros(0, dtype=np.complex128)
@@ -63,8 +76,6 @@ class ParticleSet(Estimator):
         self.last_ess = 0.0
         #: a pose near the bulk of the particles (the last estimate moved by the odometry)
         self._ref: tuple[float, float, float] | None = None
-        #: the compiled kernels, or None for the numpy path (the reference)
-        self._kern = fused_kernels()
 
     @property
     def th(self) -> FloatArray:
@@ -118,19 +129,15 @@ class ParticleSet(Estimator):
     def predict(self, motion: Motion) -> None:
         """Eq. 9 for every particle: the odometry motion (with motion noise) composed onto
         each particle's pose."""
-        n = len(self.z)
-        if n == 0:
+        if len(self.z) == 0:
             return
-        p = self.params
-        dx, dy, dth = perturbed_motion(self.rng, n, motion.dx, motion.dy, motion.dth,
-                                       p.noise_sigmas(motion.dist, motion.rot))
-        if isinstance(dth, float):
-            self.z = self.z + self.rot * complex(dx, dy)
-            self.th = self.th + dth
-            self.rot = self.rot * complex(math.cos(dth), math.sin(dth))
-        else:
-            self.z = self.z + self.rot * (dx + 1j * dy)
-            self._set_headings(self.th + dth)
+        self._move(motion, self.params.noise_sigmas(motion.dist, motion.rot))
+
+    def _move(self, motion: Motion, sigmas: tuple[float, float, float]) -> None:
+        """:meth:`predict` with the motion noise's standard deviations ``sigmas`` (along m,
+        across m, heading rad)."""
+        self.z, self.th, self.rot = self.backend.predict(self.rng, self.z, self.th, self.rot,
+                                                         motion, sigmas)
         self._move_ref(motion)
 
     def _move_ref(self, motion: Motion) -> None:
@@ -142,48 +149,16 @@ class ParticleSet(Estimator):
                          t + motion.dth)
 
     # ------------------------------------------------------------------ measurement geometry
-    def _map_index(self, obs: ScanObservation, use_ids: bool) -> NDArray[np.int64]:
-        """Map index of each reflector's id (-1: unknown, associate by nearest neighbour)."""
-        if not use_ids:
-            return np.full(len(obs), -1, dtype=np.int64)
-        return obs.map_index(self.map)
-
     def world_points(self, obs: ScanObservation) -> ComplexArray:
         """The measured reflectors in the world at every particle's pose, (M, K) complex, m."""
-        return self.z[:, None] + np.multiply.outer(self.rot, obs.q)
-
-    def scan_residuals(self, obs: ScanObservation, use_ids: bool) -> ComplexArray:
-        """For every particle m and reflector k, the residual ``L_j - p_mk`` (complex, m, world
-        frame) from the measured point to its associated map reflector ``j``. Shape (M, K).
-
-        Association is by id when known (and ``use_ids``), else with the nearest map reflector,
-        found exactly: every point is compared with the few reflectors nearest to the same
-        reflector seen from a reference pose (the last estimate), and the triangle inequality
-        proves for almost every point that no other reflector is nearer; the remaining points
-        are searched in the whole map.
-        """
-        p = self.world_points(obs)
-        j = self._map_index(obs, use_ids)
-        unknown = j < 0
-        if not unknown.any():
-            return self.map.z[j] - p
-        e = self._nearest_residuals(p, obs)
-        if not unknown.all():
-            e[:, ~unknown] = self.map.z[j[~unknown]] - p[:, ~unknown]
-        return e
+        return world_points(self.z, self.rot, obs.q)
 
     def _reference_nearest(self, obs: ScanObservation) -> NDArray[np.intp]:
         """For each measured point seen from the reference pose, a map reflector likely to be
         the nearest one for the particles: the reflector of the measurement's id when the scan
         gives one, else the nearest to the point at the reference pose. (Only a candidate:
         callers check it.)"""
-        j = obs.map_index(self.map)
-        if (j >= 0).all():
-            return j
-        ref = self._reference_pose()
-        pr = complex(ref[0], ref[1]) + complex(math.cos(ref[2]), math.sin(ref[2])) * obs.q
-        near = np.argmin(np.abs(self.map.z[None, :] - pr[:, None]), axis=1)
-        return np.where(j >= 0, j, near)
+        return reference_candidates(obs, self.map, self._reference_pose())
 
     def _nearest_residuals(self, p: ComplexArray, obs: ScanObservation) -> ComplexArray:
         """``L_j - p`` with ``L_j`` the map reflector nearest to each point ``p`` (M, K)."""
@@ -212,29 +187,10 @@ class ParticleSet(Estimator):
         return d.real, d.imag, dh
 
     # ------------------------------------------------------------------ estimate
-    def weighted_pose(self, w: FloatArray) -> tuple[float, float, float, FloatArray]:
+    def weighted_pose(self, w: FloatArray) -> Pose:
         """Weighted mean (eq. 11; the heading as a circular mean, since a plain mean of angles
-        breaks at +-pi) and the weighted covariance of ``(x, y, heading)``.
-
-        All weighted sums come from one product with the weights: with ``d = z - mean`` and
-        ``h`` the heading deviations, ``sum w d^2 = Sxx - Syy + 2i Sxy``,
-        ``sum w |d|^2 = Sxx + Syy``, ``sum w d h = Sxh + i Syh`` (the kernels: one pass
-        summing each entry).
-        """
-        if self._kern is not None:
-            c = np.empty((3, 3))
-            x, y, t = self._kern.weighted_pose(self.z, self.rot, np.ascontiguousarray(w), c)
-            return x, y, t, c
-        mz = complex(w @ self.z)
-        mr = complex(w @ self.rot)
-        mt = math.atan2(mr.imag, mr.real)
-        d = self.z - mz
-        h = np.angle(self.rot * complex(mr.real, -mr.imag))
-        s1, s2, sh, shh = np.stack((d * d, d * d.conj(), d * h, h * h + 0j)) @ w
-        sxx, syy, sxy = 0.5 * (s2.real + s1.real), 0.5 * (s2.real - s1.real), 0.5 * s1.imag
-        cov = np.array([[sxx, sxy, sh.real], [sxy, syy, sh.imag],
-                        [sh.real, sh.imag, shh.real]])
-        return mz.real, mz.imag, mt, cov
+        breaks at +-pi) and the weighted covariance of ``(x, y, heading)``."""
+        return self.backend.weighted_pose(self.z, self.rot, w)
 
     def cloud(self) -> tuple[FloatArray, FloatArray, FloatArray] | None:
         if len(self.z) == 0:

@@ -13,8 +13,9 @@ operation (the same bits); where numpy sums through BLAS or pairwise summation, 
 sum in order, and a few library functions are replaced by series, which differs in the last
 bits (docs/filter.md: within 1e-9 m).
 
-Importing this module imports numba; the filters import it only when they run
-(:func:`lgvtool.localize.particles.fused_kernels`). The compiled code is cached on disk
+Importing this module imports numba; only the filters' compiled backend imports it
+(:mod:`lgvtool.localize.pf_compiled`, when a filter is made with the kernels chosen:
+:func:`lgvtool.localize.kernel_choice.particle_backend`). The compiled code is cached on disk
 (``cache=True``, in ``__pycache__`` beside this file), so only the first run on a machine pays
 the compilation. The kernels of both filters and the pieces they share stay in this one module
 on purpose: numba checks a cached kernel against its own source file only, so a kernel calling
@@ -645,14 +646,21 @@ def _mixture(v: float, log_in: float, log_out: float) -> tuple[float, float]:
 def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: ComplexArray,
                    cand: ComplexArray, half: FloatArray, map_z: ComplexArray,
                    sr: FloatArray, st: FloatArray, const: FloatArray, outlier: bool,
-                   log_in: float, log_out: float, ll: FloatArray) -> None:
+                   log_in: float, log_out: float, ll: FloatArray, g2: FloatArray,
+                   jid: IntArray, ratio2: float, log_pen: float) -> None:
     """Log-likelihood of a scan for every particle (into ``ll``): each measured point ``q[k]``
-    (body frame, m) put into the world, associated with its nearest map reflector (the
-    candidate ``cand[k]`` when nearer than ``half[k]``, else a search of ``map_z`` by squared
-    distance), its residual split along and across the ray (``u_conj``: the conjugate unit
-    ray, body frame), a Gaussian with ``sr[k]``, ``st[k]`` (m) and the constant ``const[k]``
-    (``log 2 pi + log sr + log st``); with ``outlier``, the mixture
-    ``logaddexp(log_in + ll, log_out)``; summed over the points.
+    (body frame, m) put into the world and associated
+    (:func:`lgvtool.localize.association.associate` per particle, in squared metres): the
+    candidate ``cand[k]`` when nearer than ``half[k]`` (for a point with an id, ``jid[k] >= 0``,
+    the id's reflector and the gate radius; otherwise a radius within which the candidate is
+    provably the nearest, inside the gate and unambiguous), else by a search of ``map_z``: the
+    nearest inside the gate (squared radius ``g2[k]``, m^2) unless the second is inside it too
+    and nearer than ``ratio2`` times the squared distance of the nearest; its residual split
+    along and across the ray (``u_conj``: the conjugate unit ray, body frame), a Gaussian with
+    ``sr[k]``, ``st[k]`` (m) and the constant ``const[k]`` (``log 2 pi + log sr + log st``);
+    with ``outlier``, the mixture ``logaddexp(log_in + ll, log_out)``; a point with nothing
+    (unambiguous) inside the gate counts ``log_out``, and a point with an id associated with
+    another reflector adds ``log_pen``; summed over the points.
 
     The mixture's sum is taken as ``sum max(a, b) + log prod (1 + exp(-|a - b|))``: one
     exponential per point and one logarithm per particle instead of an
@@ -706,17 +714,39 @@ def pf_scan_loglik(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u_conj: 
             if far[i] >= 0.0:
                 tot[i] = _particle_loglik(zr[i], zi[i], rr[i], ri[i], q, u_conj, cand, half2,
                                           map_z, inv_sr, inv_st, const, outlier, log_in,
-                                          log_out)
+                                          log_out, g2, jid, ratio2, log_pen)
             ll[a + i] = tot[i]
+
+
+@_jit
+def _nearest_two(px: float, py: float, map_z: ComplexArray) -> tuple[int, float, float]:
+    """The map reflector nearest to ``(px, py)`` (m; the first of equals, as ``np.argmin``),
+    its squared distance and the squared distance of the second nearest (m^2; infinite for a
+    map of one)."""
+    best = math.inf
+    second = math.inf
+    j = 0
+    for r in range(map_z.shape[0]):
+        ex = map_z[r].real - px
+        ey = map_z[r].imag - py
+        d2 = ex * ex + ey * ey
+        if d2 < best:
+            second = best
+            best = d2
+            j = r
+        elif d2 < second:
+            second = d2
+    return j, best, second
 
 
 @_jit
 def _particle_loglik(zr: float, zi: float, rr: float, ri: float, q: ComplexArray,
                      u_conj: ComplexArray, cand: ComplexArray, half2: FloatArray,
                      map_z: ComplexArray, inv_sr: FloatArray, inv_st: FloatArray,
-                     const: FloatArray, outlier: bool, log_in: float, log_out: float) -> float:
-    """:func:`pf_scan_loglik` for one particle, searching the map for the points not
-    provably nearest their candidate (the same arithmetic in the same order)."""
+                     const: FloatArray, outlier: bool, log_in: float, log_out: float,
+                     g2: FloatArray, jid: IntArray, ratio2: float, log_pen: float) -> float:
+    """:func:`pf_scan_loglik` for one particle, searching the map for the points whose
+    candidate does not hold (the same arithmetic in the same order)."""
     total = 0.0
     prod = 1.0
     for j0 in range(0, q.shape[0], _POINTS):
@@ -725,18 +755,28 @@ def _particle_loglik(zr: float, zi: float, rr: float, ri: float, q: ComplexArray
             py = zi + (rr * q[j].imag + ri * q[j].real)
             ex = cand[j].real - px
             ey = cand[j].imag - py
+            pen = 0.0
+            dropped = False
             if ex * ex + ey * ey - half2[j] >= 0.0:
-                r = _nearest_index(complex(px, py), map_z)
-                ex = map_z[r].real - px
-                ey = map_z[r].imag - py
-            v = _ray_loglik(ex, ey, rr, ri, u_conj[j].real, u_conj[j].imag, inv_sr[j],
-                            inv_st[j], const[j])
+                r, d1, d2nd = _nearest_two(px, py, map_z)
+                if not d1 < g2[j] or (d2nd < g2[j] and d2nd < ratio2 * d1):
+                    dropped = True
+                else:
+                    ex = map_z[r].real - px
+                    ey = map_z[r].imag - py
+                    if jid[j] >= 0 and r != jid[j]:
+                        pen = log_pen
+            if dropped:
+                v = -math.inf if outlier else log_out
+            else:
+                v = _ray_loglik(ex, ey, rr, ri, u_conj[j].real, u_conj[j].imag, inv_sr[j],
+                                inv_st[j], const[j])
             if outlier:
                 top, f = _mixture(v, log_in, log_out)
-                total += top
+                total += top + pen
                 prod *= f
             else:
-                total += v
+                total += v + pen
         if outlier:
             total += math.log(prod)
             prod = 1.0
@@ -880,14 +920,18 @@ def pf_scan(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u: ComplexArray
             ranges: FloatArray, j: IntArray, ref_z: complex, ref_rot: complex,
             map_z: ComplexArray, half_sep: FloatArray, sigma_range: float, sigma_range2: float,
             sigma_range_per_m: float, sigma_bearing: float, use_ids: bool, outlier: bool,
-            log_in: float, log_out: float, ll: FloatArray) -> None:
+            log_in: float, log_out: float, ll: FloatArray, gate_root: float, ratio: float,
+            log_pen: float) -> None:
     """:func:`pf_scan_loglik` with its per-point inputs made here, as the numpy path makes
     them: each point's candidate (the map reflector of its id ``j[k]`` when known, else the
-    one nearest to the point seen from the reference pose ``ref_z``, ``ref_rot``), its
-    ``half`` (infinite for a known id with ``use_ids``: never searched for), the range and
-    across-ray standard deviations from ``ranges`` (m; ``sigma_range`` m, its square
-    ``sigma_range2``, ``sigma_range_per_m`` m/m, ``sigma_bearing`` rad) and the Gaussians'
-    constants ``log 2 pi + log sr + log st``."""
+    one nearest to the point seen from the reference pose ``ref_z``, ``ref_rot``), the range
+    and across-ray standard deviations from ``ranges`` (m; ``sigma_range`` m, its square
+    ``sigma_range2``, ``sigma_range_per_m`` m/m, ``sigma_bearing`` rad), the Gaussians'
+    constants ``log 2 pi + log sr + log st``, the gate radius ``gate_root`` times the larger
+    standard deviation (m) and the candidate's radius: the gate radius for a point with an id
+    (with ``use_ids``), else the radius within which the candidate is provably the nearest,
+    inside the gate and unambiguous with the ambiguity ``ratio``
+    (:func:`lgvtool.localize.association.safe_radius`)."""
     k = q.shape[0]
     cand = np.empty(k, dtype=np.complex128)
     half = np.empty(k)
@@ -895,11 +939,12 @@ def pf_scan(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u: ComplexArray
     st = np.empty(k)
     const = np.empty(k)
     u_conj = np.empty(k, dtype=np.complex128)
+    g2 = np.empty(k)
+    jid = np.empty(k, dtype=np.intp)
     for p in range(k):
         jp = j[p]
         c = jp if jp >= 0 else _nearest_index(ref_z + ref_rot * q[p], map_z)
         cand[p] = map_z[c]
-        half[p] = math.inf if use_ids and jp >= 0 else half_sep[c]
         r = ranges[p]
         if sigma_range_per_m > 0.0:
             e = sigma_range_per_m * r
@@ -910,8 +955,17 @@ def pf_scan(z: ComplexArray, rot: ComplexArray, q: ComplexArray, u: ComplexArray
         st[p] = math.sqrt(b * b + 1e-12)
         const[p] = _LOG_2PI + math.log(sr[p]) + math.log(st[p])
         u_conj[p] = u[p].conjugate()
+        g = gate_root * max(sr[p], st[p])
+        g2[p] = g * g
+        if use_ids and jp >= 0:
+            jid[p] = jp
+            half[p] = g
+        else:
+            jid[p] = -1
+            h = half_sep[c]
+            half[p] = max(min(min(h, g), max(2.0 * h - g, 2.0 * h / (1.0 + ratio))), 0.0)
     pf_scan_loglik(z, rot, q, u_conj, cand, half, map_z, sr, st, const, outlier, log_in,
-                   log_out, ll)
+                   log_out, ll, g2, jid, ratio * ratio, log_pen)
 
 
 @_jit
@@ -1088,7 +1142,8 @@ def pf_track(rng: np.random.Generator, z: ComplexArray, th: FloatArray, rot: Com
     observation ``i`` is entry ``i - 1`` of ``mdx``, ``mdy`` (m), ``mdth`` (rad) and of its
     noise ``msa``, ``msl`` (m), ``mst`` (rad) when ``moving``. ``prm``: sigma_range,
     its square, sigma_range_per_m, sigma_bearing, the outlier mixture's two log weights,
-    alpha_slow, alpha_fast, reset_likelihood, ess_threshold, the KLD bins (m, rad);
+    alpha_slow, alpha_fast, reset_likelihood, ess_threshold, the KLD bins (m, rad), the
+    association's gate root, ambiguity ratio and id-mismatch log weight (:func:`pf_scan`);
     ``flags``: use_ids, outlier, recovery, resample always, kld, min_particles, particles;
     ``need``: KLD's bound for 1 to ``cap`` bins; ``state``:
     :data:`ST_SIZE` entries, read and updated. Each estimate is written as row ``k`` on of the
@@ -1149,7 +1204,8 @@ def pf_track(rng: np.random.Generator, z: ComplexArray, th: FloatArray, rot: Com
             rx, ry, rt = _reference(state, za[:n], tha[:n], wa[:n])
             pf_scan(za[:n], ra[:n], q[a:b], u[a:b], ranges[a:b], jidx[a:b], complex(rx, ry),
                     complex(math.cos(rt), math.sin(rt)), map_z, half_sep, prm[0], prm[1],
-                    prm[2], prm[3], use_ids, outlier, prm[4], prm[5], ll[:n])
+                    prm[2], prm[3], use_ids, outlier, prm[4], prm[5], ll[:n], prm[12],
+                    prm[13], prm[14])
             log_avg, ess, x, y, t = pf_weigh(la[:n], ll[:n], za[:n], ra[:n], wb[:n], lb[:n],
                                              cov)
             if math.isfinite(log_avg):

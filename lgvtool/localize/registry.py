@@ -23,19 +23,23 @@ _WHERE: dict[str, tuple[str, str]] = {
 }
 
 
-class _Estimators(Mapping[str, "type[Estimator]"]):
+class _Estimators(Mapping[str, "type[Estimator[Any]]"]):
     """The estimator classes by name. A class's module is imported when the class is first
     asked for, so that running one estimator does not import the others."""
 
     def __init__(self) -> None:
-        self._classes: dict[str, type[Estimator]] = {}
+        self._classes: dict[str, type[Estimator[Any]]] = {}
 
-    def __getitem__(self, name: str) -> type[Estimator]:
+    def __getitem__(self, name: str) -> type[Estimator[Any]]:
         cls = self._classes.get(name)
         if cls is None:
             module, attr = _WHERE[name]
             cls = self._classes[name] = getattr(importlib.import_module(module), attr)
         return cls
+
+    def forget(self, name: str) -> None:
+        """Drop the imported class of ``name`` (after :func:`unregister`)."""
+        self._classes.pop(name, None)
 
     def __contains__(self, name: object) -> bool:
         return name in _WHERE
@@ -51,7 +55,27 @@ class _Estimators(Mapping[str, "type[Estimator]"]):
 
 
 #: name -> estimator class
-ESTIMATORS: Mapping[str, type[Estimator]] = _Estimators()
+_CLASSES = _Estimators()
+ESTIMATORS: Mapping[str, type[Estimator[Any]]] = _CLASSES
+
+def register(name: str, module: str, cls: str) -> None:
+    """Make the estimator class ``cls`` of ``module`` known as ``name``, after the others: an
+    estimator is its class and its ``Params`` declarations (:mod:`lgvtool.declared`), so from
+    here on ``-e name``, ``--set name.<param>``, ``[estimators.name]`` and ``lgvtool config
+    --parameters`` know it. The module is imported when the class is first asked for.
+
+    :raises ValueError: ``name`` is already an estimator.
+    """
+    if name in _WHERE:
+        raise ValueError(f"estimator '{name}' is already registered")
+    _WHERE[name] = (module, cls)
+
+
+def unregister(name: str) -> None:
+    """Forget an estimator that :func:`register` made known."""
+    _WHERE.pop(name, None)
+    _CLASSES.forget(name)
+
 
 #: what replay runs when no estimator is named
 DEFAULT_ESTIMATORS: tuple[str, ...] = ("laser", "deadreckoning", "ekf", "pf-paper", "pf")

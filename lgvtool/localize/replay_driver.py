@@ -133,7 +133,7 @@ def truth_pose_at(data: LogData, t: float) -> tuple[float, float, float] | None:
     return x, y, wrap_scalar(h)
 
 
-def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
+def _pose_observations(data: LogData, est_cls: type[Estimator[Any]], params: Any
                        ) -> list[PoseObservation]:
     """The valid NAV poses, applied at receive time minus the estimator's pose latency."""
     if data.nav is None or not data.has_poses or not est_cls.uses_poses:
@@ -149,7 +149,7 @@ def _pose_observations(data: LogData, est_cls: type[Estimator], params: Any
     return [PoseObservation(t, x, y, h) for t, x, y, h in zip(ts, xs, ys, hs, strict=True)]
 
 
-def _observations(data: LogData, est_cls: type[Estimator], params: Any,
+def _observations(data: LogData, est_cls: type[Estimator[Any]], params: Any,
                   track: MotionTrack | None, vehicle: Any, *, start_poses: bool = True
                   ) -> tuple[Sequence[PoseObservation | ScanObservation],
                              list[PoseObservation]]:
@@ -196,7 +196,7 @@ def _stream(scans: LazyScans, poses: list[Any], chosen: list[int] | None, vehicl
                                                deskew=deskew and track is not None), build)
 
 
-def _start_poses(data: LogData, est_cls: type[Estimator], params: Any
+def _start_poses(data: LogData, est_cls: type[Estimator[Any]], params: Any
                  ) -> list[PoseObservation]:
     """The NAV poses an estimator may only start from: all valid ones when it does not update
     with them."""
@@ -283,8 +283,8 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
 
     def prepare() -> bool:
         """Make the estimators' compiled kernels ready; whether there are any."""
-        modules = dict.fromkeys(m for r in runs for m in r.cls.kernel_modules)
-        return any([ready(m) for m in modules])  # every module made ready, not the first only
+        families = dict.fromkeys(r.cls.kernel_family for r in runs if r.cls.kernel_family)
+        return any([ready(f) for f in families])  # every family made ready, not the first only
 
     prepared = threads is None and len(runs) > 1
     if prepared and not prepare():
@@ -314,12 +314,12 @@ class _Run:
     """One estimator to run: its class, parameters and odometry track (None: no motion)."""
 
     name: str
-    cls: type[Estimator]
+    cls: type[Estimator[Any]]
     params: Any
     track: MotionTrack | None
 
 
-def _cost(data: LogData, cls: type[Estimator], params: Any) -> float:
+def _cost(data: LogData, cls: type[Estimator[Any]], params: Any) -> float:
     """Rough work of running ``cls``: the observations it may use times its particles."""
     n = 0
     if cls.uses_scans and data.has_scans:
@@ -437,7 +437,7 @@ def apply_pose_gate(data: LogData, vehicle: Any,
             for k, dpos, dh, tol_p, tol_h in verdict.rejected]
 
 
-def _start(est: Estimator, obs: Sequence[PoseObservation | ScanObservation],
+def _start(est: Estimator[Any], obs: Sequence[PoseObservation | ScanObservation],
            start_only: list[PoseObservation], track: MotionTrack | None
            ) -> Sequence[PoseObservation | ScanObservation | _Mark]:
     """Feed observations and start-only NAV poses in time order until the estimator has a
@@ -475,7 +475,7 @@ class _Mark:
         self.t = t
 
 
-def _run_one(est: Estimator, obs: Sequence[PoseObservation | ScanObservation | _Mark],
+def _run_one(est: Estimator[Any], obs: Sequence[PoseObservation | ScanObservation | _Mark],
              track: MotionTrack | None, t0_ns: int, progress: Callable[[int], None] | None,
              cloud_period_s: float, cloud_size: int
              ) -> tuple[EstimateTable, list[tuple[int, FloatArray, FloatArray, FloatArray]]]:

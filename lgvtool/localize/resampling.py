@@ -1,7 +1,10 @@
 """Resampling of weighted particle sets, and the paper's redistribution step.
 
-Weights are normalised (they sum to 1). Every random draw comes from the caller's
-``numpy.random.Generator``.
+Weights are normalised (they sum to 1). The resamplers are pure functions of the weights and
+the uniform numbers drawn (:func:`systematic_resample`, :func:`multinomial_resample`; as
+FilterPy's ``filterpy.monte_carlo``) returning the indexes of the particles kept;
+:func:`low_variance` and :func:`multinomial` draw those numbers from the caller's
+``numpy.random.Generator`` first.
 """
 
 from __future__ import annotations
@@ -21,24 +24,42 @@ def effective_sample_size(weights: FloatArray) -> float:
     return float(1.0 / np.dot(weights, weights))
 
 
-def low_variance(weights: FloatArray, n: int, rng: np.random.Generator) -> NDArray[np.intp]:
-    """Low-variance (systematic) resampling: ``n`` indices from one uniform offset.
+def systematic_resample(weights: FloatArray, n: int, u0: float) -> NDArray[np.intp]:
+    """Low-variance (systematic) resampling: the indexes of ``n`` draws from the normalised
+    ``weights`` at the positions ``(u0 + i) / n``, ``u0`` one uniform number in [0, 1).
 
-    Particle ``i`` is copied ``floor(n w_i)`` or ``ceil(n w_i)`` times, so the expected count is
+    Particle ``i`` is drawn ``floor(n w_i)`` or ``ceil(n w_i)`` times, so the expected count is
     ``n w_i`` with the least possible spread (Thrun, Burgard and Fox, Probabilistic Robotics,
-    table 4.4).
+    table 4.4; FilterPy's ``systematic_resample``, with the count and the draw given): a
+    position selects the first particle whose cumulative weight exceeds it.
     """
     c = np.cumsum(weights)
     c[-1] = 1.0
-    u = (rng.random() + np.arange(n)) / n
+    u = (u0 + np.arange(n)) / n
     return np.minimum(np.searchsorted(c, u, side="right"), len(weights) - 1)
 
 
-def multinomial(weights: FloatArray, n: int, rng: np.random.Generator) -> NDArray[np.intp]:
-    """``n`` independent draws with probabilities ``weights``."""
+def multinomial_resample(weights: FloatArray, u: FloatArray) -> NDArray[np.intp]:
+    """Multinomial resampling: the index drawn by each uniform number of ``u`` (in [0, 1)),
+    independently, with the probabilities ``weights`` (normalised): the first particle whose
+    cumulative weight exceeds it (FilterPy's ``multinomial_resample``, the draws given)."""
     c = np.cumsum(weights)
     c[-1] = 1.0
-    return np.minimum(np.searchsorted(c, rng.random(n), side="right"), len(weights) - 1)
+    return np.minimum(np.searchsorted(c, u, side="right"), len(weights) - 1)
+
+
+def low_variance(weights: FloatArray, n: int, rng: np.random.Generator) -> NDArray[np.intp]:
+    """:func:`systematic_resample` of ``n`` from one ``rng.random()``."""
+    return systematic_resample(weights, n, rng.random())
+
+
+def multinomial(weights: FloatArray, n: int, rng: np.random.Generator) -> NDArray[np.intp]:
+    """:func:`multinomial_resample` of ``rng.random(n)``: ``n`` independent draws."""
+    return multinomial_resample(weights, rng.random(n))
+
+
+#: the resamplers by the name of ``pf``'s ``resampler`` setting
+RESAMPLERS = {"low-variance": low_variance, "multinomial": multinomial}
 
 
 def uniform_poses(rng: np.random.Generator, n: int, area: Area

@@ -5,9 +5,10 @@ chunk is read with one ``read`` (with its message indexes, :func:`chunk_window`)
 once and checked against its size and CRC-32 (:func:`verified_records`), and its messages are
 found through the message indexes as columns (:func:`record_columns`, :func:`read_channels`),
 or by walking the records when an index is missing or does not fit. Chunks that overlap in
-time are merged in log-time order (:func:`iter_indexed`). Reading does not import the ``mcap``
-package (only the salvage of a cut-off file uses its stream reader). Times in ns, offsets and
-sizes in bytes.
+time are merged in log-time order (:func:`iter_indexed`). The functions that go through many
+chunks are handed how to read one (a :data:`LoadChunk`, :func:`load_chunk` for a chunk record
+of the file): the sources of :mod:`lgvtool.log.sources` give it. Reading does not import the
+``mcap`` package. Times in ns, offsets and sizes in bytes.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from __future__ import annotations
 import heapq
 import zlib
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any, NamedTuple
 
 import zstandard
 
@@ -54,6 +55,32 @@ class CorruptChunkError(ValueError):
 
 #: called with a chunk that is skipped and the reason (see :class:`CorruptChunkError`)
 OnCorrupt = Callable[[ChunkIndex, str], None]
+
+
+class ChunkWindow(NamedTuple):
+    """One chunk read and checked: the bytes read (the chunk record and, when they follow it,
+    its message indexes), its index with offsets relative to them (``local``; no message
+    indexes when they were not read), and its uncompressed records."""
+
+    buf: bytes
+    local: ChunkIndex
+    records: bytes
+
+
+#: reads the chunk a :class:`ChunkIndex` points at and checks it
+#: (raises :class:`CorruptChunkError`)
+LoadChunk = Callable[[ChunkIndex], ChunkWindow]
+
+
+def load_chunk(f: IO[bytes], ci: ChunkIndex, zstd: zstandard.ZstdDecompressor | None = None
+               ) -> ChunkWindow:
+    """The chunk record ``ci`` points at in ``f`` (:func:`chunk_window`), its records checked
+    (:func:`verified_records`).
+
+    :raises CorruptChunkError: a check fails.
+    """
+    buf, local = chunk_window(f, ci)
+    return ChunkWindow(buf, local, verified_records(buf, local, zstd))
 
 
 def records_of(records: bytes) -> Iterator[tuple[int, int, int]]:
@@ -131,6 +158,14 @@ def verified_records(buf: Any, ci: ChunkIndex,
                                offset=ci.chunk_start_offset)
 
 
+DECOMPRESS_ERRORS = (zstandard.ZstdError, RuntimeError, ValueError, MemoryError)
+"""What decompressing a chunk's data raises when the data is damaged: zstandard raises
+``ZstdError``; lz4.frame raises ``RuntimeError`` (a bad frame header, checksum or length);
+:func:`~lgvtool.log.mcap_records.decompress` raises ``ValueError`` for a compression it does
+not know; and zstd allocates the size the chunk header gives when its frame does not state
+one, so a damaged size asks for more memory than there is (``MemoryError``)."""
+
+
 def checked_records(kind: str, data: bytes | memoryview, size: int, crc: int,
                     zstd: zstandard.ZstdDecompressor | None = None, *, offset: int = -1
                     ) -> bytes:
@@ -144,7 +179,7 @@ def checked_records(kind: str, data: bytes | memoryview, size: int, crc: int,
             records = zstd.decompress(data, max_output_size=size)
         else:
             records = bytes(decompress(kind, data, size))
-    except Exception as exc:  # zstd, lz4 and the size guard each raise their own kind
+    except DECOMPRESS_ERRORS as exc:
         name = kind or "uncompressed"
         raise CorruptChunkError(offset, f"{name} data does not decompress ({exc})") from None
     if len(records) != size:
@@ -356,15 +391,16 @@ def indexed_times(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex]
     return out
 
 
-def iter_channel_chunks(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex],
+def iter_channel_chunks(load: LoadChunk, chunk_indexes: Sequence[ChunkIndex],
                         wanted: Iterable[int], on_corrupt: OnCorrupt | None = None,
                         verified: set[int] | None = None
                         ) -> Iterator[dict[int, tuple[NDArray[np.uint64], list[bytes]]]]:
-    """The messages of the ``wanted`` channels of an indexed file, one chunk at a time (in the
-    order of the chunks' start times): per channel in the chunk, the log times (ns) and the
-    message data in stored order. Only one chunk is held at a time (:func:`chunk_window`).
+    """The messages of the ``wanted`` channels of the chunks ``chunk_indexes``, one chunk at a
+    time (in the order of the chunks' start times), each read by ``load``: per channel in the
+    chunk, the log times (ns) and the message data in stored order. Only one chunk is held at
+    a time.
 
-    Only the chunks holding a wanted channel are decompressed (and checked, see
+    Only the chunks holding a wanted channel are read (and checked, see
     :func:`verified_records`), and their messages are found through the chunks' message
     indexes (chunks without one, or whose index does not fit, are walked record by record).
     A corrupt chunk is passed to ``on_corrupt`` and skipped; without ``on_corrupt`` it raises
@@ -377,11 +413,9 @@ def iter_channel_chunks(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex],
     order = sorted((ci for ci in chunk_indexes
                     if not ci.message_index_offsets or want & ci.message_index_offsets.keys()),
                    key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
-    zstd = zstandard.ZstdDecompressor()
     for ci in order:
         try:
-            buf, local = chunk_window(f, ci)
-            records = verified_records(buf, local, zstd)
+            buf, local, records = load(ci)
             found: dict[int, tuple[NDArray[np.uint64], list[bytes]]] | None = {}
             for cid, off in local.message_index_offsets.items():
                 if cid in want and found is not None:
@@ -432,18 +466,18 @@ def chunk_window(f: IO[bytes], ci: ChunkIndex) -> tuple[bytes, ChunkIndex]:
                             ci.uncompressed_size)
 
 
-def read_channels(f: IO[bytes], chunk_indexes: Sequence[ChunkIndex], wanted: Iterable[int],
+def read_channels(load: LoadChunk, chunk_indexes: Sequence[ChunkIndex], wanted: Iterable[int],
                   on_corrupt: OnCorrupt | None = None, verified: set[int] | None = None
                   ) -> dict[int, tuple[NDArray[np.int64], list[bytes]]]:
-    """Every message of the ``wanted`` channels of an indexed file: per channel, the log times
-    (ns) and the message data, in log-time order (ties in stored order). Chunks are read and
-    checked as by :func:`iter_channel_chunks`."""
+    """Every message of the ``wanted`` channels of the chunks ``chunk_indexes``: per channel,
+    the log times (ns) and the message data, in log-time order (ties in stored order). Chunks
+    are read (by ``load``) and checked as by :func:`iter_channel_chunks`."""
     import numpy as np
 
     want = set(wanted)
     times: dict[int, list[NDArray[np.uint64]]] = {c: [] for c in want}
     datas: dict[int, list[bytes]] = {c: [] for c in want}
-    for found in iter_channel_chunks(f, chunk_indexes, want, on_corrupt, verified):
+    for found in iter_channel_chunks(load, chunk_indexes, want, on_corrupt, verified):
         for cid, (tc, d) in found.items():
             times[cid].append(tc)
             datas[cid].extend(d)
@@ -463,35 +497,34 @@ MERGED_BLOCK = 4096
 """Messages per block that :func:`iter_indexed_blocks` yields from overlapping chunks."""
 
 
-def iter_indexed(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
+def iter_indexed(load: LoadChunk, chunk_indexes: Sequence[ChunkIndex],
                  wanted: set[int] | None, on_corrupt: OnCorrupt | None = None,
                  verified: set[int] | None = None) -> Iterator[tuple[int, int, int, bytes]]:
     """Messages of the ``wanted`` channels in log-time order across (possibly overlapping)
-    chunks: (log_time, channel_id, publish_time, data); see :func:`iter_indexed_blocks`."""
-    for block in iter_indexed_blocks(stream, chunk_indexes, wanted, on_corrupt, verified):
+    chunks: (log_time ns, channel_id, publish_time ns, data); see
+    :func:`iter_indexed_blocks`."""
+    for block in iter_indexed_blocks(load, chunk_indexes, wanted, on_corrupt, verified):
         yield from block
 
 
-def iter_indexed_blocks(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
-                 wanted: set[int] | None, on_corrupt: OnCorrupt | None = None,
-                 verified: set[int] | None = None
-                 ) -> Iterator[list[tuple[int, int, int, bytes]]]:
-    """Messages of the ``wanted`` channels in log-time order across (possibly overlapping)
-    chunks, in lists (a chunk's messages, or up to :data:`MERGED_BLOCK` merged from
-    overlapping chunks): (log_time, channel_id, publish_time, data). Chunks are read lazily and checked
-    (:func:`verified_records`); a corrupt one is passed to ``on_corrupt`` and skipped (without
-    ``on_corrupt`` it raises :class:`CorruptChunkError`); sound ones are added to
-    ``verified`` (file offsets)."""
+def iter_indexed_blocks(load: LoadChunk, chunk_indexes: Sequence[ChunkIndex],
+                        wanted: set[int] | None, on_corrupt: OnCorrupt | None = None,
+                        verified: set[int] | None = None
+                        ) -> Iterator[list[tuple[int, int, int, bytes]]]:
+    """Messages of the ``wanted`` channels (None: all) in log-time order across (possibly
+    overlapping) chunks, in lists (a chunk's messages, or up to :data:`MERGED_BLOCK` merged
+    from overlapping chunks): (log_time ns, channel_id, publish_time ns, data). Chunks are
+    read lazily by ``load`` and checked (:func:`verified_records`); a corrupt one is passed to
+    ``on_corrupt`` and skipped (without ``on_corrupt`` it raises :class:`CorruptChunkError`);
+    sound ones are added to ``verified`` (file offsets)."""
     order = sorted((ci for ci in chunk_indexes
                     if wanted is None or not ci.message_index_offsets
                     or wanted & ci.message_index_offsets.keys()),
                    key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
-    zstd = zstandard.ZstdDecompressor()
 
-    def load(ci: ChunkIndex) -> list[tuple[int, int, int, bytes]]:
+    def messages_of(ci: ChunkIndex) -> list[tuple[int, int, int, bytes]]:
         try:
-            buf, local = chunk_window(stream, ci)
-            msgs = chunk_messages(verified_records(buf, local, zstd), wanted)
+            msgs = chunk_messages(load(ci).records, wanted)
         except CorruptChunkError as exc:
             if on_corrupt is None:
                 raise CorruptChunkError(ci.chunk_start_offset, exc.reason) from None
@@ -513,7 +546,7 @@ def iter_indexed_blocks(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
                 merged = []
             ci = order[i]
             i += 1
-            msgs = load(ci)
+            msgs = messages_of(ci)
             # fast path: this chunk ends before the next one starts -> no merging needed
             if i >= len(order) or ci.message_end_time < order[i].message_start_time:
                 if msgs:
@@ -525,7 +558,7 @@ def iter_indexed_blocks(stream: IO[bytes], chunk_indexes: list[ChunkIndex],
             continue
         t = heap[0][0]
         while i < len(order) and order[i].message_start_time <= t:
-            for m in load(order[i]):
+            for m in messages_of(order[i]):
                 heapq.heappush(heap, (m[0], seq, m[1], m[2], 0, m[3]))
                 seq += 1
             i += 1

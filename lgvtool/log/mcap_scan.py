@@ -6,9 +6,12 @@ records from the start to the first one that does not fit: it gathers the schema
 and metadata records, checks every chunk (decompressed, against its size and CRC-32, its
 records framed), takes the schemas and channels defined inside it, counts its messages, and
 makes it a :class:`~lgvtool.log.mcap_records.ChunkIndex`, with the message indexes that follow
-it when they account for every one of its messages. The chunks are then read one at a time
-through those indexes (:mod:`lgvtool.log.mcap_chunks`), as those of a complete file are: memory
-holds one chunk, never the log's messages. Offsets and sizes in bytes, times in ns.
+it when they account for every one of its messages. Message records outside chunks (MCAP allows
+a writer not to chunk) are gathered into runs of consecutive ones, each described by a
+``ChunkIndex`` too (uncompressed, no message index; :attr:`Scan.loose` tells them apart), up
+to :data:`LOOSE_RUN_BYTES` each. The chunks and runs are then read one at a time
+(:class:`lgvtool.log.sources.SalvagedSource`), as the chunks of a complete file are: memory
+holds one chunk or run, never the log's messages. Offsets and sizes in bytes, times in ns.
 """
 
 from __future__ import annotations
@@ -46,10 +49,16 @@ from lgvtool.log.mcap_records import (
     parse_schema,
 )
 
-#: what a record that does not parse raises
+#: what parsing a record that is damaged raises (a field runs past the bytes: struct.error
+#: or IndexError; a string that is not UTF-8: UnicodeDecodeError; a record longer than its
+#: body: ValueError, see :func:`_definition`)
 _UNPARSED = (ValueError, IndexError, UnicodeDecodeError, struct.error)
 
-__all__ = ["Scan", "scan_records"]
+LOOSE_RUN_BYTES = 1 << 20
+"""Bytes of message records outside chunks described by one entry of :attr:`Scan.chunk_indexes`
+at most (a run ends there, or at the first other record): what one read of them holds."""
+
+__all__ = ["LOOSE_RUN_BYTES", "Scan", "scan_records"]
 
 
 @dataclass
@@ -60,21 +69,33 @@ class Scan:
     schemas: dict[int, Schema] = field(default_factory=dict)
     channels: dict[int, Channel] = field(default_factory=dict)
     metadata: list[Metadata] = field(default_factory=list)
-    #: the sound chunks, in file order
+    #: the sound chunks and the runs of message records outside chunks, in file order
     chunk_indexes: list[ChunkIndex] = field(default_factory=list)
-    #: messages per channel id in the sound chunks
+    #: file offset -> length in bytes of each run of message records outside chunks (its
+    #: entry of :attr:`chunk_indexes` starts there)
+    loose: dict[int, int] = field(default_factory=dict)
+    #: messages per channel id in the sound chunks and the runs
     counts: dict[int, int] = field(default_factory=dict)
     #: the latest log time of those messages, ns (None: no message)
     last_time: int | None = None
     #: bytes from the file's start to the end of the last whole record
     good_end: int = len(MAGIC)
-    #: message records outside chunks: the file must be read record by record instead
-    loose_messages: bool = False
 
     def unknown_channels(self) -> bool:
         """Whether a message of the sound chunks names a channel no record defines (its
         definition was in a corrupt chunk)."""
         return any(cid not in self.channels for cid in self.counts)
+
+
+@dataclass
+class _Run:
+    """A run of message records outside chunks being gathered: where it starts and ends in
+    the file (bytes) and its first and last log times (ns)."""
+
+    start: int
+    end: int
+    first: int
+    last: int
 
 
 def scan_records(f: IO[bytes], size: int, on_corrupt: Callable[[int, str], None]) -> Scan:
@@ -90,6 +111,7 @@ def scan_records(f: IO[bytes], size: int, on_corrupt: Callable[[int, str], None]
     chunk: tuple[ChunkIndex, dict[int, int]] | None = None
     indexes: dict[int, tuple[int, int]] = {}
     index_bytes = 0
+    run: _Run | None = None  # the run of message records outside chunks being gathered
 
     def close_chunk() -> None:
         nonlocal chunk, index_bytes
@@ -102,6 +124,15 @@ def scan_records(f: IO[bytes], size: int, on_corrupt: Callable[[int, str], None]
         indexes.clear()
         index_bytes = 0
 
+    def close_run() -> None:
+        nonlocal run
+        if run is not None:
+            n = run.end - run.start
+            out.chunk_indexes.append(ChunkIndex(run.first, run.last, run.start, n, {}, 0, "",
+                                                n, n))
+            out.loose[run.start] = n
+        run = None
+
     while True:
         f.seek(pos)
         head = f.read(REC_HEAD.size)
@@ -110,6 +141,24 @@ def scan_records(f: IO[bytes], size: int, on_corrupt: Callable[[int, str], None]
         opcode, length = REC_HEAD.unpack(head)
         end = pos + REC_HEAD.size + length
         if opcode == 0 or end > size:
+            break
+        if opcode == OP_MESSAGE and length >= MSG_FIELDS.size:
+            close_chunk()
+            if run is not None and end - run.start > LOOSE_RUN_BYTES:
+                close_run()
+            cid, _seq, log_time, _pub = MSG_FIELDS.unpack(f.read(MSG_FIELDS.size))
+            _count(out, {cid: 1}, log_time)
+            if run is None:
+                run = _Run(pos, end, log_time, log_time)
+            else:
+                run.end = end
+                run.first = min(run.first, log_time)
+                run.last = max(run.last, log_time)
+            out.good_end = pos = end
+            continue
+        if run is not None:
+            close_run()
+        if opcode == OP_MESSAGE:  # too short for its fields: the file is not read past it
             break
         if opcode == OP_MESSAGE_INDEX and chunk is not None and length >= 6:
             body = f.read(6)  # channel id, then the byte length of its (time, offset) pairs
@@ -128,13 +177,20 @@ def scan_records(f: IO[bytes], size: int, on_corrupt: Callable[[int, str], None]
                 chunk = _chunk(f.read(length), pos, out, zstd, on_corrupt)
             elif opcode in (OP_SCHEMA, OP_CHANNEL, OP_METADATA):
                 _take(_definition(opcode, f.read(length)), out)
-            elif opcode == OP_MESSAGE:
-                out.loose_messages = True
         except _UNPARSED:  # a record that does not parse: the file is not read past it
             break
         out.good_end = pos = end
     close_chunk()
+    close_run()
     return out
+
+
+def _count(out: Scan, counts: dict[int, int], last: int | None) -> None:
+    """Add messages (``counts`` per channel id), the latest at log time ``last`` (ns)."""
+    for cid, n in counts.items():
+        out.counts[cid] = out.counts.get(cid, 0) + n
+    if last is not None and (out.last_time is None or last > out.last_time):
+        out.last_time = last
 
 
 def _definition(opcode: int, body: bytes) -> Schema | Channel | Metadata:
@@ -184,10 +240,7 @@ def _chunk(body: bytes, offset: int, out: Scan, zstd: zstandard.ZstdDecompressor
         return None
     for rec in defined:
         _take(rec, out)
-    for cid, n in counts.items():
-        out.counts[cid] = out.counts.get(cid, 0) + n
-    if last is not None and (out.last_time is None or last > out.last_time):
-        out.last_time = last
+    _count(out, counts, last)
     ci = ChunkIndex(start, end_time, offset, REC_HEAD.size + len(body), {}, 0, kind, csize,
                     usize)
     out.chunk_indexes.append(ci)

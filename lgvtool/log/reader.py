@@ -1,9 +1,13 @@
 """Read lgvtool logs: typed messages in log-time order, metadata, per-topic DataFrames.
 
-A log that was cut off mid-write (crash, power loss, full disk) has no summary or footer. The
-reader then walks the file's records once up to the cut (:mod:`lgvtool.log.mcap_scan`), finds
-every complete chunk, reads their messages a chunk at a time as it reads a complete log's, and
-says so in :attr:`LogReader.warnings`; :attr:`LogReader.complete` is False.
+The reader reads one source (:mod:`lgvtool.log.sources`): the file through its summary section
+when it has a usable one, else what a walk of the file finds still whole. A log that was cut
+off mid-write (crash, power loss, full disk) has no summary or footer: the walk
+(:mod:`lgvtool.log.mcap_scan`) goes once up to the cut, finds every complete chunk (and any
+messages written outside chunks), and the reader reads them a chunk at a time as it reads a
+complete log's, and says so in :attr:`LogReader.warnings`; :attr:`LogReader.complete` is False.
+Every reading method is written once, against the source's questions. Times in ns since the
+Unix epoch unless a name says otherwise, sizes and offsets in bytes.
 """
 
 from __future__ import annotations
@@ -22,36 +26,30 @@ from lgvtool.config import Config, Reflector, config_from_dict, default_config
 from lgvtool.errors import ConfigError, LogFormatError
 from lgvtool.log import topics as T
 from lgvtool.log.mcap_chunks import (
+    ChunkWindow,
     CorruptChunkError,
     RecordColumns,
-    checked_records,
     chunk_messages,
-    chunk_window,
+    indexed_times,
     iter_channel_chunks,
     iter_indexed,
     iter_indexed_blocks,
     read_channels,
     record_columns,
-    verified_records,
 )
 from lgvtool.log.mcap_records import (
-    MAGIC,
     Channel,
     ChunkIndex,
-    Metadata,
     Schema,
-    data_section_crc,
-    read_metadata,
-    read_summary,
     starts_with_magic,
 )
+from lgvtool.log.sources import LogSource, open_source
 from lgvtool.log.validate import check_channel
 from lgvtool.log.writer import FORMAT_VERSION
 
 if TYPE_CHECKING:
     import numpy as np
     import pandas as pd
-    from mcap.records import Message
     from numpy.typing import NDArray
 
 
@@ -156,76 +154,34 @@ class LogReader:
             raise LogFormatError(f"{self.path}: empty file")
         if not starts_with_magic(self.path):
             raise LogFormatError(f"{self.path}: not an MCAP file")
-        self.size = size
+        self.size = size  #: the file's size, bytes
         self.warnings: list[str] = []
-        self._schemas: dict[int, Schema] = {}
-        self._channels: dict[int, Channel] = {}
-        self._metadata: list[Metadata] = []
-        self._salvaged: list[Message] | None = None
-        self._chunk_indexes: list[ChunkIndex] = []
-        self._counts: dict[int, int] = {}
         #: file offset -> reason of every chunk found corrupt and skipped so far
         self.corrupt_chunks: dict[int, str] = {}
         self._checked_topics: set[str] = set()
-        self._verified: set[int] = set()  # offsets of chunks read and found sound
-        self.salvaged_bytes = size
-        self.complete = self._open_indexed()
-        if not self.complete:
-            self._salvage()
+        self._source: LogSource = open_source(self.path, size, self._note_corrupt,
+                                              self.warnings.append)
+        #: whether the file was read through its summary (else salvaged)
+        self.complete = self._source.complete
+        #: bytes from the start of the file that were read (its size when complete)
+        self.salvaged_bytes = self._source.salvaged_bytes
+        self._schemas: dict[int, Schema] = self._source.schemas
+        self._channels: dict[int, Channel] = self._source.channels
+        self._verified: set[int] = set(self._source.sound)  # offsets of chunks found sound
         self.metadata: dict[str, dict[str, Any]] = {}
-        for rec in self._metadata:
+        for rec in self._source.metadata:
             self.metadata[rec.name] = {k: _decode_value(v) for k, v in rec.metadata.items()}
         self._check_contract()
         self._topic_info: dict[str, TopicInfo] | None = None
         for w in self.warnings:
             _warnings.warn(w, LogWarning, stacklevel=2)
 
+    @property
+    def _chunk_indexes(self) -> list[ChunkIndex]:
+        """The chunks the source reads (for tests and benchmarks that look at them)."""
+        return self._source.chunk_indexes
+
     # ------------------------------------------------------------------ opening
-    def _open_indexed(self) -> bool:
-        from lgvtool.log.mcap_records import CorruptSummaryError
-
-        try:
-            with open(self.path, "rb") as f:
-                try:
-                    summary = read_summary(f)
-                except CorruptSummaryError as exc:
-                    self.warnings.append(f"{self.path}: {exc}; reading the file record by "
-                                         "record instead of through its index")
-                    return False
-                if summary is None:
-                    return False
-                self._check_data_crc(f)
-                self._schemas = summary.schemas
-                self._channels = summary.channels
-                self._metadata = [read_metadata(f, i) for i in summary.metadata_indexes]
-                self._chunk_indexes = summary.chunk_indexes
-                if summary.channel_message_counts is not None:
-                    self._counts = summary.channel_message_counts
-            return True
-        except Exception:
-            self._schemas, self._channels, self._metadata = {}, {}, []
-            self._chunk_indexes, self._counts = [], {}
-            return False
-
-    def _check_data_crc(self, f: Any) -> None:
-        """Compare the data section with its CRC-32 when the file has one (a warning only:
-        the chunks' own CRCs tell which messages are affected)."""
-        import mmap
-        import struct
-
-        f.seek(-(9 + 20 + len(MAGIC)), 2)
-        (summary_start,) = struct.unpack_from("<Q", f.read(17), 9)
-        try:
-            buf: Any = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
-        except (OSError, ValueError):
-            return
-        try:
-            crcs = data_section_crc(buf, summary_start)
-        finally:
-            buf.close()
-        if crcs is not None and crcs[0] != crcs[1]:
-            self.warnings.append(f"{self.path}: the data section does not match its CRC-32")
-
     def _note_corrupt(self, ci: ChunkIndex | int, reason: str) -> None:
         """Count a corrupt chunk (skipped by the caller) and say so once, as a warning; beyond
         :data:`CORRUPT_CHUNKS_SAID` of them, one more warning says that others follow (a badly
@@ -246,73 +202,6 @@ class LogReader:
         self.warnings.append(text)
         _warnings.warn(text, LogWarning, stacklevel=3)
 
-    def _salvage(self) -> None:
-        """Find the records of a file without a usable summary (:mod:`lgvtool.log.mcap_scan`):
-        its chunks are then read one at a time, as a complete file's are. A file with message
-        records outside chunks, or with messages on a channel whose definition was lost, is
-        read record by record into memory instead (:meth:`_salvage_in_memory`)."""
-        from lgvtool.log.mcap_scan import scan_records
-
-        corrupt: list[tuple[int, str]] = []
-        with open(self.path, "rb") as f:
-            scan = scan_records(f, self.size, lambda at, why: corrupt.append((at, why)))
-        if scan.loose_messages or scan.unknown_channels():
-            self._salvage_in_memory()
-            return
-        for at, why in corrupt:
-            self._note_corrupt(at, why)
-        self._schemas, self._channels = scan.schemas, scan.channels
-        self._metadata = scan.metadata
-        self._chunk_indexes = scan.chunk_indexes
-        self._verified.update(ci.chunk_start_offset for ci in scan.chunk_indexes)
-        self.salvaged_bytes = scan.good_end
-        self._say_salvaged(scan.good_end, sum(scan.counts.values()), scan.last_time)
-
-    def _say_salvaged(self, good_end: int, messages: int, last_ns: int | None) -> None:
-        where = f", last message at {last_ns / 1e9:.3f} s" if last_ns is not None else ""
-        self.warnings.append(
-            f"{self.path}: incomplete log (no summary; cut off after {good_end} of {self.size} "
-            f"bytes): salvaged {messages} complete messages{where}"
-        )
-
-    def _salvage_in_memory(self) -> None:
-        """Walk the file record by record through the ``mcap`` package's stream reader and
-        keep every complete message (in log-time order) in memory."""
-        from mcap.records import Channel as McapChannel
-        from mcap.records import Chunk, Message
-        from mcap.records import Metadata as McapMetadata
-        from mcap.records import Schema as McapSchema
-        from mcap.stream_reader import StreamReader
-
-        msgs: list[Message] = []
-        good_end = len(MAGIC)
-        with open(self.path, "rb") as f:
-            stream = StreamReader(f, skip_magic=False, emit_chunks=True,
-                                  record_size_limit=self.size)
-            try:
-                for rec in _chunk_records(stream.records, self._note_corrupt, f):
-                    if isinstance(rec, Chunk):
-                        continue
-                    if isinstance(rec, Message):
-                        msgs.append(rec)
-                    # the first definition counts: the data section's, not the summary's
-                    # copy (which may be what failed its CRC)
-                    elif isinstance(rec, McapSchema) and rec.id not in self._schemas:
-                        self._schemas[rec.id] = Schema(rec.id, rec.name, rec.encoding, rec.data)
-                    elif isinstance(rec, McapChannel) and rec.id not in self._channels:
-                        self._channels[rec.id] = Channel(rec.id, rec.topic, rec.message_encoding,
-                                                         rec.schema_id, dict(rec.metadata))
-                    elif isinstance(rec, McapMetadata):
-                        self._metadata.append(Metadata(rec.name, dict(rec.metadata)))
-                    good_end = f.tell()
-            except Exception:
-                pass
-        msgs.sort(key=lambda m: m.log_time)
-        self._salvaged = [m for m in msgs if m.channel_id in self._channels]
-        self.salvaged_bytes = good_end
-        self._say_salvaged(good_end, len(self._salvaged),
-                           self._salvaged[-1].log_time if self._salvaged else None)
-
     def _check_contract(self) -> None:
         info = self.metadata.get("lgvtool")
         known = any(T.schema_for_topic(c.topic) for c in self._channels.values())
@@ -331,6 +220,14 @@ class LogReader:
             raise LogFormatError(f"{self.path}: unreadable format_version {version!r}")
 
     # ------------------------------------------------------------------ messages
+    def _channel_ids(self, wanted: set[str] | None) -> set[int] | None:
+        """The ids of the channels of the ``wanted`` topics; for every topic (``wanted`` None),
+        None (every message) unless messages in the chunks name a channel the log does not
+        define: then the ids of the defined ones (the others' messages cannot be read)."""
+        if wanted is None and not self._source.unknown_channels:
+            return None
+        return {cid for cid, c in self._channels.items() if wanted is None or c.topic in wanted}
+
     def raw_messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
         """Every stored message (or those of ``topics``) in log-time order, undecoded."""
         wanted = None if topics is None else set(topics)
@@ -338,21 +235,13 @@ class LogReader:
         yield from self._raw_messages(wanted)
 
     def _raw_messages(self, wanted: set[str] | None) -> Iterator[RawMessage]:
-        schemas = {sid: s.name for sid, s in self._schemas.items()}
-        if self._salvaged is not None:
-            for m in self._salvaged:
-                ch = self._channels[m.channel_id]
-                if wanted is None or ch.topic in wanted:
-                    yield RawMessage(ch.topic, schemas.get(ch.schema_id, ""), m.log_time,
-                                     m.publish_time, m.data)
-            return
-        ids = None if wanted is None else {cid for cid, c in self._channels.items()
-                                           if c.topic in wanted}
+        ids = self._channel_ids(wanted)
         if ids is not None and not ids:
             return
+        schemas = {sid: s.name for sid, s in self._schemas.items()}
         topic_of = {cid: (c.topic, schemas.get(c.schema_id, "")) for cid, c in self._channels.items()}
-        with open(self.path, "rb") as f:
-            for log_time, cid, pub, data in iter_indexed(f, self._chunk_indexes, ids,
+        with self._source.reading() as log:
+            for log_time, cid, pub, data in iter_indexed(log.load, self._chunk_indexes, ids,
                                                          self._note_corrupt, self._verified):
                 topic, schema = topic_of[cid]
                 yield RawMessage(topic, schema, log_time, pub, data)
@@ -362,13 +251,11 @@ class LogReader:
         ``(log time ns, channel id, publish time ns, data)``; :meth:`channel_topic` names a
         channel id. The same messages in the same order as :meth:`raw_messages`."""
         self.check_topics(None)
-        if self._salvaged is not None:
-            block = [(m.log_time, m.channel_id, m.publish_time, m.data) for m in self._salvaged]
-            if block:
-                yield block
+        ids = self._channel_ids(None)
+        if ids is not None and not ids:
             return
-        with open(self.path, "rb") as f:
-            yield from iter_indexed_blocks(f, self._chunk_indexes, None, self._note_corrupt,
+        with self._source.reading() as log:
+            yield from iter_indexed_blocks(log.load, self._chunk_indexes, ids, self._note_corrupt,
                                            self._verified)
 
     def registrations(self) -> tuple[dict[int, Schema], dict[int, Channel]]:
@@ -381,9 +268,10 @@ class LogReader:
         columns of their message records (:func:`lgvtool.log.mcap_chunks.record_columns`);
         corrupt chunks skipped with a warning as :meth:`raw_blocks` skips them: the same
         messages in the same order as :meth:`raw_blocks`. None when that order is not the
-        chunks' (a salvaged file, chunks whose times overlap)."""
+        chunks' (chunks whose times overlap) or the chunks hold messages :meth:`raw_blocks`
+        leaves out (on channels the log does not define)."""
         self.check_topics(None)
-        if self._salvaged is not None:
+        if self._source.unknown_channels:
             return None
         order = sorted(self._chunk_indexes,
                        key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
@@ -392,10 +280,7 @@ class LogReader:
         return self._record_chunks(order)
 
     def _record_chunks(self, order: list[ChunkIndex]) -> Iterator[tuple[bytes, RecordColumns]]:
-        import zstandard
-
-        zstd = zstandard.ZstdDecompressor()
-        group: list[tuple[bytes, ChunkIndex, bytes]] = []
+        group: list[ChunkWindow] = []
         sources: list[ChunkIndex] = []
         size = 0
 
@@ -411,17 +296,16 @@ class LogReader:
                                   if k not in bad)
             return out
 
-        with open(self.path, "rb") as f:
+        with self._source.reading() as log:
             for ci in order:
                 try:
-                    buf, local = chunk_window(f, ci)
-                    records = verified_records(buf, local, zstd)
+                    window = log.load(ci)
                 except CorruptChunkError as exc:
                     self._note_corrupt(ci, exc.reason)
                     continue
-                group.append((buf, local, records))
+                group.append(window)
                 sources.append(ci)
-                size += len(records)
+                size += len(window.records)
                 if size >= RECORD_GROUP_BYTES:
                     yield columns()
                     group, sources, size = [], [], 0
@@ -434,6 +318,17 @@ class LogReader:
         s = self._schemas.get(c.schema_id)
         return c.topic, s.name if s is not None else ""
 
+    def _topic_channels(self, topics: Iterable[str]) -> dict[str, list[int]]:
+        """The ids of the channels of each of ``topics`` (checked, :meth:`check_topics`) that
+        the log has."""
+        wanted = set(topics)
+        self.check_topics(wanted)
+        by_topic: dict[str, list[int]] = {}
+        for cid, c in self._channels.items():
+            if c.topic in wanted:
+                by_topic.setdefault(c.topic, []).append(cid)
+        return by_topic
+
     def raw_columns(self, topics: Iterable[str]) -> dict[str, tuple[NDArray[np.int64],
                                                                    list[bytes]]]:
         """Every message of ``topics``, undecoded, per topic: the log times (ns since the
@@ -442,25 +337,14 @@ class LogReader:
         the chunks' indexes. Topics without messages are left out."""
         import numpy as np
 
-        wanted = set(topics)
-        self.check_topics(wanted)
-        by_topic: dict[str, list[int]] = {}
-        for cid, c in self._channels.items():
-            if c.topic in wanted:
-                by_topic.setdefault(c.topic, []).append(cid)
+        by_topic = self._topic_channels(topics)
         if not by_topic:
             return {}
-        out: dict[str, tuple[NDArray[np.int64], list[bytes]]] = {}
-        if self._salvaged is not None:
-            acc: dict[str, tuple[list[int], list[bytes]]] = {t: ([], []) for t in by_topic}
-            for m in self.raw_messages(by_topic):
-                acc[m.topic][0].append(m.log_time_ns)
-                acc[m.topic][1].append(m.data)
-            return {t: (np.array(ts, dtype=np.int64), ds) for t, (ts, ds) in acc.items() if ts}
-        with open(self.path, "rb") as f:
-            per_channel = read_channels(f, self._chunk_indexes,
+        with self._source.reading() as log:
+            per_channel = read_channels(log.load, self._chunk_indexes,
                                         [c for ids in by_topic.values() for c in ids],
                                         self._note_corrupt, self._verified)
+        out: dict[str, tuple[NDArray[np.int64], list[bytes]]] = {}
         for topic, ids in by_topic.items():
             parts = [per_channel[c] for c in ids if len(per_channel[c][0])]
             if not parts:
@@ -478,20 +362,14 @@ class LogReader:
             dict[str, tuple[NDArray[np.int64], list[bytes]]]]:
         """The messages of ``topics``, undecoded, one chunk at a time (chunks in the order of
         their start times): per topic in the chunk, the log times (ns since the epoch) and the
-        JSON bytes in stored order. Only one chunk is held at a time; for a salvaged file the
-        whole of :meth:`raw_columns` comes as one block."""
+        JSON bytes in stored order. Only one chunk is held at a time."""
         import numpy as np
 
-        wanted = set(topics)
-        self.check_topics(wanted)
-        topic_of = {cid: c.topic for cid, c in self._channels.items() if c.topic in wanted}
+        topic_of = {cid: t for t, ids in self._topic_channels(topics).items() for cid in ids}
         if not topic_of:
             return
-        if self._salvaged is not None:
-            yield self.raw_columns(wanted)
-            return
-        with open(self.path, "rb") as f:
-            for found in iter_channel_chunks(f, self._chunk_indexes, topic_of,
+        with self._source.reading() as log:
+            for found in iter_channel_chunks(log.load, self._chunk_indexes, topic_of,
                                              self._note_corrupt, self._verified):
                 block: dict[str, tuple[NDArray[np.int64], list[bytes]]] = {}
                 for cid, (t, d) in found.items():
@@ -508,8 +386,9 @@ class LogReader:
             list[ChunkIndex], dict[int, int]] | None:
         """What a writer needs to copy this log's chunks byte for byte: schemas and channels by
         id, chunk indexes and per-channel counts; None when that is not possible (salvaged
-        file, no statistics, or a topic to skip)."""
-        if not self.complete or (not self._counts and self._chunk_indexes):
+        file, no statistics, a corrupt chunk, or a topic to skip)."""
+        counts = self._source.copy_counts()
+        if counts is None:
             return None
         if any(c.topic in skip_topics for c in self._channels.values()):
             return None
@@ -519,7 +398,7 @@ class LogReader:
         schemas = {sid: (s.name, s.encoding, s.data) for sid, s in self._schemas.items()}
         channels = {cid: (c.topic, c.message_encoding, c.schema_id)
                     for cid, c in self._channels.items()}
-        return schemas, channels, list(self._chunk_indexes), dict(self._counts)
+        return schemas, channels, list(self._chunk_indexes), counts
 
     def check_topics(self, topics: Iterable[str] | None = None) -> None:
         """Refuse a foreign schema or encoding on an lgvtool topic among ``topics`` (all the
@@ -540,22 +419,15 @@ class LogReader:
             self._checked_topics.add(c.topic)
 
     def verify_chunks(self) -> bool:
-        """Decompress and check every chunk (CRC-32, size, record framing); corrupt ones are
-        counted in :attr:`corrupt_chunks` with a warning. True when none is corrupt."""
-        if self._salvaged is not None:
-            return not self.corrupt_chunks
-        import zstandard
-
-        from lgvtool.log.mcap_chunks import chunk_window, verified_records
-
-        zstd = zstandard.ZstdDecompressor()
-        with open(self.path, "rb") as f:
+        """Decompress and check every chunk (CRC-32, size, record framing) not checked yet;
+        corrupt ones are counted in :attr:`corrupt_chunks` with a warning. True when none is
+        corrupt."""
+        with self._source.reading() as log:
             for ci in self._chunk_indexes:
                 if ci.chunk_start_offset in self._verified:
                     continue
                 try:
-                    buf, local = chunk_window(f, ci)
-                    chunk_messages(verified_records(buf, local, zstd), set())
+                    chunk_messages(log.load(ci).records, set())
                 except CorruptChunkError as exc:
                     self._note_corrupt(ci, exc.reason)
                 else:
@@ -589,30 +461,26 @@ class LogReader:
         return self._topic_info
 
     def _indexed_topic_times(self) -> dict[str, list[int]] | None:
-        """(count, first, last, largest gap) per topic from the message indexes of the sound
-        chunks (a chunk without them read for its messages' times); None for a file held in
-        memory (:meth:`_salvage_in_memory`) or one whose message indexes do not parse."""
+        """(count, first ns, last ns, largest gap ns) per topic from the message indexes of
+        the sound chunks (a chunk without them read for its messages' times); None when the
+        message indexes do not parse."""
         import numpy as np
 
-        from lgvtool.log.mcap_chunks import indexed_times
-
-        if self._salvaged is not None:
-            return None
         self.verify_chunks()
         sound = [ci for ci in self._chunk_indexes if ci.chunk_start_offset in self._verified]
-        # a chunk without message indexes (a cut-off log's last one may have lost them) is
-        # read for its messages' times
+        # a chunk without message indexes (a cut-off log's last one may have lost them, and
+        # a salvaged run of messages outside chunks has none) is read for its messages' times
         indexed: list[ChunkIndex] = []
         walked: list[ChunkIndex] = []
         for ci in sound:
             (walked if ci.uncompressed_size and not ci.message_index_offsets
              else indexed).append(ci)
-        with open(self.path, "rb") as f:
-            per_channel = indexed_times(f, indexed)
+        with self._source.reading() as log:
+            per_channel = indexed_times(log.file, indexed)
             if per_channel is None:
                 return None
             more: dict[int, list[int]] = {}
-            for block in iter_indexed_blocks(f, walked, None, self._note_corrupt):
+            for block in iter_indexed_blocks(log.load, walked, None, self._note_corrupt):
                 for log_time, cid, _pub, _data in block:
                     more.setdefault(cid, []).append(log_time)
         for cid, ts in more.items():
@@ -633,7 +501,7 @@ class LogReader:
         return acc
 
     def _read_topic_times(self) -> dict[str, list[int]]:
-        """(count, first, last, largest gap) per topic, reading every message."""
+        """(count, first ns, last ns, largest gap ns) per topic, reading every message."""
         acc: dict[str, list[int]] = {}
         for m in self._raw_messages(None):
             a = acc.get(m.topic)
@@ -708,31 +576,6 @@ class LogReader:
     def reflector_map(self) -> tuple[Reflector, ...]:
         """The reflector map: /map/reflectors if logged, else the stored configuration's."""
         return self._map_from_topic() or self.config().reflectors
-
-
-def _chunk_records(records: Iterable[Any], on_corrupt: Any, f: Any) -> Iterator[Any]:
-    """The records of a stream read with ``emit_chunks``, with each chunk checked
-    (:func:`checked_records`) and opened into its records; a corrupt chunk goes to
-    ``on_corrupt(offset, reason)`` and is left out."""
-    from mcap.records import Chunk
-    from mcap.stream_reader import breakup_chunk
-
-    for rec in records:
-        if not isinstance(rec, Chunk):
-            yield rec
-            continue
-        try:
-            chunk_messages(checked_records(rec.compression, rec.data, rec.uncompressed_size,
-                                           rec.uncompressed_crc), set())
-            inner = breakup_chunk(rec)
-        except CorruptChunkError as exc:
-            on_corrupt(f.tell(), exc.reason)
-            continue
-        except Exception as exc:  # a record inside that does not parse
-            on_corrupt(f.tell(), f"a record inside does not parse ({type(exc).__name__})")
-            continue
-        yield from inner
-        yield rec
 
 
 def _decode_value(value: str) -> Any:

@@ -3,7 +3,8 @@
 This is what a device emulator plays in real time, and what the log writer consumes along
 with the host side (:mod:`lgvtool.sim.logfile`): the true pose of O, each MCU frame when the MCU
 sends it (and the bytes the link delivers), each completed revolution of the NAV200 head with
-its reflector observations, and each pose solution from the moment the device can report it.
+its reflector observations (each with the id the device gave it, never its true identity), and
+each pose solution from the moment the device can report it.
 Times are simulation seconds (0 = start of the run).
 """
 
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from lgvtool.angles import wrap_angle
 
@@ -43,10 +45,17 @@ class McuSend:
     delivered: bytes | None
 
 
+NO_ID = -1
+"""The id of an observation the device did not identify (as /nav/reflectors writes it; the
+NAV350's global id 0xFFFF)."""
+
+
 @dataclass(frozen=True, slots=True)
 class Observation:
     """One reflector measured during a revolution: range m, bearing rad in the head frame,
-    time after the revolution start s, map id (-1: not a map reflector)."""
+    time after the revolution start s, and the id the device gives it: the stored-layout id of
+    the reflector it matched, :data:`NO_ID` where it matched none (never the true identity,
+    which stays in :class:`~lgvtool.sim.simulation.Simulation`; see :func:`device_ids`)."""
 
     range: float
     bearing: float
@@ -99,12 +108,27 @@ def mcu_sends(sim: Simulation) -> Iterator[McuSend]:
                       sim.mcu_traffic.delivered[i])
 
 
+def device_ids(sim: Simulation, rows: slice | None = None) -> NDArray[np.int64]:
+    """The id the device reports for each entry of ``sim.scans`` (revolutions ``rows``, shape
+    (revolutions, landmarks)): the stored-layout id of the reflector it matched, :data:`NO_ID`
+    where it matched none (or did not see the landmark). With ``nav.identification = "truth"``
+    (model 1's kind world) the true id instead: the reflector's own, :data:`NO_ID` for the
+    shiny object."""
+    sc = sim.scans
+    rows = slice(None) if rows is None else rows
+    marks = sim.landmarks
+    if sim.settings.nav.identification == "truth":
+        true_ids = np.where(marks.is_false, NO_ID, marks.ids)
+        return np.broadcast_to(true_ids[None, :], sc.seen[rows].shape)
+    layout_ids = np.append(marks.ids, NO_ID)  # index -1 (unmatched): NO_ID
+    return layout_ids[sc.matched[rows]]
+
+
 def nav_scans(sim: Simulation, block: int = 1024) -> Iterator[NavScan]:
     """Every revolution at its end, with the reflectors the head detected in it, in the order
-    it measured them (made ``block`` revolutions at a time, so a long run is never held as
-    objects)."""
+    it measured them, each with the device's id (:func:`device_ids`; made ``block``
+    revolutions at a time, so a long run is never held as objects)."""
     sc = sim.scans
-    ids = sim.landmarks.ids.tolist()
     for k0 in range(0, len(sc), block):
         rows = slice(k0, k0 + block)
         order = np.argsort(np.where(sc.seen[rows], sc.time_in_scan[rows], np.inf), axis=1,
@@ -113,10 +137,10 @@ def nav_scans(sim: Simulation, block: int = 1024) -> Iterator[NavScan]:
         ranges = np.take_along_axis(sc.range[rows], order, axis=1).tolist()
         bearings = np.take_along_axis(sc.bearing[rows], order, axis=1).tolist()
         times = np.take_along_axis(sc.time_in_scan[rows], order, axis=1).tolist()
-        cols = order.tolist()
+        ids = np.take_along_axis(device_ids(sim, rows), order, axis=1).tolist()
         starts = sc.start[rows].tolist()
         for k, start in enumerate(starts):
-            obs = tuple(Observation(ranges[k][i], bearings[k][i], times[k][i], ids[cols[k][i]])
+            obs = tuple(Observation(ranges[k][i], bearings[k][i], times[k][i], ids[k][i])
                         for i in range(counts[k]))
             yield NavScan(start + sc.period, start, sc.period, obs)
 

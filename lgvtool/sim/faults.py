@@ -1,27 +1,17 @@
-"""What the head can see, and the faults injected on purpose.
+"""The faults injected on purpose (the true site itself is :mod:`lgvtool.sim.site_model`).
 
-- :func:`landmarks`: the reflectors as they really stand (the device's stored map may differ by
-  a survey error) plus, optionally, a shiny object that the head takes for a reflector.
 - :func:`occlusions`: stretches of time in which a reflector is hidden (pallets, people).
 - :func:`choose` and :func:`flip_bit`: which frames a link loses or corrupts, and how.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.config import Area, Reflector
-from lgvtool.errors import ConfigError
 from lgvtool.sim.kinematics import FloatArray
-from lgvtool.sim.settings import FaultSettings
-
-FALSE_ID = -1
-"""Id of the shiny false reflector in reflector scans."""
 
 
 @dataclass(frozen=True)
@@ -33,70 +23,6 @@ class FaultEvent:
     kind: str
     message: str
     details: dict[str, object] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
-class Landmarks:
-    """Everything the head can detect, in one array per field (index = landmark).
-
-    ``x``/``y`` are where the landmarks really are (m); ``map_x``/``map_y`` where the device's
-    stored map puts the reflectors (NaN for the false one); ``ids`` the map id or -1.
-    """
-
-    ids: NDArray[np.int64]
-    x: FloatArray
-    y: FloatArray
-    map_x: FloatArray
-    map_y: FloatArray
-    is_false: NDArray[np.bool_]
-
-    def __len__(self) -> int:
-        return len(self.ids)
-
-
-def _wall_tangent(r: Reflector, area: Area) -> tuple[float, float]:
-    """Unit vector along the wall nearest to reflector ``r`` (counter-clockwise round the hall)."""
-    gaps = {
-        (1.0, 0.0): r.y - area.y_min,   # south wall, run east
-        (0.0, 1.0): area.x_max - r.x,   # east wall, run north
-        (-1.0, 0.0): area.y_max - r.y,  # north wall, run west
-        (0.0, -1.0): r.x - area.x_min,  # west wall, run south
-    }
-    return min(gaps, key=lambda k: gaps[k])
-
-
-def landmarks(reflectors: Sequence[Reflector], area: Area, faults: FaultSettings,
-              map_sigma: float, rng: np.random.Generator) -> Landmarks:
-    """The landmarks of a run.
-
-    The reflectors really stand at their map position plus a survey error of ``map_sigma`` m
-    per axis (drawn even when zero, so other draws do not shift). With
-    ``faults.false_reflector`` a shiny object is added at (false_x, false_y), or, when those are
-    NaN, ``false_offset`` m along the wall from reflector ``false_near_id``.
-    """
-    n = len(reflectors)
-    ids = np.array([r.id for r in reflectors], dtype=np.int64)
-    mx = np.array([r.x for r in reflectors], dtype=np.float64)
-    my = np.array([r.y for r in reflectors], dtype=np.float64)
-    survey = rng.standard_normal((2, n)) * map_sigma
-    x, y = mx + survey[0], my + survey[1]
-    is_false = np.zeros(n, dtype=bool)
-    if faults.false_reflector:
-        if math.isfinite(faults.false_x) and math.isfinite(faults.false_y):
-            fx, fy = faults.false_x, faults.false_y
-        else:
-            near = [r for r in reflectors if r.id == faults.false_near_id]
-            if not near:
-                raise ConfigError(f"faults.false_near_id {faults.false_near_id} is not a "
-                                  "reflector of the map")
-            ux, uy = _wall_tangent(near[0], area)
-            fx = near[0].x + faults.false_offset * ux
-            fy = near[0].y + faults.false_offset * uy
-        ids = np.append(ids, FALSE_ID)
-        x, y = np.append(x, fx), np.append(y, fy)
-        mx, my = np.append(mx, np.nan), np.append(my, np.nan)
-        is_false = np.append(is_false, True)
-    return Landmarks(ids=ids, x=x, y=y, map_x=mx, map_y=my, is_false=is_false)
 
 
 @dataclass(frozen=True)

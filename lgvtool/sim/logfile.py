@@ -5,10 +5,16 @@ serial ports (/mcu/rx, /nav200/tx, /nav200/rx) in the chunks the ports delivered
 poses decoded from those bytes by the devices' log decoders, the one decoding path that
 ``lgvtool decode`` and the recorder use (:mod:`lgvtool.devices.log_decoding`: /mcu/frame,
 /nav/pose, with decoder errors on /diagnostics; what the end of the run completes is written
-at its end), the head's reflector observations per
-revolution (/nav/reflectors, logged when the revolution's solution is available), the ground
-truth of O (/truth/pose), the injected faults (/diagnostics, source 'simulator'), the reflector
-map and the metadata ('simulator' with every setting and the seed, and 'config').
+at its end), the ground truth of O (/truth/pose), the injected faults (/diagnostics, source
+'simulator'), the reflector map and the metadata ('simulator' with every setting and the seed,
+and 'config').
+
+Reflector observations (/nav/reflectors) are what the device delivers: a NAV350 its landmarks
+of every revolution, decoded from its replies, with its own timestamps and ids; a NAV200 none
+(no NAV200 host protocol delivers them), unless ``sim.paper_scans`` logs them as the paper's
+experiment had them: per revolution, when its solution is available, with the device's ids,
+and marked so (the 'simulator' metadata's ``observations`` is ``"paper-scans"``:
+:attr:`lgvtool.sim.simulation.Simulation.observations`).
 """
 
 from __future__ import annotations
@@ -74,12 +80,14 @@ def _records(sim: Simulation) -> Iterator[Record]:
     else:
         tx = [(c.t, c.data) for c in sim.nav_traffic.tx]
         rx = [(c.t + late, c.data) for c in sim.nav_traffic.rx]
-        reported = takewhile(lambda r: r[0] <= sim.duration,
-                             zip(sim.solutions.available.tolist(), nav_scans(sim), strict=False))
-        scans = ((sim.host_ns(t + late), scan) for t, scan in reported)
         sources += [_numbered(_NAV_TX, _in_time_order(sim, tx)),
-                    _numbered(_NAV_RX, _in_time_order(sim, rx)),
-                    _numbered(_SCAN, _checked(scans))]
+                    _numbered(_NAV_RX, _in_time_order(sim, rx))]
+        if sim.settings.sim.paper_scans:
+            reported = takewhile(lambda r: r[0] <= sim.duration,
+                                 zip(sim.solutions.available.tolist(), nav_scans(sim),
+                                     strict=False))
+            scans = ((sim.host_ns(t + late), scan) for t, scan in reported)
+            sources.append(_numbered(_SCAN, _checked(scans)))
     return heapq.merge(*sources)
 
 

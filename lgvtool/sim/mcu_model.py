@@ -6,8 +6,11 @@ interval, reads the drive unit's steering angle and wheel speed, and sends a ver
 (:mod:`lgvtool.devices.mcu.mcu_frame`).
 
 - Encoders: the count follows the wheel's true rolling distance divided by its *true* radius
-  (nominal x (1 + wheel_radius_error)), plus a slip random walk, quantised at ``encoder_ppr``
-  counts per revolution with a random initial phase (int32, wrapping).
+  (nominal x (1 + wheel_radius_error) x (1 + the load's compression, ``drive.load_fraction`` x
+  ``drive.radius_change_at_rated_load``)), plus a slip random walk, quantised at
+  ``encoder_ppr`` counts per revolution with a random initial phase (int32, wrapping).
+- Steering angle and drive speed: what the drive unit was commanded (its sensors' readings),
+  plus noise; the wheel's true angle differs (:mod:`lgvtool.sim.kinematics`).
 - Gyro: mean true yaw rate x (1 + scale error) + bias (constant + random walk) + white noise,
   quantised to int16 counts of ``gyro_scale_udeg_s`` (saturation sets GYRO_SATURATED).
 """
@@ -23,7 +26,7 @@ from numpy.typing import NDArray
 from lgvtool.config import Vehicle
 from lgvtool.devices.mcu.mcu_frame import McuFrame, McuStatus
 from lgvtool.sim.kinematics import FloatArray, Trajectory
-from lgvtool.sim.settings import McuSettings
+from lgvtool.sim.settings import DriveSettings, McuSettings
 
 
 @dataclass(frozen=True)
@@ -48,10 +51,16 @@ def _counts(travel: FloatArray, radius: float, ppr: int, phase: float) -> NDArra
     return (np.floor(phase + revolutions * ppr) - math.floor(phase)).astype(np.int64)
 
 
+def load_radius_scale(drive: DriveSettings) -> float:
+    """Factor on both encoder wheels' effective rolling radius from the load they carry."""
+    return 1.0 + drive.load_fraction * drive.radius_change_at_rated_load
+
+
 def simulate(traj: Trajectory, vehicle: Vehicle, mcu: McuSettings, noise: bool,
-             rng: np.random.Generator) -> McuOutput:
+             rng: np.random.Generator, drive: DriveSettings | None = None) -> McuOutput:
     """Every MCU frame over ``traj``. ``noise`` False removes slip, gyro noise and bias walk,
-    steering and speed noise and loop jitter (calibration errors stay)."""
+    steering and speed noise and loop jitter (calibration errors stay). ``drive``: the load
+    on the encoder wheels (None: none)."""
     rate = 1.0 + mcu.clock_drift_ppm * 1e-6  # MCU seconds per true second
     period_true = mcu.period_s / rate
     phase = float(rng.random()) * period_true
@@ -71,8 +80,9 @@ def simulate(traj: Trajectory, vehicle: Vehicle, mcu: McuSettings, noise: bool,
     step_r = np.abs(np.diff(travel_r, prepend=0.0))
     slip_l = np.cumsum(draws[1] * np.sqrt(step_l)) * mcu.slip_sigma * scale
     slip_r = np.cumsum(draws[2] * np.sqrt(step_r)) * mcu.slip_sigma * scale
-    radius_l = vehicle.wheel_radius_left * (1.0 + mcu.wheel_radius_error_left)
-    radius_r = vehicle.wheel_radius_right * (1.0 + mcu.wheel_radius_error_right)
+    load = 1.0 if drive is None else load_radius_scale(drive)
+    radius_l = vehicle.wheel_radius_left * (1.0 + mcu.wheel_radius_error_left) * load
+    radius_r = vehicle.wheel_radius_right * (1.0 + mcu.wheel_radius_error_right) * load
     enc_l = _counts(travel_l + slip_l, radius_l, vehicle.encoder_ppr, float(u_enc[0]))
     enc_r = _counts(travel_r + slip_r, radius_r, vehicle.encoder_ppr, float(u_enc[1]))
 
@@ -85,7 +95,7 @@ def simulate(traj: Trajectory, vehicle: Vehicle, mcu: McuSettings, noise: bool,
     bias = math.radians(mcu.gyro_bias_dps) + math.radians(mcu.gyro_bias_walk_dps) * walk * scale
     gyro = (mean_rate * (1.0 + mcu.gyro_scale_error) + bias
             + math.radians(mcu.gyro_noise_dps) * draws[4] * scale)
-    steering = traj.steering_at(t) + math.radians(mcu.steering_noise_deg) * draws[5] * scale
+    steering = traj.steering_command_at(t) + math.radians(mcu.steering_noise_deg) * draws[5] * scale
     speed = traj.drive_speed_at(t) + mcu.speed_noise * draws[6] * scale
 
     frames = []

@@ -9,10 +9,15 @@ drives and turns during the 125 ms), so the instant is found by fixed-point iter
     t_ki = t_k + wrap_2pi(s (alpha_i(t_ki) - scan_start)) / Omega,
 
 where ``alpha_i(t)`` is the bearing of reflector i seen from the head at time t and ``s`` is
-+1 for a counter-clockwise head. Range and bearing are those of that instant plus noise.
-The device then matches each observation to its stored map and solves the head pose
-(x, y, heading) by weighted Gauss-Newton least squares over all observations of the scan, with
-no motion compensation: this is where the error while turning comes from (``docs/simulator.md``).
++1 for a counter-clockwise head. Range and bearing are those of that instant, as the head sees
+the true site (:mod:`lgvtool.sim.site_model`: the reflector's true position and range offset,
+the head leaning and tilted on the floor's slope), plus noise.
+
+The device then identifies what it saw (:func:`locate`): it places each observation with its
+own predicted pose (its previous solution carried forward by the motion since) and matches it
+to the nearest reflector of its stored layout; and it solves the head pose (x, y, heading) by
+weighted Gauss-Newton least squares over the matched observations of the scan, with no motion
+compensation: this is where the error while turning comes from (``docs/simulator.md``).
 """
 
 from __future__ import annotations
@@ -26,9 +31,10 @@ from numpy.typing import NDArray
 
 from lgvtool.angles import TWO_PI, wrap_angle
 from lgvtool.config import Vehicle
-from lgvtool.sim.faults import Landmarks, Occlusions
+from lgvtool.sim.faults import Occlusions
 from lgvtool.sim.kinematics import FloatArray, Trajectory
 from lgvtool.sim.settings import NavSettings
+from lgvtool.sim.site_model import Floor, Landmarks, Site
 
 NO_POSITION = 0xFF
 """Quality byte of a scan without a valid position."""
@@ -54,9 +60,13 @@ class Scans:
     landmark: NDArray[np.intp]
     """Landmark index of each column (the same for every scan)."""
     matched: NDArray[np.intp]
-    """Index of the stored reflector the device matched, -1 when unmatched or not seen."""
+    """Index of the stored reflector the device matched (a landmark index, whose layout id is
+    what the device reports), -1 when unmatched or not seen (:func:`locate`)."""
     hidden: NDArray[np.bool_]
     """In range but hidden by an occlusion stretch."""
+    prior: FloatArray
+    """Per revolution, the error of the pose the device predicted and matched with: predicted
+    minus true head pose (x m, y m, heading rad), shape (scans, 3); zero: the true pose."""
 
     def __len__(self) -> int:
         return len(self.start)
@@ -66,7 +76,7 @@ class Scans:
         return replace(self, start=self.start[rows], seen=self.seen[rows],
                        time_in_scan=self.time_in_scan[rows], range=self.range[rows],
                        bearing=self.bearing[rows], matched=self.matched[rows],
-                       hidden=self.hidden[rows])
+                       hidden=self.hidden[rows], prior=self.prior[rows])
 
 
 @dataclass(frozen=True)
@@ -98,26 +108,29 @@ def scan_starts(duration: float, nav: NavSettings, phase: float) -> FloatArray:
     return first + period * np.arange(n, dtype=np.float64)
 
 
-def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmarks,
-            occl: Occlusions, noise: bool, false_detection: float,
-            rng: np.random.Generator) -> Scans:
-    """Simulate every revolution of the head over ``traj`` (see the module docstring).
+def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, site: Site,
+            occl: Occlusions, noise: bool, rng: np.random.Generator) -> Scans:
+    """Simulate every revolution of the head over ``traj`` on the true ``site`` (see the module
+    docstring): what the head measures, not yet identified (``matched`` all -1; :func:`locate`
+    identifies it).
 
-    ``false_detection`` is the probability that the head sees a false landmark in a scan
-    (a fault, so it holds with the noise off too).
+    A landmark's own detection probability (``site.landmarks.detection``: a missing, weak
+    or extra object of the site) is a fault, so it holds with the noise off too; a weak
+    reflector's still falls off with range, an object not in the layout's does not.
 
     Random draws (phase, detection, range and bearing noise) are always made, scaled by zero
     when ``noise`` is off, so that switching a mechanism off leaves the other draws unchanged.
     """
     period = 1.0 / nav.rotation_hz
     starts = scan_starts(traj.t[-1], nav, float(rng.random()))
-    s, m = len(starts), len(marks)
+    s, m = len(starts), len(site.landmarks)
     draws = _Draws(u_detect=rng.random((s, m)), n_range=rng.standard_normal((s, m)),
                    n_bearing=rng.standard_normal((s, m)), u_grid=rng.random(s))
-    blocks = [_measure_rows(traj, vehicle, nav, marks, occl, noise, false_detection, starts,
+    blocks = [_measure_rows(traj, vehicle, nav, site, occl, noise, starts,
                             draws, slice(k, k + ROWS_PER_BLOCK))
               for k in range(0, max(s, 1), ROWS_PER_BLOCK)]
     return Scans(start=starts, period=period, landmark=np.arange(m),
+                 matched=np.full((s, m), -1, dtype=np.intp), prior=np.zeros((s, 3)),
                  **{f: np.concatenate([b[f] for b in blocks]) for f in blocks[0]})
 
 
@@ -137,53 +150,110 @@ class _Draws:
     u_grid: FloatArray
 
 
-def _measure_rows(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmarks,
-                  occl: Occlusions, noise: bool, false_detection: float, all_starts: FloatArray,
+@dataclass(frozen=True)
+class Tilt:
+    """The head on the floor's slope, per revolution (arrays of shape (scans,)): how far it
+    leans (``lean_x``, ``lean_y`` m, horizontal), the tilt of its scan plane (``tan_tilt``,
+    the tangent of the angle between the plane and the horizontal) and the world direction in
+    which the plane rises (``uphill``, rad)."""
+
+    lean_x: FloatArray
+    lean_y: FloatArray
+    tan_tilt: FloatArray
+    uphill: FloatArray
+
+    def encoder_angle(self, alpha: FloatArray, heading: FloatArray) -> FloatArray:
+        """The head's angle (in its tilted scan plane, from its x axis) of the beam whose
+        horizontal direction is ``alpha`` rad from the head's heading (``heading``, rad):
+        ``b + atan2(cos(tau) sin(alpha - b), cos(alpha - b))`` with ``b`` the uphill direction
+        seen from the head and ``tau`` the tilt, i.e. ``alpha - (tau^2 / 4) sin 2(alpha - b)``
+        to second order (rows: revolutions)."""
+        b = self.uphill[:, None] - heading
+        d = alpha - b
+        cos_tau = 1.0 / np.sqrt(1.0 + self.tan_tilt ** 2)
+        return b + np.arctan2(cos_tau[:, None] * np.sin(d), np.cos(d))
+
+    def slant(self, alpha: FloatArray, heading: FloatArray) -> FloatArray:
+        """The factor ``1 / cos(e)`` by which the beam toward the horizontal direction ``alpha``
+        (rad from the head's heading) is longer than its horizontal run to a vertical cylinder:
+        the beam's elevation ``e`` has ``tan e = tan(tau) cos(alpha - b)``, so the factor is
+        ``sqrt(1 + tan(tau)^2 cos(alpha - b)^2)``, about ``1 + tau^2 cos^2(alpha - b) / 2``."""
+        c = self.tan_tilt[:, None] * np.cos(alpha - (self.uphill[:, None] - heading))
+        return np.sqrt(1.0 + c * c)
+
+
+def tilt(traj: Trajectory, vehicle: Vehicle, floor: Floor, times: FloatArray) -> Tilt:
+    """The head's lean and tilt at ``times`` (s), from the floor's slope ``g`` under the head's
+    level position: the vehicle's up axis is the floor's normal ``(-g, 1) / |(-g, 1)|``, so the
+    head, ``vehicle.nav_height`` up it, leans ``-nav_height g / sqrt(1 + g^2)`` (downhill) and
+    its scan plane tilts by ``atan |g|``, rising uphill."""
+    hx, hy, _ = traj.point_at(times, vehicle.nav_x, vehicle.nav_y)
+    gx, gy = floor.slope(hx, hy)
+    steep = np.hypot(gx, gy)
+    lean = -vehicle.nav_height / np.sqrt(1.0 + steep * steep)
+    return Tilt(lean_x=lean * gx, lean_y=lean * gy, tan_tilt=steep, uphill=np.arctan2(gy, gx))
+
+
+def _measure_rows(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, site: Site,
+                  occl: Occlusions, noise: bool, all_starts: FloatArray,
                   draws: _Draws, rows: slice) -> dict[str, Any]:
-    """The :class:`Scans` fields (but ``start``, ``period`` and ``landmark``) of the
-    revolutions ``rows``."""
+    """The :class:`Scans` fields (but ``start``, ``period``, ``landmark``, ``matched`` and
+    ``prior``) of the revolutions ``rows``."""
     period = 1.0 / nav.rotation_hz
     omega_head = TWO_PI * nav.rotation_hz
     sign = -1.0 if nav.clockwise else 1.0
     start_angle = math.radians(nav.scan_start_deg)
+    marks = site.landmarks
     starts = all_starts[rows]
     s, m = len(starts), len(marks)
     lx, ly = marks.x[None, :], marks.y[None, :]
+    head = None if site.floor.level else tilt(traj, vehicle, site.floor, starts + 0.5 * period)
 
-    def bearing_at(times: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def view(times: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """At ``times``: the horizontal range of every landmark, the head's angle of it, its
+        horizontal bearing from the head's heading, and that heading."""
         hx, hy, hth = traj.point_at(times, vehicle.nav_x, vehicle.nav_y)
+        hth = hth + vehicle.nav_yaw
+        if head is not None:
+            hx, hy = hx + head.lean_x[:, None], hy + head.lean_y[:, None]
         dx, dy = lx - hx, ly - hy
-        return np.hypot(dx, dy), np.arctan2(dy, dx) - (hth + vehicle.nav_yaw)
+        alpha = np.arctan2(dy, dx) - hth
+        angle = alpha if head is None else head.encoder_angle(alpha, hth)
+        return np.hypot(dx, dy), angle, alpha, hth
 
     t0 = np.broadcast_to(starts[:, None], (s, m))
     if nav.skew:
         t = t0 + 0.5 * period
         for _ in range(4):
-            _, alpha = bearing_at(t)
-            t = t0 + (sign * (alpha - start_angle)) % TWO_PI / omega_head
+            _, angle, _, _ = view(t)
+            t = t0 + (sign * (angle - start_angle)) % TWO_PI / omega_head
     else:
         t = t0 + 0.5 * period
-    true_range, alpha = bearing_at(t)
+    true_range, angle, alpha, heading = view(t)
     scale = 1.0 if noise else 0.0
     grid = draws.u_grid[rows] if noise else np.zeros(s)
     centre_range, centre_bearing, hits = apparent_centre(
-        true_range, alpha, nav.reflector_radius_mm * 1e-3, math.radians(nav.angle_step_deg),
+        true_range, angle, nav.reflector_radius_mm * 1e-3, math.radians(nav.angle_step_deg),
         grid)
+    if head is not None:
+        centre_range = centre_range * head.slant(alpha, heading)
     sigma_r = (nav.sigma_range_mm + nav.sigma_range_per_m_mm * true_range) * 1e-3
-    meas_range = centre_range + scale * sigma_r * draws.n_range[rows]
+    meas_range = (centre_range + marks.range_bias[None, :]
+                  + scale * sigma_r * draws.n_range[rows])
     meas_bearing = wrap_angle(centre_bearing
                            + scale * math.radians(nav.sigma_bearing_deg) * draws.n_bearing[rows])
     landmark = np.broadcast_to(np.arange(m)[None, :], (s, m))
     in_range = (true_range >= nav.range_min) & (true_range <= nav.range_max)
     hidden = in_range & occl.hidden(landmark, t)
-    p_real = nav.detection_probability * range_falloff(true_range, nav.detection_range_m)
-    p_real = p_real if noise else np.ones((s, m))
-    p_detect = np.where(marks.is_false[None, :], false_detection, p_real)
+    own = marks.detection[None, :]
+    base = np.where(np.isnan(own), nav.detection_probability, own)
+    p_real = base * range_falloff(true_range, nav.detection_range_m)
+    p_real = p_real if noise else np.broadcast_to(np.where(np.isnan(own), 1.0, own), (s, m))
+    p_detect = np.where(marks.is_false[None, :], own, p_real)
     detected = (draws.u_detect[rows] < p_detect) & (hits > 0)
     seen = in_range & ~hidden & detected
-    matched = _match(traj, vehicle, nav, marks, t, meas_range, meas_bearing, seen)
     return {"seen": seen, "time_in_scan": t - t0, "range": meas_range, "bearing": meas_bearing,
-            "matched": matched, "hidden": hidden}
+            "hidden": hidden}
 
 
 def range_falloff(r: FloatArray, full_range: float) -> FloatArray:
@@ -230,27 +300,34 @@ def apparent_centre(r: FloatArray, alpha: FloatArray, radius: float, step: float
     return rng, bearing, hits
 
 
-def _match(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmarks,
-           t: FloatArray, meas_range: FloatArray, meas_bearing: FloatArray,
-           seen: NDArray[np.bool_]) -> NDArray[np.intp]:
-    """The device's data association: each observation, placed in the map with the head pose
-    at its instant (a device that tracks its motion predicts it well), goes to the nearest
-    stored reflector within ``nav.gate``; when two observations claim one reflector in a scan,
-    the closer keeps it (a shiny object steals a reflector's match only when that reflector is
+def _match(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
+           marks: Landmarks) -> NDArray[np.intp]:
+    """The device's data association of ``scans``: each observation, placed in the layout
+    frame with the pose the device predicted for its instant (the true head pose plus the
+    revolution's ``prior`` error), goes to the nearest stored reflector within ``nav.gate``;
+    when two observations claim one reflector in a scan, the closer keeps it and the other
+    stays unidentified (a shiny object steals a reflector's match when that reflector is
     missed or hidden, or when the object lies closer to where the reflector is expected)."""
+    t = scans.start[:, None] + scans.time_in_scan
     hx, hy, hth = traj.point_at(t, vehicle.nav_x, vehicle.nav_y)
-    hth = hth + vehicle.nav_yaw
-    ox = hx + meas_range * np.cos(hth + meas_bearing)
-    oy = hy + meas_range * np.sin(hth + meas_bearing)
-    real = np.nonzero(~marks.is_false)[0]
-    dist = np.full(ox.shape, np.inf)
+    prior = scans.prior
+    hx = hx + prior[:, 0:1]
+    hy = hy + prior[:, 1:2]
+    hth = hth + vehicle.nav_yaw + prior[:, 2:3]
+    ox = hx + scans.range * np.cos(hth + scans.bearing)
+    oy = hy + scans.range * np.sin(hth + scans.bearing)
+    best = np.full(ox.shape, np.inf)
     nearest = np.zeros(ox.shape, dtype=np.intp)
-    for j in real:  # running nearest stored reflector, memory of one (scans, landmarks) array
-        d = np.hypot(ox - marks.map_x[j], oy - marks.map_y[j])
-        closer = d < dist
-        dist = np.where(closer, d, dist)
-        nearest = np.where(closer, j, nearest)
-    ok = seen & (dist <= nav.gate)
+    for j in np.nonzero(~marks.is_false)[0].tolist():  # running nearest stored reflector
+        dx = ox - marks.map_x[j]
+        d2 = dx * dx
+        dx = oy - marks.map_y[j]
+        d2 += dx * dx
+        closer = d2 < best  # the first of equals, as the layout lists them
+        np.copyto(best, d2, where=closer)
+        np.copyto(nearest, j, where=closer)
+    dist = np.hypot(ox - marks.map_x[nearest], oy - marks.map_y[nearest])
+    ok = scans.seen & (dist <= nav.gate)
     matched = np.where(ok, nearest, -1)
     rows, cols = np.nonzero(ok)
     order = np.lexsort((dist[rows, cols], matched[rows, cols], rows))
@@ -260,6 +337,83 @@ def _match(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, marks: Landmark
     repeat[1:] = (rows[1:] == rows[:-1]) & (target[1:] == target[:-1])
     matched[rows[repeat], cols[repeat]] = -1
     return matched
+
+
+def _matched_rows(scans: Scans, rows: NDArray[np.intp], traj: Trajectory, vehicle: Vehicle,
+                  nav: NavSettings, marks: Landmarks) -> NDArray[np.intp]:
+    """:func:`_match` of the revolutions ``rows``, :data:`ROWS_PER_BLOCK` at a time."""
+    parts = [_match(scans.take(rows[k:k + ROWS_PER_BLOCK]), traj, vehicle, nav, marks)
+             for k in range(0, len(rows), ROWS_PER_BLOCK)]
+    if not parts:
+        return np.zeros((0, len(scans.landmark)), dtype=np.intp)
+    return np.concatenate(parts)
+
+
+def locate(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
+           marks: Landmarks) -> tuple[Scans, Solutions]:
+    """The device's identification and pose fit of every revolution of ``scans``
+    (:func:`measure`): the scans with ``matched`` and ``prior`` set, and the solutions.
+
+    With ``nav.identification = "device"`` the device matches revolution k, when it ends, with
+    its own prediction of its pose: its newest valid solution by then (of revolution k - 1,
+    unless that one had no valid position or ``nav.latency_s`` exceeds a revolution) carried
+    forward by the true motion since, i.e. the true head pose plus that solution's error (none
+    before its first solution: it was started at its true pose). A wrong match moves the fit,
+    whose error moves the next prediction.
+
+    The sequential recursion is solved in vectorised passes: match every revolution with the
+    predictions of the previous pass (the true pose in the first) and fit it; then again only
+    the revolutions whose prediction changed, refitting those whose matches changed; until no
+    prediction changes. Each pass makes at least one more revolution final, so this ends, and
+    the result is the sequential device's (its fit depends on its matches only: it starts
+    from the true pose, within a few cm of which the least squares has one minimum). In
+    practice two passes and a few revolutions.
+
+    With ``"truth"`` (model 1's kind world) every revolution is matched from the true pose:
+    the first pass alone.
+    """
+    n = len(scans)
+    prior = np.zeros((n, 3))
+    everything = np.arange(n)
+    matched = _matched_rows(replace(scans, prior=prior), everything, traj, vehicle, nav, marks)
+    solutions = solve(replace(scans, matched=matched, prior=prior), traj, vehicle, nav, marks)
+    if nav.identification == "truth" or n == 0:
+        return replace(scans, matched=matched, prior=prior), solutions
+    mid = scans.start + 0.5 * scans.period
+    hx, hy, hth = traj.point_at(mid, vehicle.nav_x, vehicle.nav_y)
+    truth = np.stack([hx, hy, hth + vehicle.nav_yaw], axis=1)
+    usable = np.searchsorted(solutions.available, scans.start + scans.period, side="right") - 1
+    fields_ = {f.name: getattr(solutions, f.name).copy() for f in fields(Solutions)}
+    while True:
+        predicted = carried_error(fields_["x"], fields_["y"], fields_["heading"],
+                                  fields_["valid"], truth, usable)
+        dirty = np.nonzero(np.any(predicted != prior, axis=1))[0]
+        if len(dirty) == 0:
+            break
+        prior[dirty] = predicted[dirty]
+        again = _matched_rows(replace(scans, prior=prior), dirty, traj, vehicle, nav, marks)
+        changed = dirty[np.any(again != matched[dirty], axis=1)]
+        matched[dirty] = again
+        if len(changed):
+            refit = solve(replace(scans, matched=matched, prior=prior).take(changed), traj,
+                          vehicle, nav, marks)
+            for name, values in fields_.items():
+                values[changed] = getattr(refit, name)
+    return (replace(scans, matched=matched, prior=prior), Solutions(**fields_))
+
+
+def carried_error(x: FloatArray, y: FloatArray, heading: FloatArray, valid: NDArray[np.bool_],
+                  truth: FloatArray, usable: NDArray[np.intp]) -> FloatArray:
+    """Per revolution k, the error (x m, y m, heading rad; shape (n, 3)) of the newest valid
+    solution among the solutions 0 .. ``usable[k]`` (those available when revolution k ends:
+    earlier revolutions only) against the true head pose ``truth`` (n, 3) at its
+    mid-revolution; zero without one."""
+    n = len(x)
+    err = np.stack([x - truth[:, 0], y - truth[:, 1], wrap_angle(heading - truth[:, 2])],
+                   axis=1)
+    last = np.maximum.accumulate(np.where(valid, np.arange(n), -1))
+    before = np.where(usable >= 0, last[np.clip(usable, 0, max(n - 1, 0))], -1)
+    return np.where((before >= 0)[:, None], err[np.maximum(before, 0)], 0.0)
 
 
 def compensate(scans: Scans, rows: NDArray[np.intp], vx: float, vy: float, omega: float
@@ -288,8 +442,10 @@ def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
     Like the NAV200's PC setting, only the ``nav.max_reflectors`` nearest matched reflectors
     (by measured range) are used; 0 uses all.
 
-    Starts from the true head pose at mid-scan (the device's tracked estimate) and iterates
-    ``nav.solver_iterations`` times. A scan is valid with at least ``nav.min_reflectors``
+    Starts from the true head pose at mid-scan and iterates ``nav.solver_iterations`` times
+    (the device starts from its prediction, a few cm off: the least squares has one minimum
+    there, so the fit is the same, and it depends on the matches alone, which :func:`locate`
+    relies on). A scan is valid with at least ``nav.min_reflectors``
     matched reflectors. Quality falls linearly from 100 to 0 as the RMS position residual
     grows to ``nav.quality_rms_mm``. Computed :data:`ROWS_PER_BLOCK` scans at a time.
     """

@@ -13,191 +13,485 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
+from lgvtool.declared import REQUIRED, make, setting
 from lgvtool.errors import ConfigError
 from lgvtool.suggest import unknown_tail
-from lgvtool.values import MAX_COUNT, MAX_RATE_HZ, coerce
+from lgvtool.values import MAX_COUNT, MAX_RATE_HZ
 
 
 @dataclass(frozen=True)
 class RunSettings:
     """How the simulation is run and time-stamped."""
 
-    rate_hz: float = 200.0
-    """Integration rate of the ground truth, Hz (at least 200)."""
-    truth_rate_hz: float = 20.0
-    """Rate of the logged ground truth /truth/pose, Hz."""
-    start_epoch_s: int = 1_704_067_200
-    """Host time of simulation time 0, whole s since the Unix epoch (2024-01-01T00:00:00Z)."""
-    noise: bool = True
-    """Master switch: false turns off every random error (NAV, MCU, timing jitter)."""
-    nav_device: str = "nav200"
-    """The laser device of the log: 'nav200' (serial, polled PP) or 'nav350' (SOPAS over
-    Ethernet, pose and landmarks of every revolution; lgvtool.sim.nav350_simlink)."""
+    rate_hz: float = setting(
+        200.0,
+        "Integration rate of the ground truth, Hz (at least 200).",
+        unit="Hz", minimum=200.0, maximum=MAX_RATE_HZ)
+    truth_rate_hz: float = setting(
+        20.0,
+        "Rate of the logged ground truth /truth/pose, Hz.",
+        unit="Hz", minimum=0.0, min_open=True, maximum=MAX_RATE_HZ)
+    start_epoch_s: int = setting(
+        1_704_067_200,
+        "Host time of simulation time 0, whole s since the Unix epoch (2024-01-01T00:00:00Z).",
+        unit="s", minimum=0, maximum=7_258_118_400)
+    noise: bool = setting(
+        True,
+        "Master switch: false turns off every random error (NAV, MCU, timing jitter).",
+        unit="")
+    world: str = setting(
+        "site",
+        "The world model: 'site' (a real site's imperfections: the drive and site sections "
+        "at their defaults) or 'ideal' (the kind world of model 1: a kinematic path, a layout "
+        "10 mm off, no reflector bias or tilt, the NAV200's reflector scans logged).",
+        unit="", choices=("site", "ideal"))
+    paper_scans: bool = setting(
+        False,
+        "Log the NAV200's per-revolution reflector observations (/nav/reflectors) as the "
+        "paper's experiment had them: no NAV200 host protocol delivers them, so a log with them "
+        "is marked as the paper's setup; false: a NAV200 log carries poses only.",
+        unit="")
+    nav_device: str = setting(
+        "nav200",
+        "The laser device of the log: 'nav200' (serial, polled PP) or 'nav350' (SOPAS over "
+        "Ethernet, pose and landmarks of every revolution; lgvtool.sim.nav350_simlink).",
+        unit="", choices=("nav200", "nav350"))
 
 
 @dataclass(frozen=True)
 class McuSettings:
     """Encoders, gyro, drive unit and the MCU serial link."""
 
-    period_s: float = 0.100
-    """Frame period of the MCU by its own clock, s."""
-    baud: int = 115_200
-    """Serial speed of the MCU link (8N1, 10 bits per byte), baud."""
-    clock_drift_ppm: float = 25.0
-    """MCU crystal error: its clock runs fast by this much, parts per million."""
-    clock_offset_ms: int = 123_456
-    """MCU clock reading at simulation time 0, ms."""
-    send_jitter_s: float = 0.0005
-    """Standard deviation of the MCU's send instant around its schedule, s."""
-    host_latency_s: float = 0.001
-    """Delay from the last byte on the wire to the host's read returning it (before jitter), s."""
-    host_jitter_s: float = 0.002
-    """Extra read delay, uniform in [0, host_jitter_s], s."""
-    split_probability: float = 0.3
-    """Probability that a frame reaches the host in two reads instead of one."""
-    noise: bool = True
-    """False turns off slip, gyro white noise and bias walk, steering and speed noise and the
-    timing jitter (calibration errors and the constant gyro bias stay)."""
-    wheel_radius_error_left: float = 0.002
-    """True left wheel radius is nominal x (1 + this): a calibration error, dimensionless."""
-    wheel_radius_error_right: float = -0.0015
-    """True right wheel radius is nominal x (1 + this), dimensionless."""
-    slip_sigma: float = 0.0015
-    """Wheel slip: random walk of the counted travel, m per sqrt(m) travelled."""
-    gyro_bias_dps: float = 0.05
-    """Constant gyro bias, deg/s."""
-    gyro_bias_walk_dps: float = 0.002
-    """Gyro bias random walk, deg/s per sqrt(s)."""
-    gyro_noise_dps: float = 0.05
-    """White noise on each frame's gyro rate (mean over the frame period), deg/s: a rate noise
-    density of 0.015 deg/s/sqrt(Hz), typical of a +-300 deg/s MEMS gyro, averaged over 0.1 s."""
-    gyro_scale_error: float = 0.003
-    """Gyro scale factor error, dimensionless."""
-    steering_noise_deg: float = 0.05
-    """Noise of the reported steering angle, deg."""
-    speed_noise: float = 0.003
-    """Noise of the reported drive wheel speed, m/s."""
-    gyro_scale_udeg_s: int = 10_986
-    """Gyro quantisation step, micro-deg/s per count (360/32768 deg/s: +-360 deg/s in int16)."""
+    period_s: float = setting(
+        0.100,
+        "Frame period of the MCU by its own clock, s.",
+        unit="s", minimum=0.005, min_open=True)
+    baud: int = setting(
+        115_200,
+        "Serial speed of the MCU link (8N1, 10 bits per byte), baud.",
+        unit="baud", minimum=0, min_open=True, maximum=4_000_000)
+    clock_drift_ppm: float = setting(
+        25.0, "MCU crystal error: its clock runs fast by this much, parts per million.", unit="ppm")
+    clock_offset_ms: int = setting(
+        123_456, "MCU clock reading at simulation time 0, ms.", unit="ms", maximum=2**32 - 1)
+    send_jitter_s: float = setting(
+        0.0005,
+        "Standard deviation of the MCU's send instant around its schedule, s.",
+        unit="s", minimum=0.0)
+    host_latency_s: float = setting(
+        0.001,
+        "Delay from the last byte on the wire to the host's read returning it (before jitter), s.",
+        unit="s", minimum=0.0)
+    host_jitter_s: float = setting(
+        0.002, "Extra read delay, uniform in [0, host_jitter_s], s.", unit="s", minimum=0.0)
+    split_probability: float = setting(
+        0.3,
+        "Probability that a frame reaches the host in two reads instead of one.",
+        unit="", minimum=0.0, maximum=1.0)
+    noise: bool = setting(
+        True,
+        "False turns off slip, gyro white noise and bias walk, steering and speed noise and the "
+        "timing jitter (calibration errors and the constant gyro bias stay).",
+        unit="")
+    wheel_radius_error_left: float = setting(
+        0.002,
+        "True left wheel radius is nominal x (1 + this): a calibration error, dimensionless.",
+        unit="")
+    wheel_radius_error_right: float = setting(
+        -0.0015, "True right wheel radius is nominal x (1 + this), dimensionless.", unit="")
+    slip_sigma: float = setting(
+        0.0015,
+        "Wheel slip: random walk of the counted travel, m per sqrt(m) travelled.",
+        unit="m/sqrt(m)", minimum=0.0)
+    gyro_bias_dps: float = setting(
+        0.05, "Constant gyro bias, deg/s.", unit="deg/s")
+    gyro_bias_walk_dps: float = setting(
+        0.002, "Gyro bias random walk, deg/s per sqrt(s).", unit="deg/s/sqrt(s)", minimum=0.0)
+    gyro_noise_dps: float = setting(
+        0.05,
+        "White noise on each frame's gyro rate (mean over the frame period), deg/s: a rate noise "
+        "density of 0.015 deg/s/sqrt(Hz), typical of a +-300 deg/s MEMS gyro, averaged over 0.1 s.",
+        unit="deg/s", minimum=0.0)
+    gyro_scale_error: float = setting(
+        0.003, "Gyro scale factor error, dimensionless.", unit="")
+    steering_noise_deg: float = setting(
+        0.05, "Noise of the reported steering angle, deg.", unit="deg", minimum=0.0)
+    speed_noise: float = setting(
+        0.003, "Noise of the reported drive wheel speed, m/s.", unit="m/s", minimum=0.0)
+    gyro_scale_udeg_s: int = setting(
+        10_986,
+        "Gyro quantisation step, micro-deg/s per count (360/32768 deg/s: +-360 deg/s in int16).",
+        unit="udeg/s", minimum=1, maximum=0xFFFF)
 
 
 @dataclass(frozen=True)
 class NavSettings:
     """The NAV200: rotating head, reflector measurements, pose solver and serial link."""
 
-    rotation_hz: float = 8.0
-    """Head revolutions per second relative to the vehicle, Hz."""
-    clockwise: bool = False
-    """Direction of the head's rotation; false: counter-clockwise seen from above."""
-    scan_start_deg: float = 90.0
-    """Head angle in the vehicle frame at which a revolution (scan) starts and the device closes
-    its data set, deg (undocumented for the NAV200; see docs/simulator.md)."""
-    skew: bool = True
-    """Each reflector is measured at its own instant of the revolution; false: all at once
-    (mid-revolution), i.e. an ideal motion-compensated device."""
-    range_min: float = 0.5
-    """Closest measurable reflector (centre), m."""
-    range_max: float = 28.0
-    """Farthest measurable reflector (centre), m."""
-    noise: bool = True
-    """False turns off range and bearing noise, missed detections and the poll and read jitter."""
-    sigma_range_mm: float = 12.0
-    """Range noise, standard deviation, mm."""
-    sigma_bearing_deg: float = 0.05
-    """Bearing noise, standard deviation, deg."""
-    detection_probability: float = 0.9
-    """Probability that a visible reflector is detected in a revolution (within
-    detection_range_m; calibrated to the spread of the paper's Table 1)."""
-    sigma_range_per_m_mm: float = 1.0
-    """Growth of the range noise with range: its standard deviation is sigma_range_mm plus this
-    times the range in m, mm per m (the echo weakens with range)."""
-    detection_range_m: float = 12.0
-    """Beyond this range the detection probability falls as (detection_range_m / range)^2
-    (echo energy of a reflector narrower than the beam), m; 0: no fall-off."""
-    reflector_radius_mm: float = 50.0
-    """Radius of the reflector cylinders, mm (the paper's 10 cm diameter): the head measures
-    the surface it hits and adds this radius, so the apparent centre depends on which pulses hit."""
-    angle_step_deg: float = 0.1
-    """Angular step between the head's laser pulses, deg: the edges of each reflector's return
-    fall on this grid (its phase random per revolution); 0: continuous bearings and ranges to
-    the centre."""
-    solver_sigma_range_mm: float = 12.0
-    """Range standard deviation the device assumes when weighting its fit, mm."""
-    solver_sigma_bearing_deg: float = 0.04
-    """Bearing standard deviation the device assumes when weighting its fit, deg (calibrated to
-    the bias of the paper's Table 1)."""
-    solver_iterations: int = 6
-    """Gauss-Newton iterations per revolution."""
-    gate: float = 0.4
-    """An observation is matched to the nearest stored reflector within this distance, m."""
-    min_reflectors: int = 3
-    """Fewest matched reflectors for a valid position."""
-    max_reflectors: int = 6
-    """The device fits only this many nearest matched reflectors (NAV200 PC command); 0: all
-    (calibrated to the spread of the paper's Table 1)."""
-    quality_rms_mm: float = 250.0
-    """Quality falls from 100 to 0 as the fit's RMS range residual grows to this, mm."""
-    latency_s: float = 0.040
-    """Time from the end of a revolution until its pose can be reported, s."""
-    reply_delay_s: float = 0.005
-    """Time from the end of a request to the first reply byte, s."""
-    poll_period_s: float = 0.450
-    """Host poll period of the PP request, s."""
-    poll_start_s: float = 0.5
-    """Time of the first poll, s."""
-    poll_jitter_s: float = 0.002
-    """Host scheduling jitter of each poll, uniform in [0, poll_jitter_s], s."""
-    baud: int = 19_200
-    """Serial speed (8E1, 11 bits per byte), baud."""
-    host_latency_s: float = 0.001
-    """Delay from the last byte on the wire to the host's read returning it (before jitter), s."""
-    host_jitter_s: float = 0.002
-    """Extra read delay, uniform in [0, host_jitter_s], s."""
-    split_probability: float = 0.3
-    """Probability that a reply reaches the host in two reads instead of one."""
-    map_sigma_mm: float = 10.0
-    """Survey error of the device's stored reflector map (per reflector, per axis), mm: the map
-    every consumer of the log gets; the reflectors really stand this far off it."""
+    rotation_hz: float = setting(
+        8.0,
+        "Head revolutions per second relative to the vehicle, Hz.",
+        unit="Hz", minimum=0.5, min_open=True, maximum=100.0)
+    clockwise: bool = setting(
+        False,
+        "Direction of the head's rotation; false: counter-clockwise seen from above.",
+        unit="")
+    scan_start_deg: float = setting(
+        90.0,
+        "Head angle in the vehicle frame at which a revolution (scan) starts and the device closes "
+        "its data set, deg (undocumented for the NAV200; see docs/simulator.md).",
+        unit="deg")
+    skew: bool = setting(
+        True,
+        "Each reflector is measured at its own instant of the revolution; false: all at once "
+        "(mid-revolution), i.e. an ideal motion-compensated device.",
+        unit="")
+    range_min: float = setting(
+        0.5, "Closest measurable reflector (centre), m.", unit="m", minimum=0.0, min_open=True)
+    range_max: float = setting(
+        28.0, "Farthest measurable reflector (centre), m.", unit="m", minimum=0.0, min_open=True)
+    noise: bool = setting(
+        True,
+        "False turns off range and bearing noise, missed detections and the poll and read jitter.",
+        unit="")
+    sigma_range_mm: float = setting(
+        12.0, "Range noise, standard deviation, mm.", unit="mm", minimum=0.0)
+    sigma_bearing_deg: float = setting(
+        0.05, "Bearing noise, standard deviation, deg.", unit="deg", minimum=0.0)
+    detection_probability: float = setting(
+        0.9,
+        "Probability that a visible reflector is detected in a revolution (within "
+        "detection_range_m; calibrated to the spread of the paper's Table 1).",
+        unit="", minimum=0.0, maximum=1.0)
+    sigma_range_per_m_mm: float = setting(
+        1.0,
+        "Growth of the range noise with range: its standard deviation is sigma_range_mm plus this "
+        "times the range in m, mm per m (the echo weakens with range).",
+        unit="mm/m", minimum=0.0)
+    detection_range_m: float = setting(
+        12.0,
+        "Beyond this range the detection probability falls as (detection_range_m / range)^2 (echo "
+        "energy of a reflector narrower than the beam), m; 0: no fall-off.",
+        unit="m", minimum=0.0)
+    reflector_radius_mm: float = setting(
+        50.0,
+        "Radius of the reflector cylinders, mm (the paper's 10 cm diameter): the head measures the "
+        "surface it hits and adds this radius, so the apparent centre depends on which pulses hit.",
+        unit="mm", minimum=0.0, maximum=1000.0, max_open=True)
+    angle_step_deg: float = setting(
+        0.1,
+        "Angular step between the head's laser pulses, deg: the edges of each reflector's return "
+        "fall on this grid (its phase random per revolution); 0: continuous bearings and ranges to "
+        "the centre.",
+        unit="deg", minimum=0.0, maximum=5.0)
+    solver_sigma_range_mm: float = setting(
+        12.0,
+        "Range standard deviation the device assumes when weighting its fit, mm.",
+        unit="mm", minimum=0.0, min_open=True)
+    solver_sigma_bearing_deg: float = setting(
+        0.04,
+        "Bearing standard deviation the device assumes when weighting its fit, deg (calibrated to "
+        "the bias of the paper's Table 1).",
+        unit="deg", minimum=0.0, min_open=True)
+    solver_iterations: int = setting(
+        6, "Gauss-Newton iterations per revolution.", unit="", minimum=1, maximum=1000)
+    gate: float = setting(
+        0.4,
+        "An observation is matched to the nearest stored reflector within this distance, m.",
+        unit="m", minimum=0.0, min_open=True)
+    min_reflectors: int = setting(
+        3, "Fewest matched reflectors for a valid position.", unit="", minimum=2, maximum=64)
+    max_reflectors: int = setting(
+        6,
+        "The device fits only this many nearest matched reflectors (NAV200 PC command); 0: all "
+        "(calibrated to the spread of the paper's Table 1).",
+        unit="", minimum=0, maximum=64)
+    quality_rms_mm: float = setting(
+        250.0,
+        "Quality falls from 100 to 0 as the fit's RMS range residual grows to this, mm.",
+        unit="mm", minimum=0.0, min_open=True)
+    latency_s: float = setting(
+        0.040,
+        "Time from the end of a revolution until its pose can be reported, s.",
+        unit="s", minimum=0.0)
+    reply_delay_s: float = setting(
+        0.005, "Time from the end of a request to the first reply byte, s.", unit="s", minimum=0.0)
+    poll_period_s: float = setting(
+        0.450, "Host poll period of the PP request, s.", unit="s", minimum=0.05, min_open=True)
+    poll_start_s: float = setting(
+        0.5, "Time of the first poll, s.", unit="s", minimum=0.0)
+    poll_jitter_s: float = setting(
+        0.002,
+        "Host scheduling jitter of each poll, uniform in [0, poll_jitter_s], s.",
+        unit="s", minimum=0.0)
+    baud: int = setting(
+        19_200,
+        "Serial speed (8E1, 11 bits per byte), baud.",
+        unit="baud", minimum=0, min_open=True, maximum=4_000_000)
+    host_latency_s: float = setting(
+        0.001,
+        "Delay from the last byte on the wire to the host's read returning it (before jitter), s.",
+        unit="s", minimum=0.0)
+    host_jitter_s: float = setting(
+        0.002, "Extra read delay, uniform in [0, host_jitter_s], s.", unit="s", minimum=0.0)
+    split_probability: float = setting(
+        0.3,
+        "Probability that a reply reaches the host in two reads instead of one.",
+        unit="", minimum=0.0, maximum=1.0)
+    identification: str = setting(
+        "device",
+        "How reflectors are identified: 'device' (the device matches each observation to its "
+        "stored layout from its own predicted pose, its last solution carried forward, and "
+        "reports the layout id it matched, none where it matched nothing) or 'truth' (model "
+        "1's kind world: matched from the true pose, every observation carrying its true id).",
+        unit="", choices=("device", "truth"))
+
+
+@dataclass(frozen=True)
+class DriveSettings:
+    """How the true path departs from the kinematic model the plan is made with (the drive
+    commands stay as planned; what the vehicle does with them differs)."""
+
+    steering_offset_deg: float = setting(
+        -0.1,
+        "True drive-wheel angle minus the angle the drive unit commands and reports (the zero "
+        "error of its steering sensor, counter-clockwise), deg.",
+        unit="deg", minimum=-5.0, maximum=5.0)
+    wobble_deg: float = setting(
+        0.07,
+        "Steering wobble: the true wheel angle also wanders about the commanded one (the "
+        "steering servo's and path controller's error), a random process of this standard "
+        "deviation, deg.",
+        unit="deg", minimum=0.0, maximum=5.0)
+    wobble_time_s: float = setting(
+        2.0,
+        "Correlation time of the steering wobble (Ornstein-Uhlenbeck: the servo pulls the error "
+        "back at this time constant), s.",
+        unit="s", minimum=0.01, maximum=600.0)
+    path_control_m: float = setting(
+        1.0,
+        "Path controller: it steers the vehicle back to its planned path, critically damped, "
+        "over about this distance of travel (its gains in distance: the same path at any "
+        "speed), m; 0: none, the steering angle is held as planned (the circle scenarios: the "
+        "paper's experiment holds it at 60 deg).",
+        unit="m", minimum=0.0, maximum=100.0)
+    understeer_deg_per_g: float = setting(
+        8.0,
+        "Slip while turning: the drive wheel's slip angle, by which the vehicle turns less "
+        "than its wheel angle says, per g of lateral acceleration (the understeer gradient), "
+        "deg/g.",
+        unit="deg/g", minimum=0.0, maximum=30.0)
+    load_fraction: float = setting(
+        0.5,
+        "Load carried, as a fraction of the rated load (0: empty; the paper does not say), "
+        "dimensionless.",
+        unit="", minimum=0.0, maximum=1.0)
+    radius_change_at_rated_load: float = setting(
+        -0.006,
+        "Relative change of the encoder (load) wheels' effective rolling radius at the rated "
+        "load (tyre compression), proportional to the load: the true radius is the MCU's "
+        "(mcu.wheel_radius_error_*) x (1 + load_fraction x this), dimensionless.",
+        unit="", minimum=-0.05, maximum=0.05)
+
+
+MAX_MOVE_M = 5.0
+"""Largest shift of a moved reflector per axis (``site.moved``), m: beyond it the reflector is
+a different one (remove it and add one), not the same one moved."""
+
+
+@dataclass(frozen=True)
+class MovedReflector:
+    """A reflector that stands elsewhere than the stored layout says (``[[simulator.site.moved]]``)."""
+
+    id: int = setting(REQUIRED, "Layout id of the moved reflector.", unit="", minimum=0,
+                      maximum=MAX_COUNT)
+    dx: float = setting(0.0, "Where it really stands minus its layout position, x, m.", unit="m",
+                        minimum=-MAX_MOVE_M, maximum=MAX_MOVE_M)
+    dy: float = setting(0.0, "Where it really stands minus its layout position, y, m.", unit="m",
+                        minimum=-MAX_MOVE_M, maximum=MAX_MOVE_M)
+
+
+@dataclass(frozen=True)
+class WeakReflector:
+    """A dirty or damaged reflector (``[[simulator.site.weak]]``)."""
+
+    id: int = setting(REQUIRED, "Layout id of the weak reflector.", unit="", minimum=0,
+                      maximum=MAX_COUNT)
+    detection: float = setting(
+        REQUIRED, "Its detection probability per revolution (instead of "
+        "nav.detection_probability; the fall-off with range still applies).",
+        unit="", minimum=0.0, maximum=1.0)
+
+
+EXTRA_DETECTION = 0.6
+"""Default detection probability of a reflective object not in the layout (``site.extra``):
+the old shiny object's (``faults.false_detection_probability``)."""
+
+
+@dataclass(frozen=True)
+class ExtraObject:
+    """A reflective object not in the layout (``[[simulator.site.extra]]``): a shiny object
+    the head takes for a reflector."""
+
+    x: float = setting(REQUIRED, "Where it stands, x, m.", unit="m")
+    y: float = setting(REQUIRED, "Where it stands, y, m.", unit="m")
+    detection: float = setting(
+        EXTRA_DETECTION, "Probability that the head sees it in a revolution (at any range, "
+        "noise on or off).", unit="", minimum=0.0, maximum=1.0)
+
+
+@dataclass(frozen=True)
+class SiteSettings:
+    """The site as it really is: where the reflectors stand against the stored layout, how
+    each one answers, and the floor the vehicle drives on. The NAV and the estimators use the
+    stored layout; the NAV model sees the true site."""
+
+    survey_sigma_mm: float = setting(
+        10.0,
+        "Survey error of the stored layout, per reflector and axis, mm: the layout every "
+        "consumer of the log gets; the reflectors really stand this far off it.",
+        unit="mm", minimum=0.0, maximum=500.0)
+    range_bias_sigma_mm: float = setting(
+        5.0,
+        "Each reflector's own constant range offset, standard deviation over the reflectors, "
+        "mm (drawn once per run; tape against the cylinder, diameter tolerance, incidence): "
+        "the head measures every range to it this much long or short.",
+        unit="mm", minimum=0.0, maximum=100.0)
+    floor_tilt_deg: float = setting(
+        0.1,
+        "Slope of the floor under the vehicle, standard deviation of each component, deg: the "
+        "head (vehicle.nav_height above the floor) leans downhill by that height times the "
+        "slope and its scan plane tilts (slant ranges, shifted bearings; docs/simulator.md).",
+        unit="deg", minimum=0.0, maximum=5.0)
+    floor_wavelength_m: float = setting(
+        8.0,
+        "Wavelength of the floor's undulation: its height is a sum of waves from half to twice "
+        "this long, so the slope under the vehicle changes over a few metres of travel, m.",
+        unit="m", minimum=2.0, maximum=1000.0)
+    missing: tuple[int, ...] = setting(
+        (),
+        "Layout ids of reflectors removed or covered: the stored layout keeps them, the head "
+        "never sees them.",
+        unit="", minimum=0, maximum=MAX_COUNT, item=int)
+    moved: tuple[MovedReflector, ...] = setting(
+        (),
+        "Reflectors that really stand at their layout position plus (dx, dy) m (instead of "
+        "the survey error; each |dx|, |dy| at most 5 m): [[simulator.site.moved]] tables.",
+        unit="", item=MovedReflector)
+    weak: tuple[WeakReflector, ...] = setting(
+        (),
+        "Dirty or damaged reflectors, seen with their own detection probability (0..1) "
+        "instead of nav.detection_probability: [[simulator.site.weak]] tables.",
+        unit="", item=WeakReflector)
+    extra: tuple[ExtraObject, ...] = setting(
+        (),
+        "Reflective objects not in the layout, at (x, y) m, each seen with its own detection "
+        "probability (default 0.6) and identified by the device like any observation: "
+        "[[simulator.site.extra]] tables.",
+        unit="", item=ExtraObject)
+
+    def faults(self) -> dict[str, Any]:
+        """The site faults as JSON (the ``simulator`` metadata's ``site_faults``); empty when
+        there are none."""
+        out: dict[str, Any] = {}
+        for name in ("missing", "moved", "weak", "extra"):
+            value = getattr(self, name)
+            if value:
+                out[name] = [v if isinstance(v, int) else asdict(v) for v in value]
+        return out
 
 
 @dataclass(frozen=True)
 class FaultSettings:
     """Faults injected on purpose (all off by default; the ``degraded`` scenario sets them)."""
 
-    mcu_drop_rate: float = 0.0
-    """Fraction of MCU frames lost on the link."""
-    mcu_corrupt_rate: float = 0.0
-    """Fraction of MCU frames with one bit flipped after the header (CRC fails)."""
-    nav_request_drop_rate: float = 0.0
-    """Fraction of PP requests that never reach the device (no reply)."""
-    nav_reply_drop_rate: float = 0.0
-    """Fraction of PP replies lost on the link."""
-    nav_corrupt_rate: float = 0.0
-    """Fraction of PP replies with one bit flipped in the data (BCC fails)."""
-    nav_invalid_rate: float = 0.0
-    """Fraction of PP replies in which the device reports no valid position (quality 0xFF)."""
-    occlusion_fraction: float = 0.0
-    """Fraction of the time each reflector is hidden (pallets, people), dimensionless."""
-    occlusion_mean_s: float = 6.0
-    """Mean length of one occlusion stretch, s."""
-    false_reflector: bool = False
-    """Place a shiny object that the head takes for a reflector."""
-    false_x: float = math.nan
-    """Position of the shiny object, m; NaN: beside the reflector ``false_near_id``."""
-    false_y: float = math.nan
-    """Position of the shiny object, m; NaN: beside the reflector ``false_near_id``."""
-    false_near_id: int = 3
-    """Reflector beside which the shiny object stands (when false_x/false_y are NaN)."""
-    false_offset: float = 0.3
-    """Distance of the shiny object from that reflector, along the wall, m."""
-    false_detection_probability: float = 0.6
-    """Probability that the head sees the shiny object in a revolution."""
+    mcu_drop_rate: float = setting(
+        0.0, "Fraction of MCU frames lost on the link.", unit="", minimum=0.0, maximum=1.0)
+    mcu_corrupt_rate: float = setting(
+        0.0,
+        "Fraction of MCU frames with one bit flipped after the header (CRC fails).",
+        unit="", minimum=0.0, maximum=1.0)
+    nav_request_drop_rate: float = setting(
+        0.0,
+        "Fraction of PP requests that never reach the device (no reply).",
+        unit="", minimum=0.0, maximum=1.0)
+    nav_reply_drop_rate: float = setting(
+        0.0, "Fraction of PP replies lost on the link.", unit="", minimum=0.0, maximum=1.0)
+    nav_corrupt_rate: float = setting(
+        0.0,
+        "Fraction of PP replies with one bit flipped in the data (BCC fails).",
+        unit="", minimum=0.0, maximum=1.0)
+    nav_invalid_rate: float = setting(
+        0.0,
+        "Fraction of PP replies in which the device reports no valid position (quality 0xFF).",
+        unit="", minimum=0.0, maximum=1.0)
+    occlusion_fraction: float = setting(
+        0.0,
+        "Fraction of the time each reflector is hidden (pallets, people), dimensionless.",
+        unit="", minimum=0.0, maximum=1.0, max_open=True)
+    occlusion_mean_s: float = setting(
+        6.0, "Mean length of one occlusion stretch, s.", unit="s", minimum=0.0, min_open=True)
+    false_reflector: bool = setting(
+        False,
+        "Place a shiny object that the head takes for a reflector (the older form of one "
+        "site.extra object, kept so that older logs' configurations stay valid).",
+        unit="")
+    false_x: float = setting(
+        math.nan,
+        "Position of the shiny object, m; NaN: beside the reflector ``false_near_id``.",
+        unit="m")
+    false_y: float = setting(
+        math.nan,
+        "Position of the shiny object, m; NaN: beside the reflector ``false_near_id``.",
+        unit="m")
+    false_near_id: int = setting(
+        3,
+        "Reflector beside which the shiny object stands (when false_x/false_y are NaN).",
+        unit="", maximum=MAX_COUNT)
+    false_offset: float = setting(
+        0.3, "Distance of the shiny object from that reflector, along the wall, m.", unit="m")
+    false_detection_probability: float = setting(
+        0.6,
+        "Probability that the head sees the shiny object in a revolution.",
+        unit="", minimum=0.0, maximum=1.0)
 
 
-ONLY_WHEN_SET: dict[tuple[str, str], Any] = {("sim", "nav_device"): "nav200"}
+WORLD_MODEL = 2
+"""Version of the world model, recorded in every simulated log (``simulator`` metadata,
+``world``): 1 was the kind world (a kinematic path, true reflector ids in every scan), which
+``sim.world = "ideal"`` still gives; 2 added the ``drive`` and ``site`` sections and the
+NAV's own reflector identification."""
+
+IDEAL_WORLD: dict[str, Any] = {
+    "sim.paper_scans": True,
+    "nav.identification": "truth",
+    "site.range_bias_sigma_mm": 0.0,
+    "site.floor_tilt_deg": 0.0,
+    "drive.steering_offset_deg": 0.0,
+    "drive.wobble_deg": 0.0,
+    "drive.path_control_m": 0.0,
+    "drive.understeer_deg_per_g": 0.0,
+    "drive.load_fraction": 0.0,
+    "scenario.overrun_deg": 0.0,
+}
+"""The settings of ``sim.world = "ideal"``: every mechanism of the ``drive`` and ``site``
+sections off except the survey error (model 1 had it), no planned turn past the last rotation
+(a kinematic vehicle needs none; ``scenario.*`` keys apply to the scenarios that have them),
+the NAV200's reflector scans logged, and
+the reflectors identified from the true pose, with their true ids (``nav.identification``).
+Applied before the scenario's presets, the configuration and ``--set``, which win over it."""
+
+RENAMED: dict[str, str] = {"nav.map_sigma_mm": "site.survey_sigma_mm"}
+"""Settings under their old names, as the logs of earlier versions store them -> their names
+now (accepted everywhere, so an old log's stored configuration stays valid)."""
+
+ONLY_WHEN_SET: dict[tuple[str, str], Any] = {
+    ("sim", "nav_device"): "nav200",
+    ("site", "missing"): (), ("site", "moved"): (), ("site", "weak"): (), ("site", "extra"): (),
+}
 """Settings recorded only when they differ from this default, so that the logs of runs made
 before they existed are written again byte for byte."""
 
@@ -211,18 +505,27 @@ class InstallSettings:
     ``mcu.gyro_scale_error`` and ``mcu.gyro_bias_dps`` settings (see :data:`INSTALLATION`).
     """
 
-    nav_dx_mm: float = 0.0
-    """True NAV head position minus the configured ``vehicle.nav_x`` (forward), mm."""
-    nav_dy_mm: float = 0.0
-    """True NAV head position minus the configured ``vehicle.nav_y`` (left), mm."""
-    nav_yaw_deg: float = 0.0
-    """True mounting yaw of the head minus the configured ``vehicle.nav_yaw`` (counter-clockwise),
-    deg: the head measures its bearings from, and reports the heading of, its own x axis."""
-    track_error_mm: float = 0.0
-    """True track between the encoder wheels minus the configured ``vehicle.track``, mm."""
-    nav_time_offset_ms: float = 0.0
-    """Constant NAV-to-host time offset: every NAV200 reply reaches the host, and every scan is
-    stamped on the host's clock, this much later than it happened, ms (may be negative)."""
+    nav_dx_mm: float = setting(
+        0.0,
+        "True NAV head position minus the configured ``vehicle.nav_x`` (forward), mm.",
+        unit="mm")
+    nav_dy_mm: float = setting(
+        0.0, "True NAV head position minus the configured ``vehicle.nav_y`` (left), mm.", unit="mm")
+    nav_yaw_deg: float = setting(
+        0.0,
+        "True mounting yaw of the head minus the configured ``vehicle.nav_yaw`` "
+        "(counter-clockwise), deg: the head measures its bearings from, and reports the heading "
+        "of, its own x axis.",
+        unit="deg")
+    track_error_mm: float = setting(
+        0.0,
+        "True track between the encoder wheels minus the configured ``vehicle.track``, mm.",
+        unit="mm")
+    nav_time_offset_ms: float = setting(
+        0.0,
+        "Constant NAV-to-host time offset: every NAV200 reply reaches the host, and every scan is "
+        "stamped on the host's clock, this much later than it happened, ms (may be negative).",
+        unit="ms")
 
 
 INSTALLATION: dict[str, str] = {
@@ -252,6 +555,8 @@ SECTIONS: dict[str, type] = {
     "sim": RunSettings,
     "mcu": McuSettings,
     "nav": NavSettings,
+    "drive": DriveSettings,
+    "site": SiteSettings,
     "faults": FaultSettings,
     "install": InstallSettings,
 }
@@ -265,6 +570,8 @@ class SimSettings:
     sim: RunSettings = field(default_factory=RunSettings)
     mcu: McuSettings = field(default_factory=McuSettings)
     nav: NavSettings = field(default_factory=NavSettings)
+    drive: DriveSettings = field(default_factory=DriveSettings)
+    site: SiteSettings = field(default_factory=SiteSettings)
     faults: FaultSettings = field(default_factory=FaultSettings)
     install: InstallSettings = field(default_factory=InstallSettings)
     scenario: Mapping[str, Any] = field(default_factory=dict)
@@ -298,46 +605,23 @@ class SimSettings:
 def _jsonable(v: Any) -> Any:
     if isinstance(v, float) and not math.isfinite(v):
         return None
+    if isinstance(v, tuple | list):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, dict):
+        return {k: _jsonable(x) for k, x in v.items()}
     return v
 
 
-#: upper ends of settings beyond the generic maxima of :mod:`lgvtool.values`
-_MAXIMA: dict[str, float] = {
-    "sim.rate_hz": MAX_RATE_HZ, "sim.truth_rate_hz": MAX_RATE_HZ, "nav.rotation_hz": 100.0,
-    "sim.start_epoch_s": 7_258_118_400,  # 2200-01-01
-    "mcu.clock_offset_ms": 2**32 - 1, "mcu.baud": 4_000_000, "nav.baud": 4_000_000,
-    "mcu.gyro_scale_udeg_s": 0xFFFF, "nav.solver_iterations": 1000,
-    "nav.min_reflectors": 64, "nav.max_reflectors": 64, "faults.false_near_id": MAX_COUNT,
-}
-#: largest magnitude of any other number: lengths, times and noise levels of a hall-sized run
-_MAGNITUDE = 1e6
-
-
-def _coerce(key: str, value: Any, kind: type, default: Any = None) -> Any:
-    unset = isinstance(default, float) and math.isnan(default)  # NaN means "not set"
-    if unset and (value is None or (isinstance(value, str) and value.lower() == "nan")):
-        return math.nan
-    if kind is str:
-        return str(value)
-    if kind in (int, float):
-        top = _MAXIMA.get(key, _MAGNITUDE)
-        return coerce(key, value, kind, minimum=-_MAGNITUDE, maximum=top, allow_nan=unset)
-    return coerce(key, value, kind)
-
-
-def _field_types(cls: type) -> dict[str, type]:
-    names = {"bool": bool, "int": int, "float": float, "str": str}
-    return {f.name: names[str(f.type)] for f in fields(cls)}
-
-
 def apply_overrides(settings: SimSettings, overrides: Mapping[str, Any]) -> SimSettings:
-    """Apply ``{"section.key": value}`` overrides (``scenario.*`` unchecked here).
+    """Apply ``{"section.key": value}`` overrides (``scenario.*`` unchecked here), each checked
+    by its declaration (:mod:`lgvtool.declared`), then the rules between settings.
 
-    Raises ConfigError for an unknown section or key or a value of the wrong type.
+    Raises ConfigError for an unknown section or key or a value of the wrong type or range.
     """
     grouped: dict[str, dict[str, Any]] = {}
     scenario = dict(settings.scenario)
     for full_key, value in overrides.items():
+        full_key = RENAMED.get(full_key, full_key)
         section, _, key = full_key.partition(".")
         if not key:
             raise ConfigError(f"setting '{full_key}' must be section.key "
@@ -345,21 +629,17 @@ def apply_overrides(settings: SimSettings, overrides: Mapping[str, Any]) -> SimS
         if section == "scenario":
             scenario[key] = value
             continue
-        cls = SECTIONS.get(section)
-        if cls is None:
+        if section not in SECTIONS:
             raise ConfigError(f"unknown setting section '{section}' in '{full_key}'"
                               + unknown_tail(section, [*SECTIONS, "scenario", "vehicle"],
                                              label="sections"))
-        types = _field_types(cls)
-        if key not in types:
-            raise ConfigError(f"unknown setting '{full_key}'" + unknown_tail(
-                key, types, prefix=f"{section}.", label=f"known in {section}",
-                more=f"{len(types)} settings in {section}; docs/simulator.md#settings lists them"))
-        default = getattr(cls(), key)
-        grouped.setdefault(section, {})[key] = _coerce(full_key, value, types[key], default)
+        grouped.setdefault(section, {})[key] = value
     out = replace(settings, scenario=scenario)
     for section, values in grouped.items():
-        out = replace(out, **{section: replace(getattr(out, section), **values)})
+        group = make(SECTIONS[section], section, values, base=getattr(out, section),
+                     what="setting",
+                     more="{n} settings in " + section + "; lgvtool config --parameters lists them")
+        out = replace(out, **{section: group})
     return validate(out)
 
 
@@ -376,58 +656,21 @@ def flatten(table: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def validate(s: SimSettings) -> SimSettings:
-    """Check ranges; raise ConfigError naming the first bad setting."""
+    """Check the rules between settings (each setting's own range is in its declaration);
+    raise ConfigError naming the first broken one."""
     checks: list[tuple[bool, str]] = [
-        (s.sim.rate_hz >= 200.0, "sim.rate_hz must be at least 200"),
-        (s.sim.truth_rate_hz > 0 and s.sim.truth_rate_hz <= s.sim.rate_hz,
-         "sim.truth_rate_hz must be positive and at most sim.rate_hz"),
-        (s.sim.start_epoch_s >= 0, "sim.start_epoch_s must not be negative"),
-        (s.sim.nav_device in ("nav200", "nav350"), "sim.nav_device must be nav200 or nav350"),
-        (s.mcu.period_s > 0.005, "mcu.period_s must exceed 0.005"),
-        (s.mcu.baud > 0 and s.nav.baud > 0, "baud rates must be positive"),
-        (s.nav.rotation_hz > 0.5, "nav.rotation_hz must exceed 0.5"),
-        (0 < s.nav.range_min < s.nav.range_max, "nav.range_min must be in (0, nav.range_max)"),
-        (s.nav.poll_period_s > 0.05, "nav.poll_period_s must exceed 0.05"),
-        (s.nav.min_reflectors >= 2, "nav.min_reflectors must be at least 2"),
+        (s.sim.truth_rate_hz <= s.sim.rate_hz, "sim.truth_rate_hz must be at most sim.rate_hz"),
+        (s.nav.range_min < s.nav.range_max, "nav.range_min must be below nav.range_max"),
         (s.nav.max_reflectors == 0 or s.nav.max_reflectors >= s.nav.min_reflectors,
          "nav.max_reflectors must be 0 (all) or at least nav.min_reflectors"),
-        (s.nav.solver_iterations >= 1, "nav.solver_iterations must be at least 1"),
-        (s.nav.solver_sigma_range_mm > 0 and s.nav.solver_sigma_bearing_deg > 0,
-         "nav.solver_sigma_* must be positive"),
-        (s.nav.gate > 0, "nav.gate must be positive"),
-        (s.nav.sigma_range_per_m_mm >= 0, "nav.sigma_range_per_m_mm must not be negative"),
-        (s.nav.detection_range_m >= 0, "nav.detection_range_m must not be negative"),
-        (0 <= s.nav.reflector_radius_mm < 1000, "nav.reflector_radius_mm must be in [0, 1000)"),
-        (0 <= s.nav.angle_step_deg <= 5, "nav.angle_step_deg must be in [0, 5]"),
-        (s.nav.quality_rms_mm > 0, "nav.quality_rms_mm must be positive"),
-        (0 < s.mcu.gyro_scale_udeg_s <= 0xFFFF, "mcu.gyro_scale_udeg_s must be in 1..65535"),
-        (s.faults.occlusion_mean_s > 0, "faults.occlusion_mean_s must be positive"),
-        (0 <= s.faults.occlusion_fraction < 1, "faults.occlusion_fraction must be in [0, 1)"),
     ]
+    for name, ids in (("missing", list(s.site.missing)),
+                      ("moved", [m.id for m in s.site.moved]),
+                      ("weak", [w.id for w in s.site.weak])):
+        twice = sorted({i for i in ids if ids.count(i) > 1})
+        checks.append((not twice, f"site.{name} lists reflector {twice[0] if twice else 0} "
+                                  "more than once"))
     for ok, message in checks:
         if not ok:
             raise ConfigError(message)
-    nonneg = {
-        "mcu": ("send_jitter_s", "host_latency_s", "host_jitter_s", "slip_sigma",
-                "gyro_bias_walk_dps", "gyro_noise_dps", "steering_noise_deg", "speed_noise"),
-        "nav": ("sigma_range_mm", "sigma_bearing_deg", "latency_s", "reply_delay_s",
-                "poll_start_s", "poll_jitter_s", "host_latency_s", "host_jitter_s",
-                "map_sigma_mm"),
-    }
-    for section, keys in nonneg.items():
-        for key in keys:
-            if getattr(getattr(s, section), key) < 0:
-                raise ConfigError(f"{section}.{key} must not be negative")
-    probabilities = {
-        "mcu": ("split_probability",),
-        "nav": ("detection_probability", "split_probability"),
-        "faults": ("mcu_drop_rate", "mcu_corrupt_rate", "nav_request_drop_rate",
-                   "nav_reply_drop_rate", "nav_corrupt_rate", "nav_invalid_rate",
-                   "false_detection_probability"),
-    }
-    for section, keys in probabilities.items():
-        for key in keys:
-            p = getattr(getattr(s, section), key)
-            if not 0.0 <= p <= 1.0:
-                raise ConfigError(f"{section}.{key} must be in [0, 1], got {p}")
     return s

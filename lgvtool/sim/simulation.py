@@ -4,7 +4,7 @@ Order of the settings, later ones winning: the defaults, the scenario's presets,
 ``[simulator]`` table of the configuration file, then ``--set`` overrides (``vehicle.*`` keys
 change the configuration's vehicle). All randomness comes from one
 ``numpy.random.default_rng(seed)``, split with ``spawn`` into one stream per part (landmarks,
-MCU, MCU link, NAV head, NAV link, faults) so that switching one mechanism off does not
+MCU, MCU link, NAV head, NAV link, faults, drive) so that switching one mechanism off does not
 reshuffle the draws of the others.
 """
 
@@ -24,14 +24,22 @@ from lgvtool.errors import ConfigError, InputError
 from lgvtool.sim import event_stream as ev
 from lgvtool.sim import faults as faultlib
 from lgvtool.sim import mcu_model, mcu_simlink, nav200_simlink, nav_model
-from lgvtool.sim.faults import FaultEvent, Landmarks, Occlusions
-from lgvtool.sim.kinematics import Trajectory, integrate
+from lgvtool.sim.faults import FaultEvent, Occlusions
+from lgvtool.sim.kinematics import Trajectory, departures, integrate
 from lgvtool.sim.mcu_model import McuOutput
 from lgvtool.sim.scenarios import Plan, Scenario, get_scenario
-from lgvtool.sim.settings import InstallSettings, SimSettings, apply_overrides, flatten
+from lgvtool.sim.settings import (
+    IDEAL_WORLD,
+    WORLD_MODEL,
+    InstallSettings,
+    SimSettings,
+    apply_overrides,
+    flatten,
+)
+from lgvtool.sim.site_model import Landmarks, Site, build_site
 from lgvtool.timestamps import seconds_to_ns
 
-STREAMS = ("landmarks", "mcu", "mcu_link", "nav", "nav_link", "faults")
+STREAMS = ("landmarks", "mcu", "mcu_link", "nav", "nav_link", "faults", "drive")
 """Names of the random streams spawned from the seed, in spawn order."""
 
 
@@ -54,9 +62,13 @@ def resolve(scenario: str, *, config: Config | None = None,
     cfg = config or default_config()
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         raise InputError(f"--duration must be a positive number of seconds, got {duration}")
-    merged: dict[str, Any] = dict(sc.presets)
-    merged.update(flatten(cfg.simulator))
-    merged.update(overrides or {})
+    given: dict[str, Any] = dict(sc.presets)
+    given.update(flatten(cfg.simulator))
+    given.update(overrides or {})
+    world = IDEAL_WORLD if given.get("sim.world") == "ideal" else {}
+    merged: dict[str, Any] = {k: v for k, v in world.items() if not k.startswith("scenario.")
+                              or k.partition(".")[2] in sc.defaults}
+    merged.update(given)
     vehicle = {k.partition(".")[2]: v for k, v in merged.items() if k.startswith("vehicle.")}
     rest = {k: v for k, v in merged.items() if not k.startswith("vehicle.")}
     if vehicle:
@@ -82,7 +94,8 @@ class Simulation:
     seed: int
     plan: Plan
     truth: Trajectory
-    landmarks: Landmarks
+    site: Site
+    """The true site (reflectors as they stand, the floor): the simulator's alone."""
     occlusions: Occlusions
     scans: nav_model.Scans
     solutions: nav_model.Solutions
@@ -97,6 +110,22 @@ class Simulation:
     def settings(self) -> SimSettings:
         """The effective simulator settings."""
         return self.setup.settings
+
+    @property
+    def landmarks(self) -> Landmarks:
+        """What the head can detect, with the true identities (:attr:`site`)."""
+        return self.site.landmarks
+
+    @property
+    def observations(self) -> str:
+        """What reflector observations the log carries (the 'simulator' metadata's
+        ``observations``): ``"nav350-landmarks"`` (the NAV350's landmarks, its own timestamps
+        and ids), ``"paper-scans"`` (a NAV200's reflector scans, logged as the paper's
+        experiment had them: ``sim.paper_scans``; no NAV200 host protocol delivers them) or
+        ``"none"`` (a NAV200 log: poses only)."""
+        if self.settings.sim.nav_device == "nav350":
+            return "nav350-landmarks"
+        return "paper-scans" if self.settings.sim.paper_scans else "none"
 
     @property
     def config(self) -> Config:
@@ -130,12 +159,25 @@ class Simulation:
         """The device-side event stream (:func:`lgvtool.sim.event_stream.stream`)."""
         return ev.stream(self, truth_rate_hz)
 
+    def identification_counts(self) -> dict[str, int]:
+        """How the device identified what it saw: ``nav_observations`` (detections),
+        ``nav_ids_wrong`` (given the id of another reflector than the one seen, or of a
+        reflector for the shiny object) and ``nav_ids_absent`` (given no id)."""
+        seen = self.scans.seen
+        given = ev.device_ids(self)
+        true_ids = self.landmarks.ids[None, :]
+        return {"nav_observations": int(seen.sum()),
+                "nav_ids_wrong": int((seen & (given != ev.NO_ID) & (given != true_ids)).sum()),
+                "nav_ids_absent": int((seen & (given == ev.NO_ID)).sum())}
+
     def metadata(self) -> dict[str, Any]:
         """The 'simulator' metadata record: scenario, seed, every setting, what was injected."""
         nav = self.nav_traffic
         return {
             "scenario": self.setup.scenario.name,
             "seed": self.seed,
+            "world": {"model": WORLD_MODEL, "preset": self.settings.sim.world},
+            "observations": self.observations,
             "duration_s": self.duration,
             "start_epoch_s": self.settings.sim.start_epoch_s,
             "settings": self.settings.to_dict(),
@@ -152,10 +194,28 @@ class Simulation:
                 "occlusion_stretches": self.occlusions.count,
                 "false_reflector_detections": int(self.scans.seen[:, self.landmarks.is_false]
                                                   .sum()),
+                **self.identification_counts(),
             },
             "false_reflector": _false_position(self.landmarks),
             "random_streams": list(STREAMS),
+            **({"site_faults": self.site_faults()} if self.site_faults() else {}),
         }
+
+    def site_faults(self) -> dict[str, Any]:
+        """The site's faults as they truly are (the ``simulator`` metadata's ``site_faults``,
+        absent when there are none), for an audit to be scored against: ``missing`` (layout
+        ids), ``moved`` (id, dx, dy m: true minus layout position), ``weak`` (id,
+        detection), ``extra`` (every object not in the layout, the older
+        ``faults.false_reflector`` one first: x, y m, detection, and ``seen``: revolutions in
+        which the head saw it)."""
+        out = self.settings.site.faults()
+        marks = self.landmarks
+        extra = np.nonzero(marks.is_false)[0]
+        if len(extra):
+            out["extra"] = [{"x": float(marks.x[j]), "y": float(marks.y[j]),
+                             "detection": float(marks.detection[j]),
+                             "seen": int(self.scans.seen[:, j].sum())} for j in extra]
+        return out
 
 
 def _false_position(marks: Landmarks) -> dict[str, float] | None:
@@ -169,7 +229,7 @@ def _landmark_faults(sim_marks: Landmarks, occl: Occlusions, scans: nav_model.Sc
                      solutions: nav_model.Solutions) -> list[FaultEvent]:
     out: list[FaultEvent] = []
     for j, (starts, ends) in enumerate(zip(occl.starts, occl.ends, strict=True)):
-        rid = int(sim_marks.ids[j])
+        rid = ev.NO_ID if sim_marks.is_false[j] else int(sim_marks.ids[j])  # the layout id
         what = "shiny object" if sim_marks.is_false[j] else f"reflector {rid}"
         for s, e in zip(starts, ends, strict=True):
             out.append(FaultEvent(float(s), "simulator", "reflector_occluded",
@@ -213,16 +273,16 @@ def run(setup: Setup, seed: int) -> Simulation:
     vehicle = true_vehicle(cfg.vehicle, s.install)
     rngs = dict(zip(STREAMS, np.random.default_rng(seed).spawn(len(STREAMS)), strict=True))
     plan = setup.scenario.build(setup.parameters, vehicle, setup.duration, s.sim.rate_hz)
-    truth = integrate(plan.controls, vehicle, plan.x0, plan.y0, plan.heading0)
-    marks = faultlib.landmarks(cfg.reflectors, cfg.area, s.faults, s.nav.map_sigma_mm * 1e-3,
-                               rngs["landmarks"])
+    drive = departures(s.drive, plan.controls.t, rngs["drive"])
+    truth = integrate(plan.controls, vehicle, plan.x0, plan.y0, plan.heading0, drive)
+    site = build_site(cfg.reflectors, cfg.area, s.site, s.faults, rngs["landmarks"])
+    marks = site.landmarks
     occl = faultlib.occlusions(len(marks), truth.duration, s.faults.occlusion_fraction,
                                s.faults.occlusion_mean_s, rngs["faults"])
-    scans = nav_model.measure(truth, vehicle, s.nav, marks, occl, s.nav_noise,
-                              s.faults.false_detection_probability, rngs["nav"])
-    solutions = nav_model.solve(scans, truth, vehicle, s.nav, marks)
+    scans = nav_model.measure(truth, vehicle, s.nav, site, occl, s.nav_noise, rngs["nav"])
+    scans, solutions = nav_model.locate(scans, truth, vehicle, s.nav, marks)
     device = nav200_simlink.simulated_device(solutions, cfg.reflectors)
-    mcu = mcu_model.simulate(truth, vehicle, s.mcu, s.mcu_noise, rngs["mcu"])
+    mcu = mcu_model.simulate(truth, vehicle, s.mcu, s.mcu_noise, rngs["mcu"], s.drive)
     mcu_traffic = mcu_simlink.simulate(mcu, s.mcu, s.faults, s.mcu_noise, rngs["mcu_link"],
                                     rngs["faults"])
     nav_traffic = nav200_simlink.simulate(device, s.nav, s.faults, truth.duration, s.nav_noise,
@@ -230,7 +290,7 @@ def run(setup: Setup, seed: int) -> Simulation:
     all_faults = [*_landmark_faults(marks, occl, scans, solutions), *mcu_traffic.faults,
                   *nav_traffic.faults]
     all_faults.sort(key=lambda f: f.t)
-    return Simulation(setup=setup, seed=seed, plan=plan, truth=truth, landmarks=marks,
+    return Simulation(setup=setup, seed=seed, plan=plan, truth=truth, site=site,
                       occlusions=occl, scans=scans, solutions=solutions, device=device,
                       mcu=mcu, mcu_traffic=mcu_traffic, nav_traffic=nav_traffic,
                       faults=tuple(all_faults))

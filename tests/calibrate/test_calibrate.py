@@ -88,7 +88,7 @@ def test_output_equal_to_input(installed_logs: list[Path], run_cli) -> None:
 
 def test_straight_drive_cannot_observe_the_lever_arm(tmp_path: Path, run_cli) -> None:
     # the warehouse's first 15 s: standstill, then the first straight only
-    sim = simulate("warehouse", seed=3, duration=15.0)
+    sim = simulate("warehouse", seed=3, duration=15.0, overrides={"sim.paper_scans": True})
     log = tmp_path / "straight.mcap"
     write_log(sim, log)
     p = run_cli("calibrate", log, "-o", tmp_path / "v.toml", "--compare", "none",
@@ -116,7 +116,8 @@ def test_straight_drive_cannot_observe_the_lever_arm(tmp_path: Path, run_cli) ->
 def test_no_motion_or_no_observations(tmp_path: Path, run_cli) -> None:
     from lgvtool.log import LogReader, LogWriter, topics
 
-    sim = simulate("paper-circle", seed=4, duration=12.0)
+    sim = simulate("paper-circle", seed=4, duration=12.0,
+                   overrides={"sim.paper_scans": True})
     full = tmp_path / "full.mcap"
     write_log(sim, full)
     for drop, word in ((topics.MCU_FRAME, "motion"), (topics.NAV_REFLECTORS, "observations")):

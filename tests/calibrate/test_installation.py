@@ -18,7 +18,7 @@ from lgvtool.log import LogReader
 from lgvtool.sim.logfile import write_log
 from lgvtool.sim.simulation import simulate
 
-QUIET = {"sim.noise": False, "nav.skew": False}
+QUIET = {"sim.noise": False, "nav.skew": False, "sim.paper_scans": True}
 
 
 def _log(tmp_path, name: str, **overrides: float):

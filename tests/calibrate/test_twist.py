@@ -160,7 +160,7 @@ def test_calibrated_odometry_starts_the_ekf_scales_at_the_calibrations_sigma() -
     assert out["pf"] == dict(PROFILE["pf"], scale_sigma_v=sv, scale_sigma_w=sw)
     # the file carries them, and the EKF starts its scale states at 1 with that variance
     cfg = config_from_dict(tomllib.loads(to_toml(Config(estimators=out).to_dict())))
-    ekf = Ekf(dict(cfg.estimators["ekf"]), initial_pose=(0.0, 0.0, 0.0))
+    ekf = Ekf(Ekf.configure(**cfg.estimators["ekf"]), initial_pose=(0.0, 0.0, 0.0))
     assert ekf.mu is not None and list(ekf.mu[3:]) == [1.0, 1.0]
     assert ekf.P[3, 3] == pytest.approx(sv * sv, rel=1e-9)
     assert ekf.P[4, 4] == pytest.approx(sw * sw, rel=1e-9)

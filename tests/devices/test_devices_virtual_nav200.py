@@ -101,7 +101,8 @@ def circle_run() -> tuple[Playback, tuple[float, float], float]:
     """A noise-free simulated paper-circle run, its circle centre and radius (m)."""
     from lgvtool.sim.simulation import simulate
 
-    overrides = {"sim.noise": False, "nav.map_sigma_mm": 0.0, "nav.angle_step_deg": 0.0}
+    overrides = {"sim.world": "ideal", "sim.noise": False, "site.survey_sigma_mm": 0.0,
+                 "nav.angle_step_deg": 0.0}
     ref = simulate("paper-circle", seed=1, duration=60.0, overrides=overrides).plan.reference
     pb = playback_from_scenario("paper-circle", seed=1, duration=60.0, overrides=overrides)
     return pb, (ref["centre_x"], ref["centre_y"]), ref["radius"]

@@ -186,13 +186,13 @@ def test_evaluating_a_replayed_log_reads_its_chunks_once(tmp_path: Path,
     steering and data quality are read in one pass (not one per topic), with the same tables
     as each topic read on its own."""
     from lgvtool.app import evaluate_job
-    from lgvtool.app.replay_job import replay_log
+    from lgvtool.app.replay_job import ReplayOptions, replay_log
     from lgvtool.evaluate.evaluation import clean_trajectory
     from lgvtool.log.frames import to_dataframe
 
     out = tmp_path / "replayed.mcap"
-    replay_log(str(SAMPLE), str(out), estimators=["laser", "deadreckoning"],
-               show_progress=False)
+    replay_log(ReplayOptions(str(SAMPLE), str(out), estimators=("laser", "deadreckoning"),
+                             show_progress=False))
     chunk_passes.clear()
     result = evaluate_job.evaluate_log(out)
     assert len(chunk_passes) == 1, chunk_passes

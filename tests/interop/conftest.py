@@ -18,7 +18,8 @@ DURATION_S = 45.0
 def sim_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A simulated paper-circle drive: MCU, NAV200 poses, reflector scans, truth."""
     path = tmp_path_factory.mktemp("interop") / "drive.mcap"
-    write_log(simulate("paper-circle", seed=3, duration=DURATION_S), path)
+    write_log(simulate("paper-circle", seed=3, duration=DURATION_S,
+                             overrides={"sim.paper_scans": True}), path)
     return path
 
 

@@ -200,11 +200,12 @@ def test_a_replayed_log_is_exported_in_one_pass_with_the_same_files(
     """A log written by ``replay`` holds every topic in every chunk: its estimates, truth and
     NAV poses are read in one pass, and the files are those of the estimators run by export
     (the same seed: the same estimates)."""
-    from lgvtool.app.replay_job import replay_log
+    from lgvtool.app.replay_job import ReplayOptions, replay_log
     from lgvtool.log import topics
 
     replayed = tmp_path / "replayed.mcap"
-    replay_log(str(sim_log), str(replayed), estimators=FAST, show_progress=False)
+    replay_log(ReplayOptions(str(sim_log), str(replayed), estimators=tuple(FAST),
+                             show_progress=False))
     chunk_passes.clear()
     out = tmp_path / "tum"
     export_log(replayed, out, "tum")

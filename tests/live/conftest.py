@@ -14,6 +14,6 @@ def circle_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """30 s of the paper's circle drive, simulated now."""
     out = tmp_path_factory.mktemp("live") / "circle.mcap"
     subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "-s", "paper-circle",
-                    "--duration", "30", "-o", str(out)], check=True, capture_output=True,
-                   timeout=120)
+                    "--duration", "30", "--set", "sim.paper_scans=true", "-o", str(out)],
+                   check=True, capture_output=True, timeout=120)
     return out

@@ -247,11 +247,12 @@ def test_a_lagging_estimator_skips_stale_observations_but_never_motion() -> None
 
 
 def test_view_as_fast_as_possible_says_so(circle_log: Path) -> None:
-    from lgvtool.app.view_job import view_log
+    from lgvtool.app.view_job import ViewOptions, view_log
+    from lgvtool.live.live_server import LiveAddress
 
     said: list[str] = []
-    out = view_log(str(circle_log), live="127.0.0.1:0", speed=0.0, show_progress=False,
-                   notify=said.append)
+    out = view_log(ViewOptions(str(circle_log), LiveAddress("127.0.0.1", 0), speed=0.0,
+                               show_progress=False), notify=said.append)
     assert len(said) == 1 and said[0].endswith("as fast as possible"), said
     assert out.document["messages"] > 0
 
@@ -261,7 +262,8 @@ def test_a_channel_under_a_schema_lgvtool_lacks_is_left_out_and_said(circle_log:
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
-    from lgvtool.app.view_job import view_log
+    from lgvtool.app.view_job import ViewOptions, view_log
+    from lgvtool.live.live_server import LiveAddress
 
     log = tmp_path / "with-foreign.mcap"
     with circle_log.open("rb") as f, log.open("wb") as g:
@@ -282,7 +284,7 @@ def test_a_channel_under_a_schema_lgvtool_lacks_is_left_out_and_said(circle_log:
             w.add_metadata(record.name, record.metadata)
         w.finish()
     warned: list[str] = []
-    out = view_log(str(log), live="127.0.0.1:0", speed=0.0, show_progress=False,
-                   warn=warned.append)
+    out = view_log(ViewOptions(str(log), LiveAddress("127.0.0.1", 0), speed=0.0,
+                               show_progress=False), warn=warned.append)
     assert warned == ["/acme/thing is not played: lgvtool has no schema named 'acme.Thing'"]
     assert out.document["messages"] > 0

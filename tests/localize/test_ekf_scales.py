@@ -64,8 +64,8 @@ def test_a_scaled_arc_stays_close_to_the_exact_arc() -> None:
 
 
 def test_prediction_jacobian_matches_finite_differences() -> None:
-    ekf = Ekf(odometry_scales=True, initial_pose=(1.0, 2.0, 0.7), noise_dist=0.0,
-              noise_lat=0.0, noise_rot=0.0, noise_rot_per_m=0.0)
+    ekf = Ekf(Ekf.configure(odometry_scales=True, noise_dist=0.0, noise_lat=0.0, noise_rot=0.0,
+                            noise_rot_per_m=0.0), initial_pose=(1.0, 2.0, 0.7))
     state = np.array([1.0, 2.0, 0.7, 0.93, 0.87])
     motion = Motion(0.4, 0.05, 0.25, 0.41, 0.25)
 
@@ -90,7 +90,7 @@ def test_prediction_jacobian_matches_finite_differences() -> None:
 def test_the_scales_are_off_by_default() -> None:
     ekf = Ekf(initial_pose=(0.0, 0.0, 0.0))
     assert ekf.P.shape == (3, 3) and ekf.odometry_calibration == {}
-    on = Ekf(odometry_scales=True, scale_sigma_v=0.1, scale_sigma_w=0.2,
+    on = Ekf(Ekf.configure(odometry_scales=True, scale_sigma_v=0.1, scale_sigma_w=0.2),
              initial_pose=(0.0, 0.0, 0.0))
     assert on.P.shape == (5, 5)
     assert on.odometry_calibration == {"s_v": 1.0, "s_w": 1.0}
@@ -138,11 +138,11 @@ def run_ekf(scales: bool, seconds: float = 600.0) -> tuple[Ekf, float]:
     rng = np.random.default_rng(7)
     cfg = small_config(nav_x=0.0)
     start = (5.0, 5.0, 0.3)
-    ekf = Ekf(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-              initial_pose=start, odometry_scales=scales, sigma_range_m=0.02,
-              sigma_range_per_m=0.02, sigma_bearing_rad=0.005, noise_dist=0.02,
-              noise_lat=0.01, noise_rot=0.02, noise_rot_per_m=0.01, scale_sigma_v=0.1,
-              scale_sigma_w=0.1)
+    ekf = Ekf(Ekf.configure(odometry_scales=scales, sigma_range_m=0.02, sigma_range_per_m=0.02,
+                            sigma_bearing_rad=0.005, noise_dist=0.02, noise_lat=0.01,
+                            noise_rot=0.02, noise_rot_per_m=0.01, scale_sigma_v=0.1,
+                            scale_sigma_w=0.1),
+              vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area, initial_pose=start)
     return ekf, run_biased(ekf, start, seconds, rng, every=2)
 
 
@@ -187,10 +187,11 @@ def test_a_tight_prior_at_one_gives_the_plain_ekf() -> None:
     """With the scales pinned at 1 the augmented filter is the 3-state EKF."""
     rng = np.random.default_rng(3)
     cfg = small_config(nav_x=0.0)
-    common = {"vehicle": cfg.vehicle, "reflectors": cfg.reflectors, "area": cfg.area,
-              "initial_pose": (5.0, 5.0, 0.3), "sigma_range_per_m": 0.02}
-    plain = Ekf(**common)
-    pinned = Ekf(**common, odometry_scales=True, scale_sigma_v=1e-6, scale_sigma_w=1e-6)
+    where = {"vehicle": cfg.vehicle, "reflectors": cfg.reflectors, "area": cfg.area,
+             "initial_pose": (5.0, 5.0, 0.3)}
+    plain = Ekf(Ekf.configure(sigma_range_per_m=0.02), **where)
+    pinned = Ekf(Ekf.configure(sigma_range_per_m=0.02, odometry_scales=True, scale_sigma_v=1e-6,
+                               scale_sigma_w=1e-6), **where)
     pose = (5.0, 5.0, 0.3)
     for t, true, cmd in drive(60.0, rng):
         pose = compose(pose, true)

@@ -20,7 +20,7 @@ from lgvtool.sim.simulation import simulate
 @pytest.fixture(scope="module")
 def circle_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("headline") / "paper-circle.mcap"
-    write_log(simulate("paper-circle", seed=3), path)
+    write_log(simulate("paper-circle", seed=3, overrides={"sim.paper_scans": True}), path)
     return path
 
 
@@ -48,7 +48,8 @@ def test_without_deskew_pf_paper_keeps_the_laser_skew(circle_log: Path) -> None:
 
 def _converged_by(scenario: str, seed: int, tmp: Path, by: float = 20.0) -> bool:
     path = tmp / f"{scenario}-{seed}.mcap"
-    write_log(simulate(scenario, seed=seed, duration=by + 6.0), path)
+    write_log(simulate(scenario, seed=seed, duration=by + 6.0,
+                       overrides={"sim.paper_scans": True}), path)
     reader = LogReader(path)
     cfg = reader.config()
     data = load_log(reader, cfg.reflectors, truth=True)

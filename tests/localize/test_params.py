@@ -44,7 +44,7 @@ def test_paper_defaults() -> None:
 
 
 def test_particle_filter_without_a_log() -> None:
-    pf = ParticleFilter(rng=np.random.default_rng(0), particles=50)
+    pf = ParticleFilter(ParticleFilter.configure(particles=50), rng=np.random.default_rng(0))
     assert pf.initialized and len(pf.x) == 50
     assert pf.estimate() is not None
 

@@ -65,8 +65,9 @@ def filter_at(pose: tuple[float, float, float], **kw: object) -> ParticleFilter:
         sigma_range_per_m=NOISE[1], sigma_bearing_rad=NOISE[2], reset_likelihood=0.0,
         alpha_slow=0.0)
     settings.update(kw)
-    return ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                          initial_pose=pose, rng=np.random.default_rng(3), **settings)
+    return ParticleFilter(ParticleFilter.configure(**settings),
+                          vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
+                          initial_pose=pose, rng=np.random.default_rng(3))
 
 
 def position_error(pf: ParticleFilter) -> float:
@@ -103,11 +104,13 @@ def test_a_fix_that_agrees_or_fits_nothing_resets_nothing() -> None:
 def uniform_pf(seed: int, **kw: object) -> ParticleFilter:
     """A ``pf`` with 500 particles and a uniform start over the 10 m x 10 m room."""
     cfg = small_config(nav_x=0.0)
-    return ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                          rng=np.random.default_rng(seed), init="uniform", particles=500,
-                          kld=False, sigma_range_m=NOISE[0], sigma_range_per_m=NOISE[1],
-                          sigma_bearing_rad=NOISE[2], reset_likelihood=0.0, alpha_slow=0.0,
-                          **kw)
+    return ParticleFilter(ParticleFilter.configure(init="uniform", particles=500, kld=False,
+                                                   sigma_range_m=NOISE[0],
+                                                   sigma_range_per_m=NOISE[1],
+                                                   sigma_bearing_rad=NOISE[2],
+                                                   reset_likelihood=0.0, alpha_slow=0.0, **kw),
+                          vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
+                          rng=np.random.default_rng(seed))
 
 
 def test_a_large_uniform_start_shrinks_after_its_updates() -> None:

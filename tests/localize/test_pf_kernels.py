@@ -18,9 +18,9 @@ import pytest
 from localize_synth import circle_log
 
 from lgvtool.localize.estimator import EstimateRows, Estimator
-from lgvtool.localize.kernel_choice import KERNELS_ENV
+from lgvtool.localize.kernel_choice import KERNELS_ENV, uses_kernels
 from lgvtool.localize.motion import MotionTrack
-from lgvtool.localize.particles import fused_kernels
+from lgvtool.localize.particle_backend import NumpyParticles
 from lgvtool.localize.registry import ESTIMATORS, resolve_params
 from lgvtool.localize.replay_driver import _observations, estimator_rng
 
@@ -53,7 +53,7 @@ def _run(monkeypatch: pytest.MonkeyPatch, mode: str, name: str, settings: dict[s
     data, cfg, cls, params, (times, obs), steps = _inputs(name, settings)
     est = cls(params, vehicle=cfg.vehicle, reflectors=data.reflectors, area=cfg.area,
               rng=estimator_rng(seed, name))
-    assert (est._kern is None) == (mode == "numpy")
+    assert isinstance(est.backend, NumpyParticles) == (mode == "numpy")
     run = Estimator.run if steps_only else type(est).run
     rows = run(est, times, obs, steps, cloud_size=20)
     return rows, est.rng.bit_generator.state, est
@@ -145,7 +145,7 @@ def test_pf_run_equals_its_steps(monkeypatch: pytest.MonkeyPatch,
     chunks, chunks_state, chunks_est = _run(monkeypatch, "numba", "pf", settings)
     steps, steps_state, steps_est = _run(monkeypatch, "numba", "pf", settings, steps_only=True)
     assert isinstance(chunks_est, ParticleFilter) and isinstance(steps_est, ParticleFilter)
-    assert pf_run.tracks_in_kernel(chunks_est)
+    assert pf_run.tracker(chunks_est, None, 2) is not None
     assert chunks_state == steps_state
     assert chunks_est.resamplings == steps_est.resamplings > 0
     assert chunks_est.injected == steps_est.injected
@@ -209,11 +209,11 @@ def test_permutation_kernel_is_numpys() -> None:
 def test_pf_draws_in_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
     """The prediction's normal numbers drawn inside the kernel (as for large sets): the same
     stream and estimates as the numpy path."""
-    from lgvtool.localize.particle_filter import ParticleFilter
+    from lgvtool.localize.pf_compiled import CompiledParticles
 
     settings = {"kld": False, "particles": 300}
     ref, ref_state, _ = _run(monkeypatch, "numpy", "pf", settings)
-    monkeypatch.setattr(ParticleFilter, "DRAW_IN_KERNEL", 1)
+    monkeypatch.setattr(CompiledParticles, "DRAW_IN_KERNEL", 1)
     fast, fast_state, _ = _run(monkeypatch, "numba", "pf", settings)
     assert fast_state == ref_state
     _close(fast, ref)
@@ -225,7 +225,7 @@ def test_paper_redistribution_kernel_matches_numpy() -> None:
     rotors within an ulp (the kernel's small-angle series)."""
     from lgvtool.config import Area
     from lgvtool.localize import pf_kernels as kern
-    from lgvtool.localize.paper_pf import _covariances_and_ess
+    from lgvtool.localize.particle_backend import covariances_and_ess
     from lgvtool.localize.resampling import RedistributionPlan
 
     rng = np.random.default_rng(5)
@@ -259,7 +259,7 @@ def test_paper_redistribution_kernel_matches_numpy() -> None:
                                       sums, fast, cov, kern.paper_scratch())
             assert np.array_equal(fast[:, 0], ref[:, 0])
             assert np.abs(fast[:, 1] - ref[:, 1]).max() <= 2.5e-16
-            c_ref, e_ref2 = _covariances_and_ess(s[None], w[None], sums[4:5],
+            c_ref, e_ref2 = covariances_and_ess(s[None], w[None], sums[4:5],
                                                  np.array([complex(*sums[:2])]),
                                                  np.array([complex(*sums[2:4])]))
             np.testing.assert_allclose(cov, c_ref[0], rtol=1e-12, atol=1e-15)
@@ -271,7 +271,7 @@ def test_paper_weigh_is_its_parts() -> None:
     equals the motion, the exponents and the weights called one after the other, bit for
     bit, with points both near and far from their candidates (the whole-map search)."""
     from lgvtool.localize import pf_kernels as kern
-    from lgvtool.localize.paper_pf import _kernel_scan
+    from lgvtool.localize.pf_compiled import kernel_scan
 
     rng = np.random.default_rng(8)
     map_z = rng.uniform(0, 20, 12) + 1j * rng.uniform(0, 10, 12)
@@ -285,7 +285,7 @@ def test_paper_weigh_is_its_parts() -> None:
         j = rng.integers(0, 12, 9)
         pose, turn = 10 + 5j, np.exp(0.4j)
         q = (map_z[j] - pose) / turn + rng.normal(0, 0.05, 9)
-        scan = _kernel_scan(q, map_z[j], half[j])
+        scan = kernel_scan(q, map_z[j], half[j])
         step_z, step_rot = 0.02 + 0.001j, np.exp(0.003j)
         cur, e, w, sums = (np.empty_like(prev), np.empty(m), np.empty(m), np.empty(5))
         total = kern.paper_weigh(prev, cur, step_z, step_rot, scan, map_z, -0.5, e, w, sums,
@@ -306,7 +306,7 @@ def test_paper_exponents_search_the_map_for_far_particles() -> None:
     searched in the whole map, more of them than a chunk) are weighed together: the summed
     distances to the nearest map reflector of every point, found by brute force."""
     from lgvtool.localize import pf_kernels as kern
-    from lgvtool.localize.paper_pf import _kernel_scan
+    from lgvtool.localize.pf_compiled import kernel_scan
 
     rng = np.random.default_rng(12)
     map_z = rng.uniform(0, 25, 30) + 1j * rng.uniform(0, 20, 30)
@@ -316,7 +316,7 @@ def test_paper_exponents_search_the_map_for_far_particles() -> None:
     pose, turn = 12 + 9j, np.exp(0.4j)
     j = rng.choice(30, 11, replace=False)
     q = (map_z[j] - pose) / turn + rng.normal(0, 0.03, 11)
-    scan = _kernel_scan(q, map_z[j], half[j])
+    scan = kernel_scan(q, map_z[j], half[j])
     m = 3000
     s = np.empty((m, 2), dtype=np.complex128)
     s[:, 0] = pose + rng.normal(0, 0.1, m) + 1j * rng.normal(0, 0.1, m)
@@ -342,9 +342,9 @@ def test_paper_exponents_search_the_map_for_far_particles() -> None:
 
 def test_numpy_mode_needs_no_numba(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(KERNELS_ENV, "numpy")
-    assert fused_kernels() is None
+    assert not uses_kernels()
     monkeypatch.setenv(KERNELS_ENV, "numba")
-    assert fused_kernels() is not None
+    assert uses_kernels()
 
 
 def test_kernel_pieces_against_numpy() -> None:

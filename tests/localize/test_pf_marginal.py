@@ -19,21 +19,22 @@ def one_particle(proposal: str = "marginal", **settings: object) -> ParticleFilt
     """A one-particle ``pf`` (``proposal`` marginal unless said) at (5, 5, 0.3) with the
     camera-like noise of ``test_pf_proposal``'s one-particle case."""
     cfg = small_config(nav_x=0.0)
-    return ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                          initial_pose=(5.0, 5.0, 0.3), particles=1, kld=False,
-                          proposal=proposal, rng=np.random.default_rng(0),
-                          sigma_range_m=0.05, sigma_bearing_rad=0.01, noise_dist=0.1,
-                          noise_lat=0.05, noise_rot=0.5, noise_rot_per_m=0.1, recovery=False,
-                          **settings)
+    return ParticleFilter(ParticleFilter.configure(particles=1, kld=False, proposal=proposal,
+                                                   sigma_range_m=0.05, sigma_bearing_rad=0.01,
+                                                   noise_dist=0.1, noise_lat=0.05, noise_rot=0.5,
+                                                   noise_rot_per_m=0.1, recovery=False,
+                                                   **settings),
+                          vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
+                          initial_pose=(5.0, 5.0, 0.3), rng=np.random.default_rng(0))
 
 
 def test_the_start_is_the_ekf_start_one_gaussian_per_particle() -> None:
     """Every particle at the start pose, each carrying the start spread as its covariance."""
     cfg = small_config(nav_x=0.0)
-    pf = ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                        initial_pose=(2.0, 3.0, 0.5), particles=50, proposal="marginal",
-                        init_sigma_xy_m=0.4, init_sigma_heading_rad=0.2,
-                        rng=np.random.default_rng(1))
+    pf = ParticleFilter(ParticleFilter.configure(particles=50, proposal="marginal",
+                                                 init_sigma_xy_m=0.4, init_sigma_heading_rad=0.2),
+                        vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
+                        initial_pose=(2.0, 3.0, 0.5), rng=np.random.default_rng(1))
     np.testing.assert_allclose(pf.z, 2.0 + 3.0j, atol=0.0)
     np.testing.assert_allclose(pf.th, 0.5, atol=0.0)
     assert pf._pcov is not None and pf._pcov.shape == (50, 3, 3)
@@ -79,9 +80,10 @@ def test_the_gaussians_follow_resampling() -> None:
     """Resampling copies each particle's covariance with it, and a particle recovery re-draws
     starts with none of its own."""
     cfg = small_config(nav_x=0.0)
-    pf = ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                        initial_pose=(5.0, 5.0, 0.3), particles=20, kld=False,
-                        proposal="marginal", recovery=False, rng=np.random.default_rng(2))
+    pf = ParticleFilter(ParticleFilter.configure(particles=20, kld=False, proposal="marginal",
+                                                 recovery=False),
+                        vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
+                        initial_pose=(5.0, 5.0, 0.3), rng=np.random.default_rng(2))
     assert pf._pcov is not None
     pf._pcov = np.arange(1.0, 21.0)[:, None, None] * np.eye(3)[None]
     pf.z = pf.z + np.arange(20) * 0.01
@@ -92,9 +94,9 @@ def test_the_gaussians_follow_resampling() -> None:
     np.testing.assert_allclose(pf.z, 5.07 + 5.0j, atol=1e-12)
     np.testing.assert_allclose(pf._pcov, 8.0 * np.eye(3)[None].repeat(20, axis=0), atol=0.0)
     # recovery: a quarter re-drawn around the scan's fix, with no covariance of their own
-    rec = ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                         initial_pose=(5.0, 5.0, 0.3), particles=20, kld=False,
-                         proposal="marginal", rng=np.random.default_rng(3))
+    rec = ParticleFilter(ParticleFilter.configure(particles=20, kld=False, proposal="marginal"),
+                         vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
+                         initial_pose=(5.0, 5.0, 0.3), rng=np.random.default_rng(3))
     rec._resample("scan", obs, 0.25)
     assert rec.injected == 5
     assert rec._pcov is not None
@@ -121,14 +123,16 @@ def test_the_marginal_filter_learns_the_odometry_scales() -> None:
     def run(scales: bool) -> tuple[ParticleFilter, float]:
         cfg = small_config(nav_x=0.0)
         start = (5.0, 5.0, 0.3)
-        pf = ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                            initial_pose=start, rng=np.random.default_rng(5),
-                            odometry_scales=scales, particles=200, kld=False,
-                            proposal="marginal", sigma_range_m=0.03, sigma_range_per_m=0.02,
-                            sigma_bearing_rad=0.01, noise_dist=0.03, noise_lat=0.02,
-                            noise_rot=0.03, noise_rot_per_m=0.02, scale_sigma_v=0.1,
-                            scale_sigma_w=0.1, scale_walk_v=0.002, scale_walk_w=0.002,
-                            recovery=False)
+        pf = ParticleFilter(ParticleFilter.configure(odometry_scales=scales, particles=200,
+                                                     kld=False, proposal="marginal",
+                                                     sigma_range_m=0.03, sigma_range_per_m=0.02,
+                                                     sigma_bearing_rad=0.01, noise_dist=0.03,
+                                                     noise_lat=0.02, noise_rot=0.03,
+                                                     noise_rot_per_m=0.02, scale_sigma_v=0.1,
+                                                     scale_sigma_w=0.1, scale_walk_v=0.002,
+                                                     scale_walk_w=0.002, recovery=False),
+                            vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
+                            initial_pose=start, rng=np.random.default_rng(5))
         return pf, run_biased(pf, start, 400.0, np.random.default_rng(11), every=20)
 
     pf, rmse = run(True)

@@ -22,13 +22,15 @@ def run_pf(scales: bool, seconds: float = 400.0) -> tuple[ParticleFilter, float]
     rng = np.random.default_rng(11)
     cfg = small_config(nav_x=0.0)
     start = (5.0, 5.0, 0.3)
-    pf = ParticleFilter(vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
-                        initial_pose=start, rng=np.random.default_rng(5),
-                        odometry_scales=scales, particles=1000, kld=False,
-                        sigma_range_m=0.03, sigma_range_per_m=0.02, sigma_bearing_rad=0.01,
-                        noise_dist=0.03, noise_lat=0.02, noise_rot=0.03, noise_rot_per_m=0.02,
-                        scale_sigma_v=0.1, scale_sigma_w=0.1, scale_walk_v=0.002,
-                        scale_walk_w=0.002, recovery=False)
+    pf = ParticleFilter(ParticleFilter.configure(odometry_scales=scales, particles=1000, kld=False,
+                                                 sigma_range_m=0.03, sigma_range_per_m=0.02,
+                                                 sigma_bearing_rad=0.01, noise_dist=0.03,
+                                                 noise_lat=0.02, noise_rot=0.03,
+                                                 noise_rot_per_m=0.02, scale_sigma_v=0.1,
+                                                 scale_sigma_w=0.1, scale_walk_v=0.002,
+                                                 scale_walk_w=0.002, recovery=False),
+                        vehicle=cfg.vehicle, reflectors=cfg.reflectors, area=cfg.area,
+                        initial_pose=start, rng=np.random.default_rng(5))
     # a camera frame every 5 s: the odometry's bias matters in between
     return pf, run_biased(pf, start, seconds, rng, every=20)
 

@@ -143,13 +143,13 @@ import sys
 from lgvtool.localize.kernel_choice import ready
 print(ready(sys.argv[1]))
 # numba's typing registries, which its first compiled call imports, are loaded
-print(sys.argv[1] in sys.modules and "numba" in sys.modules, "numba.np.arraymath" in sys.modules)
+print(sys.argv[2] in sys.modules and "numba" in sys.modules, "numba.np.arraymath" in sys.modules)
 """
 
 
-@pytest.mark.parametrize("module", ["lgvtool.localize.pf_kernels",
-                                    "lgvtool.localize.ekf_kernels"])
-def test_kernels_made_ready_in_the_caller(module: str) -> None:
+@pytest.mark.parametrize(("family", "module"), [("particles", "lgvtool.localize.pf_kernels"),
+                                                ("gaussian", "lgvtool.localize.ekf_kernels")])
+def test_kernels_made_ready_in_the_caller(family: str, module: str) -> None:
     import os
     import subprocess
     import sys
@@ -158,7 +158,7 @@ def test_kernels_made_ready_in_the_caller(module: str) -> None:
 
     def fresh(mode: str) -> str:
         env = {**os.environ, KERNELS_ENV: mode}
-        return subprocess.run([sys.executable, "-c", _READY, module], env=env, check=True,
+        return subprocess.run([sys.executable, "-c", _READY, family, module], env=env, check=True,
                               capture_output=True, text=True).stdout.strip()
 
     assert fresh("numpy").split() == ["False", "False", "False"]  # the numpy path: numba never imported

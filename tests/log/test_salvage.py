@@ -1,6 +1,6 @@
 """A log without a usable summary (cut off by a crash or a power loss): its chunks found by one
 walk of the file and read a chunk at a time, with the messages that the ``mcap`` package's
-stream reader finds in it; the files that must be read record by record instead."""
+stream reader finds in it; messages written outside chunks read by the same walk, in runs."""
 
 from __future__ import annotations
 
@@ -130,9 +130,9 @@ def test_a_zero_filled_tail_ends_the_walk(simulated: Path, tmp_path: Path) -> No
     assert reader.salvaged_bytes < size + 16 * 1024
 
 
-def test_messages_outside_chunks_are_read_record_by_record(tmp_path: Path) -> None:
-    """A writer that does not chunk (allowed by MCAP): the file is walked record by record
-    and its messages held, as before the chunk walk existed."""
+def test_messages_outside_chunks_are_read_by_the_same_walk(tmp_path: Path) -> None:
+    """A writer that does not chunk (allowed by MCAP): the walk gathers its messages into runs
+    that are read as chunks are (tests/log/test_reader_sources.py: by every method)."""
     from mcap.writer import Writer
 
     path = tmp_path / "loose.mcap"

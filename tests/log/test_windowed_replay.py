@@ -25,7 +25,8 @@ T0 = 1_700_000_000_000_000_000
 def sim(tmp_path_factory: pytest.TempPathFactory) -> Path:
     d = tmp_path_factory.mktemp("windowed")
     p = subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "-s", "paper-circle",
-                        "--duration", "20", "-o", str(d / "sim.mcap")],
+                        "--duration", "20", "--set", "sim.paper_scans=true", "-o",
+                        str(d / "sim.mcap")],
                        capture_output=True, text=True, timeout=300, check=False)
     assert p.returncode == 0, p.stderr
     return d / "sim.mcap"

@@ -104,12 +104,12 @@ def _commands() -> list[tuple[str, list[str]]]:
     return out
 
 
-def test_readme_lists_both_sample_logs() -> None:
+def test_readme_lists_every_sample_log() -> None:
     names = {Path(o).name for o, _ in _commands()}
-    assert {"paper-circle.mcap", "degraded.mcap"} <= names
+    assert {"paper-circle.mcap", "degraded.mcap", "warehouse-nav350.mcap"} <= names
 
 
-@pytest.mark.parametrize("name", ["paper-circle.mcap", "degraded.mcap"])
+@pytest.mark.parametrize("name", ["paper-circle.mcap", "degraded.mcap", "warehouse-nav350.mcap"])
 def test_sample_logs_regenerate_to_the_same_messages(tmp_path: Path, name: str) -> None:
     committed = SAMPLE_LOGS / name
     if not committed.exists():

@@ -36,7 +36,7 @@ def test_settings_overrides_are_checked() -> None:
         apply_overrides(SimSettings(), {"nav.nope": 1})
     with pytest.raises(ConfigError, match="unknown setting section"):
         apply_overrides(SimSettings(), {"bogus.x": 1})
-    with pytest.raises(ConfigError, match="must be in"):
+    with pytest.raises(ConfigError, match="must be at most 1"):
         apply_overrides(SimSettings(), {"faults.mcu_drop_rate": 2.0})
     with pytest.raises(ConfigError):
         simulate("paper-circle", overrides={"scenario.nope": 1.0})

@@ -11,9 +11,10 @@ import pytest
 from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
 from lgvtool.wire.units import counter_delta
 
-EXACT = {"sim.noise": False, "mcu.wheel_radius_error_left": 0.0,
+EXACT = {"sim.noise": False, "sim.world": "ideal", "mcu.wheel_radius_error_left": 0.0,
          "mcu.wheel_radius_error_right": 0.0, "mcu.gyro_scale_error": 0.0,
          "mcu.gyro_bias_dps": 0.0}
+"""No noise, no calibration error, and the kinematic path with no load (``sim.world``)."""
 
 
 def _decoded(sim):
@@ -60,7 +61,8 @@ def test_wheel_radius_error_scales_the_counts(sim_cache) -> None:
 
 def test_slip_noise_stays_small(sim_cache) -> None:
     sim = sim_cache("paper-circle", **{"mcu.wheel_radius_error_left": 0.0,
-                                       "mcu.wheel_radius_error_right": 0.0})
+                                       "mcu.wheel_radius_error_right": 0.0,
+                                       "drive.load_fraction": 0.0})
     left, _ = _travel(_decoded(sim), sim.config.vehicle)
     true_l = sim.mcu.travel_left - sim.mcu.travel_left[0]
     err = np.abs(left - true_l)

@@ -15,8 +15,10 @@ from lgvtool.sim import nav_model
 from lgvtool.sim.nav200_simlink import simulated_device
 from lgvtool.timestamps import from_stamp
 
-QUIET = {"sim.noise": False, "nav.map_sigma_mm": 0.0, "nav.angle_step_deg": 0.0}
-"""Every random error off, the map exact and bearings and ranges to the reflectors' centres."""
+QUIET = {"sim.world": "ideal", "sim.noise": False, "site.survey_sigma_mm": 0.0,
+         "nav.angle_step_deg": 0.0}
+"""The kind world (a kinematic path, no reflector bias, a level floor) with every random error
+off, the layout exact and bearings and ranges to the reflectors' centres."""
 
 
 def _poses(path):
@@ -99,7 +101,7 @@ def test_each_reflector_is_measured_at_its_own_instant(sim_cache) -> None:
 
 
 def test_reflector_scans_are_logged_with_ids_and_times(log_cache) -> None:
-    reader = LogReader(log_cache("paper-circle"))
+    reader = LogReader(log_cache("paper-circle", **{"sim.paper_scans": True}))
     scans = [m for m in reader.messages([topics.NAV_REFLECTORS])]
     assert len(scans) > 8 * 190
     obs = scans[len(scans) // 2].data["observations"]
@@ -215,9 +217,9 @@ def test_revolutions_computed_a_block_at_a_time_are_the_same(
     def run(block: int) -> tuple[nav_model.Scans, nav_model.Solutions]:
         monkeypatch.setattr(nav_model, "ROWS_PER_BLOCK", block)
         rng = np.random.default_rng(11)
-        scans = nav_model.measure(sim.truth, sim.vehicle, s.nav, sim.landmarks, sim.occlusions,
-                                  s.nav_noise, s.faults.false_detection_probability, rng)
-        return scans, nav_model.solve(scans, sim.truth, sim.vehicle, s.nav, sim.landmarks)
+        scans = nav_model.measure(sim.truth, sim.vehicle, s.nav, sim.site, sim.occlusions,
+                                  s.nav_noise, rng)
+        return nav_model.locate(scans, sim.truth, sim.vehicle, s.nav, sim.landmarks)
 
     whole = run(10**9)
     assert len(whole[0]) > 400
