@@ -433,7 +433,12 @@ def _estimator_line(e: EstimatorVerdict, name_w: int, fig_w: int, width: int) ->
         tail = (f"{e.note}; " if e.note else "") + e.observations
     line = head + tail
     if len(line) > width and e.note and e.error_m is not None:
-        line = head + e.observations
+        # the note matters more than a parenthesis of the observations (the other lines of
+        # the verdict still carry it): "NAV200 scans (the paper's setup)" -> "NAV200 scans"
+        short = re.sub(r" \([^)]*\)", "", e.observations)
+        line = head + short + f"; {e.note}"
+        if len(line) > width:
+            line = head + e.observations
     return _fit(line, width)
 
 

@@ -79,6 +79,10 @@ def test_the_sample_logs_verdict(sample_run: tuple[str, Path]) -> None:
         assert any(line.split()[:1] == [name] for line in lines), name
     assert "x the laser" in text and "odometry only" in text
     assert "NAV200 scans (the paper's setup)" in text
+    # pf-paper's note (its error in the rotations, after its uniform start) is kept: the
+    # parenthesis of its observations gives way to it
+    pf_paper = next(line for line in lines if line.split()[:1] == ["pf-paper"])
+    assert "NAV200 scans at NAV polls; " in pf_paper and "mm in the rotations" in pf_paper
     # the paper's own figures, labelled as the paper's, beside this log's
     paper = next(line for line in lines if "paper's Table 1" in line)
     assert "56.9" in paper and "20.4" in paper
