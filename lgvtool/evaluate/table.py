@@ -71,6 +71,19 @@ class Table1:
     truth_in_rotations: dict[str, float] = field(default_factory=dict)
     """RMSE of the true position error over the samples of the complete rotations, m: the
     same samples as the circle figures."""
+    observations: dict[str, str] = field(default_factory=dict)
+    """What each estimator updated with (the verdict's words, e.g. "NAV200 scans (the paper's
+    setup)"), over the logs; "mixed" where the logs differ."""
+
+    @property
+    def setup_note(self) -> str | None:
+        """One line saying which observations the figures come from when a log is in the
+        paper's setup (reflector scans a NAV200 recording does not hold), else None."""
+        paper = [n for n in self.estimators if "the paper's setup" in self.observations.get(n, "")]
+        if not paper:
+            return None
+        return (f"Observations: {', '.join(paper)} weighed the NAV200's reflector scans of "
+                "the paper's setup, which no NAV200 recording holds.")
 
     @property
     def multi_log(self) -> bool:
@@ -140,11 +153,15 @@ def build_table(results: Sequence[EvaluationResult]) -> Table1:
         for n, ev in res.estimators.items():
             if ev.centre_offset is not None:
                 offsets[n] = max(offsets.get(n, 0.0), ev.centre_offset)
+    observed: dict[str, str] = {}
+    for res in results:
+        for n, what in (getattr(res, "observations", None) or {}).items():
+            observed[n] = what if observed.get(n, what) == what else "mixed"
     return Table1(names, tuple(rows), average, impr, truth,
                   logs=tuple(r.name for r in results),
                   partial=sum(r.laps.partial for r in results),
                   circle=any(r.reference.circle_drive for r in results),
-                  centre_offset=offsets, truth_in_rotations=truth_rot)
+                  centre_offset=offsets, truth_in_rotations=truth_rot, observations=observed)
 
 
 # --------------------------------------------------------------------------- formatting
@@ -242,6 +259,8 @@ def _md(head: list[str], body: list[list[str]]) -> str:
 def to_markdown(table: Table1, *, title: str = "Table 1", digits: int = 2) -> str:
     """Table 1 and the summary table as Markdown (mm, mm^2, degrees)."""
     parts = [f"### {title}: RMSE and variance of the radial error per rotation", ""]
+    if table.setup_note:
+        parts += [table.setup_note, ""]
     if table.rows:
         parts.append(_md(*table1_cells(table, digits)))
     else:
@@ -327,6 +346,8 @@ def to_latex(table: Table1, *, caption: str = "Comparison of variance and RMSE",
                                       for n in table.estimators])
     head2 = " & ".join([_tex_escape(t) for t in top] +
                        ["RMSE", r"Variance ($\sigma^2$)"] * len(table.estimators))
+    if table.setup_note:
+        caption += " (the paper's setup: NAV200 reflector scans)"
     lines = [r"\begin{table}[ht]", r"\centering", rf"\caption{{{_tex_escape(caption)}}}",
              rf"\begin{{tabular}}{{{cols}}}", r"\toprule", head1 + r" \\"]
     rules = " ".join(rf"\cmidrule(lr){{{lead + 1 + 2 * i}-{lead + 2 + 2 * i}}}"
@@ -490,8 +511,10 @@ def to_text(table: Table1, *, digits: int = 2, wide: bool = False,
     each estimator's or figure group's name, with a unit line, at most ``width`` columns
     (further estimators continue below); ``wide``: one line per row with every header
     spelled out (mm, mm^2, degrees)."""
+    note = [_wrap_note(table.setup_note, width)] if table.setup_note else []
     if not wide:
-        parts = [_table1_text(table, digits, width) if table.rows else no_rows_note(table)]
+        parts = [*note, _table1_text(table, digits, width) if table.rows
+                 else no_rows_note(table)]
         if table.circle:
             parts.append(f"Partial rotations left out: {table.partial}.")
         parts.append(_summary_text(table, digits, width))
@@ -506,7 +529,7 @@ def to_text(table: Table1, *, digits: int = 2, wide: bool = False,
         lines += ["  ".join(f.format(c) for f, c in zip(fmt, row, strict=True)) for row in body]
         return "\n".join(lines)
 
-    parts = []
+    parts = list(note)
     if table.rows:
         parts.append(block(*table1_cells(table, digits)))
     else:
@@ -515,6 +538,13 @@ def to_text(table: Table1, *, digits: int = 2, wide: bool = False,
         parts.append(f"Partial rotations left out: {table.partial}.")
     parts.append(block(*summary_cells(table, digits)))
     return "\n\n".join(parts) + "\n"
+
+
+def _wrap_note(text: str, width: int) -> str:
+    """``text`` in lines of at most ``width`` columns."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width))
 
 
 FORMATS = ("text", "md", "csv", "tex")
