@@ -5,7 +5,6 @@ parameters are checked by ``--set`` like any other's, and ``replay`` runs it."""
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +20,7 @@ from lgvtool.localize.estimator import (
     Motion,
     Observation,
 )
+from lgvtool.localize.geometry import nav_to_o
 from lgvtool.localize.observations import PoseObservation
 from lgvtool.localize.params import param
 from lgvtool.localize.registry import ESTIMATORS, register, unregister
@@ -60,9 +60,9 @@ class Lagging(Estimator[FakeParams]):
     def update(self, obs: Observation) -> bool:
         if not isinstance(obs, PoseObservation):
             return False
-        c, s = math.cos(obs.heading), math.sin(obs.heading)  # the head's pose, moved to O
-        x = obs.x - self.vehicle.nav_x * c + self.vehicle.nav_y * s
-        y = obs.y - self.vehicle.nav_x * s - self.vehicle.nav_y * c
+        xo, yo, _ = nav_to_o(obs.x, obs.y, obs.heading, self.vehicle.nav_x,
+                             self.vehicle.nav_y)  # the head's pose, moved to O
+        x, y = float(xo), float(yo)
         if self._est is None:
             self._est = Estimate(x, y, obs.heading)
             return True

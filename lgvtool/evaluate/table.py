@@ -20,6 +20,7 @@ import csv
 import functools
 import io
 import math
+import textwrap
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -542,8 +543,6 @@ def to_text(table: Table1, *, digits: int = 2, wide: bool = False,
 
 def _wrap_note(text: str, width: int) -> str:
     """``text`` in lines of at most ``width`` columns."""
-    import textwrap
-
     return "\n".join(textwrap.wrap(text, width))
 
 
