@@ -76,7 +76,7 @@ def evaluate(log: Path, seed: int) -> list[tuple[str, float, float, float, float
     rows = []
     for label, name, settings in RUNS:
         res = replay_data(data, [name], config=cfg, seed=seed, settings=settings, cloud_size=0)
-        tab = res.tables[name]
+        tab = res.estimates[name]
         t = (tab.t_ns - data.t0_ns) * 1e-9
         tx = np.interp(t, truth["t"], truth["x"])
         ty = np.interp(t, truth["t"], truth["y"])

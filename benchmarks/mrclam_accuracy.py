@@ -57,13 +57,16 @@ import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mrclam_metrics import estimates_at_odometry, odometry_vs_truth, position_rmse, truth_at
+
+if TYPE_CHECKING:
+    from lgvtool.trajectory import Trajectory
 
 REFERENCE_EKF_M = {1: 0.214, 2: 0.233, 3: 0.193, 4: 0.322, 5: 0.185}
 """The dataset's reference EKF position RMSE per robot, m."""
@@ -135,18 +138,20 @@ def scan_drive(reader: Any, config: Any, params: Any, *,
     return data, track, obs
 
 
-def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, config: Any,
+def calibrated_trajectory(reader: Any, name: str, trajectory: Trajectory, *, config: Any,
                           seed: int, settings: dict[str, Any],
                           initial_pose: str | None) -> pd.DataFrame:
-    """``trajectory`` (what ``run_replay`` gave for estimator ``name``) with the odometry
-    calibration the estimator held at each row (``scale_v``, ``scale_w``), so that the estimate
-    is carried between rows the way the estimator itself predicts.
+    """``trajectory`` (what ``run_replay`` gave for estimator ``name``) as a table (t s since
+    the epoch, x, y m, heading rad) with the odometry calibration the estimator held at each
+    row (``scale_v``, ``scale_w``), so that the estimate is carried between rows the way the
+    estimator itself predicts.
 
     ``run_replay`` returns poses only. For an estimator with odometry calibration states (the
     EKF with ``odometry_scales``) this runs it again over the same observations and motion, as
     ``replay`` does for a log without NAV poses (an MRCLAM log), recording its calibration after
     each observation; the replayed poses must equal ``trajectory``'s, else the driver and the
-    replay disagree and this raises. Any other estimator's ``trajectory`` is returned as it is.
+    replay disagree and this raises. Any other estimator's ``trajectory`` is returned as its
+    poses alone.
     """
     from lgvtool.localize.registry import ESTIMATORS, resolve_params, split_settings
     from lgvtool.localize.replay_driver import estimator_rng, truth_pose_at
@@ -154,7 +159,7 @@ def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, c
     cls = ESTIMATORS[name]
     params = resolve_params(name, config.estimators, split_settings(settings).get(name))
     if not getattr(params, "odometry_scales", False):
-        return trajectory
+        return trajectory.to_frame()
     data, track, obs = scan_drive(reader, config, params, truth=initial_pose == "truth")
     vehicle = config.vehicle
     start = truth_pose_at(data, obs[0].t) if initial_pose == "truth" else None
@@ -170,16 +175,16 @@ def calibrated_trajectory(reader: Any, name: str, trajectory: pd.DataFrame, *, c
     est = Traced(params, vehicle=vehicle, reflectors=data.reflectors, area=config.area,
                  rng=estimator_rng(seed, name), initial_pose=start)
     times = np.array([o.t for o in obs], dtype=np.float64)
-    rows = est.run(times, obs, track.deltas(times[:-1], times[1:]), cloud_size=0)
+    rows = est.run(times, obs, track.deltas(times[:-1], times[1:]), cloud_size=0).poses
     heading = np.remainder(rows.heading + math.pi, 2.0 * math.pi) - math.pi
     same = (len(rows.x) == len(trajectory)
-            and np.allclose(rows.x, trajectory["x"], rtol=0.0, atol=1e-9)
-            and np.allclose(rows.y, trajectory["y"], rtol=0.0, atol=1e-9)
-            and np.allclose(heading, trajectory["heading"], rtol=0.0, atol=1e-9))
+            and np.allclose(rows.x, trajectory.x, rtol=0.0, atol=1e-9)
+            and np.allclose(rows.y, trajectory.y, rtol=0.0, atol=1e-9)
+            and np.allclose(heading, trajectory.heading, rtol=0.0, atol=1e-9))
     if not same:
         raise RuntimeError(f"{name}: the calibration driver does not reproduce run_replay's "
                            "trajectory")
-    out = trajectory.copy()
+    out = trajectory.to_frame()
     for state, column in CALIBRATION_COLUMNS.items():
         if trace and state in trace[0]:
             out[column] = [c[state] for c in trace]
@@ -248,7 +253,7 @@ def run_robot(dataset: Path, robot: int, estimators: list[str], *, seed: int,
         if init == "truth" and DEAD_RECKONING in result.trajectories:
             # the perfect estimator: the ground truth at every observation time, carried
             # through the odometry in between like every estimate
-            when = result.trajectories[DEAD_RECKONING]["t"].to_numpy()
+            when = result.trajectories[DEAD_RECKONING].t
             row["results"][init][FLOOR] = score(truth_at(truth, when), odometry, truth)
     return row
 

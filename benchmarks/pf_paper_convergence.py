@@ -75,7 +75,7 @@ def run_seed(scenario: str, seed: int, duration: float, settings: dict[str, Any]
     truth = data.truth
     assert truth is not None
     res = replay_data(data, [estimator], config=cfg, seed=seed, settings=settings, cloud_size=0)
-    tab = res.tables[estimator]
+    tab = res.estimates[estimator]
     t = (tab.t_ns - data.t0_ns) * 1e-9
     err = np.hypot(tab.x - np.interp(t, truth["t"], truth["x"]),
                    tab.y - np.interp(t, truth["t"], truth["y"]))

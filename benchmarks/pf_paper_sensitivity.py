@@ -80,7 +80,7 @@ def radial_errors(log: Path, seed: int) -> list[float]:
         if name == "pf-paper":
             settings = {**START, **settings}
         res = replay_data(data, [name], config=cfg, seed=seed, settings=settings, cloud_size=0)
-        tab = res.tables[name]
+        tab = res.estimates[name]
         t = (tab.t_ns - data.t0_ns) * 1e-9
         mv = (t >= t0) & (t <= t1)
         out.append(radial_rmse(tab.x[mv], tab.y[mv], float(ref["radius"])))

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 import sys
-from typing import Any
+from typing import Any, TextIO
 
 import click
 
@@ -72,6 +72,16 @@ COMMANDS: dict[str, tuple[str, str, str]] = {
         "lgvtool.commands.calibrate",
         "calibrate",
         "Estimate the vehicle's installation (NAV mounting, wheels, gyro, timing) from logs.",
+    ),
+    "audit": (
+        "lgvtool.commands.audit",
+        "audit",
+        "Audit a site's reflectors (missing, moved, weak, unmapped) and coverage from logs.",
+    ),
+    "compare": (
+        "lgvtool.commands.compare_command",
+        "compare",
+        "Compare two results (audit.json or table1.json) KPI by KPI, with a tolerance gate.",
     ),
     "layout": (
         "lgvtool.commands.layout",
@@ -194,11 +204,12 @@ def _log_warnings_as_lines() -> None:
 
     shown = warnings.showwarning
 
-    def show(message: Warning | str, category: type[Warning], *args: Any, **kw: Any) -> None:
+    def show(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+             file: TextIO | None = None, line: str | None = None) -> None:
         if category.__name__ == "LogWarning":
             click.echo(f"lgvtool: warning: {printable(str(message))}", err=True)
         else:
-            shown(message, category, *args, **kw)
+            shown(message, category, filename, lineno, file, line)
 
     warnings.showwarning = show
 

@@ -46,6 +46,7 @@ from typing import Any
 
 from lgvtool.declared import REQUIRED, check_table, setting
 from lgvtool.errors import ConfigError
+from lgvtool.json_types import SettingValue
 from lgvtool.suggest import unknown_tail
 from lgvtool.values import parse_setting, split_assignment
 
@@ -252,7 +253,7 @@ def _check_section(name: str, table: Any, cls: type) -> dict[str, Any]:
                        more="{n} keys in [" + name + "]; lgvtool config --parameters lists them")
 
 
-def reflectors_from_tables(items: Any) -> tuple[Reflector, ...]:
+def reflectors_from_tables(items: object) -> tuple[Reflector, ...]:
     """Reflectors from a list of tables (``[[reflectors]]``, or a logged map's entries): ``id``,
     ``x``, ``y`` (m) required, ``radius`` (m) and ``layer`` optional, each checked as every
     configuration number is (its type, finite, within 10^6); ids unique, radii not negative.
@@ -365,10 +366,10 @@ def load_config(path: str | Path | None) -> Config:
         raise ConfigError(f"{p}: {exc}") from None
 
 
-def parse_set_options(items: tuple[str, ...] | list[str]) -> dict[str, Any]:
+def parse_set_options(items: tuple[str, ...] | list[str]) -> dict[str, SettingValue]:
     """Parse ``--set key=value`` options; values are read by
     :func:`lgvtool.values.parse_setting` (TOML scalars, else a bare string), as ``--grid``'s."""
-    out: dict[str, Any] = {}
+    out: dict[str, SettingValue] = {}
     for item in items:
         key, raw = split_assignment(item, "--set")
         out[key] = parse_setting(raw)
@@ -379,7 +380,7 @@ def to_toml(data: Mapping[str, Any]) -> str:
     """Write a config dict (as :meth:`Config.to_dict` gives) as TOML."""
     lines: list[str] = []
 
-    def scalar(v: Any) -> str:
+    def scalar(v: object) -> str:
         if isinstance(v, bool):
             return "true" if v else "false"
         if isinstance(v, int | float):
@@ -390,7 +391,7 @@ def to_toml(data: Mapping[str, Any]) -> str:
             return "[" + ", ".join(scalar(x) for x in v) + "]"
         raise TypeError(f"cannot write {type(v).__name__} as TOML")
 
-    def table(prefix: str, d: Mapping[str, Any]) -> None:
+    def table(prefix: str, d: Mapping[str, object]) -> None:
         plain = {k: v for k, v in d.items() if not isinstance(v, dict) and v is not None}
         nested = {k: v for k, v in d.items() if isinstance(v, dict)}
         if plain or not nested:

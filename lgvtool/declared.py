@@ -57,7 +57,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import MISSING, dataclass, field, fields, is_dataclass, replace
-from typing import Any, TypeVar
+from typing import Any, TypeAlias, TypeVar
 
 from lgvtool.errors import ConfigError
 from lgvtool.suggest import unknown_tail
@@ -113,6 +113,10 @@ def setting(default: Any, doc: str, *, unit: str | None = None,
     return field(default=default, metadata=meta)
 
 
+#: a setting's default: a scalar, a tuple of them (a list setting), None (none, or not set)
+Default: TypeAlias = "bool | int | float | str | tuple[Default, ...] | None"
+
+
 @dataclass(frozen=True, slots=True)
 class Declaration:
     """One declared setting, as :func:`setting` declared it."""
@@ -121,7 +125,7 @@ class Declaration:
     """The key within its group (``particles``)."""
     kind: type
     """bool, int, float or str."""
-    default: bool | int | float | str | tuple[Any, ...] | None
+    default: Default
     """The default value; None: none (:attr:`required`) or not set (:attr:`optional`); a
     tuple for a list setting (:attr:`item`)."""
     unit: str
@@ -146,7 +150,7 @@ class Declaration:
     item: type | None = None
     """A list setting's item: ``int`` or a dataclass of declared settings; None: a scalar."""
 
-    def check(self, owner: str, value: Any) -> Any:
+    def check(self, owner: str, value: object) -> object:
         """``value`` converted to the setting's type and checked against its range.
 
         :raises ConfigError: (exit 2) naming ``owner.name``, the value and what was expected.
@@ -181,7 +185,7 @@ class Declaration:
                       min_open=self.min_open, max_open=self.max_open,
                       allow_inf=no_limit, allow_nan=unset)
 
-    def _check_list(self, where: str, value: Any) -> tuple[Any, ...]:
+    def _check_list(self, where: str, value: object) -> tuple[object, ...]:
         """A list setting's value (a list, tuple, or for integers ``"12, 13"``) as a tuple of
         checked items: integers in range, or tables checked field by field (``where[i].key``)
         with every required field given."""
@@ -272,8 +276,8 @@ def declarations(cls: type) -> tuple[Declaration, ...]:
     return tuple(out)
 
 
-def check_table(cls: type, owner: str, table: Mapping[str, Any], *, what: str = "parameter",
-                more: str = "") -> dict[str, Any]:
+def check_table(cls: type, owner: str, table: object, *, what: str = "parameter",
+                more: str = "") -> dict[str, object]:
     """``table`` (``{key: value}``) with each value checked by its declaration in the group
     ``cls``.
 
@@ -286,7 +290,7 @@ def check_table(cls: type, owner: str, table: Mapping[str, Any], *, what: str = 
     if not isinstance(table, Mapping):
         raise ConfigError(f"[{owner}] must be a table")
     known = {d.name: d for d in declarations(cls)}
-    out: dict[str, Any] = {}
+    out: dict[str, object] = {}
     for key, value in table.items():
         decl = known.get(key)
         if decl is None:
@@ -297,7 +301,7 @@ def check_table(cls: type, owner: str, table: Mapping[str, Any], *, what: str = 
     return out
 
 
-def make(cls: type[S], owner: str, overrides: Mapping[str, Any] | None = None,
+def make(cls: type[S], owner: str, overrides: Mapping[str, object] | None = None,
          base: S | None = None, *, what: str = "parameter", more: str = "") -> S:
     """The group ``cls`` with ``overrides`` (``{key: value}``) applied over ``base`` (or the
     defaults), each value checked by its declaration (:func:`check_table`, whose arguments
@@ -329,7 +333,7 @@ def as_dict(group: object) -> dict[str, Any]:
     return {f.name: json_value(getattr(group, f.name)) for f in fields(group)}
 
 
-def default_text(value: bool | int | float | str | tuple[Any, ...] | None) -> str:
+def default_text(value: Default) -> str:
     """A default as TOML writes it (``true``, ``0.05``, ``inf``, ``"auto"``, ``[]``; not set:
     ``nan``)."""
     if isinstance(value, tuple):

@@ -11,7 +11,7 @@ fleet      dask, distributed, pyarrow           sweep, evaluate --workers/--sche
                                                 export --format parquet
 live       foxglove-sdk                         record --live, view
 ros2       rosbags                              import ros2
-calibrate  scipy                                calibrate
+calibrate  scipy                                calibrate, layout refine
 png        kaleido                              evaluate --png
 ========== ==================================== =========================================
 """

@@ -5,17 +5,16 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable, Mapping
-from typing import Any
 
 
-def lazy_names(package: str, exports: Mapping[str, str], namespace: dict[str, Any]
-               ) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+def lazy_names(package: str, exports: Mapping[str, str], namespace: dict[str, object]
+               ) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
     """The module ``__getattr__`` and ``__dir__`` of ``package``: each name of ``exports``
     (name -> the submodule that defines it, or the full name of a module elsewhere in lgvtool)
     is imported from that module when first asked for and then kept in the package's
     ``namespace`` (its ``globals()``)."""
 
-    def getattr_(name: str) -> Any:
+    def getattr_(name: str) -> object:
         module = exports.get(name)
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")

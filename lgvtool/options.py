@@ -14,9 +14,12 @@ Only click is imported here, so ``lgvtool --help`` stays instant.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import click
+
+if TYPE_CHECKING:
+    from click.shell_completion import CompletionItem
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -41,7 +44,8 @@ class Number(click.ParamType):  # type: ignore[type-arg,unused-ignore]  # generi
         self.min_open = min_open
         self.name = "integer" if kind is int else "number"
 
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+    def convert(self, value: object, param: click.Parameter | None, ctx: click.Context | None
+                ) -> int | float:
         from lgvtool.errors import ConfigError
         from lgvtool.values import coerce, parse_scalar
 
@@ -52,8 +56,9 @@ class Number(click.ParamType):  # type: ignore[type-arg,unused-ignore]  # generi
             except ValueError:
                 noun = "an integer" if self.kind is int else "a number"
                 raise ConfigError(f"{where} must be {noun}, got {value!r}") from None
-        return coerce(where, value, self.kind, minimum=self.minimum, maximum=self.maximum,
-                      min_open=self.min_open)
+        number: int | float = coerce(where, value, self.kind, minimum=self.minimum,
+                                     maximum=self.maximum, min_open=self.min_open)
+        return number
 
 
 def positive(maximum: float) -> Number:
@@ -84,7 +89,7 @@ def force_option(f: F) -> F:
 
 
 def complete_estimators(ctx: click.Context, param: click.Parameter, incomplete: str
-                        ) -> list[Any]:
+                        ) -> list[CompletionItem]:
     """Shell completion of estimator names, also after a comma (``-e laser,pf`` offers
     ``laser,pf-paper`` and ``laser,pf``); names already in the list are not offered again."""
     from click.shell_completion import CompletionItem
@@ -98,7 +103,7 @@ def complete_estimators(ctx: click.Context, param: click.Parameter, incomplete: 
 
 
 def complete_scenarios(ctx: click.Context, param: click.Parameter, incomplete: str
-                       ) -> list[Any]:
+                       ) -> list[CompletionItem]:
     """Shell completion of scenario names (zsh and fish show each one's description)."""
     from click.shell_completion import CompletionItem
 
@@ -194,7 +199,21 @@ def progress_option(help_text: str = "Progress on stderr once the work takes ove
                         show_default=True, help=help_text)
 
 
-def print_output(output: Any, as_json: bool) -> None:
+class JobResult(Protocol):
+    """The two forms of an operation's result (:class:`lgvtool.app.job_output.JobOutput`):
+    its JSON document, its text, the warnings before it and the line after it (stderr)."""
+
+    @property
+    def document(self) -> object: ...
+    @property
+    def text(self) -> str: ...
+    @property
+    def warnings(self) -> list[str]: ...
+    @property
+    def epilogue(self) -> str | None: ...
+
+
+def print_output(output: JobResult, as_json: bool) -> None:
     """Print a :class:`lgvtool.app.job_output.JobOutput`: its document as indented JSON with
     ``--json``, else its warnings, its text and its epilogue (on stderr)."""
     if as_json:

@@ -7,31 +7,41 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from operator import itemgetter
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
+
+from lgvtool.json_types import JSON, JSONObject, JSONRecord, as_int, as_number, member
 
 if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["from_stamp", "message_stamp_ns", "message_stamps_ns", "seconds_to_ns",
+__all__ = ["Stamp", "from_stamp", "message_stamp_ns", "message_stamps_ns", "seconds_to_ns",
            "seconds_to_ns_array", "stamp", "stamp_columns", "stamp_seconds"]
 
 NS_PER_S = 1_000_000_000
 """Nanoseconds in a second."""
 
 
-def stamp(ns: int) -> dict[str, int]:
+def stamp(ns: int) -> JSONObject:
     """``{sec, nsec}`` of a time in integer ns since the Unix epoch."""
     sec, nsec = divmod(int(ns), NS_PER_S)
     return {"sec": sec, "nsec": nsec}
 
 
-def from_stamp(t: Mapping[str, Any]) -> int:
+def from_stamp(t: JSON) -> int:
     """Integer ns since the Unix epoch of a ``{sec, nsec}`` dict."""
-    return int(t["sec"]) * NS_PER_S + int(t["nsec"])
+    return as_int(member(t, "sec")) * NS_PER_S + as_int(member(t, "nsec"))
 
 
-def stamp_seconds(t: Mapping[str, Any] | None) -> float:
+class Stamp(TypedDict):
+    """A ``{sec, nsec}`` time as a decoded message holds it: whole seconds and nanoseconds
+    since the Unix epoch."""
+
+    sec: int
+    nsec: int
+
+
+def stamp_seconds(t: Stamp | None) -> float:
     """Seconds since the Unix epoch (float) of a ``{sec, nsec}`` dict; NaN for none."""
     return t["sec"] + t["nsec"] * 1e-9 if t else math.nan
 
@@ -41,7 +51,7 @@ def seconds_to_ns(t: float) -> int:
     return round(t * 1e9)
 
 
-def message_stamp_ns(doc: Mapping[str, Any], log_ns: int) -> int:
+def message_stamp_ns(doc: JSONRecord, log_ns: int) -> int:
     """A message's own ``timestamp`` (ns), else (none, or not a ``{sec, nsec}``) ``log_ns``."""
     ts = doc.get("timestamp")
     if isinstance(ts, Mapping):
@@ -52,7 +62,7 @@ def message_stamp_ns(doc: Mapping[str, Any], log_ns: int) -> int:
     return int(log_ns)
 
 
-def message_stamps_ns(docs: Sequence[Mapping[str, Any]], log_ns: NDArray[np.int64]
+def message_stamps_ns(docs: Sequence[JSONRecord], log_ns: NDArray[np.int64]
                       ) -> NDArray[np.int64]:
     """Each message's own ``timestamp`` (ns since the epoch), else its log time (``log_ns``,
     one per message)."""
@@ -66,7 +76,7 @@ def message_stamps_ns(docs: Sequence[Mapping[str, Any]], log_ns: NDArray[np.int6
         for i, d in enumerate(docs):
             ts = d.get("timestamp")
             if ts:
-                out[i] = ts["sec"] * NS_PER_S + ts["nsec"]
+                out[i] = as_number(member(ts, "sec")) * NS_PER_S + as_number(member(ts, "nsec"))
         return out
 
 

@@ -27,9 +27,10 @@ import math
 import os
 import tomllib
 from collections.abc import Sequence
-from typing import Any
+from typing import overload
 
 from lgvtool.errors import ConfigError
+from lgvtool.json_types import SettingValue
 
 MAX_COUNT = 1_000_000
 """Most particles (and any count an estimator or a command takes)."""
@@ -75,7 +76,7 @@ def _number_text(value: float) -> str:
     return short if float(short) == value else repr(value)
 
 
-def parse_scalar(text: str, kind: type) -> Any:
+def parse_scalar(text: str, kind: type) -> bool | int | float | str:
     """A command-line word as ``kind`` (int, float, bool or str); ValueError when it is not."""
     word = text.strip()
     if kind is bool:
@@ -105,20 +106,56 @@ def split_assignment(item: str, option: str = "--set", form: str = "key=value") 
     return key, raw
 
 
-def parse_setting(raw: str) -> Any:
+def parse_setting(raw: str) -> SettingValue:
     """A setting's value as given on the command line (``--set``, each ``--grid`` value): a
     TOML scalar (number, boolean, quoted string), else the bare string, stripped. The type is
     checked later, by :func:`coerce` against the setting's own type."""
     try:
-        return tomllib.loads(f"v = {raw.strip()}")["v"]
+        value: SettingValue = tomllib.loads(f"v = {raw.strip()}")["v"]
+        return value
     except tomllib.TOMLDecodeError:
         return raw.strip()
 
 
-def coerce(where: str, value: Any, kind: type, *, minimum: float | None = None,
+@overload
+def coerce(where: str, value: object, kind: type[bool], *, minimum: float | None = None,
            maximum: float | None = None, min_open: bool = False, max_open: bool = False,
            choices: Sequence[str] | None = None, allow_inf: bool = False,
-           allow_nan: bool = False) -> Any:
+           allow_nan: bool = False) -> bool: ...
+
+
+@overload
+def coerce(where: str, value: object, kind: type[int], *, minimum: float | None = None,
+           maximum: float | None = None, min_open: bool = False, max_open: bool = False,
+           choices: Sequence[str] | None = None, allow_inf: bool = False,
+           allow_nan: bool = False) -> int: ...
+
+
+@overload
+def coerce(where: str, value: object, kind: type[float], *, minimum: float | None = None,
+           maximum: float | None = None, min_open: bool = False, max_open: bool = False,
+           choices: Sequence[str] | None = None, allow_inf: bool = False,
+           allow_nan: bool = False) -> float: ...
+
+
+@overload
+def coerce(where: str, value: object, kind: type[str], *, minimum: float | None = None,
+           maximum: float | None = None, min_open: bool = False, max_open: bool = False,
+           choices: Sequence[str] | None = None, allow_inf: bool = False,
+           allow_nan: bool = False) -> str: ...
+
+
+@overload
+def coerce(where: str, value: object, kind: type, *, minimum: float | None = None,
+           maximum: float | None = None, min_open: bool = False, max_open: bool = False,
+           choices: Sequence[str] | None = None, allow_inf: bool = False,
+           allow_nan: bool = False) -> bool | int | float | str: ...
+
+
+def coerce(where: str, value: object, kind: type, *, minimum: float | None = None,
+           maximum: float | None = None, min_open: bool = False, max_open: bool = False,
+           choices: Sequence[str] | None = None, allow_inf: bool = False,
+           allow_nan: bool = False) -> bool | int | float | str:
     """``value`` checked and converted to ``kind`` (bool, int, float or str).
 
     ``where`` names the setting in the error (``pf.particles``, ``--duration``). Numbers must be

@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -13,13 +14,18 @@ import numpy as np
 
 
 def simulate_log(path: Path, duration: float, seed: int, scenario: str = "paper-circle",
-                 paper_scans: bool = True) -> Path:
+                 paper_scans: bool = True, sets: Sequence[str] = (),
+                 config: Path | None = None) -> Path:
     """Simulate ``scenario`` for ``duration`` s into ``path`` with ``lgvtool simulate``; with
     ``paper_scans`` in the paper's setup (the NAV200's reflector scans logged, as the sample
-    logs), else as a NAV200 recording (poses only)."""
+    logs), else as a NAV200 recording (poses only); ``sets``: more ``--set KEY=VALUE``
+    settings, ``config``: a configuration file (``--config``)."""
+    extra = [a for kv in sets for a in ("--set", kv)]
+    if config is not None:
+        extra += ["--config", str(config)]
     subprocess.run([sys.executable, "-m", "lgvtool", "simulate", "--scenario", scenario,
                     "--duration", str(duration), "--seed", str(seed), "-o", str(path),
-                    "--set", f"sim.paper_scans={str(paper_scans).lower()}"],
+                    "--set", f"sim.paper_scans={str(paper_scans).lower()}", *extra],
                    check=True, capture_output=True)
     return path
 

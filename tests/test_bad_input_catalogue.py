@@ -420,6 +420,8 @@ WRITERS: list[tuple[str, tuple[str, ...], tuple[str, ...]]] = [
     ("decode", ("decode", "{w}/log.mcap", "-o"), ()),
     ("recover", ("recover", "{w}/log.mcap", "-o"), ()),
     ("calibrate", ("calibrate", "{w}/log.mcap", "--config", "{w}/good.toml", "-o"), ()),
+    ("layout-refine", ("layout", "refine", "{w}/log.mcap", "--config", "{w}/good.toml", "-o"),
+     ()),
 ]
 
 
@@ -545,6 +547,7 @@ def _file_cases() -> list[Case]:
         "sweep": ("sweep", "{file}", "-o", "{out}/sw"),
         "export": ("export", "{file}", "-o", "{out}/ex"),
         "calibrate": ("calibrate", "{file}", "-o", "{out}/v.toml"),
+        "layout-refine": ("layout", "refine", "{file}", "-o", "{out}/l.toml"),
         "view": ("view", "{file}", "--live", "127.0.0.1:0", "--speed", "0"),
         "import-ros2": ("import", "ros2", "{file}", "-o", "{out}/b.mcap"),
     }

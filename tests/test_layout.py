@@ -13,7 +13,8 @@
   tables' checks (``lgvtool/config_checks.py``) are registered into it, by ``lgvtool/__init__.py``;
 - the log layer (``lgvtool.log``) imports none of the layers above it: the estimators, the
   evaluation, the jobs, the commands;
-- importing the pure core opens no file.
+- importing the pure core opens no file;
+- one module defines a trajectory class (t, x, y, heading arrays): ``lgvtool/trajectory.py``.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ COMMAND_LINE = ("lgvtool/commands/", "lgvtool/cli.py")
 
 PURE_CORE = ("lgvtool.angles", "lgvtool.timestamps", "lgvtool.quantiles", "lgvtool.values",
              "lgvtool.wire", "lgvtool.localize", "lgvtool.evaluate.metrics",
-             "lgvtool.circle", "lgvtool.evaluate.laps")
+             "lgvtool.circle", "lgvtool.evaluate.laps", "lgvtool.audit.reflector_audit")
 """Modules and packages without I/O: importing them opens no file of their own."""
 
 
@@ -284,3 +285,66 @@ def test_the_open_probe_sees_a_module_that_reads_a_file(tmp_path: Path) -> None:
                          capture_output=True, text=True, cwd=tmp_path, timeout=120, check=False)
     assert res.returncode == 0, res.stderr
     assert "data.txt" in res.stdout
+
+
+TRAJECTORY_MODULE = "lgvtool/trajectory.py"
+"""The one module that defines a trajectory class (:class:`lgvtool.trajectory.Trajectory`)."""
+_POSE_FIELDS = {"t", "x", "y", "heading"}
+_ARRAY_TYPES = ("Array", "ndarray", "list[", "Sequence[", "DataFrame", "Series")
+"""An annotation naming one of these holds a column of values, not one value."""
+TRAJECTORY_EXCEPTIONS: set[str] = set()
+"""Known trajectory classes outside the one module, not folded into it yet (none)."""
+
+
+def _trajectory_classes(path: Path) -> list[str]:
+    """The classes of ``path`` holding t, x, y and heading as array fields: annotated class
+    attributes, or ``__slots__`` and ``self.<name> =`` in ``__init__`` with the annotation of
+    the ``__init__`` parameter of that name."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if not isinstance(node, ast.ClassDef):
+            continue
+        fields: dict[str, str] = {}
+        for item in node.body:
+            if isinstance(item, ast.AnnAssign) and isinstance(item.target, ast.Name):
+                fields[item.target.id] = ast.unparse(item.annotation)
+            elif isinstance(item, ast.FunctionDef) and item.name == "__init__":
+                given = {a.arg: ast.unparse(a.annotation) for a in item.args.args
+                         if a.annotation is not None}
+                for sub in ast.walk(item):
+                    if isinstance(sub, ast.Assign):
+                        for t in sub.targets:
+                            if (isinstance(t, ast.Attribute) and isinstance(t.value, ast.Name)
+                                    and t.value.id == "self"):
+                                fields.setdefault(t.attr, given.get(t.attr, ""))
+        arrays = {k for k, v in fields.items() if any(a in v for a in _ARRAY_TYPES)}
+        if arrays >= _POSE_FIELDS:
+            out.append(node.name)
+    return out
+
+
+def test_one_module_defines_a_trajectory_class() -> None:
+    offenders = [f"{_rel(p)}: {name}" for p in _modules() if _rel(p) != TRAJECTORY_MODULE
+                 for name in _trajectory_classes(p)]
+    offenders = [o for o in offenders if o not in TRAJECTORY_EXCEPTIONS]
+    assert offenders == [], ("classes with t, x, y, heading array fields outside "
+                             f"{TRAJECTORY_MODULE} (use lgvtool.trajectory.Trajectory): "
+                             f"{offenders}")
+    assert _trajectory_classes(PACKAGE / "trajectory.py") == ["Trajectory"]
+
+
+def test_the_trajectory_rule_sees_each_kind_of_field(tmp_path: Path) -> None:
+    src = tmp_path / "m.py"
+    src.write_text(
+        "from dataclasses import dataclass\n"
+        "@dataclass\nclass A:\n    t: FloatArray\n    x: FloatArray\n    y: FloatArray\n"
+        "    heading: NDArray[np.float64]\n"
+        "class B:\n    __slots__ = ('t', 'x', 'y', 'heading')\n"
+        "    def __init__(self, t: FloatArray, x: FloatArray, y: list[float],\n"
+        "                 heading: np.ndarray) -> None:\n"
+        "        self.t = t\n        self.x = x\n        self.y = y\n"
+        "        self.heading = heading\n"
+        "class OnePose:\n    t: float\n    x: float\n    y: float\n    heading: float\n"
+        "class NoHeading:\n    t: FloatArray\n    x: FloatArray\n    y: FloatArray\n",
+        encoding="utf-8")
+    assert _trajectory_classes(src) == ["A", "B"]

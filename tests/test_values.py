@@ -55,7 +55,8 @@ def test_infinity_and_nan_only_where_they_mean_something() -> None:
 
 def test_command_line_words() -> None:
     assert parse_scalar("1e3", int) == 1000 and parse_scalar(" 7 ", int) == 7
-    assert math.isnan(parse_scalar("nan", float))
+    nan = parse_scalar("nan", float)
+    assert isinstance(nan, float) and math.isnan(nan)
     assert parse_scalar("false", bool) is False
     with pytest.raises(ValueError):
         parse_scalar("abc", float)

@@ -9,6 +9,7 @@ from typing import Any
 
 from lgvtool.app.job_output import JobOutput
 from lgvtool.errors import InputError
+from lgvtool.json_types import JSONObject
 
 
 class UnobservableRefusal(InputError):
@@ -16,7 +17,7 @@ class UnobservableRefusal(InputError):
     1-sigma and the needs of each quantity as ``details`` (``--json``) and ``detail_lines``
     (``LGVTOOL_DEBUG=1``), which :func:`lgvtool.cli.main` prints."""
 
-    def __init__(self, message: str, details: dict[str, Any], detail_lines: list[str]) -> None:
+    def __init__(self, message: str, details: JSONObject, detail_lines: list[str]) -> None:
         super().__init__(message)
         self.details = details
         self.detail_lines = detail_lines

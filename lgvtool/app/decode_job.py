@@ -17,6 +17,7 @@ import orjson
 
 from lgvtool.app.job_output import JobOutput
 from lgvtool.errors import LogFormatError
+from lgvtool.json_types import JSONObject
 from lgvtool.log import topics
 from lgvtool.log.messages import kind_of_log_message
 
@@ -78,7 +79,7 @@ class DecodeReport:
         """The NAV200 request stream's counters (empty: no NAV200 traffic)."""
         return dict(self.sections.get("nav200", {}).get("request_stats", {}))
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> JSONObject:
         """JSON-able report with stable keys."""
         return {"input": self.input, "output": self.output, **self.sections,
                 "diagnostics": self.diagnostics, "copied": self.copied}

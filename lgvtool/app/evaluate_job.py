@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from lgvtool.evaluate.regress import Check
     from lgvtool.evaluate.verdict import Verdict
     from lgvtool.fleet.connect import SchedulerSpec
+    from lgvtool.json_types import JSONRecord
     from lgvtool.log import LogReader
     from lgvtool.progress import Progress
 
@@ -34,7 +35,7 @@ def evaluate_log(
     estimators: Sequence[str] | None = None,
     config: Config | None = None,
     seed: int = 0,
-    settings: Mapping[str, object] | None = None,
+    settings: Mapping[str, SettingValue] | None = None,
     shared_centre: bool = False,
     free_radius: bool = False,
     lap_source: str | None = None,
@@ -121,28 +122,19 @@ def _evaluate_all(logs: Sequence[str], options: LogEvaluationOptions, *,
     """Evaluate every log: in this process for one log, else on the fleet engine (a local Dask
     cluster, or ``scheduler``); the first log that fails stops the command with its error.
     ``bar``: progress on stderr (the estimators of one log, or the logs done)."""
-    from lgvtool.errors import InputError
-    from lgvtool.fleet.connect import fleet_available
+    from lgvtool.fleet.engine import run_in_order
 
-    tasks = [_LogTask(log, options) for log in logs]
-    if scheduler is None and workers is None and (len(tasks) == 1 or not fleet_available()):
+    def here(task: _LogTask) -> EvaluationResult:
         import warnings as pywarnings
 
         with pywarnings.catch_warnings():
             pywarnings.simplefilter("ignore")
-            return [_evaluate_one(t.path, t.options, progress=bar) for t in tasks]
-    from lgvtool.fleet.engine import run_tasks
+            return _evaluate_one(task.path, task.options, progress=bar)
 
-    results: list[EvaluationResult | None] = [None] * len(tasks)
-    for out in run_tasks(_evaluate_task, tasks, scheduler=scheduler, workers=workers,
-                         progress=bar is not None and bar.enabled, label="logs"):
-        if not out.ok:
-            error = out.error or "failed"
-            if out.input_error:  # "LogFormatError: <path>: ..." already names the log
-                raise InputError(error.split(": ", 1)[-1])
-            raise InputError(f"{out.task.path}: {error}")
-        results[out.index] = out.value
-    return [r for r in results if r is not None]
+    return run_in_order(_evaluate_task, [_LogTask(log, options) for log in logs],
+                        scheduler=scheduler, workers=workers, in_process=here,
+                        progress=bar is not None and bar.enabled,
+                        path_of=lambda task: task.path)
 
 
 @dataclass
@@ -367,9 +359,11 @@ def evaluate_logs(options: EvaluateOptions) -> EvaluationRun:
     return EvaluationRun(results, doc, text, warnings, notes, failures, verdicts, checks)
 
 
-def _refuse_input_as_outdir(outdir: str, inputs: Sequence[str | None]) -> None:
+def _refuse_input_as_outdir(outdir: str, inputs: Sequence[str | None],
+                            files: str = "report.html and table1.*") -> None:
     """InputError when ``outdir`` is one of the input files (also through a link): ``-o``
-    names the folder the report goes into, and a log there would be replaced by it."""
+    names the folder the report (``files``, named in the message) goes into, and a log there
+    would be replaced by it."""
     from lgvtool.errors import InputError
 
     out = Path(outdir)
@@ -384,7 +378,7 @@ def _refuse_input_as_outdir(outdir: str, inputs: Sequence[str | None]) -> None:
             same = False
         if same:
             raise InputError(f"the output {outdir} is the input {src}: -o names a folder for "
-                             "report.html and table1.*; choose another one")
+                             f"{files}; choose another one")
 
 
 def column_help() -> tuple[tuple[str, str], ...]:
@@ -411,7 +405,7 @@ _REPORT_FIRST = ("report.html", "table1.md", "table1.csv", "table1.tex", "table1
 """:data:`OUTPUT_FILES` in the order the verdict names them."""
 
 
-def write_outputs(out: Path, results: list[EvaluationResult], doc: dict[str, Any],
+def write_outputs(out: Path, results: list[EvaluationResult], doc: JSONRecord,
                   png: bool, force: bool = False, bar: Progress | None = None) -> list[Path]:
     """Write :data:`OUTPUT_FILES` of ``results`` and their document ``doc`` into ``out``
     (created), and with ``png`` every figure of the report as ``<slug>.png``; a PNG that would

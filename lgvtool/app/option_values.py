@@ -4,7 +4,8 @@ Every job (``lgvtool.app.<verb>_job``) takes one frozen options dataclass of par
 command turns what was typed (``--set KEY=VALUE``, ``--grid KEY=V1,V2``, ``--max KEY=VALUE``,
 ``--tolerance 10%``, ``--odometry-delay auto``, ``--live [HOST:]PORT``, ...) into those values
 with the functions here, which refuse a bad text in the one line (exit 2) it always had.
-Nothing is imported at module level but the standard library (``lgvtool --help`` stays light).
+Nothing is imported at module level but the standard library and :mod:`lgvtool.json_types`
+(``lgvtool --help`` stays light).
 """
 
 from __future__ import annotations
@@ -12,20 +13,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, TypeAlias
 
-if TYPE_CHECKING:
-    import datetime
+from lgvtool.json_types import SettingValue
 
+if TYPE_CHECKING:
     from lgvtool.live.live_server import LiveAddress
 
 __all__ = ["Bound", "SettingValue", "parse_bounds", "parse_grid", "parse_live_address",
            "parse_odometry_delay", "parse_settings", "parse_tolerance", "parse_topics",
            "parse_trajectories"]
 
-#: A setting's value as ``--set``/``--grid`` give it (:func:`lgvtool.values.parse_setting`): a
-#: TOML value (number, boolean, quoted string, date, array, inline table), else the bare
-#: string; its type and range are checked against the setting's own where it is used.
-SettingValue: TypeAlias = ("str | int | float | bool | datetime.datetime | datetime.date | "
-                           "datetime.time | list[SettingValue] | dict[str, SettingValue]")
 #: A ``--max``/``--min`` bound: (figure key such as ``pf.circle.rmse_mm``, the bound in the
 #: unit the key's suffix names).
 Bound: TypeAlias = "tuple[str, float]"

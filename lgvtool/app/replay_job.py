@@ -11,10 +11,14 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 if TYPE_CHECKING:
     from lgvtool.app.option_values import SettingValue
+    from lgvtool.config import Config
+    from lgvtool.localize.replay_driver import ReplayResult
+    from lgvtool.log.reader import LogReader
+    from lgvtool.log.view_channels import LogRows
 
 # The filters' matrix products are tiny (at most particles x reflectors): BLAS threads only add
 # their start-up and their spinning between calls (about 0.1 s of an hour's replay). Set before
@@ -68,8 +72,30 @@ class ReplayOptions:
     """Progress on stderr once the replay takes over a second."""
 
 
+class EstimatorRun(TypedDict):
+    """One estimator of a replay: the estimates and particle clouds it wrote, the seconds it
+    took."""
+
+    estimates: int
+    clouds: int
+    seconds: float
+
+
+class ReplaySummary(TypedDict):
+    """What :func:`replay_log` did (``lgvtool replay --json``): the output, the seed, each
+    estimator's run, the estimators skipped with the reason, the messages written and the
+    seconds spent reading, filtering, writing and in total."""
+
+    output: str
+    seed: int
+    estimators: dict[str, EstimatorRun]
+    skipped: dict[str, str]
+    messages_written: int
+    seconds: dict[str, float]
+
+
 def replay_log(options: ReplayOptions, *, warn: Callable[[str], None] = _ignore
-               ) -> dict[str, Any]:
+               ) -> ReplaySummary:
     """Replay the ``options``' log through its estimators and write its output (see
     :class:`ReplayOptions`). ``warn`` receives each warning (corrupt chunks of the input,
     estimators left out) as it is met.
@@ -89,7 +115,7 @@ def replay_log(options: ReplayOptions, *, warn: Callable[[str], None] = _ignore
         return _replay(options, warn)
 
 
-def _replay(options: ReplayOptions, warn: Callable[[str], None]) -> dict[str, Any]:
+def _replay(options: ReplayOptions, warn: Callable[[str], None]) -> ReplaySummary:
     """The replay (see :func:`replay_log`)."""
     import time
     import warnings
@@ -161,10 +187,10 @@ def _replay(options: ReplayOptions, warn: Callable[[str], None]) -> dict[str, An
     return {
         "output": output,
         "seed": seed,
-        "estimators": {n: {"estimates": len(result.tables[n].x),
+        "estimators": {n: {"estimates": len(result.estimates[n]),
                            "clouds": len(result.clouds.get(n, [])),
                            "seconds": round(result.timings.get(n, 0.0), 4)}
-                       for n in result.tables},
+                       for n in result.estimates},
         "skipped": result.skipped,
         "messages_written": written,
         "seconds": {"read": round(t_read, 4), "filter": round(t_filter, 4),
@@ -173,9 +199,9 @@ def _replay(options: ReplayOptions, warn: Callable[[str], None]) -> dict[str, An
     }
 
 
-def write_replay_log(reader: Any, output: str, result: Any, config: Any, source: str,
-                     compression: str = "zstd", view_config: Any = None,
-                     window_ns: int | None = None, rows: Any = None) -> int:
+def write_replay_log(reader: LogReader, output: str, result: ReplayResult, config: Config | None,
+                     source: str, compression: str = "zstd", view_config: Config | None = None,
+                     window_ns: int | None = None, rows: LogRows | None = None) -> int:
     """Write ``output``: the messages of ``reader`` (the input, named ``source`` in the
     metadata), the metadata, the estimates of ``result`` (a replay result), ``config`` (when
     given) and the Foxglove view channels of ``view_config``; returns the messages written.
@@ -202,7 +228,7 @@ def write_replay_log(reader: Any, output: str, result: Any, config: Any, source:
         w.add_metadata("replay", {
             "input": Path(source).name,
             "seed": result.seed,
-            "estimators": list(result.tables),
+            "estimators": list(result.estimates),
             "settings": result.settings,
             "skipped": result.skipped,
             "foxglove_view": view_config is not None,

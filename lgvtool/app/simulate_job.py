@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 if TYPE_CHECKING:
     from lgvtool.app.option_values import SettingValue
@@ -33,7 +33,19 @@ class SimulateOptions:
     """Replace an existing :attr:`output`."""
 
 
-def simulate_log(options: SimulateOptions) -> dict[str, Any]:
+class SimulatedLog(TypedDict):
+    """What :func:`simulate_log` wrote: the output, scenario and seed, ``duration_s`` (s of
+    simulated time), ``messages`` written and ``faults`` (injected fault kind -> count)."""
+
+    output: str
+    scenario: str
+    seed: int
+    duration_s: float
+    messages: int
+    faults: dict[str, int]
+
+
+def simulate_log(options: SimulateOptions) -> SimulatedLog:
     """Simulate the ``options``' scenario and write the log a recorder would have written into
     its output (see :class:`SimulateOptions`).
 

@@ -14,13 +14,14 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypedDict
 
 from lgvtool.calibrate.compare import Row
 from lgvtool.calibrate.quantities import QUANTITIES, default_names
 from lgvtool.config import Config
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.extras import require
+from lgvtool.json_types import JSONObject
 from lgvtool.progress import Progress
 
 TIME_FLOOR_S = 1e-3
@@ -49,16 +50,31 @@ class Estimate:
     """``estimated``, ``fixed`` (asked to hold) or ``unobservable`` (held: the drive cannot
     observe it)."""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JSONObject:
         """JSON-ready, SI and in the display unit."""
         q = QUANTITIES[self.name]
-        out: dict[str, Any] = {"status": self.status, "unit": q.unit or "1",
+        out: JSONObject = {"status": self.status, "unit": q.unit or "1",
                                "start": self.start * q.display,
                                "value": self.value * q.display,
                                "sigma": None if self.sigma is None else self.sigma * q.display,
                                "start_si": self.start, "value_si": self.value,
                                "sigma_si": self.sigma}
         return out
+
+
+class CalibrationDocument(TypedDict):
+    """``calibrate --json``: each quantity's estimate (:meth:`Estimate.to_dict`), the
+    calibrated vehicle values (SI), the estimator settings it changes, the logs, the warnings,
+    the before/after comparison, the residuals and the timings (s)."""
+
+    estimates: dict[str, JSONObject]
+    vehicle: dict[str, float]
+    estimator_settings: dict[str, dict[str, object]]
+    logs: list[dict[str, object]]
+    warnings: list[str]
+    comparison: list[JSONObject]
+    residuals: dict[str, object]
+    timings_s: dict[str, float]
 
 
 @dataclass
@@ -75,10 +91,10 @@ class Calibration:
     residuals: dict[str, Any] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
 
-    def settings_set(self) -> dict[str, dict[str, Any]]:
+    def settings_set(self) -> dict[str, dict[str, object]]:
         """Estimator settings the calibrated configuration sets to other values than the
         starting one (:func:`scale_priors`): ``{estimator: {parameter: value}}``."""
-        out: dict[str, dict[str, Any]] = {}
+        out: dict[str, dict[str, object]] = {}
         for name, table in self.config.estimators.items():
             before = self.start_config.estimators.get(name, {})
             changed = {k: v for k, v in table.items() if before.get(k) != v}
@@ -86,7 +102,7 @@ class Calibration:
                 out[name] = changed
         return out
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> CalibrationDocument:
         """The JSON document (``calibrate --json``)."""
         return {"estimates": {n: e.to_dict() for n, e in self.estimates.items()},
                 "vehicle": {n: getattr(self.config.vehicle, n) for n in QUANTITIES},
@@ -255,8 +271,8 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     return result
 
 
-def scale_priors(settings: Mapping[str, Mapping[str, Any]], estimates: Mapping[str, Estimate]
-                 ) -> dict[str, dict[str, Any]]:
+def scale_priors(settings: Mapping[str, Mapping[str, object]], estimates: Mapping[str, Estimate]
+                 ) -> dict[str, dict[str, object]]:
     """The estimator settings of the calibrated configuration: ``settings`` (``[estimators.*]``
     of the starting configuration) with, for each estimator of :data:`SCALE_PRIORS` that
     carries the odometry scales in its state (``odometry_scales = true``), the prior 1-sigma of

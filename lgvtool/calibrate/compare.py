@@ -6,9 +6,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 from lgvtool.config import Config
+from lgvtool.json_types import JSONObject
+
+if TYPE_CHECKING:
+    from lgvtool.evaluate.evaluation import EvaluationResult
 
 
 @dataclass(frozen=True)
@@ -33,7 +37,7 @@ class Row:
             return math.nan
         return 100.0 * (self.after - self.before) / self.before
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JSONObject:
         """JSON-ready (NaN as None)."""
         def num(v: float) -> float | None:
             return v if math.isfinite(v) else None
@@ -43,7 +47,7 @@ class Row:
                 "change_percent": num(self.change), "samples": self.samples}
 
 
-def _figure(result: Any, name: str) -> tuple[str, float, int] | None:
+def _figure(result: EvaluationResult, name: str) -> tuple[str, float, int] | None:
     ev = result.estimators.get(name)
     if ev is None:
         return None

@@ -14,11 +14,12 @@ the MCU's sampling instants; only the host's read latency (about 1 ms) remains i
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from lgvtool.config import Reflector
 from lgvtool.errors import MissingDataError
@@ -110,7 +111,7 @@ def mcu_sample_times(t_recv: FloatArray, mcu_ms: IntArray, baud: float) -> tuple
     return np.asarray(a * (m + 0.5e-3) + b + float(np.percentile(late, 0.5)) - wire), "mcu"
 
 
-def _mcu_intervals(drive: Drive, mcu: dict[str, NDArray[Any]], baud: float) -> None:
+def _mcu_intervals(drive: Drive, mcu: Mapping[str, ArrayLike], baud: float) -> None:
     seq = np.asarray(mcu["seq"], dtype=np.int64)
     el = np.asarray(mcu["enc_left"], dtype=np.int64)
     er = np.asarray(mcu["enc_right"], dtype=np.int64)
@@ -219,7 +220,7 @@ def prepare(name: str, data: LogData, reflectors: tuple[Reflector, ...], *,
     return drive
 
 
-def log_mcu_baud(metadata: dict[str, dict[str, Any]]) -> float:
+def log_mcu_baud(metadata: Mapping[str, Mapping[str, object]]) -> float:
     """The MCU link's speed as the log's metadata gives it, else :data:`MCU_BAUD`."""
     sim = metadata.get("simulator", {})
     settings = sim.get("settings") if isinstance(sim, dict) else None

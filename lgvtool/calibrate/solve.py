@@ -2,7 +2,7 @@
 robust (Huber) weights, noise re-estimation, uncertainty and observability.
 
 The normal equations of the sparse Jacobian (:mod:`lgvtool.calibrate.model`) are solved with a
-sparse LU factorisation (SuperLU, ``scipy.sparse.linalg.splu``) that eliminates the unknowns in
+sparse LU factorisation (SuperLU, :class:`lgvtool.sparse_normal.Factor`) that eliminates the unknowns in
 time order, the calibration quantities last (:meth:`Problem.elimination_order`); the columns
 are scaled to unit norm first. Around each linearisation the robust weights are those of a
 Huber loss at ``huber_k`` standard deviations (iteratively reweighted least squares); after
@@ -20,12 +20,10 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from numpy.typing import NDArray
 
 from lgvtool.calibrate.drive import Drive
@@ -40,6 +38,7 @@ from lgvtool.calibrate.model import (
 from lgvtool.calibrate.quantities import QUANTITIES
 from lgvtool.config import Reflector
 from lgvtool.localize.geometry import pose_from_correspondences
+from lgvtool.sparse_normal import Factor, row_slices, scaled_normal
 
 FloatArray = NDArray[np.float64]
 
@@ -360,17 +359,18 @@ class Problem:
         column-scaled normal matrix): the new state."""
         h, g, norms = self._normal_equations(x)
         h = h + sp.diags(np.full(h.shape[0], lam))
-        delta = _Factor(h, self.elimination_order()).solve(-g)
+        delta = Factor(h, self.elimination_order()).solve(-g)
         return np.asarray(x + delta / norms, dtype=np.float64)
 
     def _normal_equations(self, x: FloatArray) -> tuple[sp.csc_matrix, FloatArray, FloatArray]:
         """The reweighted problem's normal matrix and gradient at ``x``, column-scaled
-        (:func:`_scaled_normal`), and the column norms. The Jacobian is released before they
-        are returned, so that it and the factorisation are never held at once."""
+        (:func:`lgvtool.sparse_normal.scaled_normal`), and the column norms. The Jacobian is
+        released before they are returned, so that it and the factorisation are never held at
+        once."""
         r, j, grp, _, _ = self.evaluate(x)
         assert j is not None
         jw, rw = self._weighed(j, r, grp)
-        h, norms = _scaled_normal(jw)
+        h, norms = scaled_normal(jw)
         g = (jw.T @ rw) / norms
         return h, g, norms
 
@@ -429,7 +429,7 @@ class Problem:
         e = np.stack(picks, axis=1)
         h, _, norms = self._normal_equations(self.x)
         # H^-1 e in the state's units; the factor is released before the Jacobian is made again
-        xs = _Factor(h, self.elimination_order()).solve(e / norms[:, None]) / norms[:, None]
+        xs = Factor(h, self.elimination_order()).solve(e / norms[:, None]) / norms[:, None]
         formal = e.T @ xs
         del h, e
         r, j, grp, tim, drv = self.evaluate(self.x)
@@ -443,7 +443,7 @@ class Problem:
         del obs, inv
         # each stretch's sum of its rows' scores, a slice of rows and a column at a time
         u = np.zeros((len(keys), xs.shape[1]))
-        for r0, r1, rows in _row_slices(jw):
+        for r0, r1, rows in row_slices(jw):
             scores = rows @ xs
             scores *= rw[r0:r1, None]
             at = cluster[r0:r1]
@@ -524,74 +524,6 @@ def solve(problem: Problem, *, allow_unobservable: bool) -> Solution:
                     sigma_formal=sig_f, unobservable=unobservable,
                     noise_scale=dict(problem.factors.scale), rms=rms, outliers=outliers,
                     bias_per_log=biases, iterations=iterations, poses=problem.poses())
-
-
-def _scaled_normal(j: sp.csr_matrix) -> tuple[sp.csc_matrix, FloatArray]:
-    """The normal matrix of ``j`` with its columns scaled to unit norm, ``D jᵀj D`` with
-    ``D = diag(1 / norms)``, and the norms (1 for an empty column). The scaling is applied to
-    the normal matrix, so no scaled copy of the (much larger) Jacobian is made."""
-    h = _normal(j)
-    diagonal = h.diagonal()
-    norms = np.sqrt(np.where(diagonal > 0, diagonal, 1.0))
-    h.data /= norms[h.indices]  # rows
-    h.data /= np.repeat(norms, np.diff(h.indptr))  # columns
-    return h, norms
-
-
-NORMAL_SLICE_ENTRIES = 1 << 21
-"""Jacobian entries (about 24 MB) whose part of the normal matrix, or of the covariance's
-scores, is formed at a time."""
-
-
-def _normal(j: sp.csr_matrix) -> sp.csc_matrix:
-    """``jᵀj``, formed from slices of :data:`NORMAL_SLICE_ENTRIES` entries of ``j``'s rows, so
-    that only a slice, never the whole Jacobian, is copied into the column-major form that the
-    product takes. The slices' parts are added pairwise (as the digits of a binary counter),
-    so each entry of the sum is added about log2(slices) times, not once per slice."""
-    partial: list[tuple[int, sp.csc_matrix]] = []  # (level, sum of 2**level slices' parts)
-    for part in (s.T @ s for _r0, _r1, s in _row_slices(j)):
-        level = 0
-        while partial and partial[-1][0] == level:
-            part = partial.pop()[1] + part
-            level += 1
-        partial.append((level, part))
-    if not partial:
-        return sp.csc_matrix((j.shape[1], j.shape[1]))
-    total = partial.pop()[1]
-    while partial:
-        total = total + partial.pop()[1]
-    return total.tocsc()
-
-
-def _row_slices(j: sp.csr_matrix) -> Iterator[tuple[int, int, sp.csr_matrix]]:
-    """Consecutive runs of ``j``'s rows, each of about :data:`NORMAL_SLICE_ENTRIES` entries
-    (a row is never split): first row, end row and the rows as a matrix of their own (scipy
-    copies a small part of a larger array), so only one slice is ever copied at a time."""
-    indptr = j.indptr
-    cuts = np.searchsorted(indptr, np.arange(NORMAL_SLICE_ENTRIES, j.nnz, NORMAL_SLICE_ENTRIES))
-    bounds = np.unique(np.concatenate([[0], cuts, [j.shape[0]]]))
-    for r0, r1 in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
-        lo, hi = int(indptr[r0]), int(indptr[r1])
-        yield r0, r1, sp.csr_matrix((j.data[lo:hi], j.indices[lo:hi], indptr[r0:r1 + 1] - lo),
-                                    shape=(r1 - r0, j.shape[1]))
-
-
-class _Factor:
-    """Sparse LU of the symmetric positive definite normal matrix ``h`` with its rows and
-    columns taken in ``order`` (:meth:`Problem.elimination_order`), pivoting on the diagonal.
-    :meth:`solve` takes and returns vectors (or columns of them) in the state's order."""
-
-    def __init__(self, h: sp.csc_matrix, order: NDArray[np.int64]) -> None:
-        self.order = order
-        permuted = h[order][:, order].tocsc()
-        self.lu = spla.splu(permuted, permc_spec="NATURAL", diag_pivot_thresh=0.0,
-                            options={"SymmetricMode": True})
-
-    def solve(self, b: FloatArray) -> FloatArray:
-        """``h^-1 b``."""
-        out = np.empty_like(b)
-        out[self.order] = self.lu.solve(b[self.order])
-        return out
 
 
 class UnobservableError(Exception):

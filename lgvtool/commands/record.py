@@ -5,7 +5,7 @@ the declarations of its registration (``RECORD_OPTIONS``, :mod:`lgvtool.devices.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeAlias, TypeVar
 
 import click
 
@@ -27,7 +27,13 @@ _POSITIVE = positive(MAX_WALL_S)
 _PERIOD = positive(3600.0)
 
 
-def _click_type(value: ValueKind) -> Any:
+#: a click option's type: a parameter type, None (click's string) or a pair of them (a tuple)
+ClickType: TypeAlias = "click.ParamType[object, str] | tuple[ClickType, ClickType] | None"
+#: a command function, before and after an option decorates it
+Command = TypeVar("Command", bound="Callable[..., object]")
+
+
+def _click_type(value: ValueKind) -> ClickType:
     """The click type of a declared option value (None: click's string)."""
     if isinstance(value, TextValue):
         return None
@@ -43,7 +49,7 @@ def _click_type(value: ValueKind) -> Any:
     raise TypeError(f"record: no click type for {value!r}")
 
 
-def _click_option(option: RecordOption) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+def _click_option(option: RecordOption) -> Callable[[Command], Command]:
     """The click option of a family's declared ``record`` option."""
     given: dict[str, Any] = {"type": _click_type(option.value), "default": option.default,
                              "show_default": option.show_default or None,
@@ -52,7 +58,7 @@ def _click_option(option: RecordOption) -> Callable[[Callable[..., Any]], Callab
                         **{k: v for k, v in given.items() if v is not None})
 
 
-def _family_options(f: Callable[..., Any]) -> Callable[..., Any]:
+def _family_options(f: Command) -> Command:
     """Every registered device family's ``record`` options (``RECORD_OPTIONS``), in family
     order."""
     for option in reversed([o for reg in registrations() for o in reg.RECORD_OPTIONS]):

@@ -48,8 +48,10 @@ def simulate(ctx: click.Context, scenario: str | None, seed: int, config_path: s
              compression: str, list_scenarios: bool, as_json: bool, force: bool) -> None:
     """Simulate a laser-guided forklift in a reflector hall and write the log a recorder
     would have written: raw MCU and NAV200 traffic (/mcu/rx, /nav200/tx, /nav200/rx), the
-    decoded frames and poses, the head's reflector scans, the reflector map, the ground truth
-    of O (/truth/pose), injected faults (/diagnostics) and every setting in the metadata.
+    decoded frames and the NAV's poses (a NAV200 delivers nothing more; its reflector scans
+    with sim.paper_scans=true, the paper's setup; a NAV350 with sim.nav_device=nav350, its
+    landmarks too), the reflector map, the ground truth of O (/truth/pose), injected faults
+    (/diagnostics) and every setting in the metadata.
 
     Positions in m, angles in rad inside the log; host times start at sim.start_epoch_s.
     Exit 2 for an unknown scenario or setting.
@@ -113,7 +115,7 @@ def _listing_text(listing: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _text(value: Any) -> str:
+def _text(value: object) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
     return f"{value:g}" if isinstance(value, float) else str(value)

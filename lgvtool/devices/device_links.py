@@ -25,10 +25,13 @@ import socket
 import stat
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 from urllib.parse import parse_qs, urlsplit
 
 from lgvtool.errors import InputError, LgvError
+
+if TYPE_CHECKING:
+    import serial
 
 __all__ = [
     "MCU_SERIAL_DEFAULTS",
@@ -125,10 +128,20 @@ class LinkSpec:
         return f"{self.target} {self.baud} {self.bytesize}{self.parity}{stop}"
 
 
+class SerialDefaults(TypedDict):
+    """The serial settings a link URL may leave out: ``baud`` (bit/s), ``parity`` (one of
+    N E O M S), ``bytesize`` (data bits), ``stopbits``."""
+
+    baud: int
+    parity: str
+    bytesize: int
+    stopbits: float
+
+
 #: NAV200 serial defaults: 19200 baud, 8 data bits, even parity, 1 stop bit.
-NAV200_SERIAL_DEFAULTS = {"baud": 19200, "parity": "E", "bytesize": 8, "stopbits": 1.0}
+NAV200_SERIAL_DEFAULTS: SerialDefaults = {"baud": 19200, "parity": "E", "bytesize": 8, "stopbits": 1.0}
 #: MCU serial defaults: 115200 baud, 8N1.
-MCU_SERIAL_DEFAULTS = {"baud": 115200, "parity": "N", "bytesize": 8, "stopbits": 1.0}
+MCU_SERIAL_DEFAULTS: SerialDefaults = {"baud": 115200, "parity": "N", "bytesize": 8, "stopbits": 1.0}
 
 
 def _one(query: dict[str, list[str]], key: str) -> str | None:
@@ -136,7 +149,7 @@ def _one(query: dict[str, list[str]], key: str) -> str | None:
     return None if not values else values[-1]
 
 
-def parse_link_url(url: str, defaults: dict[str, Any] | None = None) -> LinkSpec:
+def parse_link_url(url: str, defaults: SerialDefaults | None = None) -> LinkSpec:
     """Parse a link URL (``serial://PATH?...``, ``tcp://HOST:PORT`` or a bare device path).
 
     ``defaults`` gives the serial settings the URL does not (see ``NAV200_SERIAL_DEFAULTS``).
@@ -145,7 +158,7 @@ def parse_link_url(url: str, defaults: dict[str, Any] | None = None) -> LinkSpec
     text = url.strip()
     if not text:
         raise LinkURLError("empty link URL")
-    base = dict(NAV200_SERIAL_DEFAULTS if defaults is None else defaults)
+    base = (NAV200_SERIAL_DEFAULTS if defaults is None else defaults).copy()
     if "://" not in text:
         if text.startswith("/") or text.upper().startswith("COM"):
             text = "serial://" + text
@@ -287,7 +300,7 @@ class SerialLink(Link):
     def is_open(self) -> bool:
         return self._ser is not None
 
-    def _serial(self, parity: str) -> Any:
+    def _serial(self, parity: str) -> serial.Serial:
         import serial
 
         stopbits = {1.0: serial.STOPBITS_ONE, 1.5: serial.STOPBITS_ONE_POINT_FIVE,
@@ -429,7 +442,7 @@ def _reason(exc: BaseException) -> str:
     return text or type(exc).__name__
 
 
-def open_link(url: str, defaults: dict[str, Any] | None = None) -> Link:
+def open_link(url: str, defaults: SerialDefaults | None = None) -> Link:
     """A :class:`Link` (not yet opened) for ``url``; see :func:`parse_link_url`."""
     spec = parse_link_url(url, defaults)
     return TcpLink(spec) if spec.scheme == "tcp" else SerialLink(spec)

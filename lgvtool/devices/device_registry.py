@@ -34,6 +34,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol, TypeAlias, cast
 
+from lgvtool.json_types import JSON, JSONObject
+
 if TYPE_CHECKING:
     import threading
 
@@ -52,11 +54,6 @@ __all__ = ["FAMILIES", "JSON", "ChoiceValue", "DeviceFamily", "IntegerValue", "J
 #: The device families, in the order their decoders run and their reports are listed.
 FAMILIES = ("mcu", "nav200", "nav350")
 
-#: A JSON value: what a log's metadata records, a decode report and the recorder's metadata
-#: hold.
-JSON: TypeAlias = "str | int | float | bool | list[JSON] | dict[str, JSON] | None"
-#: A JSON object.
-JSONObject: TypeAlias = "dict[str, JSON]"
 
 
 # ---------------------------------------------------------------- record options, declared

@@ -24,14 +24,57 @@ from __future__ import annotations
 import math
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
 from lgvtool.config import Vehicle
 from lgvtool.devices.device_links import Link, LinkDown, LinkFatal
 from lgvtool.devices.head_speed import head_velocity
 from lgvtool.devices.logsink import LogSink
+from lgvtool.json_types import JSON, JSONObject
 from lgvtool.wire.decode_events import ERROR, INFO, WARNING
+
+if TYPE_CHECKING:
+    from lgvtool.devices.mcu.mcu_session import Motion
+
+
+class Encodable(Protocol):
+    """A request a host session sends: its bytes on the wire."""
+
+    def encode(self) -> bytes: ...
+
+
+class SpeedInputSettings(Protocol):
+    """The part of a host session's settings the worker reads: whether the device takes the
+    vehicle's speed."""
+
+    @property
+    def speed_input(self) -> bool: ...
+
+
+class HostSession(Protocol):
+    """A family's host session as a :class:`SessionWorker` runs it (times ``now`` in s of
+    the monotonic clock; speeds in m/s and rad/s)."""
+
+    @property
+    def settings(self) -> SpeedInputSettings: ...
+    @property
+    def state(self) -> str: ...
+    def link_up(self, now: float) -> None: ...
+    def link_down(self, now: float) -> None: ...
+    def poll(self, now: float) -> Encodable | None: ...
+    def feed(self, data: bytes, now: float) -> None: ...
+    def next_deadline(self, now: float) -> float: ...
+    def set_speed(self, vx: float, vy: float, omega: float, now: float) -> None: ...
+
+
+class MotionSource(Protocol):
+    """Where the vehicle's latest motion comes from (the MCU worker): ``(time s, motion)``,
+    or None before the first."""
+
+    @property
+    def motion(self) -> tuple[float, Motion] | None: ...
 
 __all__ = ["READ_SLICE", "LinkTiming", "LinkWorker", "SessionWorker"]
 
@@ -89,7 +132,7 @@ class LinkWorker(threading.Thread):
     device = "device"
 
     def __init__(self, link: Link, sink: LogSink, stop: threading.Event,
-                 timing: LinkTiming, warn: Any = None) -> None:
+                 timing: LinkTiming, warn: Callable[[str], None] | None = None) -> None:
         super().__init__(name=f"{self.device}-link", daemon=True)
         self.link = link
         self.sink = sink
@@ -120,7 +163,7 @@ class LinkWorker(threading.Thread):
         """Open links lost so far."""
         return self.link_failures
 
-    def diag(self, kind: str, message: str, level: int = WARNING, **details: Any) -> None:
+    def diag(self, kind: str, message: str, level: int = WARNING, **details: JSON) -> None:
         """A diagnostic from this device at the present host time."""
         self.sink.diagnostic(self.device, kind, message, time.time_ns(), level=level,
                              details=details)
@@ -220,7 +263,7 @@ class LinkWorker(threading.Thread):
                 now = time.monotonic()
                 if first:
                     note = f" ({self.link.note})" if self.link.note else ""
-                    waited = {} if down_since is None else {
+                    waited: JSONObject = {} if down_since is None else {
                         "gap_s": round(now - down_since, 3), "last_error": last_error}
                     self.diag("link_open", f"opened {self.link.spec.describe()}{note}",
                               level=INFO, url=self.link.spec.url, attempts=failed,
@@ -240,7 +283,7 @@ class LinkWorker(threading.Thread):
             except LinkDown as exc:
                 now = time.monotonic()
                 self.link.close()
-                lost: dict[str, Any] = {}
+                lost: JSONObject = {}
                 if self._open_since is not None:  # an open link was lost
                     self.link_failures += 1
                     open_s, healthy = self._end_connection(now)
@@ -254,7 +297,7 @@ class LinkWorker(threading.Thread):
                           **self._counts(), **lost)
                 self._lost()
 
-    def _counts(self) -> dict[str, Any]:
+    def _counts(self) -> JSONObject:
         """The back-off's figures for a ``link_down``: the connect attempts since the link was
         last healthy, the wait before the next one, links opened and lost so far."""
         return {"attempts": self._attempts,
@@ -294,7 +337,8 @@ class SessionWorker(LinkWorker):
     Subclasses implement ``_handle_events`` (the session's events at host time ``t`` ns)."""
 
     def __init__(self, link: Link, sink: LogSink, stop: threading.Event, timing: LinkTiming,
-                 session: Any, *, vehicle: Vehicle, mcu: Any = None, warn: Any = None) -> None:
+                 session: HostSession, *, vehicle: Vehicle, mcu: MotionSource | None = None,
+                 warn: Callable[[str], None] | None = None) -> None:
         super().__init__(link, sink, stop, timing, warn)
         self.session = session
         self.vehicle = vehicle

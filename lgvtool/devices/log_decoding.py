@@ -13,15 +13,19 @@ sessions (which own the request timing) and are built by the same :mod:`lgvtool.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
+from lgvtool.json_types import JSONObject, JSONRecord
 from lgvtool.wire.decode_events import DecodeEvent, DecoderStats
+
+if TYPE_CHECKING:
+    from lgvtool.log.writer import LogWriter
 
 __all__ = ["Decoded", "DecodedOutput", "DecodedQueue", "LogDecoder", "WriterOutput", "decode_chunk",
            "error_summary", "finish_decoding"]
 
 #: A decoded message: topic, message dict, log time in ns.
-Decoded = tuple[str, dict[str, Any], int]
+Decoded = tuple[str, JSONObject, int]
 
 
 class LogDecoder(Protocol):
@@ -52,7 +56,7 @@ class LogDecoder(Protocol):
     def pop_events(self) -> list[DecodeEvent]:
         """Decoder events since the last call, in order."""
 
-    def report(self) -> dict[str, Any]:
+    def report(self) -> JSONObject:
         """The family's section of the decode report (JSON-able, stable keys)."""
 
     def summary(self) -> list[str]:
@@ -70,7 +74,7 @@ class DecodedQueue:
         self.last_ns = 0
         self._messages: list[Decoded] = []
 
-    def emit(self, topic: str, message: dict[str, Any], t_ns: int) -> None:
+    def emit(self, topic: str, message: JSONObject, t_ns: int) -> None:
         """Queue ``message`` for ``topic`` at log time ``t_ns``."""
         self._messages.append((topic, message, t_ns))
 
@@ -84,7 +88,7 @@ class DecodedOutput(Protocol):
     """Where decoded messages and events go (:class:`~lgvtool.devices.logsink.LogSink`, or a
     :class:`~lgvtool.log.LogWriter` through :class:`WriterOutput`)."""
 
-    def message(self, topic: str, message: Mapping[str, Any], t_ns: int) -> None:
+    def message(self, topic: str, message: JSONRecord, t_ns: int) -> None:
         """A decoded message dict for ``topic`` at log time ``t_ns``."""
 
     def event(self, event: DecodeEvent, t_ns: int) -> None:
@@ -94,10 +98,10 @@ class DecodedOutput(Protocol):
 class WriterOutput:
     """A :class:`~lgvtool.log.LogWriter` as a :class:`DecodedOutput`."""
 
-    def __init__(self, writer: Any) -> None:
+    def __init__(self, writer: LogWriter) -> None:
         self.writer = writer
 
-    def message(self, topic: str, message: Mapping[str, Any], t_ns: int) -> None:
+    def message(self, topic: str, message: JSONRecord, t_ns: int) -> None:
         """Write ``message`` on ``topic``."""
         self.writer.write(topic, message, t_ns)
 

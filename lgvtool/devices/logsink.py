@@ -18,18 +18,29 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Literal
 
 from lgvtool.config import Config, Reflector
+from lgvtool.json_types import JSONObject, JSONRecord
 from lgvtool.log import topics
 from lgvtool.log.writer import LogWriter
 from lgvtool.wire.decode_events import WARNING, DecodeEvent
+
+if TYPE_CHECKING:
+    from lgvtool.live.tap import LogTap
 
 __all__ = ["LogSink", "SinkFailure", "split_name"]
 
 #: errno values that mean "no more room for the file".
 _FULL = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG}
 _STOP = object()
+#: what the writer thread is handed: raw bytes, a decoded message, a diagnostic, a metadata
+#: record or the reflector map (times in ns since the Unix epoch)
+_Item = (tuple[Literal["raw"], str, str, bytes, int]
+         | tuple[Literal["msg"], str, Mapping[str, object], int]
+         | tuple[Literal["diag"], str, str, str, int, int, int, JSONObject]
+         | tuple[Literal["meta"], str, dict[str, object]]
+         | tuple[Literal["map"], tuple[Reflector, ...], int])
 #: How often the writer thread looks at the split limits and the chunk age, s.
 _TICK = 0.2
 
@@ -74,7 +85,7 @@ class LogSink:
     def __init__(self, output: Path, *, split_bytes: int | None = None,
                  split_seconds: float | None = None, config: Config | None = None,
                  command: str | None = None, chunk_seconds: float = 0.5,
-                 fsync: bool = True, tap: Any = None) -> None:
+                 fsync: bool = True, tap: LogTap | None = None) -> None:
         self.output = Path(output)
         self.split_bytes = split_bytes
         self.split_seconds = split_seconds
@@ -86,7 +97,7 @@ class LogSink:
         self._tap = tap
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._thread = threading.Thread(target=self._run, name="log-writer", daemon=True)
-        self._sticky_meta: dict[str, dict[str, Any]] = {}
+        self._sticky_meta: dict[str, dict[str, object]] = {}
         self._sticky_map: tuple[Reflector, ...] | None = None
         self._writer: LogWriter | None = None
         self._path: Path | None = None
@@ -113,13 +124,13 @@ class LogSink:
         """Raw bytes received from (rx) or sent to (tx) ``device`` at host time ``t_ns``."""
         self._queue.put(("raw", device, direction, bytes(data), t_ns))
 
-    def message(self, topic: str, message: Mapping[str, Any], t_ns: int) -> None:
+    def message(self, topic: str, message: Mapping[str, object], t_ns: int) -> None:
         """A decoded message dict for ``topic`` at host time ``t_ns``."""
         self._queue.put(("msg", topic, message, t_ns))
 
     def diagnostic(self, source: str, kind: str, message: str, t_ns: int, *,
                    level: int = WARNING, count: int = 1,
-                   details: Mapping[str, Any] | None = None) -> None:
+                   details: JSONRecord | None = None) -> None:
         """A structured event on /diagnostics."""
         self._queue.put(("diag", source, kind, message, t_ns, level, count, dict(details or {})))
 
@@ -128,7 +139,7 @@ class LogSink:
         self.diagnostic(event.source, event.kind, event.message, t_ns, level=event.level,
                         count=event.count, details=event.details)
 
-    def set_metadata(self, name: str, data: Mapping[str, Any]) -> None:
+    def set_metadata(self, name: str, data: Mapping[str, object]) -> None:
         """A metadata record, written now and again at the start of every later split file."""
         self._queue.put(("meta", name, dict(data)))
 
@@ -178,30 +189,29 @@ class LogSink:
             except OSError as exc:
                 self._fail(exc)
 
-    def _handle(self, item: tuple[Any, ...]) -> None:
+    def _handle(self, item: _Item) -> None:
         w = self._writer
         assert w is not None
-        kind = item[0]
-        if kind == "raw":
+        if item[0] == "raw":
             _, device, direction, data, t = item
             w.write_raw(device, direction, data, t)
             self._count(topics.raw_topic(device, direction))
-        elif kind == "msg":
+        elif item[0] == "msg":
             _, topic, message, t = item
             w.write(topic, message, t)
             self._count(topic)
-        elif kind == "diag":
-            _, source, what, message, t, level, count, details = item
-            w.write_diagnostic(source, what, message, t, level=level, count=count,
+        elif item[0] == "diag":
+            _, source, what, text, t, level, count, details = item
+            w.write_diagnostic(source, what, text, t, level=level, count=count,
                                details=details)
             self._count(topics.DIAGNOSTICS)
             if level >= WARNING:
                 self.errors += 1
-        elif kind == "meta":
-            _, name, data = item
-            self._sticky_meta[name] = data
-            w.add_metadata(name, data)
-        elif kind == "map":
+        elif item[0] == "meta":
+            _, name, record = item
+            self._sticky_meta[name] = record
+            w.add_metadata(name, record)
+        elif item[0] == "map":
             _, reflectors, t = item
             self._sticky_map = reflectors
             w.write_map(reflectors, t)

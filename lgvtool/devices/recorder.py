@@ -19,11 +19,12 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, TextIO
+from types import FrameType
+from typing import TYPE_CHECKING, Any, TextIO
 
 from lgvtool.config import Config, default_config
 from lgvtool.devices.device_registry import listed, registration, registrations
@@ -31,7 +32,11 @@ from lgvtool.devices.link_worker import LinkTiming
 from lgvtool.devices.logsink import LogSink
 from lgvtool.devices.status import StatusLine, format_bytes
 from lgvtool.errors import InputError, LgvError
+from lgvtool.json_types import JSON, JSONObject
 from lgvtool.wire.decode_events import INFO
+
+if TYPE_CHECKING:
+    from lgvtool.live.tap import LiveFeed, LiveStats
 
 __all__ = ["RecordError", "RecordResult", "RecordedDevice", "Recorder", "RecorderSettings",
            "no_device_message", "record"]
@@ -95,7 +100,7 @@ class RecordResult:
     bytes: int
     stop_reason: str
     devices: dict[str, str]
-    live: dict[str, Any] | None = None
+    live: LiveStats | None = None
     """The live view's figures (URL, messages published, estimator latency), if served."""
     mapped: tuple[tuple[float, float], ...] | None = None
     """The landmarks a requested mapping run found (x, y m in the layout frame); None: no
@@ -143,7 +148,7 @@ class Recorder:
                             fsync=settings.fsync, tap=self.live)
         self.workers: list[Any] = []
 
-    def _start_live(self) -> Any:
+    def _start_live(self) -> LiveFeed:
         """Bind the live server now, before anything is recorded (a port in use or a host
         that does not resolve fails here, as bad input)."""
         from lgvtool.live.drawing import drawing_of
@@ -188,9 +193,9 @@ class Recorder:
                 mcu = worker
             self.workers.append(worker)
 
-    def _recording_metadata(self) -> dict[str, Any]:
+    def _recording_metadata(self) -> JSONObject:
         s = self.settings
-        devices: dict[str, Any] = {}
+        devices: dict[str, JSON] = {}
         for reg in registrations():
             devices.update(reg.recorder_metadata(s.devices.get(reg.DEVICE)))
         return {
@@ -268,12 +273,12 @@ class Recorder:
                             mapped=next((w.mapped for w in self.workers
                                          if getattr(w, "mapped", None) is not None), None))
 
-    def _install_signals(self) -> Any:
+    def _install_signals(self) -> Callable[[], None]:
         if threading.current_thread() is not threading.main_thread():
             return lambda: None
         previous: dict[int, Any] = {}
 
-        def handler(signum: int, frame: Any) -> None:
+        def handler(signum: int, frame: FrameType | None) -> None:
             self.stop(f"{signal.Signals(signum).name} received")
 
         for sig in (signal.SIGINT, signal.SIGTERM):

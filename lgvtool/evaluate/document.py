@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
-from typing import Any
 
 from lgvtool import __version__
 from lgvtool.evaluate.evaluation import EvaluationResult
@@ -20,6 +19,7 @@ from lgvtool.evaluate.metrics import RadialStats, TruthStats
 from lgvtool.evaluate.quality import DataQuality, log_quality
 from lgvtool.evaluate.table import MM, Table1, build_table
 from lgvtool.evaluate.verdict import Verdict, summary_line, verdict_dict, verdict_of
+from lgvtool.json_types import JSON, JSONObject, JSONRecord
 
 FORMAT = "lgvtool.evaluation"
 FORMAT_VERSION = 1
@@ -32,7 +32,7 @@ def _num(v: float | None) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def radial_dict(s: RadialStats) -> dict[str, Any]:
+def radial_dict(s: RadialStats) -> JSONObject:
     """Radial statistics in mm / mm^2."""
     return {
         "rmse_mm": _num(s.rmse * MM),
@@ -43,7 +43,7 @@ def radial_dict(s: RadialStats) -> dict[str, Any]:
     }
 
 
-def truth_dict(t: TruthStats) -> dict[str, Any]:
+def truth_dict(t: TruthStats) -> JSONObject:
     """Ground-truth statistics in m / degrees."""
     return {
         "position_rmse_m": _num(t.position_rmse),
@@ -55,18 +55,18 @@ def truth_dict(t: TruthStats) -> dict[str, Any]:
     }
 
 
-def _estimators(table: Table1) -> dict[str, Any]:
-    out: dict[str, Any] = {}
+def _estimators(table: Table1) -> dict[str, JSONObject]:
+    out: dict[str, JSONObject] = {}
     for n in table.estimators:
-        circle = None
+        circle: JSONObject | None = None
         avg = table.average.get(n)
         if avg is not None:
-            rows = []
+            rows: list[JSON] = []
             for r in table.rows:
                 s = r.stats.get(n)
                 if s is None:
                     continue
-                row = {"log": r.log, "number": r.number, "rotation": r.rotation,
+                row: JSONObject = {"log": r.log, "number": r.number, "rotation": r.rotation,
                        "start_s": r.start, "end_s": r.end, **radial_dict(s)}
                 if r.truth_rmse.get(n) is not None:
                     row["truth_position_rmse_mm"] = _num(r.truth_rmse[n] * MM)
@@ -75,7 +75,7 @@ def _estimators(table: Table1) -> dict[str, Any]:
                       "improvement_pct": _num(table.improvement.get(n)),
                       "centre_offset_m": _num(table.centre_offset.get(n)), "rows": rows}
         truth = table.truth.get(n)
-        tblock = None
+        tblock: JSONObject | None = None
         if truth is not None:
             tblock = truth_dict(truth)
             inside = table.truth_in_rotations.get(n)
@@ -84,7 +84,7 @@ def _estimators(table: Table1) -> dict[str, Any]:
     return out
 
 
-def quality_dict(q: DataQuality) -> dict[str, Any]:
+def quality_dict(q: DataQuality) -> JSONObject:
     """The data-quality figures of a log (counts; gap times in s)."""
     longest = max((g.length for g in q.gaps), default=None)
     return {
@@ -108,11 +108,11 @@ def quality_dict(q: DataQuality) -> dict[str, Any]:
 _LEVEL_NAMES = {1: "debug", 2: "info", 3: "warning", 4: "error", 5: "fatal"}
 
 
-def _log_doc(res: EvaluationResult) -> dict[str, Any]:
+def _log_doc(res: EvaluationResult) -> JSONObject:
     table = build_table([res])
     ref = res.reference
-    t_end = max(float(ev.trajectory["t"].iloc[-1]) for ev in res.estimators.values())
-    circles = {}
+    t_end = max(float(ev.trajectory.t[-1]) for ev in res.estimators.values())
+    circles: JSONObject = {}
     for n, ev in res.estimators.items():
         if ev.circle is not None:
             circles[n] = {"centre_x_m": ev.circle.cx, "centre_y_m": ev.circle.cy,
@@ -127,7 +127,7 @@ def _log_doc(res: EvaluationResult) -> dict[str, Any]:
     quality = log_quality(res)
     for n, block in estimators.items():
         if res.settings.get(n):
-            block["settings"] = res.settings[n]
+            block["settings"] = dict(res.settings[n])
     return {
         "log": {"name": res.name, "path": res.path, "source": res.source, "start_s": res.t0,
                 "duration_s": t_end - res.t0, "ground_truth": res.has_truth},
@@ -153,7 +153,7 @@ def _log_doc(res: EvaluationResult) -> dict[str, Any]:
             "boundaries_s": list(res.laps.boundaries),
         },
         "truth_path": radial_dict(res.truth_path) if res.truth_path is not None else None,
-        "estimators": estimators,
+        "estimators": {**estimators},
         "data_quality": None if quality is None else quality_dict(quality),
         "warnings": list(res.warnings),
         "verdict": verdict_dict(res.verdict if res.verdict is not None
@@ -161,13 +161,13 @@ def _log_doc(res: EvaluationResult) -> dict[str, Any]:
     }
 
 
-def build_document(results: Sequence[EvaluationResult]) -> dict[str, Any]:
+def build_document(results: Sequence[EvaluationResult]) -> JSONObject:
     """The JSON-ready document of an evaluation of one or more logs."""
-    head = {"format": FORMAT, "format_version": FORMAT_VERSION, "lgvtool_version": __version__}
+    head: JSONObject = {"format": FORMAT, "format_version": FORMAT_VERSION, "lgvtool_version": __version__}
     if len(results) == 1:
         return {**head, **_log_doc(results[0])}
     table = build_table(results)
-    per_log = [_log_doc(r) for r in results]
+    per_log: list[JSON] = [_log_doc(r) for r in results]
     return {
         **head,
         "log": {"name": "all", "logs": len(results), "paths": [r.path for r in results],
@@ -176,7 +176,7 @@ def build_document(results: Sequence[EvaluationResult]) -> dict[str, Any]:
         "rotations": {"complete": sum(r.laps.complete for r in results),
                       "partial": sum(r.laps.partial for r in results)},
         "truth_path": None,
-        "estimators": _estimators(table),
+        "estimators": {**_estimators(table)},
         "warnings": [f"{r.name}: {w}" for r in results for w in r.warnings],
         "verdict": None,
         "verdict_summary": summary_line([_verdict(r) for r in results]),
@@ -188,7 +188,7 @@ def _verdict(res: EvaluationResult) -> Verdict:
     return res.verdict if res.verdict is not None else verdict_of(res)
 
 
-def _plain(value: Any) -> Any:
+def _plain(value: object) -> JSON:
     """JSON-safe copy: non-finite numbers become null, tuples lists, numpy scalars Python."""
     if isinstance(value, dict):
         return {str(k): _plain(v) for k, v in value.items()}
@@ -204,6 +204,6 @@ def _plain(value: Any) -> Any:
     return str(value)
 
 
-def to_json(doc: dict[str, Any]) -> str:
+def to_json(doc: JSONRecord) -> str:
     """The document as indented JSON text (NaN never appears: missing figures are null)."""
     return json.dumps(_plain(doc), indent=2, allow_nan=False) + "\n"

@@ -1,8 +1,9 @@
 """Evaluate the trajectories of one drive: reference circle, rotations, metrics. Pure: no I/O.
 
-Inputs are pandas DataFrames with columns t (s), x (m), y (m), heading (rad), one per estimator,
-plus optionally the ground truth in the same layout. :func:`evaluate_trajectories` returns an
-:class:`EvaluationResult`; the command line, the report and the fleet engine all start there.
+Inputs are trajectories (:class:`lgvtool.trajectory.Trajectory`: t in s, x and y in m, heading
+in rad), one per estimator, plus optionally the ground truth, all on one clock.
+:func:`evaluate_trajectories` returns an :class:`EvaluationResult`; the command line, the
+report and the fleet engine all start there.
 
 Steps (docs/evaluation.md):
 
@@ -22,7 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -48,12 +49,15 @@ from lgvtool.evaluate.reference import (
     circles_and_laps,
     reference_info,
 )
+from lgvtool.trajectory import Trajectory
 
 if TYPE_CHECKING:
+    from lgvtool.config import Reflector
     from lgvtool.evaluate.verdict import Verdict
+    from lgvtool.json_types import JSONRecord
 
 __all__ = ["BASELINE", "EstimatorEvaluation", "EvaluationResult", "ReferenceInfo", "Rotation",
-           "clean_trajectory", "evaluate_trajectories"]
+           "evaluate_trajectories"]
 
 BASELINE = "laser"
 """The estimator that improvements are measured against."""
@@ -80,8 +84,9 @@ class EstimatorEvaluation:
     """Everything computed for one estimator on one drive."""
 
     name: str
-    trajectory: pd.DataFrame
-    """Columns t (s), x (m), y (m), heading (rad)."""
+    trajectory: Trajectory
+    """The poses scored (cleaned: sorted, finite, one per time): t (s), x, y (m), heading
+    (rad)."""
     circle: Circle | None = None
     """The circle the estimator is scored against (None: no circle metrics)."""
     fitted: Circle | None = None
@@ -112,20 +117,22 @@ class EvaluationResult:
     estimators: dict[str, EstimatorEvaluation]
     reference: ReferenceInfo
     laps: Laps
-    truth: pd.DataFrame | None = None
+    truth: Trajectory | None = None
+    """The ground truth (cleaned), on the estimators' clock."""
     truth_path: RadialStats | None = None
     """Radial statistics of the true path about the lap source's circle, over the complete
     rotations: how far the real drive is from the ideal circle."""
     truth_circle: Circle | None = None
     reference_circle: Circle | None = None
     """The circle of the truth if given, else of the lap source (drawn in the plots)."""
-    reflectors: tuple[Any, ...] = ()
+    reflectors: tuple[Reflector, ...] = ()
     """Reflector map (objects with id, x, y in m) for the plots."""
     warnings: list[str] = field(default_factory=list)
     path: str | None = None
     source: str = "log"
     """'log': estimates read from the log; 'replay': estimators run by evaluate."""
-    settings: dict[str, Any] = field(default_factory=dict)
+    settings: dict[str, JSONRecord] = field(default_factory=dict)
+    """Each estimator run's settings as it ran (name -> {setting: value})."""
     t0: float = 0.0
     """Start of the drive, s (plots show time since t0)."""
     quality: DataQuality | None = None
@@ -144,40 +151,29 @@ class EvaluationResult:
     @property
     def has_truth(self) -> bool:
         """True when the drive has ground truth."""
-        return self.truth is not None and not self.truth.empty
-
-
-def clean_trajectory(df: pd.DataFrame, name: str) -> pd.DataFrame:
-    """Columns t, x, y, heading as float, sorted by time, rows without a finite position or
-    time dropped, duplicate times collapsed to the last. A missing heading column is NaN."""
-    missing = [c for c in ("t", "x", "y") if c not in df.columns]
-    if missing:
-        raise InputError(f"trajectory '{name}' lacks column(s) {', '.join(missing)}")
-    out = pd.DataFrame({c: pd.to_numeric(df[c], errors="coerce") for c in ("t", "x", "y")})
-    out["heading"] = (
-        pd.to_numeric(df["heading"], errors="coerce") if "heading" in df.columns else math.nan
-    )
-    out = out[np.isfinite(out["t"]) & np.isfinite(out["x"]) & np.isfinite(out["y"])]
-    out = out.sort_values("t", kind="stable").drop_duplicates("t", keep="last")
-    return out.reset_index(drop=True).astype(float)
+        return self.truth is not None and len(self.truth) > 0
 
 
 def evaluate_trajectories(
-    trajectories: Mapping[str, pd.DataFrame],
+    trajectories: Mapping[str, Trajectory | pd.DataFrame],
     *,
-    truth: pd.DataFrame | None = None,
+    truth: Trajectory | pd.DataFrame | None = None,
     steering_angle: float | None,
     steering_source: str = "config",
     h: float,
     shared_centre: bool = False,
     free_radius: bool = False,
     name: str = "",
-    reflectors: Sequence[Any] = (),
+    reflectors: Sequence[Reflector] = (),
     lap_source: str | None = None,
     circle_from: CircleFrom | None = None,
 ) -> EvaluationResult:
-    """Evaluate the ``trajectories`` (name -> DataFrame t, x, y, heading in s, m, rad) of one
-    drive against the reference circle and, if given, the ``truth`` (same columns).
+    """Evaluate the ``trajectories`` (name -> poses of O: t in s, x, y in m, heading in rad)
+    of one drive against the reference circle and, if given, the ``truth``. Each is cleaned
+    first (:meth:`~lgvtool.trajectory.Trajectory.clean`: sorted, finite, one pose per time);
+    trajectories counted from different origins are all put on the epoch's clock. A DataFrame
+    (columns t s since the epoch, x, y m, heading rad) is taken as its trajectory
+    (:meth:`~lgvtool.trajectory.Trajectory.of`).
 
     ``steering_angle`` (rad) and ``h`` (m) give the kinematic radius; ``None`` means no
     reference circle (ground-truth metrics only). ``lap_source`` names the trajectory whose
@@ -189,20 +185,28 @@ def evaluate_trajectories(
     reference circle nor ground truth.
     """
     warnings: list[str] = []
-    trajs: dict[str, pd.DataFrame] = {}
-    for est, df in trajectories.items():
-        clean = clean_trajectory(df, est)
+    given = {n: Trajectory.of(v, n) for n, v in trajectories.items()}
+    true_given = None if truth is None else Trajectory.of(truth, "truth")
+    origins = {tr.t0_ns for tr in (*given.values(), *([] if true_given is None else [true_given]))}
+    epoch = len(origins) > 1  # put them all on one clock, the epoch's
+
+    def cleaned(tr: Trajectory) -> Trajectory:
+        return (tr.on_epoch() if epoch else tr).clean()
+
+    trajs: dict[str, Trajectory] = {}
+    for est, tr in given.items():
+        clean = cleaned(tr)
         if len(clean) < MIN_SAMPLES:
             warnings.append(f"estimator '{est}' has {len(clean)} usable pose(s): left out")
             continue
         trajs[est] = clean
     if not trajs:
         raise InputError(f"{name or 'log'}: no usable trajectory (no estimator produced poses)")
-    true_df = clean_trajectory(truth, "truth") if truth is not None else None
+    true_df = cleaned(true_given) if true_given is not None else None
     if true_df is not None and len(true_df) < 2:
         warnings.append("the ground truth has fewer than 2 poses: left out")
         true_df = None
-    t0 = min(float(df["t"].iloc[0]) for df in trajs.values())
+    t0 = min(float(tr.t[0]) for tr in trajs.values())
 
     info, warn = reference_info(steering_angle, steering_source, h, free_radius, shared_centre,
                             has_truth=true_df is not None, name=name,
@@ -236,9 +240,9 @@ def evaluate_trajectories(
                                                                      base.average.rmse))
     truth_path = None
     if true_df is not None and truth_circle is not None and laps.complete:
-        inside = laps.index(true_df["t"]) > 0
-        truth_path = radial_stats(truth_circle.radial_error(true_df["x"][inside],
-                                                            true_df["y"][inside]))
+        inside = laps.index(true_df.t) > 0
+        truth_path = radial_stats(truth_circle.radial_error(true_df.x[inside],
+                                                            true_df.y[inside]))
     return EvaluationResult(
         name=name, estimators=evaluations, reference=info, laps=laps, truth=true_df,
         truth_path=truth_path, truth_circle=truth_circle, reference_circle=ref_circle,
@@ -284,10 +288,10 @@ def _by_group(keys: NDArray[np.int64], values: ArrayLike, n: int) -> list[NDArra
 
 def _evaluate_one(
     name: str,
-    df: pd.DataFrame,
+    df: Trajectory,
     circle: Circle | None,
     laps: Laps,
-    true_df: pd.DataFrame | None,
+    true_df: Trajectory | None,
     free: bool,
 ) -> EstimatorEvaluation:
     terr = tstats = None
@@ -298,14 +302,14 @@ def _evaluate_one(
             terr = tstats = None
     if circle is None:
         return EstimatorEvaluation(name, df, truth_error=terr, truth=tstats)
-    t = df["t"].to_numpy()
-    err = circle.radial_error(df["x"], df["y"])
+    t = df.t
+    err = circle.radial_error(df.x, df.y)
     rot = laps.index(t)
     radial = pd.DataFrame({"t": t, "error": err, "rotation": rot})
     scored = rot > 0
     fitted = None
     if scored.sum() >= MIN_SAMPLES:
-        fitted = circle if free else fit_geometric(df["x"][scored], df["y"][scored], trim=TRIM,
+        fitted = circle if free else fit_geometric(df.x[scored], df.y[scored], trim=TRIM,
                                                    start=circle)
     rows = []
     # each rotation's samples in their order, found by one sort (not one pass per rotation)

@@ -362,7 +362,7 @@ def _facts(res: EvaluationResult) -> str:
 
 
 def _duration(res: EvaluationResult) -> float:
-    ends = [float(ev.trajectory["t"].iloc[-1]) for ev in res.estimators.values()
+    ends = [float(ev.trajectory.t[-1]) for ev in res.estimators.values()
             if len(ev.trajectory)]
     return max(ends, default=res.t0) - res.t0
 
@@ -517,9 +517,8 @@ def _true_speed(res: EvaluationResult) -> float | None:
     """Median speed of O along the true path while moving, m/s."""
     if res.truth is None or len(res.truth) < 3:
         return None
-    t = res.truth["t"].to_numpy(dtype=float)
-    d = np.hypot(np.diff(res.truth["x"].to_numpy(dtype=float)),
-                 np.diff(res.truth["y"].to_numpy(dtype=float)))
+    t = res.truth.t
+    d = np.hypot(np.diff(res.truth.x), np.diff(res.truth.y))
     dt = np.diff(t)
     v = d[dt > 0] / dt[dt > 0]
     v = v[np.isfinite(v) & (v > 0.01)]

@@ -13,30 +13,38 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Protocol, TypedDict
 
 if TYPE_CHECKING:
-    import pandas as pd
+    from numpy.typing import ArrayLike
 
     from lgvtool.config import Config
     from lgvtool.evaluate.evaluation import EvaluationResult
     from lgvtool.evaluate.log_inputs import EvaluationInputs
+    from lgvtool.evaluate.quality import DataQuality
+    from lgvtool.json_types import JSON, JSONRecord, SettingValue
     from lgvtool.log import LogReader
     from lgvtool.progress import Progress
+    from lgvtool.trajectory import Trajectory
 
-AddTrajectories = Callable[..., "dict[str, pd.DataFrame]"]
-"""Adds other tools' trajectories to the log's: ``(trajectories, foreign, truth, *, log)`` ->
-the trajectories scored (:func:`lgvtool.interop.foreign_trajectories.add_foreign`)."""
+class AddTrajectories(Protocol):
+    """Adds other tools' trajectories to the log's: ``(trajectories, foreign, truth, *, log)``
+    -> the trajectories scored (:func:`lgvtool.interop.foreign_trajectories.add_foreign`)."""
+
+    def __call__(self, trajectories: Mapping[str, Trajectory],
+                 foreign: Mapping[str, Trajectory], truth: Trajectory | None = None, *,
+                 log: str = "log") -> dict[str, Trajectory]: ...
 
 
 def _estimates_from_log(
     reader: LogReader, names: Sequence[str] | None, read: EvaluationInputs
-) -> dict[str, pd.DataFrame] | None:
+) -> dict[str, Trajectory] | None:
     """The log's own estimates of O (t, x, y, heading), read in one pass with what ``read``
     takes (the truth, the steering, the data quality); None when the log holds none."""
     from lgvtool.errors import InputError
     from lgvtool.localize.registry import check_names, in_run_order
     from lgvtool.log import topics
+    from lgvtool.trajectory import Trajectory
 
     present = in_run_order(topics.estimator_names(reader.topic_names()))
     if not present:
@@ -49,20 +57,29 @@ def _estimates_from_log(
                              f"(it holds {', '.join(present)}); run lgvtool replay first")
         present = list(names)
     tables = reader.dataframes([topics.estimate_pose(n) for n in present], tap=read)
-    return {n: tables[topics.estimate_pose(n)][["t", "x", "y", "heading"]] for n in present}
+    return {n: Trajectory.from_frame(tables[topics.estimate_pose(n)], name=n) for n in present}
+
+
+class _ReplayStart(TypedDict, total=False):
+    """The keyword arguments of ``run_replay`` that an evaluation gives only when it has
+    them: where the estimators start, and the progress callback (count of steps done)."""
+
+    initial_pose: str
+    progress: Callable[[int], None]
 
 
 def _run_estimators(
     reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
-    settings: Mapping[str, Any] | None, warnings: list[str], start_at_truth: bool = False,
+    settings: Mapping[str, SettingValue] | None, warnings: list[str],
+    start_at_truth: bool = False,
     progress: Progress | None = None, read: EvaluationInputs | None = None,
     threads: int | None = None,
-) -> tuple[dict[str, pd.DataFrame], dict[str, Any]]:
+) -> tuple[dict[str, Trajectory], dict[str, JSONRecord]]:
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
     from lgvtool.log import topics
 
     chosen = list(names) if names else list(DEFAULT_ESTIMATORS)
-    start: dict[str, Any] = {"initial_pose": "truth"} if start_at_truth else {}
+    start: _ReplayStart = {"initial_pose": "truth"} if start_at_truth else {}
     if progress is not None and progress.enabled:
         # at most every scan and every NAV pose, per estimator
         infos = reader.topics()
@@ -73,7 +90,7 @@ def _run_estimators(
                      tap=read, threads=threads, **start)
     for name, reason in (getattr(out, "skipped", None) or {}).items():
         warnings.append(f"estimator '{name}' left out: {reason}")
-    return dict(out.trajectories), dict(out.settings)
+    return out.trajectories, dict(out.settings)
 
 
 def evaluate_log(
@@ -82,13 +99,13 @@ def evaluate_log(
     estimators: Sequence[str] | None = None,
     config: Config | None = None,
     seed: int = 0,
-    settings: Mapping[str, Any] | None = None,
+    settings: Mapping[str, SettingValue] | None = None,
     shared_centre: bool = False,
     free_radius: bool = False,
     lap_source: str | None = None,
     start_at_truth: bool = False,
     replay: bool = False,
-    trajectories: Mapping[str, pd.DataFrame] | None = None,
+    trajectories: Mapping[str, Trajectory] | None = None,
     add_trajectories: AddTrajectories | None = None,
     progress: Progress | None = None,
     threads: int | None = 1,
@@ -108,7 +125,7 @@ def evaluate_log(
     ``import ros2 --circle-from``). Raises :class:`~lgvtool.errors.InputError` (or a
     subclass) for a log that cannot be evaluated. ``replay=True`` runs the estimators even when
     the log holds estimates of its own (parameter sweeps over logs written by ``replay``).
-    ``trajectories`` (name -> DataFrame t, x, y, heading of O) are scored beside them
+    ``trajectories`` (name -> poses of O, t in s since the epoch) are scored beside them
     (``--trajectory``), added by ``add_trajectories`` (required with them; the evaluate job
     passes :func:`lgvtool.interop.foreign_trajectories.add_foreign`, a layer above this one).
     ``progress`` (a :class:`lgvtool.progress.Progress`) shows the estimators' progress;
@@ -132,7 +149,7 @@ def evaluate_log(
     read = EvaluationInputs(reader)
     trajs = None if replay else _estimates_from_log(reader, estimators, read)
     source = "log"
-    used: dict[str, Any] = {}
+    used: dict[str, JSONRecord] = {}
     if trajs is None:
         with collector_paused():
             trajs, used = _run_estimators(reader, estimators, cfg, seed, settings, warnings,
@@ -145,9 +162,7 @@ def evaluate_log(
         if settings:
             warnings.append("--set has no effect: the log's own estimates are scored (evaluate a "
                             "log without /estimate/* channels to run the estimators)")
-    truth: pd.DataFrame | None = read.truth_table()
-    if truth is not None and truth.empty:
-        truth = None
+    truth = read.truth()
     if trajectories:
         if add_trajectories is None:
             raise TypeError("evaluate_log: trajectories given without add_trajectories")
@@ -182,7 +197,7 @@ def evaluate_log(
     return result
 
 
-def _median_moving_speed(speeds: Any) -> float | None:
+def _median_moving_speed(speeds: ArrayLike) -> float | None:
     """Median |drive-wheel speed| of the MCU frames while moving, m/s (None: never moving)."""
     import numpy as np
 
@@ -201,7 +216,7 @@ SCAN_KINDS: dict[str, str] = {
 tables and the report name a log's reflector observations."""
 
 
-def scan_kind(metadata: Mapping[str, Any]) -> str:
+def scan_kind(metadata: Mapping[str, JSONRecord]) -> str:
     """What a log's reflector observations (``/nav/reflectors``) are, in words: the NAV200's
     scans of the paper's setup (a simulated log made with ``sim.paper_scans``), a NAV350's
     landmarks (a NAV350 recording, simulated or real), else "reflector scans"."""
@@ -215,8 +230,8 @@ def scan_kind(metadata: Mapping[str, Any]) -> str:
 
 
 def _observations_used(
-    reader: LogReader, cfg: Config, names: Sequence[str], used: Mapping[str, Any], source: str,
-    foreign: set[str], from_truth: bool, quality: Any,
+    reader: LogReader, cfg: Config, names: Sequence[str], used: Mapping[str, JSONRecord],
+    source: str, foreign: set[str], from_truth: bool, quality: DataQuality | None,
 ) -> dict[str, str]:
     """What each estimator updated with, from its class, its settings (those evaluate ran it
     with, else those ``replay`` stored in the log's metadata) and what the log holds, as the
@@ -228,7 +243,7 @@ def _observations_used(
         from lgvtool.localize.registry import ESTIMATORS
     except ImportError:  # estimators stood in for (lgvtool.localize replaced by a module)
         return dict.fromkeys(names, "unknown")
-    settings: Mapping[str, Any] = used
+    settings: Mapping[str, JSONRecord | JSON] = used
     if source == "log":
         stored = (reader.metadata.get("replay") or {}).get("settings")
         settings = stored if isinstance(stored, Mapping) else {}

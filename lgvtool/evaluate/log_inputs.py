@@ -20,10 +20,9 @@ from lgvtool.errors import LgvError, LogFormatError, decoding_error
 from lgvtool.evaluate.quality import DataQuality, QualityInputs
 from lgvtool.log import topics as T
 from lgvtool.log.frames import SteeringColumns, TopicTables
+from lgvtool.trajectory import Trajectory
 
 if TYPE_CHECKING:
-    import pandas as pd
-
     from lgvtool.log import LogReader
     from lgvtool.log.reader import RawBlock
 
@@ -65,15 +64,14 @@ class EvaluationInputs:
             except (KeyError, TypeError, ValueError, AttributeError):
                 self._inputs = None
 
-    def truth_table(self) -> pd.DataFrame:
-        """The truth's t, x, y, heading in log-time order, as :meth:`LogReader.dataframe`
-        gives them; empty without truth. Call it once."""
-        import pandas as pd
-
+    def truth(self) -> Trajectory | None:
+        """The truth's poses of O (t s since the epoch, x, y m, heading rad) as
+        :meth:`LogReader.dataframe` gives them, cleaned (sorted, finite, one pose per time);
+        None when the log has no message of truth. Call it once."""
         table = self._truth.tables().get(T.TRUTH)
-        if table is None:
-            return pd.DataFrame(columns=["t", "x", "y", "heading"], dtype=float)
-        return table[["t", "x", "y", "heading"]]
+        if table is None or table.empty:
+            return None
+        return Trajectory.from_frame(table, name="truth")
 
     def steering_columns(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Steering angle (rad, NaN where a frame has none) and absolute drive speed (m/s, 0

@@ -24,11 +24,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from lgvtool.angles import wrap_angle
+from lgvtool.trajectory import SYNC_MAX_GAP
 
 if TYPE_CHECKING:
     import pandas as pd
 
-TRUTH_MAX_GAP = 0.5
+    from lgvtool.trajectory import Trajectory
+
+TRUTH_MAX_GAP = SYNC_MAX_GAP
 """Longest gap between two truth samples that interpolation always bridges, s. Longer
 intervals are bridged too as long as they are within 5 times the truth's median interval."""
 
@@ -87,57 +90,40 @@ def improvement(value: float, reference: float) -> float:
 
 
 def associate_truth(
-    estimate: pd.DataFrame, truth: pd.DataFrame, *, max_gap: float = TRUTH_MAX_GAP
+    estimate: Trajectory | pd.DataFrame, truth: Trajectory | pd.DataFrame, *,
+    max_gap: float = TRUTH_MAX_GAP
 ) -> pd.DataFrame:
-    """The truth interpolated at the estimate's times.
+    """The truth interpolated at the estimate's times (:meth:`Trajectory.sync`: times in s,
+    x, y in m, heading in rad, both on one clock).
 
-    Both frames have columns t (s), x (m), y (m), heading (rad). Returns the estimate rows that
-    can be associated with columns t, x, y, heading, x_true, y_true, heading_true.
+    Returns the estimate rows that can be associated with columns t, x, y, heading, x_true,
+    y_true, heading_true.
     """
     import pandas as pd
 
-    tt = truth["t"].to_numpy(dtype=float)
-    order = np.argsort(tt, kind="stable")
-    tt = tt[order]
-    keep_unique = np.concatenate([[True], np.diff(tt) > 0]) if tt.size else np.array([], bool)
-    tt = tt[keep_unique]
-    cols = ["t", "x", "y", "heading", "x_true", "y_true", "heading_true"]
-    if tt.size < 2 or estimate.empty:
-        return pd.DataFrame({c: np.array([], dtype=float) for c in cols})
-    tx = truth["x"].to_numpy(dtype=float)[order][keep_unique]
-    ty = truth["y"].to_numpy(dtype=float)[order][keep_unique]
-    th = np.unwrap(truth["heading"].to_numpy(dtype=float)[order][keep_unique])
-    te = estimate["t"].to_numpy(dtype=float)
-    inside = (te >= tt[0]) & (te <= tt[-1])
-    idx = np.clip(np.searchsorted(tt, te, side="right"), 1, tt.size - 1)
-    limit = max(max_gap, 5.0 * float(np.median(np.diff(tt))))
-    bridged = (tt[idx] - tt[idx - 1]) <= limit
-    ok = inside & bridged
-    te = te[ok]
-    return pd.DataFrame(
-        {
-            "t": te,
-            "x": estimate["x"].to_numpy(dtype=float)[ok],
-            "y": estimate["y"].to_numpy(dtype=float)[ok],
-            "heading": estimate["heading"].to_numpy(dtype=float)[ok],
-            "x_true": np.interp(te, tt, tx),
-            "y_true": np.interp(te, tt, ty),
-            "heading_true": wrap_angle(np.interp(te, tt, th)),
-        }
-    )
+    from lgvtool.trajectory import Trajectory
+
+    mine, true = Trajectory.of(estimate, "estimate").sync(Trajectory.of(truth, "truth"),
+                                                         max_gap=max_gap)
+    return pd.DataFrame({"t": mine.t, "x": mine.x, "y": mine.y, "heading": mine.heading,
+                         "x_true": true.x, "y_true": true.y, "heading_true": true.heading})
 
 
-def truth_errors(estimate: pd.DataFrame, truth: pd.DataFrame, **kwargs: float) -> pd.DataFrame:
+def truth_errors(estimate: Trajectory | pd.DataFrame, truth: Trajectory | pd.DataFrame, *,
+                 max_gap: float = TRUTH_MAX_GAP) -> pd.DataFrame:
     """Per-sample errors against the interpolated truth: columns t (s), position_error (m,
     Euclidean), heading_error (rad, wrapped, estimate minus truth)."""
     import pandas as pd
 
-    a = associate_truth(estimate, truth, **kwargs)
+    from lgvtool.trajectory import Trajectory
+
+    mine, true = Trajectory.of(estimate, "estimate").sync(Trajectory.of(truth, "truth"),
+                                                         max_gap=max_gap)
     return pd.DataFrame(
         {
-            "t": a["t"].to_numpy(),
-            "position_error": np.hypot(a["x"] - a["x_true"], a["y"] - a["y_true"]).to_numpy(),
-            "heading_error": wrap_angle(a["heading"] - a["heading_true"]),
+            "t": mine.t,
+            "position_error": np.hypot(mine.x - true.x, mine.y - true.y),
+            "heading_error": wrap_angle(mine.heading - true.heading),
         }
     )
 

@@ -45,6 +45,7 @@ from lgvtool.evaluate.evaluation import EvaluationResult
 from lgvtool.evaluate.quality import DataQuality
 from lgvtool.evaluate.table import MM, Table1, estimator_order
 from lgvtool.extras import require
+from lgvtool.json_types import JSONObject
 
 MAX_POINTS = 5000
 """Traces longer than this are decimated (every k-th sample) to keep the report small."""
@@ -108,13 +109,13 @@ phone); plotly makes room for them below the axis, its tick labels and its title
 MARGIN: dict[str, int] = {"l": 60, "r": 16, "t": 56, "b": 8}
 
 
-def _layout(fig: go.Figure, *, title: str, height: int, **more: Any) -> None:
+def _layout(fig: go.Figure, *, title: str, height: int, **more: object) -> None:
     """The layout every report figure shares: title, legend below, narrow margins."""
     fig.update_layout(title={"text": title, "x": 0.0, "xanchor": "left"}, height=height,
                       legend=LEGEND_BELOW, margin=MARGIN, **more)
 
 
-def _narrow(fig: go.Figure, narrow: dict[str, Any], wide: dict[str, Any]) -> None:
+def _narrow(fig: go.Figure, narrow: JSONObject, wide: JSONObject) -> None:
     """Store in ``layout.meta`` the relayout the report's script applies below
     :data:`NARROW_PX` of width (``narrow``) and gives back above it (``wide``)."""
     fig.update_layout(meta={"narrow": narrow, "wide": wide, "narrow_px": NARROW_PX})
@@ -156,14 +157,14 @@ def trajectory_figure(res: EvaluationResult, *, title: str | None = None) -> go.
             df = res.estimators[n].trajectory
             s = _decimate(len(df))
             fig.add_trace(go.Scatter(
-                x=df["x"].to_numpy()[s], y=df["y"].to_numpy()[s], mode="lines", name=n,
+                x=df.x[s], y=df.y[s], mode="lines", name=n,
                 legendgroup=n, showlegend=show, line={"color": col[n], "width": 1.5}),
                 row=1, col=c)
         if res.truth is not None:
             # drawn last, so on top of the estimates, dotted so they show through
             s = _decimate(len(res.truth))
             fig.add_trace(go.Scatter(
-                x=res.truth["x"].to_numpy()[s], y=res.truth["y"].to_numpy()[s], mode="lines",
+                x=res.truth.x[s], y=res.truth.y[s], mode="lines",
                 name="truth", legendgroup="truth", showlegend=show,
                 line={"color": TRUTH_COLOUR, "width": 1.5, "dash": "dot"}), row=1, col=c)
     if circle is not None:
@@ -174,8 +175,7 @@ def trajectory_figure(res: EvaluationResult, *, title: str | None = None) -> go.
         ref = res.truth if res.truth is not None else next(
             (ev.trajectory for ev in res.estimators.values() if len(ev.trajectory)), None)
         if ref is not None and len(ref):
-            (x0, x1), (y0, y1) = (np.nanpercentile(ref[k].to_numpy(dtype=float), [1.0, 99.0])
-                                  for k in ("x", "y"))
+            (x0, x1), (y0, y1) = (np.nanpercentile(v, [1.0, 99.0]) for v in (ref.x, ref.y))
             pad = 0.15 * max(x1 - x0, y1 - y0, 0.5)
             fig.update_xaxes(range=[x0 - pad, x1 + pad], row=1, col=2)
             fig.update_yaxes(range=[y0 - pad, y1 + pad], row=1, col=2)
@@ -362,7 +362,7 @@ def radial_error_figure(res: EvaluationResult, *, title: str | None = None) -> g
 
 def _span(res: EvaluationResult) -> float:
     """Time covered by the estimates, s."""
-    ends = [float(ev.trajectory["t"].iloc[-1]) for ev in res.estimators.values()
+    ends = [float(ev.trajectory.t[-1]) for ev in res.estimators.values()
             if len(ev.trajectory)]
     return max(ends, default=res.t0) - res.t0
 

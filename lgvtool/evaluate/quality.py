@@ -20,10 +20,12 @@ from __future__ import annotations
 import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
+
+from lgvtool.json_types import JSONObject, JSONRecord, as_int, member_or
 
 if TYPE_CHECKING:
     from lgvtool.evaluate.evaluation import EvaluationResult
@@ -92,7 +94,7 @@ def find_gaps(topic: str, t: NDArray[np.float64], *, factor: float = GAP_FACTOR,
     return [Gap(topic, float(t[i]), float(dt[i])) for i in idx.tolist()]
 
 
-def summarise(diagnostics: Sequence[Mapping[str, Any]], *, t0: float, duration: float,
+def summarise(diagnostics: Sequence[JSONRecord], *, t0: float, duration: float,
               nav_valid: Sequence[bool] | NDArray[np.bool_] = (),
               topic_times: Mapping[str, NDArray[np.float64]] | None = None) -> DataQuality:
     """The data quality from ``/diagnostics`` dicts, the NAV poses' ``valid`` flags and the
@@ -100,20 +102,20 @@ def summarise(diagnostics: Sequence[Mapping[str, Any]], *, t0: float, duration: 
     q = DataQuality(t0=t0, duration=duration)
     for d in diagnostics:
         source, kind = str(d.get("source", "?")), str(d.get("kind", "?"))
-        level = int(d.get("level", 0))
-        n = max(int(d.get("count", 1) or 1), 1)
+        level = as_int(d.get("level", 0))
+        n = max(as_int(d.get("count", 1) or 1), 1)
         details = d.get("details") or {}
         ts = d.get("timestamp") or {}
-        t = (int(ts.get("sec", 0)) + int(ts.get("nsec", 0)) * 1e-9) - t0
+        t = (as_int(member_or(ts, "sec", 0)) + as_int(member_or(ts, "nsec", 0)) * 1e-9) - t0
         q.by_kind[(source, kind)] = q.by_kind.get((source, kind), 0) + n
         q.by_level[level] = q.by_level.get(level, 0) + n
         q.events.append((t, source, kind, level, n))
         if kind == "seq_gap":
-            q.dropped_frames += int(details.get("missing_frames", n))
+            q.dropped_frames += as_int(member_or(details, "missing_frames", n))
         elif kind in CORRUPT_KINDS:
             q.corrupt_frames[source] = q.corrupt_frames.get(source, 0) + n
         elif kind == "bytes_skipped":
-            q.skipped_bytes += int(details.get("skipped_bytes", 0))
+            q.skipped_bytes += as_int(member_or(details, "skipped_bytes", 0))
         elif kind == "unanswered":
             q.nav_unanswered += n
     valid = np.asarray(nav_valid, dtype=bool)
@@ -142,7 +144,7 @@ class QualityInputs:
         #: the topics to read (those of the log)
         self.topics = [t for t in (topics.DIAGNOSTICS, topics.NAV_POSE, *GAP_TOPICS)
                        if reader.has_topic(t)]
-        self._diags: list[dict[str, Any]] = []
+        self._diags: list[JSONObject] = []
         self._valid: list[bool] = []
         self._stamps: dict[str, list[NDArray[np.int64]]] = {}
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -41,9 +41,12 @@ from lgvtool.circle import (
 from lgvtool.errors import InputError
 from lgvtool.evaluate.laps import Laps, segment_laps
 from lgvtool.evaluate.metrics import radial_stats
+from lgvtool.json_types import JSONRecord, as_float
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from lgvtool.trajectory import Trajectory
 
 MIN_SAMPLES = 3
 """Fewest samples that make a trajectory usable."""
@@ -108,7 +111,7 @@ class CircleFrom:
     """How the log came to name it, for the messages (e.g. 'import ros2 --circle-from')."""
 
 
-def circle_from_log(metadata: Mapping[str, Mapping[str, Any]]) -> CircleFrom | None:
+def circle_from_log(metadata: Mapping[str, JSONRecord]) -> CircleFrom | None:
     """The reference a log names (the ``circle_reference`` entry of its ``importer`` metadata
     record), or None (the default order) when it names none or leaves the choice to the
     evaluation (``option`` 'auto').
@@ -123,8 +126,8 @@ def circle_from_log(metadata: Mapping[str, Mapping[str, Any]]) -> CircleFrom | N
         "  ", " ")
     if kind == "topic":
         try:
-            circle = Circle(float(record["centre_x_m"]), float(record["centre_y_m"]),
-                            float(record["radius_m"]))
+            circle = Circle(as_float(record["centre_x_m"]), as_float(record["centre_y_m"]),
+                            as_float(record["radius_m"]))
         except (KeyError, TypeError, ValueError):
             raise InputError("the log's circle_reference names a topic's circle without its "
                              "centre_x_m, centre_y_m and radius_m") from None
@@ -197,7 +200,7 @@ def steering_from_frames(frames: pd.DataFrame | None) -> float | None:
 
 
 def fit_circles(
-    trajs: Mapping[str, pd.DataFrame],
+    trajs: Mapping[str, Trajectory],
     masks: Mapping[str, np.ndarray] | None,
     radius: float | None,
     shared: bool,
@@ -212,7 +215,7 @@ def fit_circles(
         m = np.ones(len(df), bool) if masks is None else masks[name]
         if m.sum() < MIN_SAMPLES:
             m = np.ones(len(df), bool)
-        return df["x"].to_numpy()[m], df["y"].to_numpy()[m]
+        return df.x[m], df.y[m]
 
     def first(name: str) -> Circle | None:
         return None if start is None else start.get(name)
@@ -231,14 +234,14 @@ def fit_circles(
 
 
 def choose_lap_source(
-    trajs: Mapping[str, pd.DataFrame], circles: Mapping[str, Circle], prefer: str | None
+    trajs: Mapping[str, Trajectory], circles: Mapping[str, Circle], prefer: str | None
 ) -> str:
     """``prefer`` if it is among ``trajs``, else the trajectory with the smallest radial RMSE
     about its circle (ties broken by name)."""
     if prefer is not None and prefer in trajs:
         return prefer
     scores = {
-        n: radial_stats(circles[n].radial_error(df["x"], df["y"])).rmse for n, df in trajs.items()
+        n: radial_stats(circles[n].radial_error(df.x, df.y)).rmse for n, df in trajs.items()
     }
     return min(scores, key=lambda n: (scores[n], n))
 
@@ -315,22 +318,22 @@ def reference_info(
     raise InputError(f"{who}: an unknown circle reference '{cf.kind}'")
 
 
-def _laps_about(name: str, df: pd.DataFrame, circle: Circle, what: str,
+def _laps_about(name: str, df: Trajectory, circle: Circle, what: str,
                 warnings: list[str]) -> Laps | None:
     """The laps of trajectory ``name`` (t s, x, y m) about ``circle`` (``what``: how the
     warning names it); None, with a warning, when the trajectory does not follow it."""
-    spread = radial_stats(circle.radial_error(df["x"], df["y"])).rmse
+    spread = radial_stats(circle.radial_error(df.x, df.y)).rmse
     if not follows_circle(spread, circle.r):
         warnings.append(
             f"the trajectory '{name}' does not follow {what} (radial RMSE {spread * 1e3:.0f} mm "
             f"about a {circle.r:.3f} m circle): circle metrics left out")
         return None
-    return segment_laps(df["t"], df["x"], df["y"], circle, source=name)
+    return segment_laps(df.t, df.x, df.y, circle, source=name)
 
 
 def circles_and_laps(
-    trajs: dict[str, pd.DataFrame],
-    true_df: pd.DataFrame | None,
+    trajs: dict[str, Trajectory],
+    true_df: Trajectory | None,
     radius: float | None,
     shared: bool,
     lap_source: str | None,
@@ -348,7 +351,7 @@ def circles_and_laps(
     candidates = dict(trajs)
     fitted = dict(circles)
     if true_df is not None:
-        truth_circle = fit_circle(true_df["x"], true_df["y"], radius, trim=TRIM)
+        truth_circle = fit_circle(true_df.x, true_df.y, radius, trim=TRIM)
         candidates["truth"] = true_df
         fitted["truth"] = truth_circle
     prefer = lap_source or ("truth" if true_df is not None else None)
@@ -365,11 +368,11 @@ def circles_and_laps(
             f"fewer than one full rotation ({np.degrees(laps.swept):.0f} deg about the centre "
             f"of '{src}'): circle metrics left out")
         return circles, laps, truth_circle, src_circle, warnings
-    masks = {n: laps.index(df["t"]) > 0 for n, df in trajs.items()}
+    masks = {n: laps.index(df.t) > 0 for n, df in trajs.items()}
     circles = fit_circles(trajs, masks, radius, shared, circles)
     if true_df is not None:
-        m = laps.index(true_df["t"]) > 0
-        truth_circle = fit_circle(true_df["x"][m], true_df["y"][m], radius, trim=TRIM,
+        m = laps.index(true_df.t) > 0
+        truth_circle = fit_circle(true_df.x[m], true_df.y[m], radius, trim=TRIM,
                                   start=truth_circle)
     ref = truth_circle if truth_circle is not None else circles.get(src)
     return circles, laps, truth_circle, ref, warnings
@@ -377,8 +380,8 @@ def circles_and_laps(
 
 def reference_circles(
     info: ReferenceInfo,
-    trajs: dict[str, pd.DataFrame],
-    true_df: pd.DataFrame | None,
+    trajs: dict[str, Trajectory],
+    true_df: Trajectory | None,
     lap_source: str | None,
 ) -> tuple[dict[str, Circle], Laps, Circle | None, Circle | None, list[str]]:
     """:func:`circles_and_laps` for a circle fitted to a reference (truth, a named estimator, a
@@ -400,7 +403,7 @@ def reference_circles(
                             f"metrics left out")
             return {}, Laps(), None, None, warnings
         key = "truth" if info.circle_source == "truth" else ref_name
-        fits[key] = fit_reference_circle(df["t"], df["x"], df["y"], key)
+        fits[key] = fit_reference_circle(df.t, df.x, df.y, key)
         ref = fits[key].circle
         if ref is None:
             warnings.append(f"no reference circle: {fits[key].problem}; circle metrics left "
@@ -435,7 +438,7 @@ def reference_circles(
         return circles, laps, None, ref, warnings
     truth_circle = ref if info.circle_source == "truth" else None
     if truth_circle is None and true_df is not None:
-        m = laps.index(true_df["t"]) > 0
+        m = laps.index(true_df.t) > 0
         if m.sum() >= MIN_SAMPLES:
-            truth_circle = fit_circle(true_df["x"][m], true_df["y"][m], None, trim=TRIM)
+            truth_circle = fit_circle(true_df.x[m], true_df.y[m], None, trim=TRIM)
     return circles, laps, truth_circle, ref, warnings

@@ -21,9 +21,9 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 from lgvtool.errors import InputError, ThresholdError
+from lgvtool.json_types import JSON, JSONRecord, member_or
 
 BASELINE_FIGURES: dict[tuple[str, str], float] = {
     ("circle", "rmse_mm"): 1e-3,
@@ -67,7 +67,13 @@ def parse_tolerance(text: str) -> float:
     return value / 100.0
 
 
-def _walk(node: Any, parts: Sequence[str], key: str) -> Any:
+def _estimator_table(doc: JSONRecord) -> JSONRecord:
+    """The ``estimators`` table of an evaluation document (empty when it has none)."""
+    estimators = doc.get("estimators") or {}
+    return estimators if isinstance(estimators, Mapping) else {}
+
+
+def _walk(node: JSON | JSONRecord, parts: Sequence[str], key: str) -> JSON | JSONRecord:
     for i, part in enumerate(parts):
         if node is None:
             return None
@@ -81,14 +87,14 @@ def _walk(node: Any, parts: Sequence[str], key: str) -> Any:
     return node
 
 
-def lookup(doc: Mapping[str, Any], key: str) -> float | None:
+def lookup(doc: JSONRecord, key: str) -> float | None:
     """The value of figure ``key`` in ``doc``; None when the figure is not available.
 
     Raises :class:`~lgvtool.errors.InputError` when ``key`` names nothing in the layout.
     """
-    estimators = doc.get("estimators") or {}
+    estimators = _estimator_table(doc)
     parts = key.split(".")
-    node: Any = _MISSING
+    node: JSON | object = _MISSING
     for cut in range(len(parts), 0, -1):  # longest estimator name first (names may hold '.')
         name = ".".join(parts[:cut])
         if name in estimators:
@@ -128,7 +134,7 @@ class Check:
 
 
 def bound_checks(
-    doc: Mapping[str, Any],
+    doc: JSONRecord,
     maxima: Sequence[tuple[str, float]] = (),
     minima: Sequence[tuple[str, float]] = (),
 ) -> list[Check]:
@@ -154,7 +160,7 @@ def bound_checks(
 
 
 def check_bounds(
-    doc: Mapping[str, Any],
+    doc: JSONRecord,
     maxima: Sequence[tuple[str, float]] = (),
     minima: Sequence[tuple[str, float]] = (),
 ) -> list[str]:
@@ -162,7 +168,7 @@ def check_bounds(
     return [c.text for c in bound_checks(doc, maxima, minima) if not c.passed]
 
 
-def validate_baseline(obj: Any, source: str = "baseline") -> Mapping[str, Any]:
+def validate_baseline(obj: object, source: str = "baseline") -> JSONRecord:
     """Check that ``obj`` is an evaluation document; return it."""
     from lgvtool.evaluate.document import FORMAT
 
@@ -178,7 +184,7 @@ def validate_baseline(obj: Any, source: str = "baseline") -> Mapping[str, Any]:
 
 
 def baseline_checks(
-    doc: Mapping[str, Any], baseline: Mapping[str, Any], tolerance: float,
+    doc: JSONRecord, baseline: JSONRecord, tolerance: float,
     *, source: str = "baseline",
 ) -> tuple[list[Check], list[str]]:
     """Compare ``doc`` with ``baseline``: (checks, notes). Per estimator both documents have,
@@ -187,8 +193,8 @@ def baseline_checks(
     or is no longer available; notes name the estimators of the baseline that this
     evaluation lacks."""
     validate_baseline(baseline, source)
-    current = doc.get("estimators") or {}
-    base = baseline["estimators"]
+    current = _estimator_table(doc)
+    base = _estimator_table(baseline)  # a table of tables (validate_baseline)
     common = [n for n in base if n in current]
     if not common:
         raise InputError(f"{source}: no estimator in common with this evaluation "
@@ -230,7 +236,7 @@ def baseline_checks(
 
 
 def check_baseline(
-    doc: Mapping[str, Any], baseline: Mapping[str, Any], tolerance: float,
+    doc: JSONRecord, baseline: JSONRecord, tolerance: float,
     *, source: str = "baseline",
 ) -> tuple[list[str], list[str]]:
     """Compare ``doc`` with ``baseline``: (failures, notes). A figure fails when it exceeds the
@@ -252,14 +258,14 @@ def check_lines(checks: Sequence[Check]) -> list[str]:
     return lines
 
 
-def check_dicts(checks: Sequence[Check]) -> list[dict[str, Any]]:
+def check_dicts(checks: Sequence[Check]) -> list[JSON]:
     """The checks as JSON-ready dicts (the document's ``checks``)."""
     return [{"kind": c.kind, "key": c.key, "value": c.value, "limit": c.limit,
              "passed": c.passed, "text": c.text} for c in checks]
 
 
-def _figure(block: Mapping[str, Any], group: str, figure: str) -> float | None:
-    section = block.get(group)
+def _figure(block: JSON, group: str, figure: str) -> float | None:
+    section = member_or(block, group, None)
     if not isinstance(section, Mapping):
         return None
     v = section.get(figure)

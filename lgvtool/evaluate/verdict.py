@@ -29,11 +29,14 @@ import re
 import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from lgvtool.json_types import JSONObject
 
 if TYPE_CHECKING:
     from lgvtool.evaluate.evaluation import EvaluationResult
     from lgvtool.evaluate.quality import DataQuality
+    from lgvtool.trajectory import Trajectory
 
 __all__ = ["COLUMN_HELP", "MAX_LINES", "PAPER", "EstimatorVerdict", "Verdict", "format_verdict",
            "is_paper_experiment", "nav_quality_text", "paths_line", "summary_line",
@@ -258,9 +261,9 @@ def _no_reference_reason(result: EvaluationResult) -> str:
     return f"No reference: {why}."
 
 
-def _disagreement(est: Any, laser: Any) -> float | None:
-    """RMS distance of ``est`` from ``laser`` (DataFrames t, x, y, heading) at ``est``'s times
-    inside the laser's span, m."""
+def _disagreement(est: Trajectory, laser: Trajectory) -> float | None:
+    """RMS distance of ``est`` from ``laser`` (trajectories: t s, x, y m, heading rad) at
+    ``est``'s times inside the laser's span, m."""
     import numpy as np
 
     from lgvtool.evaluate.metrics import truth_errors
@@ -357,15 +360,15 @@ def verdict_of(
                    tuple(warnings), tuple(paths), no_ref)
 
 
-def verdict_dict(v: Verdict) -> dict[str, Any]:
+def verdict_dict(v: Verdict) -> JSONObject:
     """The verdict as a JSON-ready dict (the ``verdict`` key of the evaluation document):
     the fields of :class:`Verdict`, ``estimators`` a list of dicts (``error_m`` and
     ``disagreement_m`` in m), plus ``lines``: :func:`format_verdict`'s lines."""
-    d = asdict(v)
+    d: JSONObject = asdict(v)
     d["estimators"] = [asdict(e) for e in v.estimators]
-    d["warnings"] = list(v.warnings)
-    d["paths"] = list(v.paths)
-    d["lines"] = format_verdict(v)
+    d["warnings"] = [*v.warnings]
+    d["paths"] = [*v.paths]
+    d["lines"] = [*format_verdict(v)]
     return d
 
 

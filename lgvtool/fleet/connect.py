@@ -12,10 +12,13 @@ from __future__ import annotations
 import ipaddress
 import sys
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 from lgvtool.errors import InputError
 from lgvtool.extras import available, require
+
+if TYPE_CHECKING:
+    from distributed.security import Security
 
 FLEET_MODULES = ("dask", "distributed")
 """What the ``fleet`` extra installs for a cluster (pyarrow too, for sweep's Parquet files)."""
@@ -45,7 +48,7 @@ class SchedulerSpec:
         """True for a ``tls://`` scheduler."""
         return self.address.startswith("tls://")
 
-    def security(self) -> Any:
+    def security(self) -> Security | None:
         """Dask's ``Security`` for this scheduler (None for tcp://)."""
         if not self.tls:
             return None

@@ -172,14 +172,19 @@ def open_client(
         yield client
 
 
-def _run_chunk(fn: Callable[[Any], Any], items: Sequence[tuple[int, Any]]) -> list[tuple[Any, ...]]:
+#: what a worker reports of one task: (index, value, error, input_error, elapsed_s, cpu_s,
+#: worker, detail)
+ChunkRow = tuple[int, R | None, str | None, bool, float, float, str, str | None]
+
+
+def _run_chunk(fn: Callable[[T], R], items: Sequence[tuple[int, T]]) -> list[ChunkRow[R]]:
     """Run on a worker: ``fn`` over each (index, task); never raises for a task's error.
 
     Returns one tuple per task:
     (index, value, error, input_error, elapsed_s, cpu_s, worker, detail).
     """
     worker = f"{socket.gethostname()}:{os.getpid()}"
-    out: list[tuple[Any, ...]] = []
+    out: list[ChunkRow[R]] = []
     for index, task in items:
         t0, c0 = time.perf_counter(), time.process_time()
         value, error, input_error, detail = None, None, False, None
@@ -268,6 +273,41 @@ def run_tasks(
         if bar is not None:
             stack.callback(bar.close)
         yield from _drive(client, fn, items, bar, chunk_target_s, max_chunk)
+
+
+def run_in_order(
+    fn: Callable[[T], R],
+    tasks: Sequence[T],
+    *,
+    scheduler: SchedulerSpec | None,
+    workers: int | None,
+    in_process: Callable[[T], R] | None = None,
+    progress: bool = False,
+    path_of: Callable[[T], str] = str,
+) -> list[R]:
+    """``fn(task)`` for every task, the results in the tasks' order: in this process
+    (``in_process``, default ``fn``, one task after the other) when neither ``scheduler`` nor
+    ``workers`` is given and there is one task or no fleet extra, else on the fleet engine
+    (:func:`run_tasks`, a local Dask cluster or ``scheduler``).
+
+    :raises InputError: the first task that failed, with its error (a bad-input error as it was,
+        which names its log already; any other prefixed with ``path_of(task)``).
+    """
+    from lgvtool.fleet.connect import fleet_available
+
+    if scheduler is None and workers is None and (len(tasks) <= 1 or not fleet_available()):
+        one = fn if in_process is None else in_process
+        return [one(t) for t in tasks]
+    results: list[R | None] = [None] * len(tasks)
+    for out in run_tasks(fn, tasks, scheduler=scheduler, workers=workers, progress=progress,
+                         label="logs"):
+        if not out.ok:
+            error = out.error or "failed"
+            if out.input_error:  # "LogFormatError: <path>: ..." already names the log
+                raise InputError(error.split(": ", 1)[-1])
+            raise InputError(f"{path_of(out.task)}: {error}")
+        results[out.index] = out.value
+    return [r for r in results if r is not None]
 
 
 def _slots(client: Client) -> int:

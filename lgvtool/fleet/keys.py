@@ -39,13 +39,13 @@ def file_sha256(path: str | Path, *, block: int = BLOCK) -> str:
     return h.hexdigest()
 
 
-def canonical_json(data: Any) -> str:
+def canonical_json(data: object) -> str:
     """JSON with sorted keys and no spaces; floats that equal an integer stay floats
     (``300`` and ``300.0`` differ, as they may for a setting's type)."""
     return json.dumps(_plain(data), sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
-def _plain(v: Any) -> Any:
+def _plain(v: object) -> object:
     if isinstance(v, Mapping):
         return {str(k): _plain(x) for k, x in v.items()}
     if isinstance(v, list | tuple):
@@ -60,9 +60,9 @@ def task_key(
     log_sha256: str,
     kind: str,
     estimators: Sequence[str],
-    settings: Mapping[str, Any],
+    settings: Mapping[str, object],
     seed: int,
-    extra: Mapping[str, Any] | None = None,
+    extra: Mapping[str, object] | None = None,
     version: str = __version__,
 ) -> str:
     """The key of one task: 64 hex digits. Estimator order does not matter."""
@@ -138,7 +138,7 @@ class HashCache:
         write_json_atomic(self.path, self._entries)
 
 
-def json_safe(v: Any) -> Any:
+def json_safe(v: object) -> object:
     """A JSON-ready copy of ``v``: mappings and sequences copied, non-finite floats None."""
     if isinstance(v, Mapping):
         return {str(k): json_safe(x) for k, x in v.items()}
@@ -149,12 +149,12 @@ def json_safe(v: Any) -> Any:
     return v
 
 
-def json_text(data: Any) -> str:
+def json_text(data: object) -> str:
     """``data`` as the JSON text the sweep's files hold (indented by one, NaN refused)."""
     return json.dumps(data, indent=1, allow_nan=False) + "\n"
 
 
-def write_json_atomic(path: str | Path, data: Any) -> None:
+def write_json_atomic(path: str | Path, data: object) -> None:
     """Write ``data`` as JSON to ``path`` through a temporary file and a rename, so a reader
     (or a re-run after a crash) never sees half a file."""
     p = Path(path)

@@ -19,16 +19,20 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from lgvtool import __version__
 from lgvtool.fleet.keys import json_safe, write_json_atomic
 from lgvtool.fleet.tasks import SweepTask, setting_label
+from lgvtool.json_types import JSONObject
 
 if TYPE_CHECKING:
     import pandas as pd
 
     from lgvtool.fleet.engine import Outcome
+
+#: the value a task gives
+R = TypeVar("R")
 
 RECORD_FORMAT = "lgvtool.sweep-task"
 RECORD_VERSION = 1
@@ -40,7 +44,8 @@ SUMMARY_STATS = ("mean", "std", "ci95_low", "ci95_high", "n")
 """Suffixes of the summary's columns for each figure."""
 
 
-def task_record(task: SweepTask, outcome: Outcome[SweepTask, Any], kind: str) -> dict[str, Any]:
+def task_record(task: SweepTask, outcome: Outcome[SweepTask, R], kind: str
+                ) -> dict[str, object]:
     """The JSON document stored for a finished task: what it was, and its value or error."""
     return {
         "format": RECORD_FORMAT,
@@ -75,7 +80,7 @@ class TaskStore:
         """File of the record of ``key``."""
         return self.dir / f"{key}.json"
 
-    def load(self, key: str) -> dict[str, Any] | None:
+    def load(self, key: str) -> JSONObject | None:
         """The record of ``key``, or None if absent or unreadable (then the task runs again)."""
         try:
             data = json.loads(self.path(key).read_text(encoding="utf-8"))
@@ -85,12 +90,12 @@ class TaskStore:
             return None
         return data
 
-    def save(self, record: Mapping[str, Any]) -> None:
+    def save(self, record: Mapping[str, object]) -> None:
         """Store a record (atomically)."""
         write_json_atomic(self.path(str(record["key"])), record)
 
 
-def is_final(record: Mapping[str, Any] | None, *, retry_failed: bool = False) -> bool:
+def is_final(record: Mapping[str, object] | None, *, retry_failed: bool = False) -> bool:
     """True when a stored record needs no new run: a success, or a failure caused by the
     task's input (which would fail the same way), unless ``retry_failed``. Failures of the
     machinery (a worker lost, an unexpected exception) are always run again."""
@@ -101,7 +106,7 @@ def is_final(record: Mapping[str, Any] | None, *, retry_failed: bool = False) ->
     return bool(record.get("input_error")) and not retry_failed
 
 
-def _setting_value_column(values: list[Any]) -> list[Any]:
+def _setting_value_column(values: list[object]) -> list[object]:
     """One setting column with a single type: numbers, booleans, or else text."""
     present = [v for v in values if v is not None]
     if all(isinstance(v, bool) for v in present):

@@ -15,13 +15,15 @@ import html
 import json
 import math
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict, TypeGuard
 
 from lgvtool import __version__
 from lgvtool.fleet.stats import describe
 
 if TYPE_CHECKING:
     import pandas as pd
+
+    from lgvtool.json_types import SettingValue
 
 MAX_COMBOS = 4
 """Most combinations of the other swept parameters drawn as separate lines."""
@@ -35,7 +37,7 @@ def _rgba(colour: str, alpha: float) -> str:
     return f"rgba({r},{g},{b},{alpha})"
 
 
-def _numeric(values: Sequence[Any]) -> bool:
+def _numeric(values: Sequence[object]) -> TypeGuard[Sequence[int | float]]:
     return all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
 
 
@@ -81,7 +83,28 @@ def _num(v: float) -> float | None:
     return float(v) if math.isfinite(v) else None
 
 
-def _layout(title: str, xtitle: str, ytitle: str, height: int) -> dict[str, Any]:
+class Layout(TypedDict):
+    """A plotly figure's layout, as :func:`_layout` makes it (sizes in px)."""
+
+    title: dict[str, str]
+    height: int
+    template: None
+    paper_bgcolor: str
+    plot_bgcolor: str
+    margin: dict[str, int]
+    xaxis: dict[str, object]
+    yaxis: dict[str, object]
+    legend: dict[str, object]
+
+
+class Figure(TypedDict):
+    """A plotly figure as a dict: its traces and its layout."""
+
+    data: list[dict[str, object]]
+    layout: Layout
+
+
+def _layout(title: str, xtitle: str, ytitle: str, height: int) -> Layout:
     axis = {"gridcolor": "#e5e5e5", "zerolinecolor": "#cccccc", "automargin": True}
     return {"title": {"text": title}, "height": height, "template": None,
             "paper_bgcolor": "white", "plot_bgcolor": "white",
@@ -92,15 +115,15 @@ def _layout(title: str, xtitle: str, ytitle: str, height: int) -> dict[str, Any]
 
 
 def metric_figure(tidy: pd.DataFrame, metric: str, param: str,
-                  grid: Mapping[str, Sequence[Any]]) -> dict[str, Any]:
+                  grid: Mapping[str, Sequence[SettingValue]]) -> Figure:
     """A plotly figure (as a dict) of ``metric``, mean and 95 % band over logs and seeds,
     against the swept parameter ``param``."""
     ok = tidy[(tidy["status"] == "ok") & tidy[metric].notna()]
     values = list(grid[param])
     numeric = _numeric(values)
-    xs = sorted(values) if numeric else values
+    xs: Sequence[SettingValue] = sorted(values) if _numeric(values) else values
     others = [k for k in grid if k != param and len(grid[k]) > 1]
-    data: list[dict[str, Any]] = []
+    data: list[dict[str, object]] = []
     for i, (name, rows) in enumerate(_line_groups(ok, others)):
         colour = PALETTE[i % len(PALETTE)]
         column = rows[param] if numeric else rows[param].astype(str)
@@ -133,7 +156,7 @@ def metric_figure(tidy: pd.DataFrame, metric: str, param: str,
     return {"data": data, "layout": layout}
 
 
-def estimator_figure(tidy: pd.DataFrame, metric: str) -> dict[str, Any]:
+def estimator_figure(tidy: pd.DataFrame, metric: str) -> Figure:
     """``metric`` per estimator (mean and 95 % interval over logs and seeds), as a plotly
     figure dict: the view when no parameter is swept."""
     ok = tidy[(tidy["status"] == "ok") & tidy[metric].notna()]
@@ -147,12 +170,12 @@ def estimator_figure(tidy: pd.DataFrame, metric: str) -> dict[str, Any]:
         means.append(_num(s.mean))
         lo.append(s.mean - s.ci_low if math.isfinite(s.ci_low) else 0.0)
         hi.append(s.ci_high - s.mean if math.isfinite(s.ci_high) else 0.0)
-    bar = {"type": "bar", "x": names, "y": means, "marker": {"color": PALETTE[0]},
+    bar: dict[str, object] = {"type": "bar", "x": names, "y": means, "marker": {"color": PALETTE[0]},
            "error_y": {"type": "data", "symmetric": False, "array": hi, "arrayminus": lo}}
     return {"data": [bar], "layout": _layout(f"{metric} per estimator", "estimator", metric, 380)}
 
 
-def figure_html(fig: Mapping[str, Any], div_id: str) -> str:
+def figure_html(fig: Mapping[str, object], div_id: str) -> str:
     """A div and the script that draws ``fig`` (a plotly figure dict) into it with the page's
     plotly.js."""
     payload = json.dumps({"data": fig["data"], "layout": fig["layout"]}, allow_nan=False)
@@ -190,10 +213,10 @@ h2 { margin-top: 2em; border-bottom: 1px solid #ddd; }
 def render_report(
     tidy: pd.DataFrame,
     *,
-    grid: Mapping[str, Sequence[Any]],
+    grid: Mapping[str, Sequence[SettingValue]],
     metrics: Sequence[str],
     title: str = "lgvtool sweep",
-    facts: Mapping[str, Any] | None = None,
+    facts: Mapping[str, object] | None = None,
 ) -> str:
     """The report page as one HTML string (plotly.js embedded once)."""
     from plotly.offline import get_plotlyjs

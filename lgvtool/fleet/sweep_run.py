@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from lgvtool import __version__
 from lgvtool.fleet.keys import HashCache, file_sha256, json_safe, json_text
@@ -27,6 +27,7 @@ from lgvtool.fleet.results import (
     write_table,
 )
 from lgvtool.fleet.tasks import KIND, SweepTask, build_tasks, evaluate_task, expand_logs, grid_settings
+from lgvtool.json_types import SettingValue
 from lgvtool.outputs import atomic_outputs
 
 if TYPE_CHECKING:
@@ -35,6 +36,22 @@ if TYPE_CHECKING:
 
     from lgvtool.config import Config
     from lgvtool.fleet.connect import SchedulerSpec
+
+
+class SweepFacts(TypedDict):
+    """The facts of a sweep (:meth:`SweepResult.as_dict`): its folder, the tasks in it, reused,
+    run now and failed, the wall time (s), the files written (names), one {log, setting,
+    seed, error} per failed task and the warnings per log."""
+
+    outdir: str
+    tasks: int
+    reused: int
+    ran: int
+    failed: int
+    elapsed_s: float
+    files: list[str]
+    failures: list[dict[str, object]]
+    warnings: dict[str, str]
 
 
 @dataclass
@@ -62,7 +79,7 @@ class SweepResult:
     first such run, as results.csv's ``warnings`` column gives them but for the path the
     worker opened, which a reader's warning starts with."""
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> SweepFacts:
         """JSON-ready facts of the sweep (no tables)."""
         return {"outdir": str(self.outdir), "tasks": self.tasks, "reused": self.reused,
                 "ran": self.ran, "failed": self.failed, "elapsed_s": self.elapsed_s,
@@ -88,8 +105,8 @@ def run_sweep(
     logs: Sequence[str | Path],
     outdir: str | Path,
     *,
-    grid: Mapping[str, Sequence[Any]] | None = None,
-    fixed: Mapping[str, Any] | None = None,
+    grid: Mapping[str, Sequence[SettingValue]] | None = None,
+    fixed: Mapping[str, SettingValue] | None = None,
     seeds: int | Iterable[int] = 1,
     estimators: Sequence[str] = (),
     config: Config | None = None,
@@ -99,7 +116,7 @@ def run_sweep(
     client: Client | None = None,
     progress: bool = True,
     retry_failed: bool = False,
-    task_fn: Callable[[SweepTask], Mapping[str, Any]] = evaluate_task,
+    task_fn: Callable[[SweepTask], Mapping[str, object]] = evaluate_task,
     kind: str = KIND,
     report: bool = True,
 ) -> SweepResult:
@@ -145,7 +162,7 @@ def run_sweep(
                         estimators=estimators, config=config, extra=extra, kind=kind)
 
     store = TaskStore(out)
-    records: dict[str, dict[str, Any]] = {}
+    records: dict[str, Mapping[str, Any]] = {}
     todo: list[SweepTask] = []
     for t in tasks:
         rec = store.load(t.key)
@@ -166,9 +183,9 @@ def run_sweep(
                     check_paths_on_workers(client, sorted({t.log for t in todo}))
             for outcome in run_tasks(task_fn, todo, client=client, progress=progress,
                                      label="sweep"):
-                rec = task_record(outcome.task, outcome, kind)
-                store.save(rec)
-                records[outcome.task.key] = rec
+                record = task_record(outcome.task, outcome, kind)
+                store.save(record)
+                records[outcome.task.key] = record
 
     grid_keys = list(grid)
     tidy = tidy_table(tasks, records, grid_keys=grid_keys)

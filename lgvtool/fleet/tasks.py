@@ -14,10 +14,11 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from lgvtool.errors import InputError
 from lgvtool.fleet.keys import task_key
+from lgvtool.json_types import SettingValue
 from lgvtool.values import parse_setting, split_assignment
 
 if TYPE_CHECKING:
@@ -61,7 +62,7 @@ class SweepTask:
     """Further inputs that the key covers (e.g. the configuration file's hash)."""
 
 
-def parse_grid(items: Sequence[str]) -> dict[str, list[Any]]:
+def parse_grid(items: Sequence[str]) -> dict[str, list[SettingValue]]:
     """Parse ``--grid key=v1,v2,...`` options into {key: [values]}.
 
     Keys and values are read by the parser of ``--set``
@@ -69,7 +70,7 @@ def parse_grid(items: Sequence[str]) -> dict[str, list[Any]]:
     scalars, else a bare string). A key given twice, an empty value list or a repeated value
     is an error.
     """
-    grid: dict[str, list[Any]] = {}
+    grid: dict[str, list[SettingValue]] = {}
     for item in items:
         key, raw = split_assignment(item, "--grid", "key=v1,v2,...")
         if key in grid:
@@ -78,7 +79,7 @@ def parse_grid(items: Sequence[str]) -> dict[str, list[Any]]:
         if not raw.strip() or any(not p for p in parts):
             raise InputError(f"--grid {key}: empty value in '{raw}'")
         values = [parse_setting(p) for p in parts]
-        seen: list[Any] = []
+        seen: list[SettingValue] = []
         for v in values:
             if any(type(v) is type(s) and v == s for s in seen):
                 raise InputError(f"--grid {key}: value {v!r} given twice")
@@ -87,8 +88,9 @@ def parse_grid(items: Sequence[str]) -> dict[str, list[Any]]:
     return grid
 
 
-def grid_settings(grid: Mapping[str, Sequence[Any]],
-                  fixed: Mapping[str, Any] | None = None) -> list[dict[str, Any]]:
+def grid_settings(grid: Mapping[str, Sequence[SettingValue]],
+                  fixed: Mapping[str, SettingValue] | None = None
+                  ) -> list[dict[str, SettingValue]]:
     """The cartesian product of ``grid`` as a list of settings dicts, each on top of
     ``fixed`` (settings common to every task). No grid gives one setting: ``fixed``."""
     base = dict(fixed or {})
@@ -100,7 +102,7 @@ def grid_settings(grid: Mapping[str, Sequence[Any]],
             for combo in itertools.product(*(grid[k] for k in keys))]
 
 
-def setting_label(settings: Mapping[str, Any], keys: Sequence[str] | None = None) -> str:
+def setting_label(settings: Mapping[str, object], keys: Sequence[str] | None = None) -> str:
     """A short text naming a setting: ``pf.particles=300,pf-paper.spread_m=0.1``; ``default``
     when there is nothing to name."""
     ks = list(keys) if keys is not None else list(settings)
@@ -135,12 +137,12 @@ def expand_logs(paths: Sequence[str | Path]) -> list[Path]:
 
 def build_tasks(
     logs: Sequence[tuple[str | Path, str]],
-    settings: Sequence[Mapping[str, Any]],
+    settings: Sequence[Mapping[str, SettingValue]],
     seeds: Sequence[int],
     *,
     estimators: Sequence[str] = (),
     config: Config | None = None,
-    extra: Mapping[str, Any] | None = None,
+    extra: Mapping[str, object] | None = None,
     kind: str = KIND,
 ) -> list[SweepTask]:
     """One task per (log, setting, seed), in that nesting order, each with its key.
@@ -168,7 +170,7 @@ def build_tasks(
 # --------------------------------------------------------------------------- the work
 
 
-def flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, float | int | None]:
+def flatten(data: Mapping[str, object], prefix: str = "") -> dict[str, float | int | None]:
     """Numbers of a nested dict under dotted keys (``circle.rmse_mm``); None stays None (a
     figure that could not be computed). Strings, booleans and lists are left out."""
     out: dict[str, float | int | None] = {}
@@ -183,7 +185,18 @@ def flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, float | int 
     return out
 
 
-def document_metrics(doc: Mapping[str, Any]) -> dict[str, Any]:
+class TaskMetrics(TypedDict):
+    """The figures of one task's evaluation (:func:`document_metrics`): per estimator its
+    dotted figure keys, the log's own figures, the effective settings per estimator, the
+    evaluation's warnings."""
+
+    metrics: dict[str, dict[str, float | int | None]]
+    log_metrics: dict[str, float | int | None]
+    settings: dict[str, object]
+    warnings: list[str]
+
+
+def document_metrics(doc: Mapping[str, Any]) -> TaskMetrics:
     """The figures of one log's evaluation document (``lgvtool evaluate --json``):
 
     ``metrics``: {estimator: {dotted key: number}} from ``estimators.<name>`` (its per-rotation
@@ -207,7 +220,7 @@ def document_metrics(doc: Mapping[str, Any]) -> dict[str, Any]:
             "warnings": [str(w) for w in doc.get("warnings") or []]}
 
 
-def check_settings(estimators: Sequence[str], settings: Sequence[Mapping[str, Any]],
+def check_settings(estimators: Sequence[str], settings: Sequence[Mapping[str, SettingValue]],
                    config: Config | None = None) -> list[str]:
     """Check estimator names and every setting of a sweep before any task runs; return the
     estimator names, deduplicated in order.
@@ -246,7 +259,7 @@ def missing_files(paths: Sequence[str], limit: int = 5) -> list[str]:
     return out
 
 
-def evaluate_task(task: SweepTask) -> dict[str, Any]:
+def evaluate_task(task: SweepTask) -> TaskMetrics:
     """Run the estimators over the task's log with its settings and seed, and evaluate them
     (:func:`lgvtool.evaluate.log_evaluation.evaluate_log`, the same figures as ``lgvtool evaluate
     --json``). Runs on a worker; opens only this task's log.

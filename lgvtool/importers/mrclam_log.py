@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from lgvtool.config import Config, Reference, Vehicle, default_config
 from lgvtool.errors import InputError
@@ -32,6 +33,7 @@ from lgvtool.importers.mrclam_profile import (
     estimator_profile,
 )
 from lgvtool.importers.mrclam_quirks import ImportSettings, PreparedRun, prepare_run
+from lgvtool.json_types import JSON, JSONObject
 from lgvtool.log import LogWriter, topics
 from lgvtool.log.messages import FRAME_ID
 from lgvtool.progress import Progress
@@ -72,7 +74,7 @@ class ImportSummary:
     estimator_profile: str = PROFILE_NAME
     """Name of the estimator settings stored in the log's configuration."""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JSONObject:
         """A JSON-ready dict (stable keys)."""
         d = asdict(self)
         d["path"] = str(self.path)
@@ -129,7 +131,7 @@ def mrclam_config(run: PreparedRun, dataset: MrclamDataset) -> Config:
     )
 
 
-def importer_record(run: PreparedRun, dataset: MrclamDataset) -> dict[str, Any]:
+def importer_record(run: PreparedRun, dataset: MrclamDataset) -> dict[str, object]:
     """The ``importer`` metadata record: provenance (dataset, robot, files with SHA-256),
     citation, camera geometry, counts, quirks, odometry timing, settings."""
     files = [*dataset.files, *run.files]
@@ -156,13 +158,13 @@ def importer_record(run: PreparedRun, dataset: MrclamDataset) -> dict[str, Any]:
     }
 
 
-def _scan_groups(run: PreparedRun) -> tuple[np.ndarray, list[list[dict[str, Any]]]]:
+def _scan_groups(run: PreparedRun) -> tuple[NDArray[np.int64], list[list[JSON]]]:
     """Scan stamps (ns) and, per scan, its observation dicts in file order."""
     obs = run.observations
     t = obs["t_ns"].to_numpy()
     stamps, first = np.unique(t, return_index=True)
     bounds = [*first.tolist(), len(t)]
-    items = [
+    items: list[JSON] = [
         {"range": r, "bearing": b, "time_in_scan": 0.0, "id": i}
         for r, b, i in zip(obs["range"].tolist(), obs["bearing"].tolist(),
                            obs["landmark"].tolist(), strict=True)

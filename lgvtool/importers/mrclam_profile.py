@@ -27,6 +27,8 @@ from __future__ import annotations
 import copy
 from typing import Any
 
+from lgvtool.json_types import JSONObject
+
 PROFILE_NAME = "mrclam-camera"
 """Name of the profile, stored in the ``importer`` metadata record."""
 
@@ -145,6 +147,6 @@ ESTIMATOR_PROFILE: dict[str, dict[str, Any]] = {
 in the names or in docs/filter.md)."""
 
 
-def estimator_profile() -> dict[str, dict[str, Any]]:
+def estimator_profile() -> dict[str, JSONObject]:
     """A fresh copy of :data:`ESTIMATOR_PROFILE`, for ``Config.estimators``."""
     return copy.deepcopy(ESTIMATOR_PROFILE)

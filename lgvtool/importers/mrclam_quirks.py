@@ -22,10 +22,11 @@ What is done to the data (docs/mrclam.md has the reasoning):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from lgvtool.angles import wrap_angle
 from lgvtool.config import Area
@@ -36,6 +37,19 @@ from lgvtool.timestamps import seconds_to_ns_array
 NS = 1_000_000_000
 _LIST_MAX = 20
 """Most items listed in a quirk's details (times, gaps)."""
+
+
+class OdometryTiming(TypedDict):
+    """The odometry delay applied (s) and how it was found: the delay the camera shows (s;
+    None when it shows none), the observation pairs used, the bearing residuals without and
+    with that delay (rad RMS; None without pairs), and the method."""
+
+    odometry_delay_s: float
+    measured_delay_s: float | None
+    pairs: int
+    bearing_rms_without_delay_rad: float | None
+    bearing_rms_with_delay_rad: float | None
+    method: str
 
 
 @dataclass(frozen=True)
@@ -108,7 +122,7 @@ class PreparedRun:
     and robust standard deviations in m and rad (None without data), observations compared."""
     area: Area
     """The landmark bounding box plus ``settings.area_margin_m``, m."""
-    timing: dict[str, Any]
+    timing: OdometryTiming
     """The odometry delay: ``odometry_delay_s`` (applied, s), ``measured_delay_s`` (what the
     camera shows, s, None when not measured), ``pairs`` (landmark sightings compared),
     ``bearing_rms_without_delay_rad`` and ``bearing_rms_with_delay_rad`` (residual of the
@@ -158,7 +172,7 @@ class _Collector:
         self.counts: dict[str, int] = {}
 
     def add(self, kind: str, count: int, time_ns: int, message: str, *, level: int = 3,
-            **details: Any) -> None:
+            **details: object) -> None:
         """Record a quirk of ``kind`` (nothing when ``count`` is 0); details: JSON-able."""
         if count > 0:
             self.quirks.append(Quirk(kind, int(count), int(time_ns), message, level, details))
@@ -188,7 +202,27 @@ def _dedupe(df: pd.DataFrame, keys: list[str]) -> tuple[pd.DataFrame, int, int, 
     return out, int(identical.sum()), int(differing.sum()), first
 
 
-def _gaps(t_ns: np.ndarray, threshold_s: float) -> dict[str, Any]:
+class _GapFigures(TypedDict, total=False):
+    """The figures of gaps found (times in s since the Unix epoch, steps in s)."""
+
+    first_ns: int
+    threshold_s: float
+    max_gap_s: float
+    max_gap_at_s: float
+    total_gap_s: float
+    gaps_s: list[list[float]]
+    max_step_s: float
+
+
+class Gaps(_GapFigures):
+    """What :func:`_gaps` finds: how many gaps, and (when there are steps) their figures:
+    the first gap's start (ns), the threshold, the longest gap and when it began, their total,
+    the first few (start, length) and the longest step when there is no gap (s)."""
+
+    count: int
+
+
+def _gaps(t_ns: NDArray[np.int64], threshold_s: float) -> Gaps:
     """Gaps (steps longer than ``threshold_s``) in a strictly increasing stamp array."""
     if len(t_ns) < 2:
         return {"count": 0}
@@ -270,13 +304,13 @@ def _stream_quirks(col: _Collector, stats: dict[str, dict[str, int]]) -> None:
                 f"stamp kept ({parts})", rows=rep)
 
 
-def _gap_quirk(col: _Collector, kind: str, what: str, gaps: dict[str, Any], start_ns: int,
+def _gap_quirk(col: _Collector, kind: str, what: str, gaps: Gaps, start_ns: int,
                note: str = "") -> None:
     if gaps["count"]:
         into = gaps["max_gap_at_s"] - start_ns / NS
         col.add(kind, gaps["count"], gaps["first_ns"],
                 f"{_n(gaps['count'], what + ' gap')} longer than {gaps['threshold_s']} s, the "
-                f"longest {gaps['max_gap_s']:.3f} s at {into:.1f} s into the run{note}",
+                f"longest {gaps['max_gap_s']:.3f} s at {into:.1f} s into the run{note}", level=3,
                 **{k: v for k, v in gaps.items() if k not in ("count", "first_ns")})
 
 
@@ -452,7 +486,7 @@ def prepare_run(dataset: MrclamDataset, rec: RobotRecording,
                        settings=st)
 
 
-def _timing(odo: pd.DataFrame, obs: pd.DataFrame, delay_s: float | None) -> dict[str, Any]:
+def _timing(odo: pd.DataFrame, obs: pd.DataFrame, delay_s: float | None) -> OdometryTiming:
     """The odometry delay to apply: ``delay_s`` if given, else the one the camera shows
     (:func:`odometry_delay` on the landmark observations; no ground truth involved)."""
     est = odometry_delay(odo["t_ns"].to_numpy() * 1e-9, odo["v"].to_numpy(),

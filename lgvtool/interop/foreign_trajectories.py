@@ -16,7 +16,7 @@ from lgvtool.interop.named_options import SAFE_NAME, parse_pairs
 from lgvtool.interop.trajfile import read_trajectory
 
 if TYPE_CHECKING:
-    import pandas as pd
+    from lgvtool.trajectory import Trajectory
 
 
 def parse_trajectory_options(items: Sequence[str]) -> dict[str, str]:
@@ -32,7 +32,7 @@ def parse_trajectory_options(items: Sequence[str]) -> dict[str, str]:
     return parse_pairs(items, "--trajectory", "NAME=FILE", check)
 
 
-def load_trajectories(items: Sequence[str]) -> dict[str, pd.DataFrame]:
+def load_trajectories(items: Sequence[str]) -> dict[str, Trajectory]:
     """Read every ``NAME=FILE`` trajectory (t s, x m, y m, heading rad).
 
     :raises InputError: as :func:`parse_trajectory_options` and
@@ -42,28 +42,29 @@ def load_trajectories(items: Sequence[str]) -> dict[str, pd.DataFrame]:
             for name, path in parse_trajectory_options(items).items()}
 
 
-def _span(frames: Sequence[pd.DataFrame]) -> tuple[float, float] | None:
-    spans = [(float(df["t"].min()), float(df["t"].max())) for df in frames if len(df)]
+def _span(trajectories: Sequence[Trajectory]) -> tuple[float, float] | None:
+    spans = [(float(tr.t[0]), float(tr.t[-1])) for tr in trajectories if len(tr)]
     if not spans:
         return None
     return min(a for a, _ in spans), max(b for _, b in spans)
 
 
-def add_foreign(trajectories: Mapping[str, pd.DataFrame], foreign: Mapping[str, pd.DataFrame],
-                truth: pd.DataFrame | None = None, *, log: str = "log"
-                ) -> dict[str, pd.DataFrame]:
+def add_foreign(trajectories: Mapping[str, Trajectory], foreign: Mapping[str, Trajectory],
+                truth: Trajectory | None = None, *, log: str = "log"
+                ) -> dict[str, Trajectory]:
     """The log's ``trajectories`` with the ``foreign`` ones added.
 
     :raises InputError: a foreign name that is already an estimator of the log, or a foreign
         trajectory whose stamps do not overlap the log's (truth, else estimates) time span.
     """
     out = dict(trajectories)
-    span = _span([truth] if truth is not None and len(truth) else list(trajectories.values()))
+    span = _span([truth.on_epoch()] if truth is not None and len(truth)
+                 else [tr.on_epoch() for tr in trajectories.values()])
     for name, df in foreign.items():
         if name in out:
             raise InputError(f"--trajectory name '{name}' is already an estimator of {log}; "
                              f"choose another name")
-        t0, t1 = float(df["t"].min()), float(df["t"].max())
+        t0, t1 = float(df.t[0]), float(df.t[-1])
         if span is not None and (t1 < span[0] or t0 > span[1]):
             raise InputError(
                 f"--trajectory {name}: its stamps ({t0:.3f} .. {t1:.3f} s) lie outside {log} "

@@ -27,7 +27,7 @@ import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, cast
 
 from lgvtool.angles import wrap_scalar
 from lgvtool.errors import InputError
@@ -36,7 +36,23 @@ from lgvtool.interop.ros2_types import NAV_POSE_DATA, require_rosbags, typestore
 from lgvtool.log.messages import yaw_from_quaternion
 
 if TYPE_CHECKING:
+    from rosbags.interfaces import Connection
     from rosbags.rosbag2 import Reader
+
+    from lgvtool.interop.ros2_messages import (
+        Header,
+        Imu,
+        NavLandmarkData,
+        NavPoseData,
+        Odometry,
+        Pose,
+        PoseStamped,
+        PoseWithCovarianceStamped,
+        Quaternion,
+        Stamped,
+        TFMessage,
+        TwistStamped,
+    )
 
 MDEG = math.pi / 180000.0
 """rad per mdeg (NAV350 angles)."""
@@ -54,7 +70,8 @@ class BagContent:
     gyro: list[tuple[int, float]] = field(default_factory=list)
     nav: list[tuple[int, float, float, float, int, bool]] = field(default_factory=list)
     """t, x, y, heading, reflectors used, valid."""
-    scans: list[tuple[int, float, list[dict[str, Any]]]] = field(default_factory=list)
+    scans: list[tuple[int, float, list[dict[str, float | int]]]] = field(default_factory=list)
+    """t, scan period s, the observations (range m, bearing rad, id, time_in_scan s)."""
     truth: list[tuple[int, float, float, float]] = field(default_factory=list)
     circle: list[tuple[int, float, float, float]] = field(default_factory=list)
     """Poses of the topic named by ``--circle-from`` (t, x, y, heading)."""
@@ -104,13 +121,13 @@ def open_bag(path: Path) -> Reader:
     return reader
 
 
-def _ns(header: Any, bag_ns: int) -> int:
+def _ns(header: Header, bag_ns: int) -> int:
     """A header's stamp in ns, or the bag time when it is zero."""
     ns = int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
     return ns if ns > 0 else int(bag_ns)
 
 
-def _yaw(q: Any) -> float:
+def _yaw(q: Quaternion) -> float:
     return yaw_from_quaternion({"x": q.x, "y": q.y, "z": q.z, "w": q.w})
 
 
@@ -126,19 +143,25 @@ def frame_name(name: str) -> str:
 # ------------------------------------------------------------------ one reader per role
 
 
-def _read_odom(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
-    twist = msg.twist.twist if msgtype == R.ODOMETRY else msg.twist
+def _read_odom(c: BagContent, msg: object, msgtype: str, ns: int) -> None:
+    # each reader's message is of its ``msgtype`` (the type the bag's connection names)
+    if msgtype == R.ODOMETRY:
+        odometry = cast("Odometry", msg)
+        header, twist, frame = odometry.header, odometry.twist.twist, odometry.child_frame_id
+    else:
+        stamped = cast("TwistStamped", msg)
+        header, twist, frame = stamped.header, stamped.twist, stamped.header.frame_id
     v, w = float(twist.linear.x), float(twist.angular.z)
-    frame = msg.child_frame_id if msgtype == R.ODOMETRY else msg.header.frame_id
     if frame and frame_name(frame) not in c.vehicle_frames:
         c.vehicle_frames.append(frame_name(frame))
     if not _finite(v, w):
         c.count("dropped_odom_not_finite")
         return
-    c.odom.append((_ns(msg.header, ns), v, w))
+    c.odom.append((_ns(header, ns), v, w))
 
 
-def _read_gyro(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
+def _read_gyro(c: BagContent, message: object, _msgtype: str, ns: int) -> None:
+    msg = cast("Imu", message)  # the gyro role reads sensor_msgs/Imu only (ros2_roles.ROLES)
     w = float(msg.angular_velocity.z)
     if not _finite(w):
         c.count("dropped_gyro_not_finite")
@@ -152,7 +175,7 @@ def _nav_frames(c: BagContent, header: str, child: str) -> None:
         c.nav_frames.append(pair)
 
 
-def _read_map_poses(c: BagContent, msg: Any, ns: int) -> int:
+def _read_map_poses(c: BagContent, msg: TFMessage, ns: int) -> int:
     """The transforms from ``map`` of a TFMessage on the nav role; returns how many."""
     n = 0
     for tr in msg.transforms:
@@ -171,31 +194,35 @@ def _read_map_poses(c: BagContent, msg: Any, ns: int) -> int:
     return n
 
 
-def _read_nav(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+def _read_nav(c: BagContent, message: object, msgtype: str, ns: int) -> None:
     if msgtype == R.TF:
-        if _read_map_poses(c, msg, ns):
+        if _read_map_poses(c, cast("TFMessage", message), ns):
             c.count("nav")
         return
+    header = cast("Stamped", message).header  # every other nav type has one
     if msgtype == NAV_POSE_DATA:
+        msg = cast("NavPoseData", message)
         x, y, h = msg.x / 1000.0, msg.y / 1000.0, wrap_scalar(msg.phi * MDEG)
         used = int(msg.quant_used_reflectors) if msg.opt_pose_data_valid else 0
         valid = int(msg.pose_valid) > 0
         if msg.header.frame_id and frame_name(msg.header.frame_id) not in c.sensor_frames:
             c.sensor_frames.append(frame_name(msg.header.frame_id))
     else:
-        pose = msg.pose.pose if msgtype in (R.POSE_COV, R.ODOMETRY) else msg.pose
+        pose = _pose(message, msgtype)
         x, y, h = float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)
         used, valid = 0, True
-        _nav_frames(c, msg.header.frame_id,
-                    msg.child_frame_id if msgtype == R.ODOMETRY else "")
+        _nav_frames(c, header.frame_id,
+                    cast("Odometry", message).child_frame_id if msgtype == R.ODOMETRY else "")
     c.count("nav")
     if not _finite(x, y, h):
         c.count("dropped_nav_not_finite")
         return
-    c.nav.append((_ns(msg.header, ns), x, y, wrap_scalar(h), min(used, 255), valid))
+    c.nav.append((_ns(header, ns), x, y, wrap_scalar(h), min(used, 255), valid))
 
 
-def _read_reflectors(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
+def _read_reflectors(c: BagContent, message: object, _msgtype: str, ns: int) -> None:
+    # the reflectors role reads sick_scan_xd/NAVLandmarkData only (ros2_roles.ROLES)
+    msg = cast("NavLandmarkData", message)
     if msg.header.frame_id and frame_name(msg.header.frame_id) not in c.sensor_frames:
         c.sensor_frames.append(frame_name(msg.header.frame_id))
     seen: list[tuple[float, float, int, int | None]] = []
@@ -212,20 +239,28 @@ def _read_reflectors(c: BagContent, msg: Any, _msgtype: str, ns: int) -> None:
     # ms ticks of a 32-bit counter: differences to the first one, across a wrap-around
     rel = [(t - ticks[0] + 2**31) % 2**32 - 2**31 for t in ticks] if timed else []
     start = min(rel, default=0)
-    obs = [{"range": rng, "bearing": b, "id": i,
-            "time_in_scan": (rel[k] - start) / 1000.0 if timed else 0.0}
-           for k, (rng, b, i, _tick) in enumerate(seen)]
+    obs: list[dict[str, float | int]] = [
+        {"range": rng, "bearing": b, "id": i,
+         "time_in_scan": (rel[k] - start) / 1000.0 if timed else 0.0}
+        for k, (rng, b, i, _tick) in enumerate(seen)]
     period = max([NAV350_PERIOD_S, *(o["time_in_scan"] for o in obs)]) if timed else 0.0
     c.scans.append((_ns(msg.header, ns), period, obs))
 
 
-def _pose_of(msg: Any, msgtype: str, ns: int) -> tuple[int, float, float, float]:
-    pose = msg.pose.pose if msgtype in (R.POSE_COV, R.ODOMETRY) else msg.pose
-    return (_ns(msg.header, ns), float(pose.position.x), float(pose.position.y),
+def _pose(msg: object, msgtype: str) -> Pose:
+    """The pose of a PoseStamped, a PoseWithCovarianceStamped or an Odometry (by ``msgtype``)."""
+    if msgtype in (R.POSE_COV, R.ODOMETRY):  # both hold a PoseWithCovariance as ``pose``
+        return cast("PoseWithCovarianceStamped", msg).pose.pose
+    return cast("PoseStamped", msg).pose
+
+
+def _pose_of(msg: object, msgtype: str, ns: int) -> tuple[int, float, float, float]:
+    pose = _pose(msg, msgtype)
+    return (_ns(cast("Stamped", msg).header, ns), float(pose.position.x), float(pose.position.y),
             _yaw(pose.orientation))
 
 
-def _read_truth(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+def _read_truth(c: BagContent, msg: object, msgtype: str, ns: int) -> None:
     t, x, y, h = _pose_of(msg, msgtype, ns)
     if not _finite(x, y, h):
         c.count("dropped_truth_not_finite")
@@ -233,7 +268,7 @@ def _read_truth(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
     c.truth.append((t, x, y, h))
 
 
-def _read_circle(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
+def _read_circle(c: BagContent, msg: object, msgtype: str, ns: int) -> None:
     t, x, y, h = _pose_of(msg, msgtype, ns)
     if not _finite(x, y, h):
         c.count("dropped_circle_not_finite")
@@ -241,8 +276,9 @@ def _read_circle(c: BagContent, msg: Any, msgtype: str, ns: int) -> None:
     c.circle.append((t, x, y, h))
 
 
-def _read_tf(c: BagContent, msg: Any, _msgtype: str, _ns_: int) -> None:
-    for tr in msg.transforms:
+def _read_tf(c: BagContent, msg: object, _msgtype: str, _ns_: int) -> None:
+    # the tf role reads tf2_msgs/TFMessage only (ros2_roles.ROLES)
+    for tr in cast("TFMessage", msg).transforms:
         child = frame_name(tr.child_frame_id)
         if child in c.transforms:
             continue
@@ -250,7 +286,7 @@ def _read_tf(c: BagContent, msg: Any, _msgtype: str, _ns_: int) -> None:
         c.transforms[child] = (frame_name(tr.header.frame_id), float(t.x), float(t.y), _yaw(q))
 
 
-_READERS: dict[str, Callable[[BagContent, Any, str, int], None]] = {
+_READERS: dict[str, Callable[[BagContent, object, str, int], None]] = {
     "odom": _read_odom, "gyro": _read_gyro, "nav": _read_nav, "reflectors": _read_reflectors,
     "truth": _read_truth, "tf": _read_tf, "circle": _read_circle,
 }
@@ -286,7 +322,8 @@ def read_content(reader: Reader, chosen: Mapping[str, Sequence[str]]) -> BagCont
     return content
 
 
-def _messages(reader: Reader, conns: Sequence[Any]) -> Iterator[tuple[Any, int, bytes]]:
+def _messages(reader: Reader, conns: Sequence[Connection]
+              ) -> Iterator[tuple[Connection, int, bytes]]:
     try:
         yield from reader.messages(connections=conns)
     except InputError:

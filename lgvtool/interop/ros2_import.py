@@ -44,10 +44,10 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -57,11 +57,16 @@ from lgvtool.errors import InputError, MissingDataError
 from lgvtool.interop import ros2_roles as R
 from lgvtool.interop.ros2_bag import MAP_FRAME, BagContent, frame_name, open_bag, read_content
 from lgvtool.interop.ros2_types import NAV_POSE_DATA
+from lgvtool.json_types import JSONObject, as_float
 from lgvtool.localize.geometry import o_to_nav
 from lgvtool.log import LogWriter, topics
 from lgvtool.log.messages import pose_in_frame
 from lgvtool.outputs import atomic_output, guard_output
 from lgvtool.timestamps import stamp
+
+if TYPE_CHECKING:
+    from lgvtool.circle import Circle
+    from lgvtool.evaluate.reference import ReferenceFit
 
 AREA_MARGIN_M = 2.0
 """Margin of the work area around the poses when no --config gives one, m."""
@@ -85,24 +90,24 @@ class Ros2ImportSummary:
 
     path: str
     bag: str
-    topics: dict[str, dict[str, Any]]
+    topics: dict[str, JSONObject]
     """role -> {topic, type, messages}."""
     counts: dict[str, int]
-    mounting: dict[str, Any]
+    mounting: JSONObject
     yaw_rate: str
     messages: int
     start_s: float
     end_s: float
     elapsed_s: float
     notes: tuple[str, ...] = ()
-    nav_pose: dict[str, Any] | None = None
+    nav_pose: JSONObject | None = None
     """Whose pose the NAV topic gives and how it was stored (of, frame, how, stored)."""
-    circle_reference: dict[str, Any] | None = None
+    circle_reference: JSONObject | None = None
     """What evaluate fits the reference circle to (option, source, name, note, ...)."""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JSONObject:
         """A JSON-ready dict (stable keys)."""
-        d = asdict(self)
+        d: JSONObject = asdict(self)
         d["notes"] = list(self.notes)
         return d
 
@@ -288,9 +293,10 @@ def _data_area(content: BagContent) -> Area:
 # ----------------------------------------------------------------------------- writing
 
 
-def _records(content: BagContent, fused: np.ndarray | None) -> list[tuple[int, int, str, Any]]:
+def _records(content: BagContent, fused: np.ndarray | None
+             ) -> list[tuple[int, int, str, Mapping[str, object]]]:
     """(log time ns, stream, topic, message) of every message, unsorted."""
-    out: list[tuple[int, int, str, Any]] = []
+    out: list[tuple[int, int, str, Mapping[str, object]]] = []
     for t, x, y, h in content.truth:
         out.append((t, 0, topics.TRUTH, pose_in_frame(t, x, y, h)))
     for k, (t, v, w) in enumerate(content.odom):
@@ -309,7 +315,7 @@ def _records(content: BagContent, fused: np.ndarray | None) -> list[tuple[int, i
 
 def _config(config: Config | str | Path | None, content: BagContent,
             mount: tuple[float, float, float, str] | None, notes: list[str]
-            ) -> tuple[Config, dict[str, Any]]:
+            ) -> tuple[Config, JSONObject]:
     if config is None:
         cfg = replace(default_config(), reflectors=(), area=_data_area(content),
                       reference=Reference(steering_angle_deg=None))
@@ -326,10 +332,10 @@ def _config(config: Config | str | Path | None, content: BagContent,
 
 
 def _stored_nav(content: BagContent, nf: NavFrame, nav_type: str, cfg: Config,
-                mount_info: dict[str, Any], notes: list[str]
+                mount_info: JSONObject, notes: list[str]
                 ) -> tuple[list[tuple[int, float, float, float, int, bool]], str]:
     """The NAV poses as the log stores them (the head's, heading the vehicle's), and how."""
-    yaw = float(mount_info.get("yaw_rad", 0.0))
+    yaw = as_float(mount_info.get("yaw_rad", 0.0))
     turned = abs(yaw) > 1e-3
     if turned and (nf.of == "vehicle" or nav_type == NAV_POSE_DATA):
         notes.append(f"the sensor is mounted turned by {math.degrees(yaw):.2f} deg in the "
@@ -387,7 +393,7 @@ def check_circle_option(option: str, types: dict[str, str], chosen: dict[str, li
 
 
 def circle_reference(option: str, content: BagContent, cfg: Config,
-                     chosen: dict[str, list[str]], notes: list[str]) -> dict[str, Any]:
+                     chosen: dict[str, list[str]], notes: list[str]) -> JSONObject:
     """What evaluate fits the reference circle to (the importer record's
     ``circle_reference``; :func:`lgvtool.evaluate.reference.circle_from_log` reads it).
 
@@ -396,11 +402,11 @@ def circle_reference(option: str, content: BagContent, cfg: Config,
     from lgvtool.circle import kinematic_radius
     from lgvtool.evaluate.reference import describe_circle, fit_reference_circle
 
-    def fit(poses: list[tuple[int, float, float, float]], name: str) -> Any:
+    def fit(poses: list[tuple[int, float, float, float]], name: str) -> ReferenceFit:
         a = np.array([p[:3] for p in sorted(poses)], dtype=float).reshape(-1, 3)
         return fit_reference_circle(a[:, 0] * 1e-9, a[:, 1], a[:, 2], name)
 
-    def circle_fields(c: Any, turns: int) -> dict[str, Any]:
+    def circle_fields(c: Circle, turns: int) -> JSONObject:
         return {"centre_x_m": c.cx, "centre_y_m": c.cy, "radius_m": c.r, "turns": turns}
 
     truth_topic = chosen["truth"][0] if chosen.get("truth") else None
@@ -542,11 +548,11 @@ def import_bag(bag: str | Path, out: str | Path, *, topic_options: Sequence[str]
         nav_note = f"the head's pose ({nf.frame or 'its frame unnamed'}; {nf.how})"
         if stored != "the head's pose as it is":
             nav_note += f": {stored}"
-    nav_info = ({"of": nf.of, "frame": nf.frame or None, "how": nf.how, "stored": stored,
+    nav_info: JSONObject | None = ({"of": nf.of, "frame": nf.frame or None, "how": nf.how, "stored": stored,
                  "note": nav_note} if content.nav else None)
     circle_info = circle_reference(circle_from, content, cfg, chosen, notes)
     records = sorted(_records(content, fused), key=lambda r: (r[0], r[1]))
-    role_info = {role: {"topic": ts[0], "type": R.short(types[ts[0]]),
+    role_info: dict[str, JSONObject] = {role: {"topic": ts[0], "type": R.short(types[ts[0]]),
                         "messages": content.counts.get(role, 0)}
                  for role, ts in chosen.items() if ts and role != "tf"}
     if chosen["tf"]:

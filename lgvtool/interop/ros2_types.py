@@ -9,12 +9,14 @@ carries the definition of a type the store lacks (MCAP bags do) has it registere
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from lgvtool.errors import InputError
 from lgvtool.extras import require
 
 if TYPE_CHECKING:
+    from rosbags.interfaces import Connection
+    from rosbags.interfaces.typing import Typesdict
     from rosbags.typesys.store import Typestore
 
 SICK_PACKAGE = "sick_scan_xd"
@@ -80,7 +82,7 @@ def require_rosbags() -> None:
     require("import ros2", "ros2", "rosbags")
 
 
-def typestore(connections: Iterable[Any] = ()) -> Typestore:
+def typestore(connections: Iterable[Connection] = ()) -> Typestore:
     """The ROS 2 Humble types, then the ``.msg`` definitions that the bag's ``connections``
     carry for types the store lacks (a bag's own definition of a sick_scan_xd message wins),
     then sick_scan_xd's NAV350 messages as :data:`SICK_MSGS` defines them.
@@ -101,7 +103,7 @@ def typestore(connections: Iterable[Any] = ()) -> Typestore:
         except (TypesysError, ValueError, KeyError) as exc:
             raise InputError(f"topic {conn.topic}: the bag's definition of {conn.msgtype} "
                              f"cannot be read ({exc})") from None
-    types: dict[str, Any] = {}
+    types: Typesdict = {}
     for name, text in SICK_MSGS.items():
         if name not in store.types:
             types.update((k, v) for k, v in get_types_from_msg(text, name).items()

@@ -2,7 +2,7 @@
 
 One file set per trajectory, all of the target rotation centre O in the map frame, stamped with
 the log time (s since the Unix epoch), as ``lgvtool evaluate`` scores them
-(:func:`lgvtool.evaluate.evaluation.clean_trajectory`: sorted, finite, one pose per stamp):
+(:meth:`lgvtool.trajectory.Trajectory.clean`: sorted, finite, one pose per stamp):
 
 - ``NAME``: each estimator's estimate, read from the log's ``/estimate/NAME/pose`` channels if
   it has any, else run over the log as ``evaluate`` runs them (same seed, same settings);
@@ -10,7 +10,7 @@ the log time (s since the Unix epoch), as ``lgvtool evaluate`` scores them
   (``vehicle.nav_x``, ``vehicle.nav_y``);
 - ``truth``: the ground truth of O (``/truth/pose``), where the log has it;
 - ``truth-at-NAME``: the ground truth interpolated at the stamps of ``NAME`` with the rules of
-  lgvtool's truth metrics (:func:`lgvtool.evaluate.metrics.associate_truth`), so that another
+  lgvtool's truth metrics (:meth:`lgvtool.trajectory.Trajectory.sync`), so that another
   tool's absolute trajectory error on the pair equals lgvtool's true position RMSE.
 """
 
@@ -19,11 +19,12 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
 from lgvtool.interop.named_options import SAFE_NAME
+from lgvtool.json_types import JSONObject, SettingValue, as_list
 from lgvtool.outdir import guard_directory
 from lgvtool.outputs import atomic_outputs
 
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
 
     from lgvtool.config import Config
     from lgvtool.log import LogReader
+    from lgvtool.trajectory import Trajectory
 
 NAV = "nav"
 """File name of the NAV pose converted to O."""
@@ -41,12 +43,13 @@ TRUTH_AT = "truth-at-"
 """Prefix of the ground truth resampled at a trajectory's stamps."""
 
 
-@dataclass
-class Trajectory:
-    """One trajectory to export: its poses (t s, x m, y m, heading rad) and what it is."""
+@dataclass(frozen=True)
+class Exported:
+    """One trajectory to export: its file name, its poses (t s since the epoch, x m, y m,
+    heading rad) and what it is, in words."""
 
     name: str
-    poses: pd.DataFrame
+    poses: Trajectory
     what: str
 
 
@@ -59,19 +62,20 @@ class ExportSummary:
     format: str
     source: str
     """'log': estimates read from the log; 'replay': estimators run by export; 'none'."""
-    trajectories: dict[str, dict[str, Any]] = field(default_factory=dict)
+    trajectories: dict[str, JSONObject] = field(default_factory=dict)
     """name -> {files, poses, what}."""
     warnings: list[str] = field(default_factory=list)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JSONObject:
         """A JSON-ready dict (stable keys)."""
         return {"log": self.log, "directory": self.directory, "format": self.format,
-                "source": self.source, "trajectories": self.trajectories,
+                "source": self.source,
+                "trajectories": {k: v for k, v in self.trajectories.items()},
                 "warnings": list(self.warnings)}
 
     def format_text(self) -> str:
         """A few lines: the folder, then one line per trajectory."""
-        n = sum(len(v["files"]) for v in self.trajectories.values())
+        n = sum(len(as_list(v["files"])) for v in self.trajectories.values())
         lines = [f"wrote {n} file(s) ({self.format}) into {self.directory}"]
         width = max((len(k) for k in self.trajectories), default=0)
         lines.extend(f"  {k:<{width}}  {v['poses']:>7} poses  {v['what']}"
@@ -80,14 +84,15 @@ class ExportSummary:
 
 
 def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed: int,
-               settings: Mapping[str, Any], start_at_truth: bool, warnings: list[str],
-               threads: int | None) -> tuple[dict[str, pd.DataFrame], str,
+               settings: Mapping[str, SettingValue], start_at_truth: bool, warnings: list[str],
+               threads: int | None) -> tuple[dict[str, Trajectory], str,
                                              dict[str, pd.DataFrame]]:
     """The estimates of the log (source 'log'), else those of the estimators run over it, and
     the tables of the log's ground truth and NAV poses (those it has), read in the same pass
     as the log's estimates or as the estimators' reading."""
     from lgvtool.localize.registry import check_names, in_run_order
     from lgvtool.log import topics
+    from lgvtool.trajectory import Trajectory
 
     others = [t for t in (topics.TRUTH, topics.NAV_POSE) if reader.has_topic(t)]
 
@@ -103,8 +108,8 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
             warnings.append("--start-at-truth has no effect: the log's own estimates are "
                             "exported")
         tables = reader.dataframes([*(topics.estimate_pose(n) for n in chosen), *others])
-        return ({n: tables[topics.estimate_pose(n)] for n in chosen}, "log",
-                {t: tables[t] for t in others})
+        return ({n: Trajectory.from_frame(tables[topics.estimate_pose(n)], name=n)
+                 for n in chosen}, "log", {t: tables[t] for t in others})
     from lgvtool.errors import MissingDataError
     from lgvtool.gc_pause import collector_paused
     from lgvtool.localize import DEFAULT_ESTIMATORS, run_replay
@@ -126,34 +131,36 @@ def _estimates(reader: LogReader, names: Sequence[str] | None, cfg: Config, seed
         if names:
             raise InputError(f"{reader.path}: {reason}")
         warnings.append(f"estimator '{name}' left out: {reason}")
-    return dict(run.trajectories), "replay", side.tables()
+    return run.trajectories, "replay", side.tables()
 
 
-def nav_at_o(df: pd.DataFrame | None, cfg: Config) -> pd.DataFrame | None:
+def nav_at_o(df: pd.DataFrame | None, cfg: Config) -> Trajectory | None:
     """The valid NAV poses of the head (the table of /nav/pose, None without) converted to O
-    (t s, x m, y m, heading rad)."""
+    (t s since the epoch, x m, y m, heading rad; rows with a value that is not finite left
+    out), cleaned (:meth:`~lgvtool.trajectory.Trajectory.clean`)."""
     import numpy as np
-    import pandas as pd
 
     from lgvtool.localize.geometry import nav_to_o
+    from lgvtool.trajectory import Trajectory
 
     if df is None or df.empty:
         return None
     df = df[df["valid"].astype(bool)]
     x, y, h = nav_to_o(df["x"], df["y"], df["heading"], cfg.vehicle.nav_x, cfg.vehicle.nav_y)
-    out = pd.DataFrame({"t": df["t"].to_numpy(dtype=float), "x": x, "y": y, "heading": h})
-    return out[np.isfinite(out[["t", "x", "y", "heading"]]).all(axis=1)]
+    t = df["t"].to_numpy(dtype=float)
+    x, y, h = (np.asarray(v, dtype=float) for v in (x, y, h))
+    ok = np.isfinite(t) & np.isfinite(x) & np.isfinite(y) & np.isfinite(h)
+    return Trajectory.cleaned(t[ok], x[ok], y[ok], h[ok])
 
 
 def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
             config: Config | None = None, seed: int = 0,
-            settings: Mapping[str, Any] | None = None, start_at_truth: bool = False,
-            threads: int | None = 1) -> tuple[list[Trajectory], str, list[str]]:
+            settings: Mapping[str, SettingValue] | None = None, start_at_truth: bool = False,
+            threads: int | None = 1) -> tuple[list[Exported], str, list[str]]:
     """Every trajectory of the log to export, the estimates' source and warnings; estimators
     that export runs run on ``threads`` threads at once (see :func:`export_log`)."""
-    from lgvtool.evaluate.evaluation import clean_trajectory
-    from lgvtool.evaluate.metrics import associate_truth
     from lgvtool.log import topics
+    from lgvtool.trajectory import Trajectory
 
     cfg = config if config is not None else reader.config()
     warnings: list[str] = list(reader.warnings)
@@ -167,36 +174,33 @@ def collect(reader: LogReader, *, estimators: Sequence[str] | None = None,
             raise InputError(f"estimator name '{name}' clashes with an exported file name "
                              f"({NAV}, {TRUTH}, {TRUTH_AT}*)")
     how = "read from the log" if source == "log" else f"run by lgvtool export, seed {seed}"
-    out = [Trajectory(n, clean_trajectory(df, n), f"estimator '{n}' ({how})")
-           for n, df in estimates.items()]
+    out = [Exported(n, tr.on_epoch().clean(), f"estimator '{n}' ({how})")
+           for n, tr in estimates.items()]
     nav = nav_at_o(tables.get(topics.NAV_POSE), cfg)
     if nav is not None and len(nav):
-        out.append(Trajectory(NAV, clean_trajectory(nav, NAV),
-                              f"NAV head pose converted to O (nav_x {cfg.vehicle.nav_x} m, "
-                              f"nav_y {cfg.vehicle.nav_y} m)"))
+        out.append(Exported(NAV, nav, f"NAV head pose converted to O (nav_x "
+                                      f"{cfg.vehicle.nav_x} m, nav_y {cfg.vehicle.nav_y} m)"))
     truth = tables.get(topics.TRUTH)
     if truth is not None and len(truth):
-        true_df = clean_trajectory(truth, TRUTH)
+        true_poses = Trajectory.from_frame(truth, name=TRUTH)
         resampled = []
         for tr in out:
-            a = associate_truth(tr.poses, true_df)
-            frame = a[["t", "x_true", "y_true", "heading_true"]].set_axis(
-                ["t", "x", "y", "heading"], axis=1)
-            resampled.append(Trajectory(
-                TRUTH_AT + tr.name, frame,
-                f"ground truth of O interpolated at the {len(frame)} stamps of '{tr.name}' "
+            at = tr.poses.sync(true_poses)[1]
+            resampled.append(Exported(
+                TRUTH_AT + tr.name, at,
+                f"ground truth of O interpolated at the {len(at)} stamps of '{tr.name}' "
                 f"inside the truth"))
-        out.append(Trajectory(TRUTH, true_df, "ground truth of O"))
+        out.append(Exported(TRUTH, true_poses, "ground truth of O"))
         out.extend(resampled)
-    empty = [t.name for t in out if t.poses.empty]
+    empty = [t.name for t in out if len(t.poses) == 0]
     for name in empty:
         warnings.append(f"trajectory '{name}' has no pose: no file written")
-    return [t for t in out if not t.poses.empty], source, warnings
+    return [t for t in out if len(t.poses)], source, warnings
 
 
 def export_log(log: str | Path, directory: str | Path, fmt: str, *,
                estimators: Sequence[str] | None = None, config: Config | None = None,
-               seed: int = 0, settings: Mapping[str, Any] | None = None,
+               seed: int = 0, settings: Mapping[str, SettingValue] | None = None,
                start_at_truth: bool = False, force: bool = False,
                threads: int | None = 1) -> ExportSummary:
     """Export every trajectory of ``log`` as ``fmt`` files into ``directory`` (created).

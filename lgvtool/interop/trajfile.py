@@ -1,7 +1,8 @@
 """Trajectory files of other tools: TUM, KITTI, CSV and Parquet (docs/interop.md).
 
-A trajectory is a DataFrame with columns t (s since the Unix epoch), x, y (m, map frame) and
-heading (rad, counter-clockwise from the map x axis) of the target rotation centre O.
+A trajectory is a :class:`lgvtool.trajectory.Trajectory` of the target rotation centre O: t (s
+since the Unix epoch), x, y (m, map frame) and heading (rad, counter-clockwise from the map x
+axis).
 
 - **TUM** (``NAME.tum``): one pose a line, ``t x y z qx qy qz qw`` separated by single spaces,
   t in s, position in m, z 0, the unit quaternion of a rotation by the heading about z; lines
@@ -15,7 +16,7 @@ heading (rad, counter-clockwise from the map x axis) of the target rotation cent
   ``unit``, the file's metadata the frame, the point (O) and what the trajectory is.
 
 :func:`read_trajectory` reads TUM (``.tum``, ``.txt``) and CSV (``.csv``) files back, telling
-the line of the first bad line.
+the line of the first bad line; the poses come back sorted by time, one per time (the last).
 """
 
 from __future__ import annotations
@@ -27,10 +28,10 @@ from itertools import chain
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from lgvtool.errors import InputError
 from lgvtool.extras import require
+from lgvtool.trajectory import Trajectory
 
 FORMATS = ("tum", "kitti", "csv", "parquet")
 """Formats :func:`write_trajectory` writes."""
@@ -60,8 +61,10 @@ def require_pyarrow() -> None:
     require("--format parquet", "fleet", "pyarrow")
 
 
-def _arrays(df: pd.DataFrame) -> tuple[np.ndarray, ...]:
-    return tuple(df[c].to_numpy(dtype=np.float64) for c in ("t", "x", "y", "heading"))
+def _arrays(tr: Trajectory) -> tuple[np.ndarray, ...]:
+    """t (s since the epoch), x, y (m), heading (rad)."""
+    tr = tr.on_epoch()
+    return tr.t, tr.x, tr.y, tr.heading
 
 
 #: rows turned into Python floats and lines at a time by the writers: memory holds one block's
@@ -81,7 +84,7 @@ def _write_lines(path: Path, lines: Iterable[str]) -> None:
         f.writelines(line + "\n" for line in lines)
 
 
-def write_tum(df: pd.DataFrame, path: Path, comments: Sequence[str] = ()) -> None:
+def write_tum(df: Trajectory, path: Path, comments: Sequence[str] = ()) -> None:
     """``t x y z qx qy qz qw`` per pose (s, m, unit quaternion); ``comments`` as ``#`` lines."""
     t, x, y, h = _arrays(df)
     qz, qw = np.sin(h / 2.0), np.cos(h / 2.0)
@@ -91,7 +94,7 @@ def write_tum(df: pd.DataFrame, path: Path, comments: Sequence[str] = ()) -> Non
          for a, b, c, d, e in _rows(t, x, y, qz, qw))))
 
 
-def write_kitti(df: pd.DataFrame, path: Path) -> None:
+def write_kitti(df: Trajectory, path: Path) -> None:
     """Rows ``r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz`` of each pose matrix (m)."""
     _t, x, y, h = _arrays(df)
     c, s = np.cos(h), np.sin(h)
@@ -101,19 +104,19 @@ def write_kitti(df: pd.DataFrame, path: Path) -> None:
         for ci, si, xi, yi in _rows(c, s, x, y)))
 
 
-def write_times(df: pd.DataFrame, path: Path) -> None:
+def write_times(df: Trajectory, path: Path) -> None:
     """One stamp per line, s (KITTI's ``times.txt``)."""
-    _write_lines(path, (f"{t:.9f}" for (t,) in _rows(df["t"].to_numpy(dtype=np.float64))))
+    _write_lines(path, (f"{t:.9f}" for (t,) in _rows(_arrays(df)[0])))
 
 
-def write_csv(df: pd.DataFrame, path: Path) -> None:
+def write_csv(df: Trajectory, path: Path) -> None:
     """Header ``t_s,x_m,y_m,heading_rad``, then one row per pose."""
     t, x, y, h = _arrays(df)
     _write_lines(path, chain([",".join(COLUMNS)], (f"{a:.9f},{b:.6f},{c:.6f},{d:.9f}"
                                                    for a, b, c, d in _rows(t, x, y, h))))
 
 
-def write_parquet(df: pd.DataFrame, path: Path, metadata: Mapping[str, str]) -> None:
+def write_parquet(df: Trajectory, path: Path, metadata: Mapping[str, str]) -> None:
     """The CSV columns as float64 with their ``unit`` in the field metadata, ``metadata`` as
     the file's key-value metadata."""
     require_pyarrow()
@@ -127,7 +130,7 @@ def write_parquet(df: pd.DataFrame, path: Path, metadata: Mapping[str, str]) -> 
     pq.write_table(table, path)
 
 
-def write_trajectory(df: pd.DataFrame, paths: Sequence[Path], fmt: str,
+def write_trajectory(df: Trajectory, paths: Sequence[Path], fmt: str,
                      metadata: Mapping[str, str]) -> None:
     """Write ``df`` in ``fmt`` to ``paths`` (as :func:`file_names` names them); ``metadata``
     (what the trajectory is, its frame and point) goes into the TUM comments and the Parquet
@@ -158,17 +161,17 @@ def _number(text: str, path: Path, line: int, what: str) -> float:
     return value
 
 
-def _frame(rows: list[tuple[float, float, float, float]], path: Path) -> pd.DataFrame:
+def _frame(rows: list[tuple[float, float, float, float]], path: Path) -> Trajectory:
     if not rows:
         raise InputError(f"{path}: no poses in the file (an empty trajectory cannot be scored)")
     a = np.array(rows, dtype=np.float64)
-    return pd.DataFrame({"t": a[:, 0], "x": a[:, 1], "y": a[:, 2], "heading": a[:, 3]})
+    return Trajectory.cleaned(a[:, 0], a[:, 1], a[:, 2], a[:, 3])
 
 
 _TUM_FIELDS = ("t", "x", "y", "z", "qx", "qy", "qz", "qw")
 
 
-def read_tum(path: Path) -> pd.DataFrame:
+def read_tum(path: Path) -> Trajectory:
     """A TUM file (``t x y z qx qy qz qw``): t, x, y and the yaw of the quaternion as heading.
 
     :raises InputError: a line that is not 8 finite numbers, a zero quaternion, no pose.
@@ -199,7 +202,7 @@ def _column(header: list[str], key: str) -> int | None:
     return None
 
 
-def read_csv(path: Path) -> pd.DataFrame:
+def read_csv(path: Path) -> Trajectory:
     """A CSV file with a header naming t (``t_s``, ``t``), x (``x_m``, ``x``), y (``y_m``,
     ``y``) and optionally the heading (``heading_rad``, ``heading``, ``yaw``); separated by
     commas, or by semicolons when the header has no comma (a spreadsheet's export).
@@ -240,12 +243,12 @@ def _text_lines(path: Path) -> list[str]:
         raise InputError(f"{path}: not a text file") from None
 
 
-_READERS: dict[str, Callable[[Path], pd.DataFrame]] = {
+_READERS: dict[str, Callable[[Path], Trajectory]] = {
     ".tum": read_tum, ".txt": read_tum, ".csv": read_csv,
 }
 
 
-def read_trajectory(path: str | Path) -> pd.DataFrame:
+def read_trajectory(path: str | Path) -> Trajectory:
     """Read a TUM (``.tum``, ``.txt``) or CSV (``.csv``) trajectory of O.
 
     :raises InputError: unknown suffix, missing file, bad lines (with the line number), no pose.

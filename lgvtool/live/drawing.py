@@ -28,13 +28,14 @@ from __future__ import annotations
 import math
 from array import array
 from collections import deque
-from typing import Any
+from typing import TYPE_CHECKING
 
 import orjson
 
+from lgvtool.json_types import JSONRecord
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
-from lgvtool.log.messages import steering_fields
+from lgvtool.log.messages import PoseInFrameFields, ReflectorScanFields, steering_fields
 from lgvtool.log.validate import plausible_poses
 from lgvtool.log.view_channels import (
     Track,
@@ -45,6 +46,12 @@ from lgvtool.log.view_channels import (
     scan_fields,
     truth_fields,
 )
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from lgvtool.config import Config
 
 #: head poses kept for carrying the observations (at the NAV200's 2-8 Hz, several seconds)
 TRACK_POSES = 32
@@ -92,7 +99,7 @@ class Thinned:
     def __len__(self) -> int:
         return len(self._cols[0])
 
-    def columns(self) -> list[Any]:
+    def columns(self) -> list[NDArray[np.float64]]:
         """The kept samples, one float64 array per column."""
         import numpy as np
 
@@ -166,7 +173,7 @@ class LiveDrawing:
         msg = reference_message(log_time_ns, px, py, f"reference ({source})", self._h, steering)
         return [] if msg is None else [fx.Encoded(T.REFERENCE, T.FIXED[T.REFERENCE], msg)]
 
-    def _nav_pose(self, doc: dict[str, Any], log_time_ns: int) -> list[fx.Encoded]:
+    def _nav_pose(self, doc: JSONRecord, log_time_ns: int) -> list[fx.Encoded]:
         (x,), (y,), (h,), (valid,) = nav_fields([doc])
         if not (valid and plausible_poses(x, y, h)):
             return []
@@ -178,7 +185,7 @@ class LiveDrawing:
             out += self._circle("nav", float(ox), float(oy), log_time_ns)
         return out
 
-    def _truth_pose(self, doc: dict[str, Any], log_time_ns: int) -> list[fx.Encoded]:
+    def _truth_pose(self, doc: PoseInFrameFields, log_time_ns: int) -> list[fx.Encoded]:
         (x,), (y,), (qz,), (qw,) = truth_fields([doc])
         yaw = 2.0 * math.atan2(qz, qw)
         if not math.isfinite(x + y + yaw):
@@ -202,7 +209,7 @@ class LiveDrawing:
         t, x, y, h = (list(c) for c in zip(*rows, strict=True)) if rows else ([], [], [], [])
         return head_track(t, x, y, h, fx.Mounting(0.0, 0.0))  # already the head's poses
 
-    def _scan(self, doc: dict[str, Any]) -> list[fx.Encoded]:
+    def _scan(self, doc: ReflectorScanFields) -> list[fx.Encoded]:
         import numpy as np
 
         from lgvtool.timestamps import seconds_to_ns_array
@@ -219,7 +226,7 @@ class LiveDrawing:
         return [fx.encoded(T.NAV_SCAN, fx.scan_cloud(start, qx, qy, ids, self._scans_on))]
 
 
-def drawing_of(config: Any, scans_on: str = "nav") -> LiveDrawing:
+def drawing_of(config: Config, scans_on: str = "nav") -> LiveDrawing:
     """The :class:`LiveDrawing` of a vehicle's configuration (:class:`lgvtool.config.Config`):
     its NAV mounting, and its steering geometry for the reference circle."""
     d = config.reference.steering_angle_deg

@@ -50,9 +50,12 @@ import os
 import socket
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Coroutine
 from concurrent.futures import Future
-from typing import Any
+from typing import TypedDict, TypeVar
+
+#: what a coroutine run on the front's loop gives
+T = TypeVar("T")
 
 __all__ = ["ACCEPTED_SUBPROTOCOLS", "SDK_SUBPROTOCOL", "FrameTracker", "FrontStats",
            "SubprotocolFront", "choose_subprotocol", "client_close_frame", "offered_subprotocols"]
@@ -175,6 +178,17 @@ def client_close_frame(code: int = 1001, reason: bytes = b"client went away") ->
             + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
 
 
+class ClientCounts(TypedDict):
+    """The clients a front served and refused, those slow or disconnected for stalling, and
+    the clients served per subprotocol."""
+
+    served: int
+    refused: int
+    slow: int
+    stalled: int
+    by_subprotocol: dict[str, int]
+
+
 class FrontStats:
     """Counts of the front's clients: served (upgraded), refused (no accepted subprotocol,
     not a WebSocket request, too many clients), said to be slow, disconnected for stalling,
@@ -187,7 +201,7 @@ class FrontStats:
         self.stalled = 0
         self.by_subprotocol: dict[str, int] = {}
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> ClientCounts:
         return {"served": self.served, "refused": self.refused, "slow": self.slow,
                 "stalled": self.stalled, "by_subprotocol": dict(self.by_subprotocol)}
 
@@ -516,7 +530,7 @@ class SubprotocolFront:
             raise
         return self.port
 
-    def call(self, coro: Any) -> Future[Any]:
+    def call(self, coro: Coroutine[object, object, T]) -> Future[T]:
         """Run ``coro`` on the front's loop (thread-safe)."""
         return asyncio.run_coroutine_threadsafe(coro, self.loop)
 
@@ -565,7 +579,7 @@ class SubprotocolFront:
         with contextlib.suppress(Exception):  # a failing warn must not stop the front
             self.warn(line)
 
-    def _loop_error(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+    def _loop_error(self, loop: asyncio.AbstractEventLoop, context: dict[str, object]) -> None:
         exc = context.get("exception")
         what = f"{type(exc).__name__}: {exc}" if exc is not None else context.get("message")
         self.say("front:0", "error", f"the live server's front failed ({what}); its other "

@@ -21,10 +21,14 @@ import sys
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from lgvtool.errors import InputError
 from lgvtool.extras import require
+
+if TYPE_CHECKING:
+    from foxglove import Channel
+    from foxglove.websocket import ChannelView, Client
 
 __all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "LiveAddress", "LiveServer", "parse_address"]
 
@@ -94,7 +98,7 @@ class _Listener:
     def __init__(self, server: LiveServer) -> None:
         self._server = server
 
-    def on_subscribe(self, client: Any, channel: Any) -> None:
+    def on_subscribe(self, client: Client, channel: ChannelView) -> None:
         self._server.resend_last(str(channel.topic))
 
     def __getattr__(self, name: str) -> Any:
@@ -148,7 +152,7 @@ class LiveServer:
             raise InputError(f"--live {address}: cannot listen: {exc.strerror or exc}"
                              ) from None
         self.address = LiveAddress(address.host, port)
-        self._channels: dict[str, Any] = {}
+        self._channels: dict[str, Channel] = {}
         self._lock = threading.Lock()
         self._closed = False
         #: messages published per topic
@@ -170,7 +174,7 @@ class LiveServer:
         ch = self._channels.get(topic)
         return None if ch is None else int(ch.id())
 
-    def _channel(self, topic: str, schema_name: str) -> Any:
+    def _channel(self, topic: str, schema_name: str) -> Channel:
         ch = self._channels.get(topic)
         if ch is None:
             from lgvtool.log.schemas import schema_bytes

@@ -34,7 +34,8 @@ import orjson
 
 from lgvtool.angles import wrap_scalar
 from lgvtool.config import Config, Reflector
-from lgvtool.localize.estimator import Estimator, Motion, cloud_sample
+from lgvtool.json_types import JSONRecord, SettingValue, as_float, as_list, member
+from lgvtool.localize.estimator import Estimator, Motion, Observation, cloud_sample
 from lgvtool.localize.motion import (
     MotionTrack,
     increments_from_mcu,
@@ -47,7 +48,13 @@ from lgvtool.localize.observations import (
     scan_observations,
     sources,
 )
-from lgvtool.localize.registry import ESTIMATORS, check_names, resolve_params, split_settings
+from lgvtool.localize.registry import (
+    ESTIMATORS,
+    check_names,
+    motion_params,
+    resolve_params,
+    split_settings,
+)
 from lgvtool.localize.replay_driver import estimator_rng
 from lgvtool.log import foxglove as fx
 from lgvtool.log import messages, topics
@@ -85,7 +92,7 @@ class OnlineEstimator:
     """
 
     def __init__(self, name: str, config: Config, *, seed: int = 0,
-                 settings: Mapping[str, Any] | None = None, cloud_period_s: float = 0.5,
+                 settings: Mapping[str, SettingValue] | None = None, cloud_period_s: float = 0.5,
                  cloud_size: int = 100) -> None:
         check_names([name])
         self.name = name
@@ -94,7 +101,8 @@ class OnlineEstimator:
         self.config = config
         self.seed = seed
         self.reflectors: tuple[Reflector, ...] = tuple(config.reflectors)
-        self.motion = self.params.motion_settings() if self.cls.uses_motion else None
+        self.motion = (motion_params(name, self.params).motion_settings() if self.cls.uses_motion
+                       else None)
         self.cloud_period_s = cloud_period_s
         self.cloud_size = cloud_size
         self.est: Estimator[Any] | None = None
@@ -149,13 +157,13 @@ class OnlineEstimator:
         has_poses = self.cls.uses_poses and self._poses_seen
         return sources(getattr(self.params, "observations", "both"), has_scans, has_poses)
 
-    def _on_scan(self, doc: Mapping[str, Any], t: float, received: float) -> list[Output]:
-        obs = doc.get("observations") or []
-        scan = RawScan(t, float(doc.get("scan_period", 0.0)),
-                       np.array([o["range"] for o in obs], dtype=np.float64),
-                       np.array([o["bearing"] for o in obs], dtype=np.float64),
-                       np.array([o["time_in_scan"] for o in obs], dtype=np.float64),
-                       np.array([o["id"] for o in obs], dtype=np.int64))
+    def _on_scan(self, doc: JSONRecord, t: float, received: float) -> list[Output]:
+        obs = as_list(doc.get("observations") or [])
+        scan = RawScan(t, as_float(doc.get("scan_period", 0.0)),
+                       np.array([member(o, "range") for o in obs], dtype=np.float64),
+                       np.array([member(o, "bearing") for o in obs], dtype=np.float64),
+                       np.array([member(o, "time_in_scan") for o in obs], dtype=np.float64),
+                       np.array([member(o, "id") for o in obs], dtype=np.int64))
         self._scans_seen = True
         if getattr(self.params, "scans", "all") == "nav-poll":
             self._last_scan = scan
@@ -176,12 +184,12 @@ class OnlineEstimator:
                               max_range=float(getattr(p, "max_range_m", math.inf)))[0]
         return self._apply(o, o.t, track, started)
 
-    def _on_pose(self, doc: Mapping[str, Any], t: float) -> list[Output]:
+    def _on_pose(self, doc: JSONRecord, t: float) -> list[Output]:
         out: list[Output] = []
         if self._last_scan is not None:
             scan, self._last_scan = self._last_scan, None
             out.extend(self._apply_scan(scan))
-        x, y, h = (float(doc.get(k) or math.nan) for k in ("x", "y", "heading"))
+        x, y, h = (as_float(doc.get(k) or math.nan) for k in ("x", "y", "heading"))
         if not (doc.get("valid") and math.isfinite(x) and math.isfinite(y) and math.isfinite(h)):
             return out
         self._poses_seen = True
@@ -245,7 +253,7 @@ class OnlineEstimator:
         return self.cls(self.params, vehicle=self.config.vehicle, reflectors=self.reflectors,
                         area=self.config.area, rng=estimator_rng(self.seed, self.name))
 
-    def _apply(self, obs: Any, t_obs: float, track: MotionTrack | None,
+    def _apply(self, obs: Observation, t_obs: float, track: MotionTrack | None,
                started: float) -> list[Output]:
         if self.est is None:
             self.est = self._build()

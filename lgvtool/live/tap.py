@@ -18,17 +18,18 @@ import math
 import queue
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import IO, Any, Protocol
+from typing import IO, Any, Protocol, TypedDict, Unpack
 
 from lgvtool.live.drawing import INPUTS as DRAWN_FROM
 from lgvtool.live.drawing import TOPICS as DRAWING_TOPICS
 from lgvtool.live.drawing import LiveDrawing
+from lgvtool.live.front import ClientCounts
 from lgvtool.live.live_server import LiveServer
 from lgvtool.live.online import INPUT_TOPICS, OnlineEstimator
 from lgvtool.log import topics
-from lgvtool.log.writer import LogWriter
+from lgvtool.log.writer import LogWriter, WriterOptions
 
 __all__ = ["LiveFeed", "LogTap", "TappedLogWriter", "latency_summary"]
 
@@ -51,7 +52,8 @@ class TappedLogWriter(LogWriter):
 
     Takes the arguments of :class:`lgvtool.log.LogWriter`, plus ``tap``."""
 
-    def __init__(self, path: str | Path | IO[bytes], *, tap: LogTap, **kwargs: Any) -> None:
+    def __init__(self, path: str | Path | IO[bytes], *, tap: LogTap,
+                 **kwargs: Unpack[WriterOptions]) -> None:
         self._tap = tap
         self._schema_of: dict[str, str] = {}
         super().__init__(path, **kwargs)
@@ -76,6 +78,24 @@ class TappedLogWriter(LogWriter):
         super().write_encoded_many(topics, datas, log_times_ns)
         for topic, data, t in zip(topics, datas, log_times_ns, strict=True):
             self._tap.message(topic, self._schema_of[topic], data, int(t))
+
+
+class LiveStats(TypedDict):
+    """A live view's figures (:meth:`LiveFeed.stats`): its URL, the messages published, the
+    clients (None without a front), the estimators, their latencies (ms,
+    :func:`latency_summary`) overall, per estimator and per update, the largest backlog, the
+    observations shed and the live failures."""
+
+    url: str
+    published: int
+    clients: ClientCounts | None
+    estimators: list[str]
+    latency: dict[str, float | int]
+    latency_by_estimator: dict[str, dict[str, float | int]]
+    update: dict[str, dict[str, float | int]]
+    backlog_max: int
+    shed: int
+    failures: int
 
 
 def latency_summary(seconds: Sequence[float]) -> dict[str, float | int]:
@@ -105,7 +125,8 @@ class LiveFeed:
     """
 
     def __init__(self, server: LiveServer, estimators: Sequence[OnlineEstimator] = (), *,
-                 warn: Any = None, drawing: LiveDrawing | None = None) -> None:
+                 warn: Callable[[str], None] | None = None, drawing: LiveDrawing | None = None
+                 ) -> None:
         self.server = server
         self.estimators = list(estimators)
         server.prepare({t: topics.schema_for_topic(t) or "" for e in self.estimators
@@ -179,7 +200,7 @@ class LiveFeed:
                     self.latencies.append(lag)
                     self.latency_of[est.name].append(lag)
 
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> LiveStats:
         """Published counts, estimator latency (ms), failures and the clients served and
         refused (:class:`lgvtool.live.front.FrontStats`), for the command's summary."""
         front = getattr(self.server, "front", None)
@@ -201,15 +222,15 @@ class LiveFeed:
         self.server.close()
 
 
-def describe(stats: dict[str, Any]) -> str:
+def describe(stats: LiveStats) -> str:
     """One line for the terminal from :meth:`LiveFeed.stats`."""
     text = f"lgvtool: live view {stats['url']}: {stats['published']} messages published"
     lat = stats.get("latency", {})
     if lat.get("count"):
         text += (f"; estimate latency median {lat['median_ms']:.1f} ms, p95 {lat['p95_ms']:.1f} ms"
                  f" over {lat['count']} updates")
-    clients = stats.get("clients") or {}
-    if clients.get("served") or clients.get("refused"):
+    clients = stats.get("clients")
+    if clients and (clients.get("served") or clients.get("refused")):
         names = ", ".join(f"{n} {p}" for p, n in sorted(clients["by_subprotocol"].items()))
         n = clients["served"]
         text += f"; {n} client{'' if n == 1 else 's'} served ({names or 'none'})"

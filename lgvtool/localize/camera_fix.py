@@ -12,7 +12,7 @@ and start with the uncertainty it really has.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -117,8 +117,33 @@ def weighted_fix(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
     return (float(pose[0]), float(pose[1]), wrap_scalar(float(pose[2]))), 0.5 * (cov + cov.T)
 
 
+@runtime_checkable
+class MeasurementNoise(Protocol):
+    """The reflector measurement noise among an estimator's parameters: range (m, plus m per m
+    of range) and bearing (rad)."""
+
+    @property
+    def sigma_range_m(self) -> float: ...
+    @property
+    def sigma_range_per_m(self) -> float: ...
+    @property
+    def sigma_bearing_rad(self) -> float: ...
+
+
+@runtime_checkable
+class WeightedFixParams(MeasurementNoise, Protocol):
+    """The parameters of an estimator that may start from a weighted fix: the measurement
+    noise, the kind of fix (``init_fix``) and the largest standard deviation of a weighted
+    fix's position it starts from (``init_max_sigma_xy_m``, m; 0: no limit)."""
+
+    @property
+    def init_fix(self) -> str: ...
+    @property
+    def init_max_sigma_xy_m(self) -> float: ...
+
+
 def start_fix(obs: PoseObservation | ScanObservation, nav_x: float, nav_y: float,
-              rmap: ReflectorMap, params: Any
+              rmap: ReflectorMap, params: object
               ) -> tuple[tuple[float, float, float], FloatArray | None] | None:
     """The first pose an estimator with ``params`` takes from ``obs``, and the fix's
     covariance (None for a point fix or a NAV pose).
@@ -131,10 +156,10 @@ def start_fix(obs: PoseObservation | ScanObservation, nav_x: float, nav_y: float
     """
     use_ids = getattr(params, "use_ids", True)
     noise: tuple[float, float, float] | None = None
-    if hasattr(params, "sigma_range_m"):
+    if isinstance(params, MeasurementNoise):
         noise = (params.sigma_range_m, params.sigma_range_per_m, params.sigma_bearing_rad)
-    if isinstance(obs, ScanObservation) and \
-            getattr(params, "init_fix", "points") == "weighted":
+    if isinstance(obs, ScanObservation) and isinstance(params, WeightedFixParams) and \
+            params.init_fix == "weighted":
         fix = weighted_fix(obs, rmap, params.sigma_range_m, params.sigma_range_per_m,
                            params.sigma_bearing_rad, use_ids=use_ids)
         if fix is None:

@@ -14,7 +14,9 @@ with the smallest Mahalanobis distance, inside the gate, unless a second one is 
 at less than ``ambiguity_ratio`` times that distance (ambiguous: dropped). A reflector with
 nothing inside the gate is rejected as an outlier. The accepted reflectors are applied together in
 information form (exact for the linearised model). Update from a NAV pose: ``h = pose of the
-head`` (eq. 5 inverted), 3 dof gate.
+head`` (eq. 5 inverted), its noise the rotating-head pose model's covariance at the pose's
+motion (:mod:`lgvtool.localize.pose_model`), behind its robust gate (3 dof; refused poses move
+nothing, and after ``pose_reanchor_s`` of them the state is re-anchored at the pose).
 
 Odometry scale factors (``odometry_scales``, off by default): the state grows to
 ``(x, y, theta, s_v, s_w)``, where ``s_v`` multiplies the odometry's distance and ``s_w`` its
@@ -51,6 +53,7 @@ from lgvtool.localize.kernel_choice import gaussian_backend
 from lgvtool.localize.noise import MotionParams
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
+from lgvtool.localize.pose_model import PoseGate, PoseModelParams, pose_covariance
 from lgvtool.quantiles import chi2_quantile
 
 if TYPE_CHECKING:
@@ -77,7 +80,7 @@ class GaussianInitParams:
 
 
 @dataclass(frozen=True)
-class EkfParams(MotionParams, SourceParams, GaussianInitParams):
+class EkfParams(MotionParams, SourceParams, GaussianInitParams, PoseModelParams):
     """Parameters of the EKF."""
 
     sigma_range_m: float = param(0.02, "range noise of a reflector measurement, m",
@@ -86,8 +89,10 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams):
                                      minimum=1e-9)
     sigma_range_per_m: float = param(0.0, "range noise that grows with the range (a scale "
                                      "error), added in quadrature, m per m", minimum=0.0)
-    sigma_pose_xy_m: float = param(0.05, "position noise of a NAV pose, m", minimum=1e-6)
-    sigma_pose_heading_rad: float = param(0.01, "heading noise of a NAV pose, rad",
+    sigma_pose_xy_m: float = param(0.03, "position noise of a NAV pose (with the "
+                                   "rotating-head model: at standstill), m", minimum=1e-6)
+    sigma_pose_heading_rad: float = param(0.005, "heading noise of a NAV pose (with the "
+                                          "rotating-head model: at standstill), rad",
                                           minimum=1e-9)
     gate_probability: float = param(0.99, "chi-square gate (2 degrees of freedom for a "
                                     "reflector, 3 for a NAV pose): innovations less likely "
@@ -140,7 +145,9 @@ class GaussianParams(Protocol):
     def noise_sigmas(self, dist: float, rot: float) -> tuple[float, float, float]: ...
 
 
-GP = TypeVar("GP", bound=GaussianParams)
+#: the parameters of a Gaussian estimator (covariant, as :data:`lgvtool.localize.estimator.P`:
+#: an ``Ekf`` is a ``GaussianPoseEstimator[GaussianParams]``)
+GP = TypeVar("GP", bound=GaussianParams, covariant=True)
 
 
 def scaled_motion(dx: float, dy: float, dth: float, s_v: float, s_w: float
@@ -286,6 +293,8 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         super().__init__(params, backend=backend, **context)
         self._gate2 = chi2_quantile(self.params.gate_probability, 2)
         self._gate3 = chi2_quantile(self.params.gate_probability, 3)
+        #: the robust gate on NAV poses (refused poses, re-anchoring)
+        self.pose_gate = PoseGate(self._gate3, self.params.pose_reanchor_s)
         self.rejected = 0
         self.accepted = 0
         #: reflectors whose id failed its gate (then associated without it, or dropped)
@@ -352,7 +361,6 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         return self._update_scan(obs)
 
     def _update_pose(self, obs: PoseObservation) -> bool:
-        p = self.params
         x, y, th = (float(v) for v in self.mu[:POSE])  # type: ignore[index]
         c, s = math.cos(th), math.sin(th)
         mx, my = self.vehicle.nav_x, self.vehicle.nav_y
@@ -362,12 +370,15 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         H = np.zeros((3, n))
         H[:, :POSE] = [[1.0, 0.0, -s * mx - c * my], [0.0, 1.0, c * mx - s * my],
                        [0.0, 0.0, 1.0]]
-        R = np.diag([p.sigma_pose_xy_m ** 2, p.sigma_pose_xy_m ** 2,
-                     p.sigma_pose_heading_rad ** 2])
+        R = self.pose_noise(obs, th)
         S = H @ self.P @ H.T + R
-        if float(nu @ np.linalg.solve(S, nu)) > self._gate3:
+        verdict = self.pose_gate.judge(obs.t, float(nu @ np.linalg.solve(S, nu)))
+        if verdict == "refuse":
             self.rejected += 1
             return False
+        if verdict == "reanchor":
+            self._reanchor(obs, R)
+            return True
         K = self.P @ H.T @ np.linalg.inv(S)
         self.mu = self.mu + K @ nu
         self.mu[2] = wrap_scalar(float(self.mu[2]))
@@ -375,6 +386,37 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         self.P = IKH @ self.P @ IKH.T + K @ R @ K.T
         self.accepted += 1
         return True
+
+    def pose_noise(self, obs: PoseObservation, heading: float) -> np.ndarray:
+        """Covariance of a NAV head pose (3 x 3: m^2, m rad, rad^2): the rotating-head model's
+        at the observation's motion (:func:`lgvtool.localize.pose_model.pose_covariance`,
+        ``heading`` rad), or the plain ``sigma_pose_xy_m``, ``sigma_pose_heading_rad``."""
+        p = self.params
+        if p.pose_model == "rotating-head":
+            return pose_covariance(heading, obs.v, obs.omega, self.vehicle.nav_x,
+                                   self.vehicle.nav_y, p.sigma_pose_xy_m,
+                                   p.sigma_pose_heading_rad, p)
+        return np.diag([p.sigma_pose_xy_m ** 2, p.sigma_pose_xy_m ** 2,
+                        p.sigma_pose_heading_rad ** 2])
+
+    def _reanchor(self, obs: PoseObservation, R: np.ndarray) -> None:
+        """Put the pose at the NAV pose ``obs`` converted to O, its covariance the pose's
+        ``R`` (m, rad) carried through the lever arm (the odometry scales keep theirs)."""
+        th = obs.heading
+        c, s = math.cos(th), math.sin(th)
+        mx, my = self.vehicle.nav_x, self.vehicle.nav_y
+        assert self.mu is not None
+        self.mu[:POSE] = [obs.x - c * mx + s * my, obs.y - s * mx - c * my, wrap_scalar(th)]
+        # d(O)/d(head pose): identity plus the lever arm's turn
+        J = np.array([[1.0, 0.0, s * mx + c * my], [0.0, 1.0, -c * mx + s * my],
+                      [0.0, 0.0, 1.0]])
+        n = len(self.P)
+        P = np.zeros((n, n))
+        P[:POSE, :POSE] = J @ R @ J.T
+        if n > POSE:
+            P[POSE:, POSE:] = self.P[POSE:, POSE:]
+        self.P = P
+        self.accepted += 1
 
     def _update_scan(self, obs: ScanObservation) -> bool:
         if len(obs) == 0 or len(self.map) == 0:

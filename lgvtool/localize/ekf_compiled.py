@@ -11,7 +11,7 @@ imports it when an estimator is made, never at start-up.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,7 +20,7 @@ from lgvtool.localize.chunks import KIND_OTHER, chunks, scan_chunk
 from lgvtool.localize.estimator import Reporter, RowRecorder, step_loop
 
 if TYPE_CHECKING:
-    from lgvtool.localize.ekf import GaussianPoseEstimator
+    from lgvtool.localize.ekf import GaussianParams, GaussianPoseEstimator
     from lgvtool.localize.estimator import EstimateRows, FloatArray, Observation
     from lgvtool.localize.gaussian_backend import GaussianModel
     from lgvtool.localize.motion import Deltas
@@ -44,7 +44,7 @@ class CompiledGaussian:
     (:class:`lgvtool.localize.gaussian_backend.GaussianBackend`); the state with the odometry
     scales runs step by step."""
 
-    def run(self, est: GaussianPoseEstimator[Any], times: FloatArray,
+    def run(self, est: GaussianPoseEstimator[GaussianParams], times: FloatArray,
             observations: Sequence[Observation | None], steps: Deltas | None, *,
             progress: Callable[[int], None] | None, cloud_period_s: float,
             cloud_size: int) -> EstimateRows:

@@ -18,15 +18,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.config import Area, Reflector, Vehicle
+from lgvtool.declared import JSONScalar
 from lgvtool.localize.observations import PoseObservation, ReflectorMap, ScanObservation
 from lgvtool.localize.params import make_params, params_dict
+from lgvtool.trajectory import Trajectory
 
 if TYPE_CHECKING:
     from lgvtool.localize.motion import Deltas
 
 Observation = PoseObservation | ScanObservation
-#: an estimator's parameter group (a frozen dataclass of declared settings)
-P = TypeVar("P")
+#: an estimator's parameter group (a frozen dataclass of declared settings); covariant, since an
+#: estimator's parameters are set once, when it is made, and only read after: an
+#: ``Estimator[PfParams]`` is an ``Estimator[object]`` (an estimator of any parameters)
+P = TypeVar("P", covariant=True)
 FloatArray = NDArray[np.float64]
 #: a kept particle cloud: time (s), particle x (m), y (m) and heading (rad)
 Cloud = tuple[float, FloatArray, FloatArray, FloatArray]
@@ -69,25 +73,15 @@ class Estimate:
     ess: float = 0.0
 
 
+@dataclass(frozen=True)
 class EstimateRows:
-    """What :meth:`Estimator.run` returns: one row per observation time at which the estimator
-    had a pose. ``t`` (s, the caller's clock), pose of O (m, m, rad; the heading not wrapped),
-    row-major 3x3 ``covariance`` per row, particle count and ESS per row, and the kept
-    particle ``clouds``."""
+    """What :meth:`Estimator.run` returns: ``poses``, one row per observation time at which
+    the estimator had a pose (a :class:`lgvtool.trajectory.Trajectory`: ``t`` in s on the
+    caller's clock, pose of O in m, m, rad with the heading not wrapped, and per row the
+    row-major 3x3 covariance, particle count and ESS), and the kept particle ``clouds``."""
 
-    __slots__ = ("clouds", "covariance", "ess", "heading", "particles", "t", "x", "y")
-
-    def __init__(self, t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
-                 covariance: FloatArray, particles: NDArray[np.int64], ess: FloatArray,
-                 clouds: list[Cloud]) -> None:
-        self.t = t
-        self.x = x
-        self.y = y
-        self.heading = heading
-        self.covariance = covariance
-        self.particles = particles
-        self.ess = ess
-        self.clouds = clouds
+    poses: Trajectory
+    clouds: list[Cloud]
 
 
 class EstimatorContext(TypedDict, total=False):
@@ -146,7 +140,7 @@ class Estimator(ABC, Generic[P]):
         self.initial_pose = initial_pose
 
     @classmethod
-    def configure(cls, **values: Any) -> P:
+    def configure(cls, **values: object) -> P:
         """The parameters with ``values`` (``{param: value}``) over the defaults, each checked
         (:func:`lgvtool.localize.params.make_params`): ``Ekf.configure(sigma_range_m=0.03)``.
 
@@ -157,7 +151,7 @@ class Estimator(ABC, Generic[P]):
         return made
 
     @property
-    def settings(self) -> dict[str, Any]:
+    def settings(self) -> dict[str, JSONScalar]:
         """The effective parameters as a JSON-able dict."""
         return params_dict(self.params)
 
@@ -211,7 +205,7 @@ class Estimator(ABC, Generic[P]):
             rec.maybe_cloud(i, self)
 
 
-def step_loop(est: Estimator[Any], times: FloatArray,
+def step_loop(est: Estimator[object], times: FloatArray,
               observations: Sequence[Observation | None], steps: Deltas | None, *,
               progress: Callable[[int], None] | None = None, cloud_period_s: float = 2.0,
               cloud_size: int = 50) -> EstimateRows:
@@ -278,7 +272,7 @@ class RowRecorder:
         self.ess[k] = e.ess
         self.k = k + 1
 
-    def maybe_cloud(self, i: int, est: Estimator[Any]) -> None:
+    def maybe_cloud(self, i: int, est: Estimator[object]) -> None:
         """Keep ``est``'s particle cloud at observation ``i`` if one is due."""
         t = self._tl[i]
         if t >= self.next_cloud:
@@ -292,11 +286,13 @@ class RowRecorder:
         """The rows filled (from the first estimate on: trimmed copies, the rest freed)."""
         k = self.k
         if k == len(self.t):
-            return EstimateRows(self.t, self.x, self.y, self.heading, self.covariance,
-                                self.particles, self.ess, self.clouds)
-        return EstimateRows(self.t[:k].copy(), self.x[:k].copy(), self.y[:k].copy(),
-                            self.heading[:k].copy(), self.covariance[:k].copy(),
-                            self.particles[:k].copy(), self.ess[:k].copy(), self.clouds)
+            poses = Trajectory(self.t, self.x, self.y, self.heading, covariance=self.covariance,
+                               particles=self.particles, ess=self.ess)
+        else:
+            poses = Trajectory(self.t[:k].copy(), self.x[:k].copy(), self.y[:k].copy(),
+                               self.heading[:k].copy(), covariance=self.covariance[:k].copy(),
+                               particles=self.particles[:k].copy(), ess=self.ess[:k].copy())
+        return EstimateRows(poses, self.clouds)
 
 
 class Moves:

@@ -16,12 +16,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from lgvtool.localize.estimator import step_loop
 
 if TYPE_CHECKING:
-    from lgvtool.localize.ekf import GaussianPoseEstimator
+    from lgvtool.localize.ekf import GaussianParams, GaussianPoseEstimator
     from lgvtool.localize.estimator import EstimateRows, FloatArray, Observation
     from lgvtool.localize.motion import Deltas
 
@@ -49,7 +49,7 @@ class GaussianModel:
 class GaussianBackend(Protocol):
     """How a Gaussian estimator's replay runs."""
 
-    def run(self, est: GaussianPoseEstimator[Any], times: FloatArray,
+    def run(self, est: GaussianPoseEstimator[GaussianParams], times: FloatArray,
             observations: Sequence[Observation | None], steps: Deltas | None, *,
             progress: Callable[[int], None] | None, cloud_period_s: float,
             cloud_size: int) -> EstimateRows:
@@ -62,7 +62,7 @@ class NumpyGaussian:
     """The reference: the estimator's ``predict``, ``update`` and ``estimate`` at every
     observation (:func:`lgvtool.localize.estimator.step_loop`)."""
 
-    def run(self, est: GaussianPoseEstimator[Any], times: FloatArray,
+    def run(self, est: GaussianPoseEstimator[GaussianParams], times: FloatArray,
             observations: Sequence[Observation | None], steps: Deltas | None, *,
             progress: Callable[[int], None] | None, cloud_period_s: float,
             cloud_size: int) -> EstimateRows:

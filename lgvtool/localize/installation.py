@@ -21,14 +21,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.angles import wrap_angle
 from lgvtool.config import Vehicle
-from lgvtool.localize.logdata import LazyScans, LogData
+from lgvtool.localize.logdata import LazyScans, LogData, ScanViewColumns
 from lgvtool.localize.observations import RawScan, ScanBatch
 
 
@@ -65,7 +64,7 @@ class CorrectedScans(LazyScans):
                          offsets)
         return self._all
 
-    def decoded_columns(self) -> tuple[NDArray[Any], ...] | None:
+    def decoded_columns(self) -> ScanViewColumns | None:
         """The scans as logged (the view draws what the NAV reported)."""
         return self._inner.decoded_columns()
 

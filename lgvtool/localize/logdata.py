@@ -11,12 +11,12 @@ import contextlib
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from operator import itemgetter
-from typing import TYPE_CHECKING, Any, overload
+from typing import TYPE_CHECKING, Any, NotRequired, TypedDict, TypeVar, overload
 
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.config import Reflector
+from lgvtool.config import Reflector, Vehicle
 from lgvtool.errors import LogFormatError
 from lgvtool.localize.motion import (
     Increments,
@@ -28,12 +28,65 @@ from lgvtool.localize.observations import RawScan, ScanBatch
 from lgvtool.localize.packed import PackedBytes
 from lgvtool.log.validate import flags, plausible_poses
 from lgvtool.timestamps import message_stamps_ns
+from lgvtool.trajectory import Trajectory
 
 if TYPE_CHECKING:
+    from lgvtool.json_types import JSONRecord
     from lgvtool.log import LogReader
     from lgvtool.log.reader import RawBlock, Tap
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+#: an array of one field of decoded messages: its dtype (float, integer, boolean) is the
+#: field's (its reader states which it expects)
+Column = NDArray[np.generic]
+#: a decoded message, as the log contract describes its topic
+_M = TypeVar("_M")
+_S = TypeVar("_S", bound=np.generic)
+#: the scans as the view channels draw them (:meth:`LazyScans.decoded_columns`): log time
+#: (ns), start (ns), count, then per reflector range (m), bearing (rad), id and time in scan (s)
+ScanViewColumns = tuple[IntArray, IntArray, IntArray, FloatArray, FloatArray, IntArray,
+                        FloatArray]
+
+
+class ScanReflector(TypedDict):
+    """One reflector of a /nav/reflectors message: ``range`` (m), ``bearing`` (rad),
+    ``time_in_scan`` (s after the scan's start) and ``id``."""
+
+    range: float
+    bearing: float
+    time_in_scan: float
+    id: int
+
+
+class ScanMessage(TypedDict):
+    """What :func:`scan_columns` reads of a /nav/reflectors message: its reflectors and the
+    head's revolution period (``scan_period``, s; 0 when it has none)."""
+
+    observations: list[ScanReflector]
+    scan_period: NotRequired[float]
+
+
+class _Position(TypedDict):
+    x: float
+    y: float
+
+
+class _Orientation(TypedDict, total=False):
+    z: float
+    w: float
+
+
+class _Pose(TypedDict):
+    position: _Position
+    orientation: _Orientation
+
+
+class TruthMessage(TypedDict):
+    """What :func:`load_log` reads of a /truth/pose message: the pose of O, position (m) and
+    orientation (a quaternion about z: ``z`` 0 and ``w`` 1 when absent)."""
+
+    pose: _Pose
 
 
 def _seconds(ns: NDArray[np.int64], t0_ns: int) -> FloatArray:
@@ -90,7 +143,7 @@ class LazyScans(Sequence[RawScan]):
         offsets = np.concatenate(([0], np.cumsum(b.counts))).astype(np.int64)
         self._all, self._start_ns = (b, offsets), start_ns
 
-    def decoded_columns(self) -> tuple[NDArray[Any], ...] | None:
+    def decoded_columns(self) -> ScanViewColumns | None:
         """The scans as the view channels draw them (:class:`lgvtool.log.view_channels.LogRows`)
         once an estimator has decoded them, else None: log time (ns), start (ns), count, then
         per reflector range (m), bearing (rad), id and time in scan (s)."""
@@ -116,8 +169,11 @@ class LazyScans(Sequence[RawScan]):
         if not cols:
             return ScanBatch.from_scans([]), np.zeros(0, dtype=np.int64)
         period, counts, ranges, bearings, times, ids = cols
-        return ScanBatch(_seconds(t, self._t0), period, counts, ranges, bearings, times,
-                         ids), t
+        f64, i64 = np.float64, np.int64
+        return ScanBatch(_seconds(t, self._t0), np.asarray(period, f64),
+                         np.asarray(counts, i64), np.asarray(ranges, f64),
+                         np.asarray(bearings, f64), np.asarray(times, f64),
+                         np.asarray(ids, i64)), t
 
     def start_and_period(self, indices: Sequence[int]) -> tuple[FloatArray, FloatArray]:
         """Start time (s after ``t0_ns``) and revolution period (s) of the scans ``indices``
@@ -171,7 +227,7 @@ def _scans_in_order(columns: ScanColumns, order: NDArray[np.int64]) -> ScanColum
     t, cols = columns
     period, counts, ranges, bearings, times, ids = cols
     offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
-    chosen = counts[order]
+    chosen = np.asarray(counts, dtype=np.int64)[order]
     flat = _reflectors_of(offsets, chosen, order)
     return t[order], [period[order], chosen, ranges[flat], bearings[flat], times[flat],
                       ids[flat]]
@@ -180,7 +236,7 @@ def _scans_in_order(columns: ScanColumns, order: NDArray[np.int64]) -> ScanColum
 #: decoded scans: their own start times (ns since the epoch; 0 for a scan without one), then
 #: per scan its period (s) and count, per reflector range (m), bearing (rad), time in scan (s)
 #: and id (no columns when there is no scan)
-ScanColumns = tuple[NDArray[np.int64], list[NDArray[Any]]]
+ScanColumns = tuple[IntArray, list[Column]]
 
 
 def scan_columns(blocks: Iterable[Sequence[bytes]]) -> ScanColumns:
@@ -188,7 +244,7 @@ def scan_columns(blocks: Iterable[Sequence[bytes]]) -> ScanColumns:
     their ranges; raises KeyError, TypeError or ValueError when they do not match the
     contract."""
     stamps: list[NDArray[np.int64]] = []
-    parts: list[Sequence[NDArray[Any]]] = []
+    parts: list[Sequence[Column]] = []
     for chosen in blocks:
         t, cols = _scan_block(chosen)
         if cols:
@@ -197,14 +253,13 @@ def scan_columns(blocks: Iterable[Sequence[bytes]]) -> ScanColumns:
     return _scans_joined(stamps, parts)
 
 
-def _scan_block(raw: Sequence[bytes]) -> tuple[NDArray[np.int64], list[NDArray[Any]]]:
+def _scan_block(raw: Sequence[bytes]) -> tuple[IntArray, list[Column]]:
     """One block of JSON scans decoded: their own start stamps (ns, 0 where a scan has none)
     and the columns of :func:`_scan_fields`."""
     return _decode_columns(raw, np.zeros(len(raw), dtype=np.int64), _scan_fields)
 
 
-def _scans_joined(stamps: list[NDArray[np.int64]], parts: list[Sequence[NDArray[Any]]]
-                  ) -> ScanColumns:
+def _scans_joined(stamps: list[IntArray], parts: list[Sequence[Column]]) -> ScanColumns:
     """Blocks of decoded scans joined (``parts`` emptied) and range-checked."""
     if not parts:
         return np.zeros(0, dtype=np.int64), []
@@ -214,7 +269,7 @@ def _scans_joined(stamps: list[NDArray[np.int64]], parts: list[Sequence[NDArray[
     return t, cols
 
 
-def _scan_fields(docs: list[dict[str, Any]]) -> tuple[NDArray[Any], ...]:
+def _scan_fields(docs: Sequence[ScanMessage]) -> tuple[Column, ...]:
     """Per scan its period and count, per reflector range, bearing, time in scan and id."""
     obs = [d["observations"] for d in docs]
     flat = [o for os in obs for o in os]
@@ -240,9 +295,11 @@ class LogData:
     """What the estimators need from a log, as arrays. Times in s after ``t0_ns``.
 
     ``mcu``: t, seq, mcu_time_ms, enc_left, enc_right, gyro_rate (MCU frames);
-    ``twist``: t, v, omega (generic odometry); ``nav``: t, x, y, heading, valid (NAV head poses);
-    ``scans``: reflector scans; ``truth``: t, x, y, heading of O when the log has ground truth
-    (read only when asked for).
+    ``twist``: t, v, omega (generic odometry); ``nav``: t, x, y, heading, valid, used (NAV
+    head poses; used: the number of reflectors the device reports using);
+    ``scans``: reflector scans; ``truth``: the ground truth of O (s after ``t0_ns``, m, m,
+    rad: twice the angle of its quaternion, not wrapped) when the log has it (read only when
+    asked for).
     """
 
     t0_ns: int
@@ -251,7 +308,7 @@ class LogData:
     twist: dict[str, FloatArray] | None = None
     nav: dict[str, NDArray[Any]] | None = None
     scans: Sequence[RawScan] = field(default_factory=list)
-    truth: dict[str, FloatArray] | None = None
+    truth: Trajectory | None = None
 
     @property
     def has_motion(self) -> bool:
@@ -286,7 +343,7 @@ class LogData:
             return self.scans.received
         return np.array([s.t + s.period for s in self.scans], dtype=np.float64)
 
-    def increments(self, settings: MotionSettings, vehicle: Any) -> Increments:
+    def increments(self, settings: MotionSettings, vehicle: Vehicle) -> Increments:
         """Motion increments from the MCU frames if any, else from the generic odometry."""
         if self.mcu is not None and len(self.mcu["t"]) >= 2:
             m = self.mcu
@@ -307,17 +364,17 @@ _DECODE_BLOCK = 2048
 _DECODE_BYTES = 64 * 1024
 
 
-def _decode_columns(raw: Sequence[bytes], log_ns: NDArray[np.int64],
-                    fields: Callable[[list[dict[str, Any]]], tuple[NDArray[Any], ...]]
-                    ) -> tuple[NDArray[np.int64], list[NDArray[Any]]]:
+def _decode_columns(raw: Sequence[bytes], log_ns: IntArray,
+                    fields: Callable[[list[_M]], tuple[Column, ...]]
+                    ) -> tuple[IntArray, list[Column]]:
     """Decode JSON messages block by block (about :data:`_DECODE_BYTES` each): their own time
     stamps (ns, else the log times) and the arrays ``fields`` extracts from each block's dicts
     (messages on the last axis)."""
     import orjson
 
     loads = orjson.loads
-    stamps: list[NDArray[np.int64]] = []
-    parts: list[Sequence[NDArray[Any]]] = []
+    stamps: list[IntArray] = []
+    parts: list[Sequence[Column]] = []
     size = sum(map(len, raw))
     step = max(1, min(_DECODE_BLOCK, _DECODE_BYTES * len(raw) // max(size, 1)))
     for a in range(0, len(raw), step):
@@ -329,42 +386,42 @@ def _decode_columns(raw: Sequence[bytes], log_ns: NDArray[np.int64],
     return np.concatenate(stamps), _joined(parts)
 
 
-def _joined(parts: list[Sequence[NDArray[Any]]]) -> list[NDArray[Any]]:
+def _joined(parts: list[Sequence[Column]]) -> list[Column]:
     """The columns of ``parts`` (blocks of columns, messages on the last axis) joined, one
     column at a time, each column's blocks freed once it is joined (``parts`` is emptied)."""
     columns = [list(c) for c in zip(*parts, strict=True)]
     parts.clear()
-    out: list[NDArray[Any]] = []
+    out: list[Column] = []
     for col in columns:
         out.append(np.concatenate(col, axis=-1))
         col.clear()
     return out
 
 
-def _columns(docs: list[dict[str, Any]], keys: Sequence[str], dtype: type) -> NDArray[Any]:
+def _columns(docs: Sequence[JSONRecord], keys: Sequence[str], dtype: type[_S]) -> NDArray[_S]:
     """The fields ``keys`` of every message as the rows of one array, (len(keys), n)."""
     n = len(docs)
     return np.stack([np.fromiter(map(itemgetter(k), docs), dtype=dtype, count=n)
                      for k in keys]) if keys else np.empty((0, n), dtype=dtype)
 
 
-def _truth_fields(docs: list[dict[str, Any]]) -> tuple[NDArray[Any], ...]:
+def _truth_fields(docs: Sequence[TruthMessage]) -> tuple[Column, ...]:
     return (np.array(
         [(d["pose"]["position"]["x"], d["pose"]["position"]["y"],
           d["pose"]["orientation"].get("z", 0.0), d["pose"]["orientation"].get("w", 1.0))
          for d in docs], dtype=np.float64).reshape(-1, 4).T,)
 
 
-#: per topic, the arrays taken from a block of its decoded messages (messages on the last axis)
-_FIELDS: dict[str, Callable[[list[dict[str, Any]]], tuple[NDArray[Any], ...]]] = {
+#: per topic, the arrays taken from a block of its decoded messages (messages on the last axis;
+#: /truth/pose's by :func:`_truth_fields`)
+_FIELDS: dict[str, Callable[[Sequence[JSONRecord]], tuple[Column, ...]]] = {
     "/mcu/frame": lambda docs: (
         _columns(docs, ("seq", "mcu_time_ms", "enc_left", "enc_right"), np.int64),
         _columns(docs, ("gyro_rate",), np.float64)[0]),
     "/odom/twist": lambda docs: (_columns(docs, ("v", "omega"), np.float64),),
     "/nav/pose": lambda docs: (
-        _columns(docs, ("x", "y", "heading"), np.float64),
+        _columns(docs, ("x", "y", "heading", "reflectors_used"), np.float64),
         np.array(flags(docs, "valid"), dtype=bool)),
-    "/truth/pose": _truth_fields,
 }
 
 
@@ -373,17 +430,16 @@ class _Topic:
     the arrays of :data:`_FIELDS`."""
 
     def __init__(self) -> None:
-        self.log_ns: list[NDArray[np.int64]] = []
-        self.stamps: list[NDArray[np.int64]] = []
-        self.cols: list[list[NDArray[Any]]] = []
+        self.log_ns: list[IntArray] = []
+        self.stamps: list[IntArray] = []
+        self.cols: list[list[Column]] = []
 
-    def add(self, log_ns: NDArray[np.int64], stamps: NDArray[np.int64],
-            cols: list[NDArray[Any]]) -> None:
+    def add(self, log_ns: IntArray, stamps: IntArray, cols: list[Column]) -> None:
         self.log_ns.append(log_ns)
         self.stamps.append(stamps)
         self.cols.append(cols)
 
-    def done(self) -> tuple[NDArray[np.int64], NDArray[np.int64], list[NDArray[Any]]]:
+    def done(self) -> tuple[IntArray, IntArray, list[Column]]:
         """Everything in log-time order (ties in stored order), as one array each."""
         log_ns = np.concatenate(self.log_ns)
         stamps = np.concatenate(self.stamps)
@@ -450,7 +506,7 @@ def _about(topic: str) -> Iterator[None]:
                          f"({type(exc).__name__}: {exc})") from None
 
 
-def _checked(topic: str, ti: NDArray[np.int64], **columns: NDArray[Any]) -> None:
+def _checked(topic: str, ti: IntArray, **columns: Column) -> None:
     """Range checks of one decoded topic: plausible times, finite numbers."""
     from lgvtool.log.validate import check_finite, check_times
 
@@ -472,7 +528,7 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
     packed = PackedBytes()
     # the scans decoded so far (eager): their start times and blocks of columns
     scan_stamps: list[NDArray[np.int64]] = []
-    scan_parts: list[Sequence[NDArray[Any]]] = []
+    scan_parts: list[Sequence[Column]] = []
     # raw messages of the chunks read so far, decoded once a block's worth is pending
     pending: dict[str, tuple[list[NDArray[np.int64]], list[bytes]]] = {}
 
@@ -486,7 +542,10 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
             return
         log_ns = np.concatenate(times)
         with _about(topic):
-            stamps, cols = _decode_columns(raw, log_ns, _FIELDS[topic])
+            if topic == T.TRUTH:
+                stamps, cols = _decode_columns(raw, log_ns, _truth_fields)
+            else:
+                stamps, cols = _decode_columns(raw, log_ns, _FIELDS[topic])
         acc.setdefault(topic, _Topic()).add(log_ns, stamps, cols)
 
     for block in chunks:
@@ -534,7 +593,9 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
             order = np.argsort(ti, kind="stable")
             a = a[:, order]
             data.nav = {"t": _seconds(ti[order], t0), "x": a[0], "y": a[1], "heading": a[2],
-                        "valid": valid[order] & plausible_poses(a[0], a[1], a[2])}
+                        "valid": np.asarray(valid, dtype=np.bool_)[order]
+                        & plausible_poses(a[0], a[1], a[2]),
+                        "used": a[3].astype(np.int64)}
     if len(scan_ns):
         with _about(T.NAV_REFLECTORS):
             _checked(T.NAV_REFLECTORS, scans_log_ns)
@@ -556,6 +617,6 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
             _, ti, (a,) = done[T.TRUTH]
             _checked(T.TRUTH, ti, x=a[0], y=a[1], orientation=a[2:])
             a = a[:, np.argsort(ti, kind="stable")]
-            data.truth = {"t": _seconds(np.sort(ti, kind="stable"), t0), "x": a[0], "y": a[1],
-                          "heading": 2.0 * np.arctan2(a[2], a[3])}
+            data.truth = Trajectory(_seconds(np.sort(ti, kind="stable"), t0), a[0], a[1],
+                                    2.0 * np.arctan2(a[2], a[3]), t0)
     return data

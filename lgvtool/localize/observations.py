@@ -30,12 +30,17 @@ from lgvtool.localize.params import param
 
 @dataclass(frozen=True)
 class PoseObservation:
-    """A pose of the laser head in the map frame: ``x, y`` in m, ``heading`` in rad, at ``t`` s."""
+    """A pose of the laser head in the map frame: ``x, y`` in m, ``heading`` in rad, at ``t`` s;
+    ``v`` (m/s) and ``omega`` (rad/s): the odometry's forward speed and turn rate of O at ``t``
+    (0 when unknown), which the rotating-head pose model's covariance grows with
+    (:mod:`lgvtool.localize.pose_model`)."""
 
     t: float
     x: float
     y: float
     heading: float
+    v: float = 0.0
+    omega: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -446,7 +451,10 @@ class SourceParams:
     deskew: bool = param(True, "de-skew each reflector by its time within the revolution, "
                          "along the odometry")
     pose_latency_s: float = param(0.0, "age of a NAV pose when it is received; the pose is "
-                                  "applied at receive time minus this, s", minimum=0.0)
+                                  "applied at receive time minus this (with the rotating-head "
+                                  "pose model: the age when the log does not determine it, "
+                                  "plus one head period when the vehicle states no pose age), "
+                                  "s", minimum=0.0)
     pose_gate: bool = param(True, "leave out NAV poses that jump farther than the odometry "
                             "allows since the last accepted one (docs/reading.md)")
 

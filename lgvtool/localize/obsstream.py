@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections import OrderedDict
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any, overload
+from typing import Generic, Protocol, TypeVar, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +22,20 @@ from lgvtool.localize.observations import PoseObservation, ScanObservation
 
 Obs = PoseObservation | ScanObservation
 FloatArray = NDArray[np.float64]
+#: the first item of a :class:`Tail` (a marker, None, or an observation)
+_F = TypeVar("_F")
+_G = TypeVar("_G")
+#: an observation a :class:`BlockwiseMap` prepares, and what it prepares of it
+_O = TypeVar("_O")
+_V = TypeVar("_V")
+
+
+class Timed(Protocol):
+    """Anything with a time ``t`` (s): an observation, or a marker of a time."""
+
+    @property
+    def t(self) -> float: ...
+
 
 #: scans whose geometry is built at a time
 BLOCK_SCANS = 512
@@ -29,7 +43,7 @@ BLOCK_SCANS = 512
 KEEP_SCANS = 8192
 
 
-class ObservationStream(Sequence[Any]):
+class ObservationStream(Sequence[Obs]):
     """NAV poses and reflector scans in time order; scan geometry built on demand.
 
     :param poses: the pose observations, in time order.
@@ -87,17 +101,17 @@ class ObservationStream(Sequence[Any]):
             yield self._item(j)
 
 
-class Tail(Sequence[Any]):
+class Tail(Sequence[_F | Obs], Generic[_F]):
     """``first`` (at ``first_t`` s) followed by ``rest[start:]`` (a stream or a list), with
     their times."""
 
-    def __init__(self, first: Any, first_t: float, rest: Sequence[Any], start: int) -> None:
+    def __init__(self, first: _F, first_t: float, rest: Sequence[Obs], start: int) -> None:
         self._first = first
         self._rest = rest
         self._start = start
         self.times: FloatArray = np.concatenate([[float(first_t)], times_of(rest)[start:]])
 
-    def with_first(self, first: Any) -> Tail:
+    def with_first(self, first: _G) -> Tail[_G]:
         """The same sequence with another first item."""
         return Tail(first, float(self.times[0]), self._rest, self._start)
 
@@ -105,12 +119,12 @@ class Tail(Sequence[Any]):
         return 1 + len(self._rest) - self._start
 
     @overload
-    def __getitem__(self, k: int) -> Any: ...
+    def __getitem__(self, k: int) -> _F | Obs: ...
 
     @overload
-    def __getitem__(self, k: slice) -> list[Any]: ...
+    def __getitem__(self, k: slice) -> list[_F | Obs]: ...
 
-    def __getitem__(self, k: int | slice) -> Any:
+    def __getitem__(self, k: int | slice) -> _F | Obs | list[_F | Obs]:
         if isinstance(k, slice):
             return [self[i] for i in range(*k.indices(len(self)))]
         if k < 0:
@@ -119,13 +133,13 @@ class Tail(Sequence[Any]):
             raise IndexError("observation index out of range")
         return self._first if k == 0 else self._rest[self._start + k - 1]
 
-    def __iter__(self) -> Iterator[Any]:
+    def __iter__(self) -> Iterator[_F | Obs]:
         yield self._first
         for i in range(self._start, len(self._rest)):
             yield self._rest[i]
 
 
-def times_of(observations: Sequence[Any]) -> FloatArray:
+def times_of(observations: Sequence[Timed]) -> FloatArray:
     """The time (s) of each observation: the stream's own array, else read from each."""
     times = getattr(observations, "times", None)
     if times is not None:
@@ -139,21 +153,21 @@ def scan_times(start: FloatArray, period: FloatArray, *, deskew: bool) -> FloatA
     return np.asarray(start + period if deskew else start + 0.5 * period, dtype=np.float64)
 
 
-class BlockwiseMap:
+class BlockwiseMap(Generic[_O, _V]):
     """``prepare(observations)`` (a dict keyed by index in the list given) computed one block
     of ``block`` observations at a time as :meth:`get` reaches it; only the current block is
     kept. For per-observation preparations whose result for one observation does not depend
     on the others (the values are those of one call over all observations)."""
 
-    def __init__(self, prepare: Callable[[Sequence[Any]], dict[int, Any]],
-                 observations: Sequence[Any], block: int = BLOCK_SCANS) -> None:
+    def __init__(self, prepare: Callable[[Sequence[_O]], dict[int, _V]],
+                 observations: Sequence[_O], block: int = BLOCK_SCANS) -> None:
         self._prepare = prepare
         self._observations = observations
         self._size = block
         self._start = -1
-        self._block: dict[int, Any] = {}
+        self._block: dict[int, _V] = {}
 
-    def get(self, i: int) -> Any:
+    def get(self, i: int) -> _V | None:
         """The prepared item of observation ``i`` (None if there is none)."""
         start = i - i % self._size
         if start != self._start:
@@ -163,5 +177,5 @@ class BlockwiseMap:
         return self._block.get(i)
 
 
-__all__ = ["BLOCK_SCANS", "KEEP_SCANS", "BlockwiseMap", "ObservationStream", "Tail",
+__all__ = ["BLOCK_SCANS", "KEEP_SCANS", "BlockwiseMap", "ObservationStream", "Tail", "Timed",
            "scan_times", "times_of"]

@@ -17,9 +17,12 @@
    ``+-spread_m`` (25 cm) and ``+-heading_spread_rad`` around parents drawn from the
    ``top_fraction`` (25 %) of particles by weight; the rest uniform over the work area.
 
-Without reflector scans (a log with the NAV pose only) the same weight is computed from the
-distance between each particle's head position and the reported one plus ``pose_heading_m``
-times the heading difference, so the filter still runs.
+Without reflector scans (a log with the NAV pose only; the paper gives no weight for a pose)
+the same weight is computed from ``sigma_m`` times the Mahalanobis distance of each particle's
+head from the reported pose under the rotating-head pose model
+(:mod:`lgvtool.localize.pose_model`, behind its robust gate), or with ``pose_model = plain``
+from the distance between the head positions plus ``pose_heading_m`` times the heading
+difference.
 """
 
 from __future__ import annotations
@@ -57,7 +60,15 @@ from lgvtool.localize.particle_backend import (
     Spread,
 )
 from lgvtool.localize.particles import ParticleInitParams, ParticleSet
+from lgvtool.localize.pose_model import (
+    POSE_MODELS,
+    PoseGate,
+    PoseModelParams,
+    pose_covariance,
+)
 from lgvtool.localize.resampling import RedistributionDraws, RedistributionPlan
+from lgvtool.quantiles import chi2_quantile
+from lgvtool.trajectory import Trajectory
 
 if TYPE_CHECKING:
     from lgvtool.localize.motion import Deltas
@@ -77,7 +88,7 @@ DEFAULT_HEADING_SPREAD = 0.25 / 25.0
 
 
 @dataclass(frozen=True)
-class PaperPfParams(MotionParams, SourceParams, ParticleInitParams):
+class PaperPfParams(MotionParams, SourceParams, ParticleInitParams, PoseModelParams):
     """Parameters of the paper's filter; defaults are the paper's values where it gives one."""
 
     particles: int = param(150, "number of particles (paper: 150)", minimum=1)
@@ -95,8 +106,19 @@ class PaperPfParams(MotionParams, SourceParams, ParticleInitParams):
                                       "redistribution in heading, rad (not in the paper: "
                                       "moves a reflector 25 m away by 25 cm)",
                                       minimum=0.0)
-    pose_heading_m: float = param(1.0, "pose-only weight: metres of distance per radian of "
-                                  "heading difference, m/rad", minimum=0.0)
+    pose_heading_m: float = param(1.0, "pose-only weight (pose_model = plain): metres of "
+                                  "distance per radian of heading difference, m/rad",
+                                  minimum=0.0)
+    pose_model: str = param("rotating-head", "model of a NAV pose (the paper weighs reflector "
+                            "scans and gives none): rotating-head (the pose at its reference "
+                            "instant with its skew taken off, weighed by the Gaussian of its "
+                            "covariance, with the robust gate; docs/filter.md) or plain (the "
+                            "distance plus pose_heading_m times the heading difference)",
+                            choices=POSE_MODELS)
+    sigma_pose_xy_m: float = param(0.03, "pose_model = rotating-head: position noise of a NAV "
+                                   "pose at standstill, m", minimum=1e-6)
+    sigma_pose_heading_rad: float = param(0.005, "pose_model = rotating-head: heading noise of "
+                                          "a NAV pose at standstill, rad", minimum=1e-9)
     noise_dist: float = param(0.0, "along-track motion noise per metre, m/m (the paper adds "
                               "none: redistribution spreads the particles)", minimum=0.0)
     noise_lat: float = param(0.0, "across-track motion noise per metre, m/m", minimum=0.0)
@@ -157,6 +179,8 @@ class PaperParticleFilter(ParticleSet[PaperPfParams]):
                               and p.noise_rot_per_m == 0.0)
         #: exponent factor of eq. 10: w = exp(factor D^2)
         self._factor = -0.5 / (p.sigma_m * p.sigma_m)
+        #: the robust gate on NAV poses of the rotating-head model
+        self.pose_gate = PoseGate(chi2_quantile(0.99, 3), p.pose_reanchor_s)
         self._packing: tuple[ComplexArray, ComplexArray, ComplexArray] | None = None
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)
@@ -214,6 +238,12 @@ class PaperParticleFilter(ParticleSet[PaperPfParams]):
         """The summed association distance ``D_m`` of every particle, m."""
         if isinstance(obs, PoseObservation):
             dx, dy, dh = self.head_residuals(obs)
+            if self.params.pose_model == "rotating-head":
+                # sigma_m times the Mahalanobis distance: eq. 10 is then the pose's Gaussian
+                r = np.stack([dx, dy, dh], axis=-1)
+                d2 = np.einsum("ni,ij,nj->n", r, np.linalg.inv(self.pose_noise(obs)), r)
+                scaled: FloatArray = self.params.sigma_m * np.sqrt(d2)
+                return scaled
             out: FloatArray = np.sqrt(dx * dx + dy * dy) + self.params.pose_heading_m * np.abs(dh)
             return out
         if self.params.use_ids:
@@ -221,6 +251,32 @@ class PaperParticleFilter(ParticleSet[PaperPfParams]):
         s = self._packed()
         return self.backend.paper_exponents(s, self._scan(obs), self.map, self._near(len(s)),
                                             None, None)
+
+    def pose_noise(self, obs: PoseObservation) -> FloatArray:
+        """Covariance (3 x 3: m^2, m rad, rad^2) of a NAV head pose under the rotating-head
+        model (:func:`lgvtool.localize.pose_model.pose_covariance`)."""
+        p = self.params
+        return pose_covariance(obs.heading, obs.v, obs.omega, self.vehicle.nav_x,
+                               self.vehicle.nav_y, p.sigma_pose_xy_m, p.sigma_pose_heading_rad,
+                               p)
+
+    def _judge_pose(self, obs: PoseObservation) -> str:
+        """The robust gate's verdict on ``obs`` (rotating-head model): the squared Mahalanobis
+        distance of the estimate's head residual, with the pose's covariance and the spread
+        of the redistribution around the estimate (uniform: ``spread_m^2 / 3`` and
+        ``heading_spread_rad^2 / 3``) added (:class:`lgvtool.localize.pose_model.PoseGate`)."""
+        p = self.params
+        est = self.estimate()
+        if est is None:
+            return "accept"
+        th = est.heading
+        c, s = math.cos(th), math.sin(th)
+        mx, my = self.vehicle.nav_x, self.vehicle.nav_y
+        r = np.array([obs.x - (est.x + c * mx - s * my), obs.y - (est.y + s * mx + c * my),
+                      wrap_scalar(obs.heading - th)])
+        S = self.pose_noise(obs) + np.diag([p.spread_m ** 2 / 3.0, p.spread_m ** 2 / 3.0,
+                                            p.heading_spread_rad ** 2 / 3.0])
+        return self.pose_gate.judge(obs.t, float(r @ np.linalg.solve(S, r)))
 
     def _id_sums(self, obs: ScanObservation) -> FloatArray:
         """``D_m`` with ``use_ids``: a reflector with an id in the map counts its distance to
@@ -264,6 +320,17 @@ class PaperParticleFilter(ParticleSet[PaperPfParams]):
             return True
         if not isinstance(obs, PoseObservation) and (len(obs) == 0 or len(self.map) == 0):
             return False
+        if isinstance(obs, PoseObservation) and p.pose_model == "rotating-head" and \
+                self._start_left == 0:
+            verdict = self._judge_pose(obs)
+            if verdict == "refuse":
+                return False
+            if verdict == "reanchor":
+                th = obs.heading
+                c, sn = math.cos(th), math.sin(th)
+                mx, my = self.vehicle.nav_x, self.vehicle.nav_y
+                self._start_around((obs.x - c * mx + sn * my, obs.y - sn * mx - c * my, th),
+                                   len(self.z))
         s = self._packed()
         if isinstance(obs, ScanObservation) and not p.use_ids:
             exponent = self.backend.paper_exponents(s, self._scan(obs), self.map,
@@ -432,9 +499,10 @@ class PaperParticleFilter(ParticleSet[PaperPfParams]):
         report.at(n, last=True)
         self._leave(block, rec)
         out = rec.finish(clouds)
-        if len(out.covariance):
-            self._cov = KnownSpread(out.covariance[-1].reshape(3, 3).copy(), float(out.ess[-1]))
-            self.last_ess = float(out.ess[-1])
+        cov, ess = out.poses.covariance, out.poses.ess
+        if cov is not None and ess is not None and len(cov):
+            self._cov = KnownSpread(cov[-1].reshape(3, 3).copy(), float(ess[-1]))
+            self.last_ess = float(ess[-1])
         return out
 
     def _block(self, motions: PaperMotions | None) -> PaperBlock | None:
@@ -510,8 +578,10 @@ class _Recorder:
         if len(which) and which.min() < 0:
             raise ValueError("an estimate before any weighed particle set")
         a = np.array(self.rows, dtype=np.float64).reshape(-1, 5)
-        return EstimateRows(a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy(), a[:, 3].copy(),
-                            covs[which], a[:, 4].astype(np.int64), ess[which], clouds)
+        return EstimateRows(Trajectory(a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy(),
+                                       a[:, 3].copy(), covariance=covs[which],
+                                       particles=a[:, 4].astype(np.int64), ess=ess[which]),
+                            clouds)
 
 
 def _moved(pose: tuple[float, float, float], dx: float, dy: float, dth: float, *,

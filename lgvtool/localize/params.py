@@ -9,7 +9,7 @@ mistake; :func:`params_dict` gives the values as JSON.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from lgvtool.declared import JSONScalar, as_dict, make, setting
 
@@ -19,7 +19,7 @@ param = setting
 """Declare one estimator parameter (:func:`lgvtool.declared.setting`)."""
 
 
-def make_params(cls: type[P], owner: str, overrides: Mapping[str, Any] | None = None,
+def make_params(cls: type[P], owner: str, overrides: Mapping[str, object] | None = None,
                 base: P | None = None) -> P:
     """``cls`` with ``overrides`` applied over ``base`` (or the defaults).
 

@@ -49,8 +49,11 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
   Each particle is then an EKF of the pose conditioned on its own odometry-scale trajectory,
   and the particles sample what the EKF linearises least well: the scales.
 - pose-only observations: with no reflector scans in the log (or ``observations = poses``) the
-  particles are weighed against the NAV head pose with ``sigma_pose_xy_m`` and
-  ``sigma_pose_heading_rad`` (and the same outlier mixture).
+  particles are weighed against the NAV head pose with the Gaussian of the rotating-head pose
+  model's covariance (:mod:`lgvtool.localize.pose_model`; ``pose_model = plain``:
+  ``sigma_pose_xy_m`` and ``sigma_pose_heading_rad``) and the same outlier mixture, behind the
+  robust gate (a pose far off is refused; refused for ``pose_reanchor_s``, the particles are
+  drawn afresh around it).
 
 Unlike the paper's product of one Gaussian over the summed distances, reflectors are treated as
 independent measurements (the likelihood is the product of the per-reflector terms).
@@ -93,6 +96,7 @@ from lgvtool.localize.pf_proposal import (
     kalman_proposal,
     ray_residuals,
 )
+from lgvtool.localize.pose_model import PoseGate, PoseModelParams, pose_covariance
 from lgvtool.localize.resampling import (
     RESAMPLERS,
     effective_sample_size,
@@ -109,7 +113,7 @@ _LOG_2PI = math.log(2.0 * math.pi)
 
 
 @dataclass(frozen=True)
-class PfParams(MotionParams, SourceParams, ParticleInitParams):
+class PfParams(MotionParams, SourceParams, ParticleInitParams, PoseModelParams):
     """Parameters of the improved particle filter."""
 
     particles: int = param(2000, "particles at the start, and the most KLD-sampling may use "
@@ -119,10 +123,16 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams):
     sigma_bearing_rad: float = param(0.005, "bearing noise of a reflector, rad", minimum=1e-9)
     sigma_range_per_m: float = param(0.0, "range noise that grows with the range (a scale "
                                      "error), added in quadrature, m per m", minimum=0.0)
-    sigma_pose_xy_m: float = param(0.05, "position noise of a NAV pose observation, m",
-                                   minimum=1e-6)
-    sigma_pose_heading_rad: float = param(0.02, "heading noise of a NAV pose observation, rad",
+    sigma_pose_xy_m: float = param(0.03, "position noise of a NAV pose observation (with the "
+                                   "rotating-head model: at standstill), m", minimum=1e-6)
+    sigma_pose_heading_rad: float = param(0.005, "heading noise of a NAV pose observation "
+                                          "(with the rotating-head model: at standstill), rad",
                                           minimum=1e-9)
+    pose_gate_probability: float = param(0.99, "robust gate on NAV poses: a pose whose squared "
+                                         "Mahalanobis distance from the estimate (the pose's "
+                                         "and the cloud's covariances added) exceeds the "
+                                         "chi-square quantile (3 dof) of this probability is "
+                                         "refused", minimum=0.5, maximum=0.999999)
     log_weights: bool = param(True, "keep weights as logarithms")
     resample: str = param("ess", "when to resample: ess (when the effective sample size drops) "
                           "or always", choices=("ess", "always"))
@@ -268,6 +278,8 @@ class ParticleFilter(ParticleSet[PfParams]):
                                p.ambiguity_ratio, self._log_mismatch())
         #: log(eps) + the log density of an outlier NAV pose (the pose likelihood's mixture)
         self._log_pose_outlier = math.log(eps) + self._log_outlier(3)
+        #: the robust gate on NAV poses (refused poses, re-anchoring)
+        self.pose_gate = PoseGate(chi2_quantile(p.pose_gate_probability, 3), p.pose_reanchor_s)
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":
@@ -321,14 +333,57 @@ class ParticleFilter(ParticleSet[PfParams]):
         return (self.backend.scan_loglik(self.z, self.rot, obs, self.map,
                                          self._reference_pose(), self.model), len(obs))
 
+    def pose_noise(self, obs: PoseObservation) -> FloatArray:
+        """Covariance of a NAV head pose (3 x 3: m^2, m rad, rad^2): the rotating-head model's
+        at the observation's motion (:func:`lgvtool.localize.pose_model.pose_covariance`), or
+        the plain ``sigma_pose_xy_m``, ``sigma_pose_heading_rad``."""
+        p = self.params
+        if p.pose_model == "rotating-head":
+            return pose_covariance(obs.heading, obs.v, obs.omega, self.vehicle.nav_x,
+                                   self.vehicle.nav_y, p.sigma_pose_xy_m,
+                                   p.sigma_pose_heading_rad, p)
+        return np.diag([p.sigma_pose_xy_m ** 2, p.sigma_pose_xy_m ** 2,
+                        p.sigma_pose_heading_rad ** 2])
+
     def pose_loglik(self, obs: PoseObservation) -> FloatArray:
-        """Log-likelihood of each particle for a NAV head pose."""
+        """Log-likelihood of each particle for a NAV head pose (a Gaussian of
+        :meth:`pose_noise`, mixed with the outlier density)."""
         p = self.params
         dx, dy, dh = self.head_residuals(obs)
-        sp, sh = p.sigma_pose_xy_m, p.sigma_pose_heading_rad
-        ll = -0.5 * ((dx * dx + dy * dy) / (sp * sp) + (dh / sh) ** 2) \
-            - (1.5 * _LOG_2PI + 2.0 * math.log(sp) + math.log(sh))
+        r = np.stack([dx, dy, dh], axis=-1)
+        cov = self.pose_noise(obs)
+        d2 = np.einsum("ni,ij,nj->n", r, np.linalg.inv(cov), r)
+        ll = -0.5 * d2 - (1.5 * _LOG_2PI + 0.5 * math.log(float(np.linalg.det(cov))))
         return mixed(ll, p.outlier, self.model.log_inlier, self._log_pose_outlier)
+
+    def _judge_pose(self, obs: PoseObservation) -> str:
+        """The robust gate's verdict on ``obs`` (:class:`lgvtool.localize.pose_model.PoseGate`):
+        the squared Mahalanobis distance of the weighted mean's head residual, with the pose's
+        covariance and the weighted spread of the particles' residuals added."""
+        dx, dy, dh = self.head_residuals(obs)
+        r = np.stack([dx, dy, dh], axis=-1)
+        w = self.w if len(self.w) == len(r) else np.full(len(r), 1.0 / max(1, len(r)))
+        mean = w @ r
+        dev = r - mean
+        spread = (dev * w[:, None]).T @ dev
+        S = self.pose_noise(obs) + spread
+        return self.pose_gate.judge(obs.t, float(mean @ np.linalg.solve(S, mean)))
+
+    def _reanchor(self, obs: PoseObservation) -> None:
+        """Draw the particles afresh around the NAV pose ``obs`` converted to O, with the
+        pose's covariance carried through the lever arm."""
+        th = obs.heading
+        c, s = math.cos(th), math.sin(th)
+        mx, my = self.vehicle.nav_x, self.vehicle.nav_y
+        J = np.array([[1.0, 0.0, s * mx + c * my], [0.0, 1.0, -c * mx + s * my],
+                      [0.0, 0.0, 1.0]])
+        cov = J @ self.pose_noise(obs) @ J.T
+        pose = (obs.x - c * mx + s * my, obs.y - s * mx - c * my, th)
+        self._start_at(pose, cov, len(self.z))
+        self.logw = np.full(len(self.z), -math.log(max(1, len(self.z))))
+        self.w = np.exp(self.logw)
+        self._cached = self._with_spread(self.weighted_pose(self.w))
+        self._ref = self._cached[:3]
 
     # ------------------------------------------------------------------ update
     def update(self, obs: Observation) -> bool:
@@ -343,6 +398,12 @@ class ParticleFilter(ParticleSet[PfParams]):
         # ekf or marginal: the particles are the means of Gaussians
         gaussian = p.proposal != "prior"
         if isinstance(obs, PoseObservation):
+            verdict = self._judge_pose(obs)
+            if verdict == "refuse":
+                return False
+            if verdict == "reanchor":
+                self._reanchor(obs)
+                return True
             if gaussian:
                 self._draw_prior()
             ll, kind, count = self.pose_loglik(obs), "pose", 1
@@ -680,7 +741,7 @@ class ParticleFilter(ParticleSet[PfParams]):
         """Resample (:meth:`_survivors`), the particles' odometry scales and Gaussians
         following theirs (:meth:`_carry`); recovery re-draws a part of the new set
         (:meth:`_recovery_count`, :meth:`_inject`); equal weights."""
-        kept = self._survivors()
+        kept = self._survivors(kind)
         n_new = len(kept.idx)
         n_inject = self._recovery_count(kind, lost, n_new)
         scaled, pcov = self._carry(kept.idx)
@@ -698,17 +759,22 @@ class ParticleFilter(ParticleSet[PfParams]):
         self.logw = np.full(n_new, -math.log(n_new))
         self.resamplings += 1
 
-    def _survivors(self) -> Survivors:
+    def _survivors(self, kind: str = "scan") -> Survivors:
         """The particles a resampling keeps: as many as the set has while a large start set
-        has not shrunk, else KLD-sampling's count (``kld``) or ``particles``, drawn by the
-        ``resampler`` (systematic by the backend, with the copy)."""
+        has not shrunk, else KLD-sampling's count (``kld``; after a reflector scan) or
+        ``particles``, drawn by the ``resampler`` (systematic by the backend, with the copy).
+
+        After a NAV pose (``kind`` "pose") the set keeps ``particles``: the belief a pose
+        leaves is centimetres wide, far inside KLD-sampling's bins (``kld_bin_m``,
+        ``kld_bin_rad``), which would cut the set to about ``min_particles`` and leave the
+        estimate the noise of so few draws."""
         p = self.params
         rng = self.rng
         systematic = p.resampler == "low-variance"
         if self._start_left > 0:
             # the large start set keeps its size until it shrinks
             return self._gathered(RESAMPLERS[p.resampler](self.w, len(self.z), rng))
-        if p.kld:
+        if p.kld and kind != "pose":
             sizing = self.kld_sizing
             if systematic:
                 # the draw (its offset, then the permutation), the bins, the count, the copy

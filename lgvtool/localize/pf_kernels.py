@@ -28,8 +28,8 @@ Units: positions m (complex ``x + iy``), headings as rotors ``exp(i th)`` or rad
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any, TypeVar, cast
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import numba
 import numba.extending
@@ -37,6 +37,11 @@ import numpy as np
 from llvmlite import ir as llvm_ir
 from numba.np.random import generator_core
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from numba.core.base import BaseContext
+    from numba.core.typing.context import Context
+    from numba.core.typing.templates import Signature
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -576,12 +581,19 @@ def _ray_loglik(ex: float, ey: float, rr: float, ri: float, ucr: float, uci: flo
     return -0.5 * (a * a + b * b) - const
 
 
-def _pow2_typing(typingctx: Any, k: Any) -> Any:
+#: an intrinsic's code generator: the target context, the LLVM IR builder, the signature and the
+#: arguments' LLVM values, giving the result's LLVM value
+_Codegen = Callable[["BaseContext", llvm_ir.IRBuilder, "Signature", Sequence[llvm_ir.Value]],
+                    llvm_ir.Value]
+
+
+def _pow2_typing(typingctx: Context, k: numba.types.Type) -> tuple[Signature, _Codegen]:
     """``2.0 ** k`` for an integer ``-1022 <= k <= 1023``, made from its bits (a shift, no
     call: the loops that use it stay vectorised)."""
     sig = numba.types.float64(numba.types.int64)
 
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+    def codegen(context: BaseContext, builder: llvm_ir.IRBuilder, signature: Signature,
+                args: Sequence[llvm_ir.Value]) -> llvm_ir.Value:
         i64 = llvm_ir.IntType(64)
         bits = builder.shl(builder.add(args[0], llvm_ir.Constant(i64, 1023)),
                            llvm_ir.Constant(i64, 52))

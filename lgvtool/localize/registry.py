@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Iterable, Iterator, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from lgvtool.errors import InputError
 from lgvtool.localize.params import make_params
@@ -12,6 +12,7 @@ from lgvtool.suggest import unknown_tail
 
 if TYPE_CHECKING:
     from lgvtool.localize.estimator import Estimator
+    from lgvtool.localize.noise import MotionParams
 
 #: name -> (module, class) of every estimator
 _WHERE: dict[str, tuple[str, str]] = {
@@ -23,14 +24,14 @@ _WHERE: dict[str, tuple[str, str]] = {
 }
 
 
-class _Estimators(Mapping[str, "type[Estimator[Any]]"]):
+class _Estimators(Mapping[str, "type[Estimator[object]]"]):
     """The estimator classes by name. A class's module is imported when the class is first
     asked for, so that running one estimator does not import the others."""
 
     def __init__(self) -> None:
-        self._classes: dict[str, type[Estimator[Any]]] = {}
+        self._classes: dict[str, type[Estimator[object]]] = {}
 
-    def __getitem__(self, name: str) -> type[Estimator[Any]]:
+    def __getitem__(self, name: str) -> type[Estimator[object]]:
         cls = self._classes.get(name)
         if cls is None:
             module, attr = _WHERE[name]
@@ -56,7 +57,7 @@ class _Estimators(Mapping[str, "type[Estimator[Any]]"]):
 
 #: name -> estimator class
 _CLASSES = _Estimators()
-ESTIMATORS: Mapping[str, type[Estimator[Any]]] = _CLASSES
+ESTIMATORS: Mapping[str, type[Estimator[object]]] = _CLASSES
 
 def register(name: str, module: str, cls: str) -> None:
     """Make the estimator class ``cls`` of ``module`` known as ``name``, after the others: an
@@ -110,12 +111,12 @@ def check_names(names: list[str] | tuple[str, ...], also: Iterable[str] = ()) ->
     return out
 
 
-def split_settings(settings: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
+def split_settings(settings: Mapping[str, object] | None) -> dict[str, dict[str, object]]:
     """``{"pf.particles": 500}`` -> ``{"pf": {"particles": 500}}``; nested dicts pass through.
 
     Raises InputError for a key without an estimator part or an unknown estimator.
     """
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, dict[str, object]] = {}
     for key, value in (settings or {}).items():
         if isinstance(value, Mapping):
             name, sub = key, dict(value)
@@ -131,10 +132,25 @@ def split_settings(settings: Mapping[str, Any] | None) -> dict[str, dict[str, An
     return out
 
 
-def resolve_params(name: str, config_estimators: Mapping[str, Mapping[str, Any]] | None,
-                   overrides: Mapping[str, Any] | None) -> Any:
-    """Parameters of estimator ``name``: defaults, then the config's ``[estimators.<name>]``,
-    then ``overrides``; every key checked."""
+def resolve_params(name: str, config_estimators: Mapping[str, Mapping[str, object]] | None,
+                   overrides: Mapping[str, object] | None) -> object:
+    """Parameters of estimator ``name`` (its ``Params``): defaults, then the config's
+    ``[estimators.<name>]``, then ``overrides``; every key checked."""
     cls = ESTIMATORS[name]
-    base: Any = make_params(cls.Params, name, dict((config_estimators or {}).get(name, {})))
+    base: object = make_params(cls.Params, name, dict((config_estimators or {}).get(name, {})))
     return make_params(cls.Params, name, overrides or {}, base=base)
+
+
+def motion_params(name: str, params: object) -> MotionParams:
+    """``params``, the parameters of estimator ``name``, as its motion parameters: an
+    estimator that uses motion declares them (:class:`lgvtool.localize.noise.MotionParams`,
+    its motion noise and odometry settings).
+
+    :raises TypeError: ``params`` are no MotionParams (an estimator's programming error).
+    """
+    from lgvtool.localize.noise import MotionParams
+
+    if not isinstance(params, MotionParams):
+        raise TypeError(f"estimator '{name}' uses motion, but its parameters "
+                        f"({type(params).__name__}) are no MotionParams")
+    return params

@@ -18,14 +18,14 @@ import threading
 import time
 import zlib
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, TypeVar
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.angles import wrap_angle, wrap_scalar
-from lgvtool.config import Config, default_config
+from lgvtool.config import Config, Vehicle, default_config
+from lgvtool.declared import JSONScalar
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.localize.estimator import Estimator, Motion
 from lgvtool.localize.installation import apply_installation
@@ -40,18 +40,19 @@ from lgvtool.localize.observations import (
 )
 from lgvtool.localize.obsstream import ObservationStream, Tail, scan_times, times_of
 from lgvtool.localize.params import params_dict
+from lgvtool.localize.pose_model import PoseModelParams, prepare_poses
 from lgvtool.localize.registry import (
     DEFAULT_ESTIMATORS,
     ESTIMATORS,
     check_names,
+    motion_params,
     resolve_params,
     split_settings,
 )
 from lgvtool.timestamps import seconds_to_ns, seconds_to_ns_array
+from lgvtool.trajectory import Trajectory
 
 if TYPE_CHECKING:
-    import pandas as pd
-
     from lgvtool.log import LogReader
     from lgvtool.log.reader import Tap
 
@@ -59,57 +60,37 @@ FloatArray = NDArray[np.float64]
 _J = TypeVar("_J")
 _T = TypeVar("_T")
 
-__all__ = ["EstimateTable", "LazyScans", "LogData", "ReplayResult", "load_log", "replay_data",
-           "run_replay"]
-
-
-@dataclass
-class EstimateTable:
-    """One estimator's output: ``t_ns`` (int ns since the epoch), pose of O (m, m, rad),
-    row-major 3x3 ``covariance`` per row, particle count and ESS per row."""
-
-    t_ns: NDArray[np.int64]
-    x: FloatArray
-    y: FloatArray
-    heading: FloatArray
-    covariance: FloatArray
-    particles: NDArray[np.int64]
-    ess: FloatArray
+__all__ = ["LazyScans", "LogData", "ReplayResult", "load_log", "replay_data", "run_replay"]
 
 
 @dataclass
 class ReplayResult:
     """What :func:`run_replay` returns.
 
-    ``trajectories``: ``{name: DataFrame[t (s), x (m), y (m), heading (rad)]}`` of O (built on
-    first use); ``settings``: ``{name: {param: value}}`` effective parameters; ``tables``: the
-    full output per estimator (with covariance, particle count, ESS); ``clouds``: decimated
-    particle clouds ``(t_ns, x, y, heading)``; ``gated``: the NAV poses the plausibility gate
-    left out; ``skipped``: estimators that could not run on
-    this log, with the reason; ``timings``: seconds per estimator (and ``read``).
+    ``estimates``: per estimator its poses of O as a :class:`~lgvtool.trajectory.Trajectory`
+    on the replay's clock (``t`` in s after ``t0_ns``, the log's first message; x, y in m;
+    heading in rad, wrapped into (-pi, pi]) with the covariance, particle count and ESS of
+    each row; ``trajectories``: the same with ``t`` in s since the epoch (the log time
+    ``evaluate`` and ``export`` score); ``settings``: ``{name: {param: value}}`` effective
+    parameters; ``clouds``: decimated particle clouds ``(t_ns, x, y, heading)``; ``gated``:
+    the NAV poses the plausibility gate left out; ``skipped``: estimators that could not run
+    on this log, with the reason; ``timings``: seconds per estimator (and ``read``).
     """
 
-    settings: dict[str, dict[str, Any]]
-    tables: dict[str, EstimateTable]
+    settings: dict[str, dict[str, JSONScalar]]
+    estimates: dict[str, Trajectory]
     clouds: dict[str, list[tuple[int, FloatArray, FloatArray, FloatArray]]]
     skipped: dict[str, str]
     timings: dict[str, float]
     t0_ns: int
     seed: int
-    _frames: dict[str, pd.DataFrame] | None = field(default=None, repr=False)
     #: NAV poses the plausibility gate rejected: (log time ns, text)
     gated: list[tuple[int, str]] = field(default_factory=list)
 
     @property
-    def trajectories(self) -> dict[str, pd.DataFrame]:
-        """``{name: DataFrame[t, x, y, heading]}``; ``t`` is the absolute log time in s."""
-        if self._frames is None:
-            import pandas as pd
-
-            self._frames = {n: pd.DataFrame({"t": tab.t_ns * 1e-9, "x": tab.x, "y": tab.y,
-                                             "heading": tab.heading})
-                            for n, tab in self.tables.items()}
-        return self._frames
+    def trajectories(self) -> dict[str, Trajectory]:
+        """``{name: Trajectory}`` of :attr:`estimates` with ``t`` in s since the epoch."""
+        return {n: tr.on_epoch() for n, tr in self.estimates.items()}
 
 
 # ---------------------------------------------------------------------------------- running
@@ -125,17 +106,18 @@ def estimator_rng(seed: int, name: str) -> np.random.Generator:
 def truth_pose_at(data: LogData, t: float) -> tuple[float, float, float] | None:
     """Ground-truth pose of O interpolated at ``t`` (s after ``t0_ns``), if the log has it."""
     tr = data.truth
-    if tr is None or len(tr["t"]) == 0:
+    if tr is None or len(tr) == 0:
         return None
-    x = float(np.interp(t, tr["t"], tr["x"]))
-    y = float(np.interp(t, tr["t"], tr["y"]))
-    h = float(np.interp(t, tr["t"], np.unwrap(tr["heading"])))
-    return x, y, wrap_scalar(h)
+    at = tr.interpolate([t])
+    return float(at.x[0]), float(at.y[0]), float(at.heading[0])
 
 
-def _pose_observations(data: LogData, est_cls: type[Estimator[Any]], params: Any
+def _pose_observations(data: LogData, est_cls: type[Estimator[object]], params: object,
+                       track: MotionTrack | None = None, vehicle: Vehicle | None = None
                        ) -> list[PoseObservation]:
-    """The valid NAV poses, applied at receive time minus the estimator's pose latency."""
+    """The valid NAV poses, applied at receive time minus the estimator's pose latency; with
+    the rotating-head pose model (``pose_model``, and the ``vehicle``) at their reference
+    instants, their skew taken off (:func:`lgvtool.localize.pose_model.prepare_poses`)."""
     if data.nav is None or not data.has_poses or not est_cls.uses_poses:
         return []
     nav = data.nav
@@ -144,13 +126,19 @@ def _pose_observations(data: LogData, est_cls: type[Estimator[Any]], params: Any
     if bool(getattr(params, "pose_gate", True)) and "gate" in nav:
         usable = usable & nav["gate"]
     ok = np.nonzero(usable)[0]
+    if isinstance(params, PoseModelParams) and params.pose_model == "rotating-head" and \
+            vehicle is not None:
+        configured = vehicle.nav_pose_age != 0.0 or vehicle.nav_time_offset != 0.0
+        poses, _ = prepare_poses(nav["t"][ok], nav["x"][ok], nav["y"][ok], nav["heading"][ok],
+                                 track, vehicle.nav_x, vehicle.nav_y, params, lat, configured)
+        return poses
     ts = (nav["t"][ok] - lat).tolist()
     xs, ys, hs = nav["x"][ok].tolist(), nav["y"][ok].tolist(), nav["heading"][ok].tolist()
     return [PoseObservation(t, x, y, h) for t, x, y, h in zip(ts, xs, ys, hs, strict=True)]
 
 
-def _observations(data: LogData, est_cls: type[Estimator[Any]], params: Any,
-                  track: MotionTrack | None, vehicle: Any, *, start_poses: bool = True
+def _observations(data: LogData, est_cls: type[Estimator[object]], params: object,
+                  track: MotionTrack | None, vehicle: Vehicle, *, start_poses: bool = True
                   ) -> tuple[Sequence[PoseObservation | ScanObservation],
                              list[PoseObservation]]:
     """The observations an estimator updates with, and NAV poses it may only start from
@@ -158,12 +146,13 @@ def _observations(data: LogData, est_cls: type[Estimator[Any]], params: Any,
     use_scans, use_poses = sources(getattr(params, "observations", "both"),
                                    data.has_scans and est_cls.uses_scans,
                                    data.has_poses and est_cls.uses_poses)
-    obs: list[PoseObservation | ScanObservation] = []
+    own: list[PoseObservation] = []
     poses: list[PoseObservation] = []
     if use_poses:
-        obs.extend(_pose_observations(data, est_cls, params))
+        own = _pose_observations(data, est_cls, params, track, vehicle)
     elif start_poses:
         poses = _pose_observations(data, est_cls, params)
+    obs: list[PoseObservation | ScanObservation] = list(own)
     if use_scans:
         deskew = bool(getattr(params, "deskew", False))
         lo = float(getattr(params, "min_range_m", 0.0))
@@ -172,7 +161,7 @@ def _observations(data: LogData, est_cls: type[Estimator[Any]], params: Any,
         if getattr(params, "scans", "all") == "nav-poll" and data.nav is not None:
             chosen = poll_scans(data.scan_received(), data.nav["t"])
         if isinstance(data.scans, LazyScans):
-            return _stream(data.scans, obs, chosen, vehicle, track, deskew, lo, hi), poses
+            return _stream(data.scans, own, chosen, vehicle, track, deskew, lo, hi), poses
         obs.extend(scan_observations(scan_batch(data.scans, chosen), vehicle.nav_x,
                                      vehicle.nav_y, track=track, deskew=deskew, min_range=lo,
                                      max_range=hi))
@@ -180,8 +169,8 @@ def _observations(data: LogData, est_cls: type[Estimator[Any]], params: Any,
     return obs, poses
 
 
-def _stream(scans: LazyScans, poses: list[Any], chosen: list[int] | None, vehicle: Any,
-            track: MotionTrack | None, deskew: bool, lo: float, hi: float
+def _stream(scans: LazyScans, poses: list[PoseObservation], chosen: list[int] | None,
+            vehicle: Vehicle, track: MotionTrack | None, deskew: bool, lo: float, hi: float
             ) -> ObservationStream:
     """The poses and the scans ``chosen`` (all if None) as a stream whose scan geometry is
     built block by block (:class:`ObservationStream`)."""
@@ -196,7 +185,7 @@ def _stream(scans: LazyScans, poses: list[Any], chosen: list[int] | None, vehicl
                                                deskew=deskew and track is not None), build)
 
 
-def _start_poses(data: LogData, est_cls: type[Estimator[Any]], params: Any
+def _start_poses(data: LogData, est_cls: type[Estimator[object]], params: object
                  ) -> list[PoseObservation]:
     """The NAV poses an estimator may only start from: all valid ones when it does not update
     with them."""
@@ -219,7 +208,7 @@ def poll_scans(received: FloatArray, poll_times: FloatArray) -> list[int]:
 
 def replay_data(data: LogData, names: Sequence[str] | None = None, *,
                 config: Config | None = None, seed: int = 0,
-                settings: Mapping[str, Any] | None = None,
+                settings: Mapping[str, object] | None = None,
                 initial_pose: tuple[float, float, float] | str | None = None,
                 progress: Callable[[int], None] | None = None,
                 cloud_period_s: float = 2.0, cloud_size: int = 50,
@@ -253,7 +242,7 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
         result.settings[name] = params_dict(p)
         track = None
         if cls.uses_motion:
-            ms = p.motion_settings()
+            ms = motion_params(name, p).motion_settings()
             track = tracks.get(ms)
             if track is None:
                 track = tracks[ms] = MotionTrack(data.increments(ms, vehicle), ms.step_form)
@@ -298,7 +287,7 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
         if done is None:
             result.skipped[job.name] = f"{job.name} has no usable observations in this log"
             continue
-        result.tables[job.name], clouds, result.timings[job.name] = done
+        result.estimates[job.name], clouds, result.timings[job.name] = done
         if clouds:
             result.clouds[job.name] = clouds
     return result
@@ -306,7 +295,7 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
 
 _Clouds = list[tuple[int, FloatArray, FloatArray, FloatArray]]
 #: what one estimator's run gives: its estimates, particle clouds and seconds
-_Done = tuple[EstimateTable, _Clouds, float]
+_Done = tuple[Trajectory, _Clouds, float]
 
 
 @dataclass
@@ -314,12 +303,12 @@ class _Run:
     """One estimator to run: its class, parameters and odometry track (None: no motion)."""
 
     name: str
-    cls: type[Estimator[Any]]
-    params: Any
+    cls: type[Estimator[object]]
+    params: object
     track: MotionTrack | None
 
 
-def _cost(data: LogData, cls: type[Estimator[Any]], params: Any) -> float:
+def _cost(data: LogData, cls: type[Estimator[object]], params: object) -> float:
     """Rough work of running ``cls``: the observations it may use times its particles."""
     n = 0
     if cls.uses_scans and data.has_scans:
@@ -405,7 +394,7 @@ def run_side_by_side(jobs: Sequence[_J], run: Callable[[_J, Callable[[int], None
     return [futures[k].result() for k in range(len(jobs))]
 
 
-def apply_pose_gate(data: LogData, vehicle: Any,
+def apply_pose_gate(data: LogData, vehicle: Vehicle,
                     tracks: dict[MotionSettings, MotionTrack] | None = None
                     ) -> list[tuple[int, str]]:
     """Judge the log's valid NAV poses with the plausibility gate
@@ -437,7 +426,7 @@ def apply_pose_gate(data: LogData, vehicle: Any,
             for k, dpos, dh, tol_p, tol_h in verdict.rejected]
 
 
-def _start(est: Estimator[Any], obs: Sequence[PoseObservation | ScanObservation],
+def _start(est: Estimator[object], obs: Sequence[PoseObservation | ScanObservation],
            start_only: list[PoseObservation], track: MotionTrack | None
            ) -> Sequence[PoseObservation | ScanObservation | _Mark]:
     """Feed observations and start-only NAV poses in time order until the estimator has a
@@ -475,10 +464,10 @@ class _Mark:
         self.t = t
 
 
-def _run_one(est: Estimator[Any], obs: Sequence[PoseObservation | ScanObservation | _Mark],
+def _run_one(est: Estimator[object], obs: Sequence[PoseObservation | ScanObservation | _Mark],
              track: MotionTrack | None, t0_ns: int, progress: Callable[[int], None] | None,
              cloud_period_s: float, cloud_size: int
-             ) -> tuple[EstimateTable, list[tuple[int, FloatArray, FloatArray, FloatArray]]]:
+             ) -> tuple[Trajectory, list[tuple[int, FloatArray, FloatArray, FloatArray]]]:
     times = times_of(obs)
     steps = _deltas(track, times) if track is not None and len(obs) > 1 else None
     if isinstance(obs, Tail):
@@ -489,10 +478,7 @@ def _run_one(est: Estimator[Any], obs: Sequence[PoseObservation | ScanObservatio
         todo = [None if isinstance(o, _Mark) else o for o in obs]
     rows = est.run(times, todo, steps,
                    progress=progress, cloud_period_s=cloud_period_s, cloud_size=cloud_size)
-    table = EstimateTable(
-        t0_ns + seconds_to_ns_array(rows.t), rows.x, rows.y,
-        wrap_angle(rows.heading), rows.covariance,
-        rows.particles, rows.ess)
+    table = replace(rows.poses, t0_ns=t0_ns).wrapped()
     clouds = [(t0_ns + seconds_to_ns(t), x, y, h) for t, x, y, h in rows.clouds]
     return table, clouds
 
@@ -516,7 +502,7 @@ def _deltas(track: MotionTrack, times: FloatArray) -> Deltas:
 
 def run_replay(reader: LogReader, names: Sequence[str] | None = None, *,
                config: Config | None = None, seed: int = 0,
-               settings: Mapping[str, Any] | None = None,
+               settings: Mapping[str, object] | None = None,
                initial_pose: tuple[float, float, float] | str | None = None,
                progress: Callable[[int], None] | None = None,
                cloud_period_s: float = 2.0, cloud_size: int = 50,

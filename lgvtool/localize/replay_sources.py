@@ -7,7 +7,8 @@ one log time are written. Times in integer ns since the Unix epoch.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, cast
 
 from lgvtool.log.windows import Source, source
 
@@ -15,8 +16,18 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
 
+    from lgvtool.config import Config
+    from lgvtool.json_types import JSONObject
+    from lgvtool.localize.replay_driver import ReplayResult
+    from lgvtool.log.reader import LogReader
+    from lgvtool.log.view_channels import EstimateTable, LogRows
+    from lgvtool.trajectory import Trajectory
 
-def _estimate_sources(name: str, tab: Any) -> tuple[Source, Source]:
+    #: a kept particle cloud: log time (ns since the epoch), x (m), y (m), heading (rad)
+    Cloud = tuple[int, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+
+def _estimate_sources(name: str, tab: Trajectory) -> tuple[Source, Source]:
     import numpy as np
 
     from lgvtool.log import foxglove as fx
@@ -39,7 +50,7 @@ def _estimate_sources(name: str, tab: Any) -> tuple[Source, Source]:
             source(topics.estimate_state(name), t, state))
 
 
-def _cloud_source(name: str, clouds: list[Any]) -> Source:
+def _cloud_source(name: str, clouds: list[Cloud]) -> Source:
     from lgvtool.log import foxglove as fx
     from lgvtool.log import topics
 
@@ -55,7 +66,7 @@ def _gated_sources(gated: list[tuple[int, str]]) -> list[Source]:
 
     from lgvtool.log import messages, topics
 
-    def diags(idx: NDArray[np.intp]) -> list[dict[str, Any]]:
+    def diags(idx: NDArray[np.intp]) -> list[JSONObject]:
         return [messages.diagnostic_message(gated[i][0], "nav200", "pose_implausible",
                                             gated[i][1], level=3) for i in idx.tolist()]
 
@@ -71,8 +82,8 @@ def _gated_sources(gated: list[tuple[int, str]]) -> list[Source]:
             source(topics.DIAGNOSTICS_LOG, t, mirror)]
 
 
-def replay_sources(reader: Any, result: Any, view_config: Any = None,
-                   rows: Any = None) -> list[Source]:
+def replay_sources(reader: LogReader, result: ReplayResult, view_config: Config | None = None,
+                   rows: LogRows | None = None) -> list[Source]:
     """The sources of a replay ``result`` (lgvtool.localize.replay_driver.ReplayResult) of the log of
     ``reader``: estimates, then (with ``view_config``, the configuration the view is drawn
     with) the view channels, then the gated NAV poses. ``rows``: the log's rows the view
@@ -80,11 +91,16 @@ def replay_sources(reader: Any, result: Any, view_config: Any = None,
     reads them)."""
     from lgvtool.log.view_channels import view_streams
 
-    pairs = [_estimate_sources(name, tab) for name, tab in result.tables.items()]
+    pairs = [_estimate_sources(name, tab) for name, tab in result.estimates.items()]
     out = [p[0] for p in pairs] + [p[1] for p in pairs]
     out += [_cloud_source(name, clouds) for name, clouds in result.clouds.items()]
     if view_config is not None:
-        out += view_streams(reader, view_config, result.tables, rows)
+        tables = result.estimates
+        if any(tab.covariance is None for tab in tables.values()):
+            raise ValueError("a replay's estimates carry their covariances")
+        # every estimate has its covariance: each is an EstimateTable
+        out += view_streams(reader, view_config, cast("Mapping[str, EstimateTable]", tables),
+                            rows)
     if result.gated:
         out += _gated_sources(result.gated)
     return out

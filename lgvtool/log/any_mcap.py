@@ -10,13 +10,58 @@ from __future__ import annotations
 
 import struct
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
 from lgvtool.errors import LogFormatError
 
+if TYPE_CHECKING:
+    from typing import BinaryIO
 
-def _topic_rows(summary: Any) -> dict[int, dict[str, Any]]:
-    rows: dict[int, dict[str, Any]] = {}
+    from mcap.summary import Summary
+
+
+class TopicRow(TypedDict):
+    """One topic of a file: its schema and encodings, message count, first and last log
+    time (s since the Unix epoch; None before its first message)."""
+
+    topic: str
+    schema: str
+    schema_encoding: str
+    message_encoding: str
+    count: int
+    first_time_s: float | None
+    last_time_s: float | None
+
+
+class TopicSummary(TypedDict):
+    """A topic's row of :func:`describe_any` (without the topic, its key)."""
+
+    schema: str
+    schema_encoding: str
+    message_encoding: str
+    count: int
+    first_time_s: float | None
+    last_time_s: float | None
+
+
+class McapDescription(TypedDict):
+    """What :func:`describe_any` finds in a file: sizes in bytes, times in s since the
+    Unix epoch (None without messages)."""
+
+    file: str
+    size_bytes: int
+    lgvtool_log: bool
+    profile: str
+    library: str
+    message_count: int
+    start_time_s: float | None
+    end_time_s: float | None
+    topics: dict[str, TopicSummary]
+    metadata: list[str]
+
+
+def _topic_rows(summary: Summary) -> dict[int, TopicRow]:
+    rows: dict[int, TopicRow] = {}
     for cid, ch in summary.channels.items():
         schema = summary.schemas.get(ch.schema_id)
         rows[cid] = {"topic": ch.topic, "schema": schema.name if schema else "",
@@ -26,7 +71,7 @@ def _topic_rows(summary: Any) -> dict[int, dict[str, Any]]:
     return rows
 
 
-def describe_any(path: str | Path) -> dict[str, Any]:
+def describe_any(path: str | Path) -> McapDescription:
     """Stable-key summary of any MCAP file (``lgvtool info`` on a foreign file).
 
     Keys: ``file``, ``size_bytes``, ``lgvtool_log`` (False), ``profile`` and ``library`` of the
@@ -44,7 +89,7 @@ def describe_any(path: str | Path) -> dict[str, Any]:
             reader = make_reader(f)
             header = reader.get_header()
             summary = reader.get_summary()
-            rows: dict[str, dict[str, Any]] = {}
+            rows: dict[str, TopicRow] = {}
             if summary is not None and summary.statistics is not None:
                 by_id = _topic_rows(summary)
                 for cid, n in summary.statistics.channel_message_counts.items():
@@ -65,18 +110,25 @@ def describe_any(path: str | Path) -> dict[str, Any]:
             "profile": header.profile, "library": header.library, "message_count": total,
             "start_time_s": span[0] / 1e9 if total else None,
             "end_time_s": span[1] / 1e9 if total else None,
-            "topics": {t: {k: v for k, v in r.items() if k != "topic"} for t, r in rows.items()},
+            "topics": {t: _without_topic(r) for t, r in rows.items()},
             "metadata": metadata}
 
 
-def _scan(f: Any) -> tuple[dict[str, dict[str, Any]], list[str], int, tuple[int, int]]:
+def _without_topic(row: TopicRow) -> TopicSummary:
+    """``row`` without its topic, the key it is listed under."""
+    return {"schema": row["schema"], "schema_encoding": row["schema_encoding"],
+            "message_encoding": row["message_encoding"], "count": row["count"],
+            "first_time_s": row["first_time_s"], "last_time_s": row["last_time_s"]}
+
+
+def _scan(f: BinaryIO) -> tuple[dict[str, TopicRow], list[str], int, tuple[int, int]]:
     """Count messages by streaming the file (no summary section); stops at a cut-off end."""
     from mcap.exceptions import McapError
     from mcap.records import Channel, Message, Metadata, Schema
     from mcap.stream_reader import StreamReader
 
     schemas: dict[int, Schema] = {}
-    channels: dict[int, dict[str, Any]] = {}
+    channels: dict[int, TopicRow] = {}
     metadata: list[str] = []
     total, first, last = 0, 0, 0
     try:
@@ -105,7 +157,7 @@ def _scan(f: Any) -> tuple[dict[str, dict[str, Any]], list[str], int, tuple[int,
     return {r["topic"]: r for r in channels.values()}, metadata, total, (first, last)
 
 
-def format_any(d: dict[str, Any]) -> str:
+def format_any(d: McapDescription) -> str:
     """The summary as a terminal table (strings from the file made printable)."""
     from lgvtool.outputs import printable
 

@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import base64
 import math
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, NamedTuple
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, NamedTuple, Protocol
 
 import orjson
 
 from lgvtool import colours
 from lgvtool.angles import wrap_angle
+from lgvtool.json_types import JSON, JSONObject
 from lgvtool.log import topics
 from lgvtool.log.messages import FRAME_ID, pose, quaternion_from_yaw
 from lgvtool.timestamps import stamp, stamp_columns
@@ -75,7 +76,17 @@ class Encoded(NamedTuple):
     data: bytes
 
 
-def mounting_of(vehicle: Any) -> Mounting:
+class HeadMounted(Protocol):
+    """A vehicle whose NAV head sits at (``nav_x``, ``nav_y``) m in the frame of O (a
+    :class:`lgvtool.config.Vehicle`); a ``nav_yaw`` (rad) attribute is read when it has one."""
+
+    @property
+    def nav_x(self) -> float: ...
+    @property
+    def nav_y(self) -> float: ...
+
+
+def mounting_of(vehicle: HeadMounted) -> Mounting:
     """The head mounting of a :class:`lgvtool.config.Vehicle` (``nav_yaw`` if it has one)."""
     return Mounting(float(vehicle.nav_x), float(vehicle.nav_y),
                     float(getattr(vehicle, "nav_yaw", 0.0)))
@@ -91,14 +102,14 @@ def head_frame(source: str) -> str:
     return f"{source}/head"
 
 
-def color(source: str, alpha: float = 1.0) -> dict[str, float]:
+def color(source: str, alpha: float = 1.0) -> JSONObject:
     """foxglove.Color of ``source``."""
     r, g, b = PALETTE.get(source, OTHER)
     return {"r": r, "g": g, "b": b, "a": alpha}
 
 
 def o_from_head(x: ArrayLike, y: ArrayLike, heading: ArrayLike, m: Mounting
-                ) -> tuple[Any, Any, Any]:
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Pose of O (m, m, rad in (-pi, pi]) of a vehicle whose head is at (x, y, heading):
     scalars or arrays (numpy's)."""
     import numpy as np
@@ -109,7 +120,7 @@ def o_from_head(x: ArrayLike, y: ArrayLike, heading: ArrayLike, m: Mounting
             wrap_angle(th))
 
 
-def encoded(topic: str, message: dict[str, Any]) -> Encoded:
+def encoded(topic: str, message: Mapping[str, object]) -> Encoded:
     """``(topic, schema, JSON)`` of a message on a topic of the log contract."""
     schema = topics.schema_for_topic(topic)
     if schema is None:
@@ -121,24 +132,24 @@ def encoded(topic: str, message: dict[str, Any]) -> Encoded:
 
 
 def transform(ns: int, parent: str, child: str, x: float, y: float, yaw: float
-              ) -> dict[str, Any]:
+              ) -> JSONObject:
     """A foxglove.FrameTransform: ``child`` at (x, y) m, rotated ``yaw`` rad, in ``parent``."""
     return {"timestamp": stamp(ns), "parent_frame_id": parent, "child_frame_id": child,
             "translation": {"x": x, "y": y, "z": 0.0}, "rotation": quaternion_from_yaw(yaw)}
 
 
 def frame_transforms(ns: int, source: str, x: float, y: float, heading: float, m: Mounting
-                     ) -> dict[str, Any]:
+                     ) -> JSONObject:
     """A foxglove.FrameTransforms: map -> ``source``/O at the pose of O, and O -> head."""
     return {"transforms": [transform(ns, MAP_FRAME, o_frame(source), x, y, heading),
                            transform(ns, o_frame(source), head_frame(source), m.x, m.y,
                                      m.yaw)]}
 
 
-def _entity(ns: int, frame: str, entity_id: str, **shapes: list[dict[str, Any]]
-            ) -> dict[str, Any]:
+def _entity(ns: int, frame: str, entity_id: str, **shapes: list[JSON]
+            ) -> JSONObject:
     """A foxglove.SceneEntity that lasts until replaced (same id) and holds ``shapes``."""
-    e: dict[str, Any] = {"timestamp": stamp(ns), "frame_id": frame, "id": entity_id,
+    e: JSONObject = {"timestamp": stamp(ns), "frame_id": frame, "id": entity_id,
                          "lifetime": {"sec": 0, "nsec": 0}, "frame_locked": False,
                          "metadata": []}
     for kind in ("arrows", "cubes", "spheres", "cylinders", "lines", "triangles", "texts",
@@ -147,7 +158,7 @@ def _entity(ns: int, frame: str, entity_id: str, **shapes: list[dict[str, Any]]
     return e
 
 
-def scene(*entities: dict[str, Any]) -> dict[str, Any]:
+def scene(*entities: JSONObject) -> JSONObject:
     """A foxglove.SceneUpdate adding or replacing ``entities``."""
     return {"deletions": [], "entities": list(entities)}
 
@@ -162,13 +173,13 @@ def ellipse_axes(sxx: float, sxy: float, syy: float) -> tuple[float, float, floa
 
 
 def covariance_ellipse(ns: int, source: str, x: float, y: float, covariance: Sequence[float]
-                       ) -> dict[str, Any]:
+                       ) -> JSONObject:
     """A foxglove.SceneUpdate drawing the position covariance of ``source``'s O at (x, y) as a
     flat ellipse of :data:`SIGMAS` standard deviations in the map frame. ``covariance``: the
     row-major 3x3 of (x, y, heading) (m^2, m*rad, rad^2)."""
     a, b, angle = ellipse_axes(float(covariance[0]), float(covariance[1]),
                                float(covariance[4]))
-    sphere = {"pose": {"position": {"x": x, "y": y, "z": 0.0},
+    sphere: JSONObject = {"pose": {"position": {"x": x, "y": y, "z": 0.0},
                        "orientation": quaternion_from_yaw(angle)},
               "size": {"x": 2.0 * SIGMAS * a, "y": 2.0 * SIGMAS * b, "z": ELLIPSE_HEIGHT},
               "color": color(source, 0.35)}
@@ -178,8 +189,8 @@ def covariance_ellipse(ns: int, source: str, x: float, y: float, covariance: Seq
 def _rgba8(source: str, known: bool) -> tuple[int, int, int, int]:
     """RGBA (0..255) of a scan point: ``source``'s colour when the reflector is known, grey
     otherwise."""
-    c = color(source) if known else color("deadreckoning")
-    return round(255 * c["r"]), round(255 * c["g"]), round(255 * c["b"]), round(255 * c["a"])
+    r, g, b = PALETTE.get(source if known else "deadreckoning", OTHER)  # as color(), alpha 1
+    return round(255 * r), round(255 * g), round(255 * b), 255
 
 
 def scan_points(x: ArrayLike, y: ArrayLike, ids: ArrayLike, source: str = "nav") -> bytes:
@@ -195,7 +206,7 @@ def scan_points(x: ArrayLike, y: ArrayLike, ids: ArrayLike, source: str = "nav")
 
 
 def scan_cloud(ns: int, x: ArrayLike, y: ArrayLike, ids: ArrayLike, source: str = "nav"
-               ) -> dict[str, Any]:
+               ) -> JSONObject:
     """A foxglove.PointCloud of one reflector scan starting at ``ns``: each observation a point
     at (x, y) m in ``source``'s head frame as it was at ``ns`` (the caller carries each
     observation there from the instant it was measured), known reflectors in the source's
@@ -207,14 +218,15 @@ def scan_cloud(ns: int, x: ArrayLike, y: ArrayLike, ids: ArrayLike, source: str 
 
 
 def reference_circle(ns: int, cx: float, cy: float, r: float, n: int = 180,
-                     label: str = "reference") -> dict[str, Any]:
+                     label: str = "reference") -> JSONObject:
     """A foxglove.SceneUpdate drawing the reference circle (centre m, radius m) in the map
     frame as a closed line of ``n`` points, with its radius as a label."""
-    pts = [{"x": cx + r * math.cos(2 * math.pi * k / n), "y": cy + r * math.sin(2 * math.pi * k / n),
-            "z": 0.0} for k in range(n)]
-    line = {"type": 1, "pose": pose(0.0, 0.0, 0.0), "thickness": 2.0, "scale_invariant": True,
-            "points": pts, "color": color("truth", 0.8), "colors": [], "indices": []}
-    text = {"pose": pose(cx, cy + r, 0.0, z=0.3), "billboard": True, "font_size": 14.0,
+    pts: list[JSON] = [{"x": cx + r * math.cos(2 * math.pi * k / n),
+                        "y": cy + r * math.sin(2 * math.pi * k / n), "z": 0.0} for k in range(n)]
+    line: JSONObject = {"type": 1, "pose": pose(0.0, 0.0, 0.0), "thickness": 2.0,
+                        "scale_invariant": True, "points": pts, "color": color("truth", 0.8),
+                        "colors": [], "indices": []}
+    text: JSONObject = {"pose": pose(cx, cy + r, 0.0, z=0.3), "billboard": True, "font_size": 14.0,
             "scale_invariant": True, "color": color("truth"),
             "text": f"{label}: R = {r:.3f} m"}
     return scene(_entity(ns, MAP_FRAME, "reference-circle", lines=[line], texts=[text]))
@@ -235,7 +247,7 @@ def nav_pose_messages(ns: int, x: float, y: float, heading: float, m: Mounting
 
 def pose_estimate(ns: int, name: str, x: float, y: float, heading: float,
                   covariance: Sequence[float], particles: int = 0, ess: float = 0.0
-                  ) -> dict[str, Any]:
+                  ) -> JSONObject:
     """A lgvtool.PoseEstimate (the exact estimate): pose of O (m, m, rad), row-major 3x3
     covariance of (x, y, heading), particle count and effective sample size."""
     return {"timestamp": stamp(ns), "estimator": name, "x": x, "y": y, "heading": heading,

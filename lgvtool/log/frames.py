@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import base64
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -17,7 +17,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from lgvtool.errors import decoding_error
-from lgvtool.log.messages import steering_fields, yaw_from_quaternion
+from lgvtool.log.messages import McuFrameFields, steering_fields, yaw_from_quaternion
 from lgvtool.log.reader import LogMessage, LogReader, RawBlock
 from lgvtool.log.validate import check_magnitude
 from lgvtool.timestamps import stamp_seconds
@@ -95,7 +95,7 @@ class SteeringColumns:
         self._angle: list[float] = []
         self._speed: list[float] = []
 
-    def add(self, docs: list[dict[str, Any]]) -> None:
+    def add(self, docs: Sequence[McuFrameFields]) -> None:
         """Add decoded MCU frames (:func:`steering_fields`); every :data:`ROWS_PER_BLOCK`
         frames become an array."""
         a, v = steering_fields(docs)

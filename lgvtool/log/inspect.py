@@ -3,9 +3,44 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from typing import Any
+from typing import TypedDict
 
+from lgvtool.json_types import JSON
 from lgvtool.log.reader import LogReader
+
+
+class TopicFacts(TypedDict):
+    """One topic of a log: its schema, message count, mean rate (Hz), first and last log
+    time (s since the Unix epoch) and largest gap (s)."""
+
+    schema: str
+    count: int
+    rate_hz: float
+    first_time_s: float
+    last_time_s: float
+    max_gap_s: float
+
+
+class LogFacts(TypedDict):
+    """What :func:`describe` finds in a log: sizes in bytes, times in s since the Unix epoch
+    (None without messages), the lgvtool metadata's versions and source (None when absent),
+    every metadata record."""
+
+    file: str
+    size_bytes: int
+    complete: bool
+    salvaged: bool
+    corrupt_chunks: int
+    warnings: list[str]
+    format_version: JSON
+    tool_version: JSON
+    source: JSON
+    start_time_s: float | None
+    end_time_s: float | None
+    duration_s: float
+    message_count: int
+    topics: dict[str, TopicFacts]
+    metadata: dict[str, dict[str, JSON]]
 
 
 def _iso(ns: int) -> str:
@@ -13,7 +48,7 @@ def _iso(ns: int) -> str:
         "+00:00", "Z")
 
 
-def describe(reader: LogReader) -> dict[str, Any]:
+def describe(reader: LogReader) -> LogFacts:
     """Stable-key summary of a log (documented in docs/log-format.md, ``info --json``)."""
     topics = reader.topics()
     reader.verify_chunks()  # also the chunks of no channel topics() reads
@@ -49,12 +84,12 @@ def describe(reader: LogReader) -> dict[str, Any]:
     }
 
 
-def _short(value: Any, width: int = 60) -> str:
+def _short(value: object, width: int = 60) -> str:
     text = value if isinstance(value, str) else repr(value)
     return text if len(text) <= width else text[: width - 3] + "..."
 
 
-def format_text(d: dict[str, Any]) -> str:
+def format_text(d: LogFacts) -> str:
     """The summary as a terminal table."""
     lines = [
         f"file:      {d['file']} ({d['size_bytes']} bytes, "
@@ -64,9 +99,11 @@ def format_text(d: dict[str, Any]) -> str:
         f"format:    {d['format_version']} (written by lgvtool {d['tool_version']}, "
         f"{d['source'] or 'unknown source'})",
     ]
-    if d["start_time_s"] is not None:
-        lines.append(f"time:      {_iso(int(d['start_time_s'] * 1e9))} .. "
-                     f"{_iso(int(d['end_time_s'] * 1e9))} ({d['duration_s']:.3f} s)")
+    start, end = d["start_time_s"], d["end_time_s"]
+    if start is not None:
+        assert end is not None  # both are None, or neither: the log has messages
+        lines.append(f"time:      {_iso(int(start * 1e9))} .. "
+                     f"{_iso(int(end * 1e9))} ({d['duration_s']:.3f} s)")
     lines.append(f"messages:  {d['message_count']}")
     lines.append("")
     rows = [("topic", "schema", "count", "rate Hz", "first s", "last s", "max gap s")]

@@ -16,7 +16,7 @@ from __future__ import annotations
 import heapq
 import zlib
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from typing import IO, TYPE_CHECKING, Any, NamedTuple
+from typing import IO, TYPE_CHECKING, NamedTuple
 
 import zstandard
 
@@ -31,6 +31,7 @@ from lgvtool.log.mcap_records import (
     U32,
     U64,
     ChunkIndex,
+    FileBytes,
     decompress,
 )
 
@@ -117,7 +118,7 @@ def chunk_messages(records: bytes, wanted: set[int] | None) -> list[tuple[int, i
     return out
 
 
-def _chunk_frame(buf: Any, ci: ChunkIndex) -> tuple[str, int, int, int]:
+def _chunk_frame(buf: FileBytes, ci: ChunkIndex) -> tuple[str, int, int, int]:
     """Compression, offset and length (bytes) of the compressed records of the chunk ``ci``
     of a file held in ``buf``, and the CRC-32 of its uncompressed records (0: none).
 
@@ -143,7 +144,7 @@ def _chunk_frame(buf: Any, ci: ChunkIndex) -> tuple[str, int, int, int]:
     return kind, pos + 8, dlen, crc
 
 
-def verified_records(buf: Any, ci: ChunkIndex,
+def verified_records(buf: FileBytes, ci: ChunkIndex,
                      zstd: zstandard.ZstdDecompressor | None = None) -> bytes:
     """The uncompressed records of the chunk ``ci`` of a file held in ``buf``, checked: they
     decompress, have the size the index gives and match the chunk's CRC-32 (when it is not 0,
@@ -190,7 +191,7 @@ def checked_records(kind: str, data: bytes | memoryview, size: int, crc: int,
     return records
 
 
-def _indexed_payloads(buf: Any, records: bytes, off: int, cid: int
+def _indexed_payloads(buf: FileBytes, records: bytes, off: int, cid: int
                       ) -> tuple[NDArray[np.uint64], list[bytes]] | None:
     """The log times and data of channel ``cid``'s messages in ``records`` found through its
     message index at file offset ``off``; None when the index does not fit the records (the
@@ -223,7 +224,7 @@ RecordColumns = tuple["NDArray[np.uint16]", "NDArray[np.int64]", "NDArray[np.int
 in the chunk's records and its size (bytes, opcode and length included)."""
 
 
-def record_columns(chunks: Sequence[tuple[Any, ChunkIndex, bytes]],
+def record_columns(chunks: Sequence[tuple[FileBytes, ChunkIndex, bytes]],
                    on_corrupt: Callable[[int, str], None] | None = None
                    ) -> tuple[bytes, RecordColumns]:
     """The uncompressed records of consecutive chunks joined (``chunks``: per chunk a buffer
@@ -285,7 +286,7 @@ def _walked_columns(records: bytes) -> RecordColumns:
             np.array(offsets, dtype=np.int64), np.array(sizes, dtype=np.int64))
 
 
-def _index_entries(buf: Any, at: int, cid: int) -> bytes | None:
+def _index_entries(buf: FileBytes, at: int, cid: int) -> bytes | None:
     """The (log time, offset) pairs, as bytes (u64 each, 16 a pair), of the Message Index
     record of channel ``cid`` at ``at`` in ``buf``; None when no such record is there."""
     if at < 0 or at + 15 > len(buf) or buf[at] != OP_MESSAGE_INDEX:
@@ -297,7 +298,7 @@ def _index_entries(buf: Any, at: int, cid: int) -> bytes | None:
     return bytes(buf[at + 15:at + 15 + nbytes])
 
 
-def _indexed_columns(chunks: Sequence[tuple[Any, ChunkIndex, int]], records: bytes
+def _indexed_columns(chunks: Sequence[tuple[FileBytes, ChunkIndex, int]], records: bytes
                      ) -> RecordColumns | None:
     """:func:`record_columns` from the chunks' message indexes (``chunks``: buffer, index and
     where the chunk's records start in ``records``), in stored order; None when they do not

@@ -14,10 +14,16 @@ import os
 import struct
 import zlib
 from collections.abc import Mapping
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, TypeAlias
 
 import lz4.frame
 import zstandard
+
+if TYPE_CHECKING:
+    import mmap
+
+#: the bytes of a file (or a part of one) held in memory: read, or mapped
+FileBytes: TypeAlias = "bytes | bytearray | memoryview | mmap.mmap"
 
 MAGIC = b"\x89MCAP0\r\n"
 MSG_HEAD = struct.Struct("<BQHIQQ")  # opcode, record length, channel, sequence, log, publish
@@ -62,7 +68,7 @@ class _Record:
     __slots__: tuple[str, ...] = ()
     _fields: tuple[str, ...] = ()
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
+    def __init__(self, *args: object, **kwargs: object) -> None:
         for name, value in zip(self._fields, args, strict=False):
             setattr(self, name, value)
         for name, value in kwargs.items():
@@ -226,7 +232,7 @@ class Cursor:
 
     __slots__ = ("buf", "pos")
 
-    def __init__(self, buf: Any, pos: int = 0) -> None:
+    def __init__(self, buf: FileBytes, pos: int = 0) -> None:
         self.buf = buf
         self.pos = pos
 
@@ -343,7 +349,7 @@ def check_summary_crc(summary: bytes, footer: bytes) -> None:
         raise CorruptSummaryError("the summary section does not match its CRC-32")
 
 
-def data_section_crc(buf: Any, summary_start: int) -> tuple[int, int] | None:
+def data_section_crc(buf: FileBytes, summary_start: int) -> tuple[int, int] | None:
     """The data section's stored CRC-32 (from the data end record before ``summary_start``)
     and the CRC-32 computed over the file up to that record; None when the file has no data
     end record there or its CRC is 0 ("not computed")."""

@@ -18,7 +18,7 @@ from array import array
 from collections import deque
 from collections.abc import Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING
 
 from lgvtool.log.mcap_records import (
     CHUNK_HEAD,
@@ -101,7 +101,8 @@ class _OpenChunk:
         return (np.frombuffer(self.cids, np.uint16), np.frombuffer(self.times, np.uint64),
                 np.frombuffer(self.offsets, np.uint64))
 
-    def _set_index(self, cids: Any, times: Any, offsets: Any) -> None:
+    def _set_index(self, cids: NDArray[np.uint16], times: NDArray[np.uint64],
+                   offsets: NDArray[np.uint64]) -> None:
         self.cids = array("H", cids.astype("<u2").tobytes())
         self.times = array("Q", times.astype("<u8").tobytes())
         self.offsets = array("Q", offsets.astype("<u8").tobytes())

@@ -14,12 +14,13 @@ The device types are imported for type checking only: this module depends on no 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Protocol, TypedDict
 
 from lgvtool.angles import wrap_scalar
 from lgvtool.config import Reflector, reflectors_from_tables
 from lgvtool.errors import ConfigError
+from lgvtool.json_types import JSON, JSONObject, JSONRecord, as_int
 from lgvtool.timestamps import stamp
 
 if TYPE_CHECKING:
@@ -28,16 +29,79 @@ if TYPE_CHECKING:
     from lgvtool.devices.nav200.nav200_payloads import Pose
     from lgvtool.devices.nav350.nav350_telegrams import PoseData
 
+# ------------------------------------------------------------------ messages as read back
+# The layouts of decoded messages (``schemas/``) that readers take fields from; every field is
+# optional here, as a reader meets it (a missing one is the reader's error or default).
+
+
+class McuFrameFields(TypedDict, total=False):
+    """The fields of a decoded ``lgvtool.McuFrame`` that the steering columns read:
+    ``steering_angle`` (rad) and ``drive_speed`` (m/s)."""
+
+    steering_angle: float
+    drive_speed: float
+
+
+class ObservationFields(TypedDict, total=False):
+    """One observation of a decoded ``lgvtool.ReflectorScan``: ``range`` (m), ``bearing``
+    (rad), ``time_in_scan`` (s) and the map ``id`` (-1: none)."""
+
+    range: float
+    bearing: float
+    time_in_scan: float
+    id: int
+
+
+class ReflectorScanFields(TypedDict, total=False):
+    """A decoded ``lgvtool.ReflectorScan``: its ``timestamp`` (``{sec, nsec}``), the
+    ``scan_period`` (s) and its observations."""
+
+    timestamp: JSONObject
+    scan_period: float
+    observations: list[ObservationFields]
+
+
+class PoseFields(TypedDict, total=False):
+    """A decoded foxglove.Pose: ``position`` ``{x, y, z}`` (m) and ``orientation``
+    ``{x, y, z, w}`` (a unit quaternion)."""
+
+    position: dict[str, float]
+    orientation: dict[str, float]
+
+
+class PoseInFrameFields(TypedDict, total=False):
+    """A decoded foxglove.PoseInFrame: ``timestamp`` (``{sec, nsec}``), ``frame_id`` and
+    ``pose``."""
+
+    timestamp: JSONObject
+    frame_id: str
+    pose: PoseFields
+
+
+class ScanObservation(Protocol):
+    """One reflector seen in a scan: ``range`` (m), ``bearing`` (rad), ``time_in_scan`` (s
+    after the scan's start) and the map ``id`` (-1: none)."""
+
+    @property
+    def range(self) -> float: ...
+    @property
+    def bearing(self) -> float: ...
+    @property
+    def time_in_scan(self) -> float: ...
+    @property
+    def id(self) -> int: ...
+
+
 FRAME_ID = "map"
 """Frame of every map-frame pose in lgvtool logs."""
 
 
-def quaternion_from_yaw(yaw: float) -> dict[str, float]:
+def quaternion_from_yaw(yaw: float) -> JSONObject:
     """Unit quaternion ``{x, y, z, w}`` of a rotation by ``yaw`` rad about z."""
     return {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2.0), "w": math.cos(yaw / 2.0)}
 
 
-def steering_fields(docs: list[dict[str, Any]]) -> tuple[list[float], list[float]]:
+def steering_fields(docs: Sequence[McuFrameFields]) -> tuple[list[float], list[float]]:
     """Steering angle (rad, NaN where absent) and absolute drive speed (m/s, 0 where absent)
     of decoded MCU frames."""
     return ([float(d.get("steering_angle", math.nan)) for d in docs],
@@ -50,24 +114,24 @@ def yaw_from_quaternion(q: Mapping[str, float]) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def pose(x: float, y: float, heading: float, z: float = 0.0) -> dict[str, Any]:
+def pose(x: float, y: float, heading: float, z: float = 0.0) -> JSONObject:
     """A foxglove.Pose of a 2-D pose: position in m, heading in rad."""
     return {"position": {"x": x, "y": y, "z": z}, "orientation": quaternion_from_yaw(heading)}
 
 
-def pose_in_frame(ns: int, x: float, y: float, heading: float, frame_id: str = FRAME_ID) -> dict[str, Any]:
+def pose_in_frame(ns: int, x: float, y: float, heading: float, frame_id: str = FRAME_ID) -> JSONObject:
     """A foxglove.PoseInFrame message: time in ns, position in m, heading in rad."""
     return {"timestamp": stamp(ns), "frame_id": frame_id, "pose": pose(x, y, heading)}
 
 
 def poses_in_frame(
     ns: int, poses: Iterable[tuple[float, float, float]], frame_id: str = FRAME_ID
-) -> dict[str, Any]:
+) -> JSONObject:
     """A foxglove.PosesInFrame message from (x m, y m, heading rad) triples."""
     return {"timestamp": stamp(ns), "frame_id": frame_id, "poses": [pose(*p) for p in poses]}
 
 
-def reflector_map_message(ns: int, reflectors: Iterable[Reflector]) -> dict[str, Any]:
+def reflector_map_message(ns: int, reflectors: Iterable[Reflector]) -> JSONObject:
     """A lgvtool.ReflectorMap message."""
     return {
         "timestamp": stamp(ns),
@@ -79,7 +143,7 @@ def reflector_map_message(ns: int, reflectors: Iterable[Reflector]) -> dict[str,
     }
 
 
-def reflectors_from_message(msg: Mapping[str, Any]) -> tuple[Reflector, ...]:
+def reflectors_from_message(msg: JSON) -> tuple[Reflector, ...]:
     """The reflectors of a lgvtool.ReflectorMap message, checked as a configuration's
     (:func:`lgvtool.config.reflectors_from_tables`; radius 0.05 m and layer 0 when absent).
 
@@ -94,9 +158,9 @@ def reflectors_from_message(msg: Mapping[str, Any]) -> tuple[Reflector, ...]:
         raise ValueError(f"topic /map/reflectors: {exc}") from None
 
 
-def map_scene_message(ns: int, reflectors: Iterable[Reflector], height: float = 0.85) -> dict[str, Any]:
+def map_scene_message(ns: int, reflectors: Iterable[Reflector], height: float = 0.85) -> JSONObject:
     """A foxglove.SceneUpdate drawing each reflector as a cylinder ``height`` m tall, labelled."""
-    entities = []
+    entities: list[JSON] = []
     for r in reflectors:
         d = 2.0 * r.radius if r.radius > 0 else 0.1
         entities.append({
@@ -128,8 +192,8 @@ LEVELS = {"debug": 1, "info": 2, "warning": 3, "error": 4, "fatal": 5}
 
 def diagnostic_message(
     ns: int, source: str, kind: str, message: str, *, level: int = 3, count: int = 1,
-    details: Mapping[str, Any] | None = None,
-) -> dict[str, Any]:
+    details: JSONRecord | None = None,
+) -> JSONObject:
     """A lgvtool.Diagnostic message."""
     return {
         "timestamp": stamp(ns), "level": int(level), "source": source, "kind": kind,
@@ -137,7 +201,7 @@ def diagnostic_message(
     }
 
 
-def log_message_of(diag: Mapping[str, Any]) -> dict[str, Any]:
+def log_message_of(diag: JSONRecord) -> JSONObject:
     """The foxglove.Log mirror of a lgvtool.Diagnostic message."""
     return {
         "timestamp": diag["timestamp"], "level": diag["level"],
@@ -146,7 +210,7 @@ def log_message_of(diag: Mapping[str, Any]) -> dict[str, Any]:
     }
 
 
-def kind_of_log_message(msg: Mapping[str, Any]) -> str | None:
+def kind_of_log_message(msg: JSONRecord) -> str | None:
     """The diagnostic kind a foxglove.Log mirror (:func:`log_message_of`) was made from, read
     back from its text (``[kind] message``); None when the text is not of that form."""
     text = msg.get("message")
@@ -156,11 +220,11 @@ def kind_of_log_message(msg: Mapping[str, Any]) -> str | None:
 
 
 # ---------------------------------------------------------------------------------- devices
-def _stamp(timestamp: Mapping[str, int]) -> dict[str, int]:
-    return {"sec": int(timestamp["sec"]), "nsec": int(timestamp["nsec"])}
+def _stamp(timestamp: JSONRecord) -> JSONObject:
+    return {"sec": as_int(timestamp["sec"]), "nsec": as_int(timestamp["nsec"])}
 
 
-def mcu_frame_message(frame: McuFrame, timestamp: Mapping[str, int]) -> dict[str, Any]:
+def mcu_frame_message(frame: McuFrame, timestamp: JSONRecord) -> JSONObject:
     """An ``lgvtool.McuFrame`` message: raw counts plus SI values.
 
     ``gyro_scale`` in deg/s per count, ``gyro_rate`` rad/s, ``steering_angle`` rad,
@@ -182,7 +246,7 @@ def mcu_frame_message(frame: McuFrame, timestamp: Mapping[str, int]) -> dict[str
     }
 
 
-def nav_pose_message(pose: Pose | Reply, timestamp: Mapping[str, int]) -> dict[str, Any]:
+def nav_pose_message(pose: Pose | Reply, timestamp: JSONRecord) -> JSONObject:
     """An ``lgvtool.NavPose`` message from a NAV200 PP reply or its payload.
 
     x, y in m, heading in rad within (-pi, pi], ``valid`` False for quality 0xFE/0xFF.
@@ -205,8 +269,8 @@ def nav_pose_message(pose: Pose | Reply, timestamp: Mapping[str, int]) -> dict[s
     }
 
 
-def reflector_scan_message(start_ns: int, period: float, observations: Iterable[Any]
-                           ) -> dict[str, Any]:
+def reflector_scan_message(start_ns: int, period: float, observations: Iterable[ScanObservation]
+                           ) -> JSONObject:
     """An ``lgvtool.ReflectorScan`` of one head revolution: start time in ns, ``period`` in s,
     observations with ``range`` (m), ``bearing`` (rad), ``time_in_scan`` (s) and ``id``."""
     return {
@@ -239,7 +303,7 @@ def _mdeg_angle(mdeg: int) -> float:
 
 
 def nav350_pose_message(data: PoseData, received_ns: int,
-                 host_ns_of_tick: Callable[[int], int | None]) -> dict[str, Any] | None:
+                 host_ns_of_tick: Callable[[int], int | None]) -> JSONObject | None:
     """The ``lgvtool.NavPose`` of a NAV350 pose-data reply (None when it has neither pose nor pose
     information). ``host_ns_of_tick`` maps a device tick to host ns (None: no estimate yet)."""
     if data.pose is None and data.info is None:
@@ -247,7 +311,7 @@ def nav350_pose_message(data: PoseData, received_ns: int,
     info = data.info
     valid = data.pose is not None and data.error_code == 0
     x, y, phi = data.pose if data.pose is not None else (0, 0, 0)
-    msg: dict[str, Any] = {
+    msg: JSONObject = {
         "timestamp": stamp(received_ns), "x": x / 1000.0, "y": y / 1000.0,
         "heading": _mdeg_angle(phi), "quality": 0 if valid else NAV350_NO_POSITION,
         "reflectors_used": 0 if info is None else info.used_reflectors, "valid": valid,
@@ -265,10 +329,11 @@ def nav350_pose_message(data: PoseData, received_ns: int,
 
 def nav350_scan_message(data: PoseData, received_ns: int,
                  host_ns_of_tick: Callable[[int], int | None],
-                 map_id: Mapping[int, int] | None = None) -> dict[str, Any] | None:
+                 map_id: Mapping[int, int] | None = None) -> JSONObject | None:
     """The ``lgvtool.ReflectorScan`` of a reply's landmark block (None without one): every
-    landmark with a polar measurement; ``map_id`` turns the device's global ids into map ids
-    (None: the same; a global id not in it: -1)."""
+    landmark with a polar measurement, and where the device sent its optional data, its local
+    and global ids, quality, hit count, mean echo (device units) and tick (ms); ``map_id``
+    turns the device's global ids into map ids (None: the same; a global id not in it: -1)."""
     block = data.landmarks
     if block is None:
         return None
@@ -282,11 +347,11 @@ def nav350_scan_message(data: PoseData, received_ns: int,
     start_ns = None if start_tick is None else host_ns_of_tick(start_tick)
     if start_ns is None:
         start_ns = received_ns - round(NAV350_SCAN_PERIOD * 1e9)
-    observations = []
+    observations: list[JSON] = []
     for m in marks:
         assert m.polar is not None
         dist, phi = m.polar
-        o: dict[str, Any] = {"range": dist / 1000.0, "bearing": _mdeg_angle(phi),
+        o: JSONObject = {"range": dist / 1000.0, "bearing": _mdeg_angle(phi),
                              "time_in_scan": 0.0, "id": -1}
         info = m.info
         if info is not None:
@@ -296,9 +361,10 @@ def nav350_scan_message(data: PoseData, received_ns: int,
                 dt = ((info.timestamp_ms - start_tick + 2**31) % 2**32 - 2**31) / 1000.0
                 o["time_in_scan"] = max(0.0, dt)
             o.update(local_id=info.local_id, global_id=gid, quality=info.quality,
+                     hit_count=info.hit_count, mean_echo=info.mean_echo,
                      device_time_ms=info.timestamp_ms)
         observations.append(o)
-    msg: dict[str, Any] = {"timestamp": stamp(start_ns), "scan_period": NAV350_SCAN_PERIOD,
+    msg: JSONObject = {"timestamp": stamp(start_ns), "scan_period": NAV350_SCAN_PERIOD,
                            "observations": observations}
     if start_tick is not None:
         msg["device_time_ms"] = start_tick

@@ -24,6 +24,7 @@ import orjson
 
 from lgvtool.config import Config, Reflector, config_from_dict, default_config
 from lgvtool.errors import ConfigError, LogFormatError
+from lgvtool.json_types import JSON
 from lgvtool.log import topics as T
 from lgvtool.log.mcap_chunks import (
     ChunkWindow,
@@ -578,8 +579,9 @@ class LogReader:
         return self._map_from_topic() or self.config().reflectors
 
 
-def _decode_value(value: str) -> Any:
+def _decode_value(value: str) -> JSON:
     try:
-        return json.loads(value)
+        decoded: JSON = json.loads(value)
+        return decoded
     except (json.JSONDecodeError, ValueError):
         return value

@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 from functools import cache
 from pathlib import Path
-from typing import Any
+
+from lgvtool.json_types import JSONObject
 
 
 def schema_dir() -> Path:
@@ -32,7 +33,7 @@ def schema_bytes(name: str) -> bytes:
     return path.read_bytes()
 
 
-def schema_json(name: str) -> dict[str, Any]:
+def schema_json(name: str) -> JSONObject:
     """The parsed schema document of ``name``."""
-    data: dict[str, Any] = json.loads(schema_bytes(name))
+    data: JSONObject = json.loads(schema_bytes(name))
     return data

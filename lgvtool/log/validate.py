@@ -7,9 +7,14 @@ Pure functions; the reader raises :class:`lgvtool.errors.LogFormatError` with th
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, cast
 
+from lgvtool.json_types import JSON, JSONRecord
 from lgvtool.log import topics as T
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike, NDArray
 
 #: message encoding and schema encoding of every lgvtool topic
 MESSAGE_ENCODING = "json"
@@ -50,7 +55,8 @@ def check_times(topic: str, ns: Iterable[int]) -> None:
 MAX_MAGNITUDE = 1e6
 
 
-def plausible_poses(x: Any, y: Any, heading: Any) -> Any:
+def plausible_poses(x: ArrayLike, y: ArrayLike, heading: ArrayLike
+                    ) -> NDArray[np.bool_] | np.bool_:
     """Which poses (x, y in m, heading in rad; arrays or numbers) are finite and at most
     :data:`MAX_MAGNITUDE` in magnitude: a NAV pose that is not is a corrupt reply, taken as
     not valid by the estimators and not drawn by the views. A boolean array (a numpy bool for
@@ -58,20 +64,21 @@ def plausible_poses(x: Any, y: Any, heading: Any) -> Any:
     import numpy as np
 
     a = np.abs(np.asarray([x, y, heading], dtype=np.float64))
-    return np.all(a <= MAX_MAGNITUDE, axis=0)  # NaN compares false
+    ok: NDArray[np.bool_] | np.bool_ = np.all(a <= MAX_MAGNITUDE, axis=0)  # NaN compares false
+    return ok
 
 
-def flags(docs: Sequence[Mapping[str, Any]], key: str) -> list[bool]:
+def flags(docs: Sequence[JSONRecord], key: str) -> list[bool]:
     """The boolean field ``key`` of every message; TypeError when one is not a JSON boolean (a
     string "false" would otherwise read as true), KeyError when one lacks it."""
     values = [d[key] for d in docs]
     if not all(v is True or v is False for v in values):
         bad = next(v for v in values if v is not True and v is not False)
         raise TypeError(f"field {key!r} holds {bad!r}, not true or false")
-    return values
+    return cast("list[bool]", values)  # each one True or False, as checked above
 
 
-def check_magnitude(columns: Mapping[str, Sequence[float] | Any], topic: str = "") -> None:
+def check_magnitude(columns: Mapping[str, ArrayLike | Sequence[JSON]], topic: str = "") -> None:
     """Raise ValueError naming the field (and ``topic`` if given) when a value is larger in
     magnitude than :data:`MAX_MAGNITUDE` (NaN passes)."""
     import numpy as np
@@ -85,7 +92,7 @@ def check_magnitude(columns: Mapping[str, Sequence[float] | Any], topic: str = "
                              f"magnitude (beyond {MAX_MAGNITUDE:g}: not a plausible value)")
 
 
-def check_finite(topic: str, columns: Mapping[str, Sequence[float] | Any]) -> None:
+def check_finite(topic: str, columns: Mapping[str, ArrayLike | Sequence[JSON]]) -> None:
     """Raise ValueError naming ``topic`` and the field when a value is NaN, infinite or larger
     in magnitude than :data:`MAX_MAGNITUDE`."""
     import numpy as np

@@ -11,15 +11,20 @@ each stream keeps only its numeric rows until then. Times in integer ns since th
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 import orjson
 
 from lgvtool.errors import decoding_error
+from lgvtool.json_types import JSON, JSONRecord
 from lgvtool.log import foxglove as fx
 from lgvtool.log import topics as T
-from lgvtool.log.messages import steering_fields
+from lgvtool.log.messages import (
+    PoseInFrameFields,
+    ReflectorScanFields,
+    steering_fields,
+)
 from lgvtool.log.validate import check_magnitude, flags, plausible_poses
 from lgvtool.log.windows import Source, constant, source
 from lgvtool.timestamps import from_stamp
@@ -28,17 +33,41 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import ArrayLike, NDArray
 
-    from lgvtool.log.reader import LogReader
+    from lgvtool.config import Config
+    from lgvtool.log.reader import LogReader, RawBlock
+    from lgvtool.log.windows import Encoder
+
+#: the columns of one topic's messages decoded by a ``*_fields`` function (numbers, counts,
+#: ids, flags as read: numpy makes them arrays), one list per field
+Fields = tuple[Sequence[JSON], ...]
 
 
-def nav_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+class EstimateTable(Protocol):
+    """An estimator's output as the view draws it: ``t_ns`` (ns since the epoch), the pose
+    of O (``x``, ``y`` m, ``heading`` rad) and the row-major 3x3 ``covariance`` per row."""
+
+    @property
+    def t_ns(self) -> NDArray[np.int64]: ...
+    @property
+    def x(self) -> NDArray[np.float64]: ...
+    @property
+    def y(self) -> NDArray[np.float64]: ...
+    @property
+    def heading(self) -> NDArray[np.float64]: ...
+    @property
+    def covariance(self) -> NDArray[np.float64]: ...
+
+
+def nav_fields(docs: Sequence[JSONRecord]
+               ) -> tuple[list[float], list[float], list[float], list[bool]]:
     """x, y, heading (m, m, rad; NaN when not a number) and the valid flag of NAV poses
     (TypeError when one is not a boolean, :func:`lgvtool.log.validate.flags`)."""
     return ([_num(d, "x") for d in docs], [_num(d, "y") for d in docs],
             [_num(d, "heading") for d in docs], flags(docs, "valid"))
 
 
-def scan_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+def scan_fields(docs: Sequence[ReflectorScanFields]
+                ) -> tuple[list[int], list[int], list[float], list[float], list[int], list[float]]:
     """Per scan its start (ns) and count; per observation range (m), bearing (rad), id and time
     in scan (s); ValueError for a range beyond :data:`~lgvtool.log.validate.MAX_MAGNITUDE`."""
     obs = [d.get("observations", []) for d in docs]
@@ -51,7 +80,8 @@ def scan_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
             [float(o.get("time_in_scan", 0.0)) for o in flat])
 
 
-def truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
+def truth_fields(docs: Sequence[PoseInFrameFields]
+                 ) -> tuple[list[float], list[float], list[float], list[float]]:
     """x, y (m) and the quaternion's z and w of ground-truth poses; ValueError for a position
     beyond :data:`~lgvtool.log.validate.MAX_MAGNITUDE`."""
     poses = [d["pose"] for d in docs]
@@ -61,10 +91,13 @@ def truth_fields(docs: list[dict[str, Any]]) -> tuple[list[Any], ...]:
             [p["orientation"].get("w", 1.0) for p in poses])
 
 
-_FIELDS = {T.NAV_POSE: (nav_fields, ("d", "d", "d", "?")),
-           T.NAV_REFLECTORS: (scan_fields, ("q", "q", "d", "d", "q", "d")),
-           T.TRUTH: (truth_fields, ("d", "d", "d", "d")),
-           T.MCU_FRAME: (steering_fields, ("d", "d"))}
+#: per topic: the function that reads its decoded messages' fields, and each field's column
+#: type (d float64, q int64, ? bool)
+_FIELDS: dict[str, tuple[Callable[..., Fields], tuple[str, ...]]] = {
+    T.NAV_POSE: (nav_fields, ("d", "d", "d", "?")),
+    T.NAV_REFLECTORS: (scan_fields, ("q", "q", "d", "d", "q", "d")),
+    T.TRUTH: (truth_fields, ("d", "d", "d", "d")),
+    T.MCU_FRAME: (steering_fields, ("d", "d"))}
 
 
 class RowCollector:
@@ -78,10 +111,10 @@ class RowCollector:
         #: the topics to read (those of the log)
         self.topics = [t for t in _FIELDS if reader.has_topic(t)
                        and not (skip_scans and t == T.NAV_REFLECTORS)]
-        self.parts: dict[str, tuple[list[Any], list[tuple[list[Any], ...]]]] = {
+        self.parts: dict[str, tuple[list[NDArray[np.int64]], list[Fields]]] = {
             t: ([], []) for t in self.topics}
 
-    def add(self, block: Mapping[str, tuple[Any, list[bytes]]]) -> None:
+    def add(self, block: RawBlock) -> None:
         """Take one chunk's messages (other topics are passed over), decoded to the
         ``*_fields`` lists; a message that does not match its schema is a
         :class:`~lgvtool.errors.LogFormatError` naming its topic and schema."""
@@ -155,7 +188,7 @@ class LogRows:
         return self._cols[topic]
 
 
-def _num(d: dict[str, Any], key: str) -> float:
+def _num(d: JSONRecord, key: str) -> float:
     v = d.get(key)
     return float(v) if isinstance(v, int | float) else math.nan
 
@@ -165,21 +198,24 @@ Track = tuple["NDArray[np.int64]", "NDArray[np.float64]", "NDArray[np.float64]",
 """Poses of a head in the map: times (ns), x, y (m), heading (rad), finite, in time order."""
 
 
-def head_track(t: Any, x: Any, y: Any, heading: Any, m: fx.Mounting) -> Track:
+def head_track(t: ArrayLike, x: ArrayLike, y: ArrayLike, heading: ArrayLike, m: fx.Mounting
+               ) -> Track:
     """The head's poses of the poses (t ns, x, y m, heading rad) of O, the rows with a finite
     pose, in time order."""
     import numpy as np
 
-    t, x, y, h = (np.asarray(v, dtype=np.int64 if k == 0 else np.float64)
-                  for k, v in enumerate((t, x, y, heading)))
-    ok = np.isfinite(x) & np.isfinite(y) & np.isfinite(h)
-    order = np.argsort(t[ok], kind="stable")
-    t, x, y, h = (v[ok][order] for v in (t, x, y, h))
-    c, s = np.cos(h), np.sin(h)
-    return t, x + c * m.x - s * m.y, y + s * m.x + c * m.y, h + m.yaw
+    ta = np.asarray(t, dtype=np.int64)
+    xa, ya, ha = (np.asarray(v, dtype=np.float64) for v in (x, y, heading))
+    ok = np.isfinite(xa) & np.isfinite(ya) & np.isfinite(ha)
+    order = np.argsort(ta[ok], kind="stable")
+    ta = ta[ok][order]
+    xa, ya, ha = (v[ok][order] for v in (xa, ya, ha))
+    c, s = np.cos(ha), np.sin(ha)
+    return ta, xa + c * m.x - s * m.y, ya + s * m.x + c * m.y, ha + m.yaw
 
 
-def carry_to_start(t_start: Any, t_obs: Any, px: Any, py: Any, track: Track
+def carry_to_start(t_start: ArrayLike, t_obs: ArrayLike, px: ArrayLike, py: ArrayLike,
+                   track: Track
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Points (px, py m) measured in the head frame at ``t_obs`` (ns), expressed in the head
     frame as it was at ``t_start`` (ns), with the head's ``track`` interpolated linearly
@@ -201,7 +237,8 @@ class Carrier:
         self._x, self._y = x, y
         self._h = np.unwrap(h) if len(tt) else h
 
-    def _at(self, t: Any) -> tuple[Any, Any, Any]:
+    def _at(self, t: ArrayLike
+            ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """The head's pose (x, y m, unwrapped heading rad) at ``t`` (ns)."""
         import numpy as np
 
@@ -209,7 +246,7 @@ class Carrier:
         return (np.interp(rel, self._grid, self._x), np.interp(rel, self._grid, self._y),
                 np.interp(rel, self._grid, self._h))
 
-    def __call__(self, t_start: Any, t_obs: Any, px: Any, py: Any
+    def __call__(self, t_start: ArrayLike, t_obs: ArrayLike, px: ArrayLike, py: ArrayLike
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """See :func:`carry_to_start`."""
         import numpy as np
@@ -225,7 +262,7 @@ class Carrier:
         return cs * dx + ss * dy, cs * dy - ss * dx
 
 
-def _scan_encoder(rows: LogRows, track: Track, source_name: str) -> Any:
+def _scan_encoder(rows: LogRows, track: Track, source_name: str) -> Encoder:
     """The encoder of /nav/scan: each scan one foxglove.PointCloud in the head frame at its
     start, every observation carried there from its own instant along ``track``. The points
     are computed for the scans of each call only (one window), never for the whole log."""
@@ -250,11 +287,13 @@ def _scan_encoder(rows: LogRows, track: Track, source_name: str) -> Any:
     return encode
 
 
-def _poses(t: NDArray[np.int64], x: Any, y: Any, h: Any) -> Any:
+def _poses(t: NDArray[np.int64], x: NDArray[np.float64], y: NDArray[np.float64],
+           h: NDArray[np.float64]) -> Encoder:
     return lambda idx: (t[idx].tolist(), fx.pose_in_frame_many(t[idx], x[idx], y[idx], h[idx]))
 
 
-def _frames(name: str, t: NDArray[np.int64], x: Any, y: Any, h: Any, m: fx.Mounting) -> Any:
+def _frames(name: str, t: NDArray[np.int64], x: NDArray[np.float64], y: NDArray[np.float64],
+            h: NDArray[np.float64], m: fx.Mounting) -> Encoder:
     return lambda idx: fx.frame_transforms_many(name, t[idx], x[idx], y[idx], h[idx], m)
 
 
@@ -283,7 +322,8 @@ def nav_streams(rows: LogRows, m: fx.Mounting, fallback: str = "truth",
     return out
 
 
-def _truth_rows(rows: LogRows) -> tuple[Any, Any, Any, Any]:
+def _truth_rows(rows: LogRows) -> tuple[NDArray[np.int64], NDArray[np.float64],
+                                        NDArray[np.float64], NDArray[np.float64]]:
     """Log times (ns), x, y (m) and yaw (rad) of every ground-truth pose of O."""
     import numpy as np
 
@@ -311,8 +351,8 @@ CIRCLE_COVERAGE = 1.5 * math.pi
 """How far round its circle a drive must go for the circle to be drawn, rad (3/4 of a turn)."""
 
 
-def reference_stream(rows: LogRows, config: Any,
-                     tables: Mapping[str, Any]) -> list[Source]:
+def reference_stream(rows: LogRows, config: Config,
+                     tables: Mapping[str, EstimateTable]) -> list[Source]:
     """/reference/circle: the circle the drive follows, once at the start of the trajectory it
     is fitted to (the ground truth, else the laser estimate, else the first estimator's),
     with the kinematic radius R = h / tan(steering) when the steering is known (logged, else
@@ -372,7 +412,7 @@ def reference_message(t_ns: int, x: ArrayLike, y: ArrayLike, label: str, h: floa
     return orjson.dumps(fx.reference_circle(t_ns, c.cx, c.cy, c.r, label=label))
 
 
-def estimate_streams(name: str, tab: Any, m: fx.Mounting) -> list[Source]:
+def estimate_streams(name: str, tab: EstimateTable, m: fx.Mounting) -> list[Source]:
     """/estimate/NAME/tf and /estimate/NAME/covariance of an estimate table (rows with a
     finite pose; covariance ellipses also need a finite covariance)."""
     import numpy as np
@@ -387,7 +427,7 @@ def estimate_streams(name: str, tab: Any, m: fx.Mounting) -> list[Source]:
                                                           cov[idx]))]
 
 
-def view_streams(reader: LogReader, config: Any, tables: Mapping[str, Any],
+def view_streams(reader: LogReader, config: Config, tables: Mapping[str, EstimateTable],
                  rows: LogRows | None = None) -> list[Source]:
     """Every Foxglove view channel of a replayed log: from the log (NAV, truth, reference
     circle) and from the estimators' ``tables`` (frames and covariance ellipses); ``rows``:

@@ -18,19 +18,23 @@ from collections.abc import Iterable, Iterator, Mapping, Sequence
 from itertools import pairwise
 from pathlib import Path
 from types import TracebackType
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, TypedDict
 
 import orjson
 
 from lgvtool import __version__
 from lgvtool.config import Config, Reflector
 from lgvtool.errors import InputError
+from lgvtool.json_types import JSONRecord
 from lgvtool.log import messages, topics
 from lgvtool.log.mcap_writer import McapWriter
 from lgvtool.log.schemas import schema_bytes
 from lgvtool.timestamps import stamp
 
 if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
     from lgvtool.log.mcap_chunks import RecordColumns
     from lgvtool.log.reader import LogReader
 
@@ -53,7 +57,7 @@ REORDER_NS = 50_000_000
 chunk go into the next one."""
 
 
-def _dumps(data: Any) -> bytes:
+def _dumps(data: object) -> bytes:
     return orjson.dumps(data)
 
 
@@ -63,6 +67,18 @@ COPY_BATCH = 65536
 SPLICE_BYTES = 1 << 20
 """Bytes of a copied log's records spliced with the further messages at a time (with them,
 about 4 MiB for a replay of the five estimators and the view)."""
+
+
+class WriterOptions(TypedDict, total=False):
+    """The keyword options of :class:`LogWriter` (chunk length in s, chunk size in bytes,
+    compression, fsync, the source and command recorded in the metadata)."""
+
+    chunk_seconds: float | None
+    chunk_bytes: int
+    compression: str
+    fsync: bool
+    source: str
+    command: str | None
 
 
 class LogWriter:
@@ -152,7 +168,7 @@ class LogWriter:
         return cid
 
     # ------------------------------------------------------------------ messages
-    def write(self, topic: str, message: Mapping[str, Any], log_time_ns: int,
+    def write(self, topic: str, message: Mapping[str, object], log_time_ns: int,
               publish_time_ns: int | None = None) -> None:
         """Write one message dict (laid out as the topic's schema) at ``log_time_ns``."""
         self.write_encoded(topic, _dumps(message), log_time_ns, publish_time_ns)
@@ -197,7 +213,7 @@ class LogWriter:
 
     def write_diagnostic(self, source: str, kind: str, message: str, log_time_ns: int, *,
                          level: int = 3, count: int = 1,
-                         details: Mapping[str, Any] | None = None) -> None:
+                         details: JSONRecord | None = None) -> None:
         """Log a structured event on /diagnostics and its foxglove.Log mirror."""
         diag = messages.diagnostic_message(log_time_ns, source, kind, message, level=level,
                                            count=count, details=details)
@@ -211,7 +227,7 @@ class LogWriter:
         self.write(topics.MAP_SCENE, messages.map_scene_message(log_time_ns, refl), log_time_ns)
 
     # ------------------------------------------------------------------ metadata
-    def add_metadata(self, name: str, data: Mapping[str, Any]) -> None:
+    def add_metadata(self, name: str, data: Mapping[str, object]) -> None:
         """Write a metadata record; each value is stored JSON-encoded (a string in quotes)."""
         self._writer.add_metadata(name, {
             str(k): json.dumps(v, separators=(",", ":")) for k, v in data.items()
@@ -464,7 +480,7 @@ class _Merge:
         self._registered: set[str] = set()
         self._names: dict[int, tuple[str, str]] = {}
 
-    def add(self, block: list[tuple[int, int, int, bytes]], reader: Any) -> None:
+    def add(self, block: list[tuple[int, int, int, bytes]], reader: LogReader) -> None:
         """Merge one block of log messages ``(log time, channel id, publish time, data)`` (in
         log-time order) with the further messages before its last time."""
         import numpy as np
@@ -496,7 +512,7 @@ class _Merge:
         self._extend(topics, datas, tt, is_input, inputs)
 
     def _extend(self, topics: list[str], datas: list[bytes], times: list[int],
-                is_input: Any, inputs: list[tuple[str, str]]) -> None:
+                is_input: NDArray[np.bool_], inputs: list[tuple[str, str]]) -> None:
         """Append merged messages to the batch, writing it at the first log message at which
         it holds :data:`COPY_BATCH` messages."""
         import numpy as np

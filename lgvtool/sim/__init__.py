@@ -36,7 +36,14 @@ Typical use::
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from lgvtool.sim.event_stream import McuSend, NavScan, NavSolution, Observation, TruthSample
+    from lgvtool.sim.logfile import LogSummary, write_log
+    from lgvtool.sim.scenarios import SCENARIOS, Scenario, get_scenario
+    from lgvtool.sim.settings import SimSettings, apply_overrides
+    from lgvtool.sim.simulation import Setup, Simulation, resolve, run, simulate
 
 _EXPORTS: dict[str, str] = {
     "McuSend": "lgvtool.sim.event_stream",
@@ -59,10 +66,28 @@ _EXPORTS: dict[str, str] = {
 }
 """Public name -> module; imported on first use so that importing a subpackage stays light."""
 
-__all__ = sorted(_EXPORTS)
+__all__ = [
+    "SCENARIOS",
+    "LogSummary",
+    "McuSend",
+    "NavScan",
+    "NavSolution",
+    "Observation",
+    "Scenario",
+    "Setup",
+    "SimSettings",
+    "Simulation",
+    "TruthSample",
+    "apply_overrides",
+    "get_scenario",
+    "resolve",
+    "run",
+    "simulate",
+    "write_log",
+]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'lgvtool.sim' has no attribute {name!r}")

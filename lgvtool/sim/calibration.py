@@ -25,10 +25,9 @@ def laser_evaluation(sim: Simulation) -> EstimatorEvaluation:
     Raises :class:`~lgvtool.errors.InputError` when the run is not a circle drive with
     complete rotations.
     """
-    import pandas as pd
-
     from lgvtool.errors import InputError
     from lgvtool.evaluate.evaluation import BASELINE, evaluate_trajectories
+    from lgvtool.trajectory import Trajectory
 
     ref = sim.plan.reference
     if "steering_angle" not in ref:
@@ -41,16 +40,11 @@ def laser_evaluation(sim: Simulation) -> EstimatorEvaluation:
     t = traffic.poll_times[answered][valid]
     v = sim.config.vehicle
     hx, hy, th = sol.x[index], sol.y[index], sol.heading[index]
-    laser = pd.DataFrame({
-        "t": t,
-        "x": hx - v.nav_x * np.cos(th) + v.nav_y * np.sin(th),
-        "y": hy - v.nav_x * np.sin(th) - v.nav_y * np.cos(th),
-        "heading": th,
-    })
+    laser = Trajectory.cleaned(t, hx - v.nav_x * np.cos(th) + v.nav_y * np.sin(th),
+                               hy - v.nav_x * np.sin(th) - v.nav_y * np.cos(th), th,
+                               sim.start_ns)
     step = 1.0 / sim.settings.sim.truth_rate_hz
-    tt = np.arange(0.0, sim.truth.duration, step)
-    x, y, heading = sim.truth.pose_at(tt)
-    truth = pd.DataFrame({"t": tt, "x": x, "y": y, "heading": heading})
+    truth = sim.truth.sampled(np.arange(0.0, sim.truth.duration, step))
     res = evaluate_trajectories({BASELINE: laser}, truth=truth,
                                 steering_angle=float(ref["steering_angle"]), h=v.h,
                                 name=f"{sim.setup.scenario.name} seed {sim.seed}")

@@ -18,8 +18,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.angles import wrap_angle
-
 if TYPE_CHECKING:
     from lgvtool.sim.simulation import Simulation
 
@@ -61,6 +59,9 @@ class Observation:
     bearing: float
     time_in_scan: float
     id: int
+    echo: float = 1.0
+    """Strength of its echo relative to a clean reflector within full range, 0..1
+    (:func:`echo_levels`)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -94,8 +95,8 @@ def truth_samples(sim: Simulation, rate_hz: float) -> Iterator[TruthSample]:
     """The true pose of O every 1/``rate_hz`` s from 0 to the end of the run."""
     n = int(np.floor(sim.duration * rate_hz + 1e-9)) + 1
     t = np.arange(n, dtype=np.float64) / rate_hz
-    x, y, th = sim.truth.pose_at(t)
-    th = wrap_angle(th)
+    truth = sim.truth.sampled(t).wrapped()
+    x, y, th = truth.x, truth.y, truth.heading
     for i in range(n):
         yield TruthSample(float(t[i]), float(x[i]), float(y[i]), float(th[i]))
 
@@ -124,6 +125,26 @@ def device_ids(sim: Simulation, rows: slice | None = None) -> NDArray[np.int64]:
     return layout_ids[sc.matched[rows]]
 
 
+def echo_levels(sim: Simulation, rows: slice | None = None) -> NDArray[np.float64]:
+    """The echo strength of each entry of ``sim.scans`` (revolutions ``rows``, shape
+    (revolutions, landmarks)) relative to a clean reflector within full range, 0..1: the
+    head model's own detection model read as an echo, the landmark's detection probability
+    (a weak reflector's own, an object not in the layout its own) over that of a clean one
+    (``nav.detection_probability``), times the fall-off with the measured range (m)
+    (:func:`~lgvtool.sim.nav_model.range_falloff`)."""
+    from lgvtool.sim.nav_model import range_falloff
+
+    sc = sim.scans
+    rows = slice(None) if rows is None else rows
+    nav = sim.settings.nav
+    own = sim.landmarks.detection
+    clean = nav.detection_probability
+    strength = np.where(np.isnan(own), 1.0, own / clean if clean > 0.0 else own)
+    level: NDArray[np.float64] = (np.clip(strength, 0.0, 1.0)[None, :]
+                                  * range_falloff(np.abs(sc.range[rows]), nav.detection_range_m))
+    return level
+
+
 def nav_scans(sim: Simulation, block: int = 1024) -> Iterator[NavScan]:
     """Every revolution at its end, with the reflectors the head detected in it, in the order
     it measured them, each with the device's id (:func:`device_ids`; made ``block``
@@ -138,9 +159,11 @@ def nav_scans(sim: Simulation, block: int = 1024) -> Iterator[NavScan]:
         bearings = np.take_along_axis(sc.bearing[rows], order, axis=1).tolist()
         times = np.take_along_axis(sc.time_in_scan[rows], order, axis=1).tolist()
         ids = np.take_along_axis(device_ids(sim, rows), order, axis=1).tolist()
+        echoes = np.take_along_axis(echo_levels(sim, rows), order, axis=1).tolist()
         starts = sc.start[rows].tolist()
         for k, start in enumerate(starts):
-            obs = tuple(Observation(ranges[k][i], bearings[k][i], times[k][i], ids[k][i])
+            obs = tuple(Observation(ranges[k][i], bearings[k][i], times[k][i], ids[k][i],
+                                    echoes[k][i])
                         for i in range(counts[k]))
             yield NavScan(start + sc.period, start, sc.period, obs)
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.json_types import JSONObject
 from lgvtool.sim.kinematics import FloatArray
 
 
@@ -22,7 +23,8 @@ class FaultEvent:
     source: str
     kind: str
     message: str
-    details: dict[str, object] = field(default_factory=dict)
+    details: JSONObject = field(default_factory=dict)
+    """What the /diagnostics message's ``details`` say (ids, durations s, ...)."""
 
 
 @dataclass(frozen=True)

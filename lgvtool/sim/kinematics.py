@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from lgvtool.config import Vehicle
 from lgvtool.sim.settings import DriveSettings
+from lgvtool.trajectory import Trajectory
 
 FloatArray = NDArray[np.float64]
 
@@ -69,19 +70,19 @@ def _arc(v: FloatArray, omega: FloatArray, heading: FloatArray,
 
 
 @dataclass(frozen=True)
-class Trajectory:
-    """The true motion of O and of the two encoder wheels on the integration grid.
+class TrueDrive:
+    """The true motion of the vehicle on the integration grid: the path of O and what the
+    drive, the steering and the two encoder wheels did.
 
-    Arrays have N + 1 points. ``v``, ``omega``, ``v_left``, ``v_right`` are the step values
-    (constant over [t[k], t[k+1])). ``s_left``/``s_right`` are the cumulative signed travel of
-    the left/right encoder wheel contact points, m.
+    ``path`` holds the N + 1 grid poses of O (:class:`lgvtool.trajectory.Trajectory`: ``t``
+    in s of the run, counted from ``path.t0_ns``, ns since the Unix epoch; x, y in m; heading
+    in rad, continuous, not wrapped into (-pi, pi]). The other arrays have N + 1 points too.
+    ``v`` (m/s), ``omega`` (rad/s), ``v_left``, ``v_right`` (m/s) are the step values
+    (constant over [t[k], t[k+1])). ``s_left``/``s_right`` are the cumulative signed travel
+    of the left/right encoder wheel contact points, m.
     """
 
-    t: FloatArray
-    x: FloatArray
-    y: FloatArray
-    heading: FloatArray
-    """Unwrapped heading, rad (continuous, not wrapped into (-pi, pi])."""
+    path: Trajectory
     v: FloatArray
     omega: FloatArray
     drive_speed: FloatArray
@@ -98,20 +99,34 @@ class Trajectory:
 
     @property
     def duration(self) -> float:
-        """Length of the trajectory, s."""
-        return float(self.t[-1] - self.t[0])
+        """Length of the drive, s."""
+        return self.path.duration
+
+    @property
+    def end(self) -> float:
+        """Time of the last grid point, s of the run."""
+        return float(self.path.t[-1])
 
     def _step(self, times: FloatArray) -> tuple[NDArray[np.intp], FloatArray]:
+        t = self.path.t
         times = np.asarray(times, dtype=np.float64)
-        k = np.searchsorted(self.t, times, side="right") - 1
-        k = np.clip(k, 0, len(self.t) - 1)
-        return k, times - self.t[k]
+        k = np.searchsorted(t, times, side="right") - 1
+        k = np.clip(k, 0, len(t) - 1)
+        return k, times - t[k]
 
     def pose_at(self, times: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Exact pose (x m, y m, unwrapped heading rad) of O at arbitrary ``times`` (s)."""
         k, tau = self._step(times)
-        dx, dy, dth = _arc(self.v[k], self.omega[k], self.heading[k], tau)
-        return self.x[k] + dx, self.y[k] + dy, self.heading[k] + dth
+        p = self.path
+        dx, dy, dth = _arc(self.v[k], self.omega[k], p.heading[k], tau)
+        return p.x[k] + dx, p.y[k] + dy, p.heading[k] + dth
+
+    def sampled(self, times: FloatArray) -> Trajectory:
+        """The exact poses of O at ``times`` (s of the run, not decreasing; heading
+        continuous), on the arcs of their steps: the simulator's ground truth."""
+        t = np.asarray(times, dtype=np.float64)
+        x, y, heading = self.pose_at(t)
+        return Trajectory(t, x, y, heading, self.path.t0_ns)
 
     def point_at(self, times: FloatArray, px: float, py: float
                  ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -203,9 +218,11 @@ def true_steering(drive_speed: FloatArray, wheel: FloatArray, h: float,
 
 
 def integrate(controls: Controls, vehicle: Vehicle, x0: float, y0: float,
-              heading0: float, departure: Departures | None = None) -> Trajectory:
+              heading0: float, departure: Departures | None = None, t0_ns: int = 0
+              ) -> TrueDrive:
     """Integrate the tricycle model over ``controls`` from the pose (x0, y0 m, heading0 rad),
-    the true wheel angle departing from the commands by ``departure`` (None: none).
+    the true wheel angle departing from the commands by ``departure`` (None: none); the
+    controls' time 0 is ``t0_ns`` (ns since the Unix epoch: the run's start).
 
     Vectorised: every step is an exact arc, accumulated with cumulative sums. With a path
     controller the commands are first corrected step by step (:func:`_path_controlled`).
@@ -214,17 +231,17 @@ def integrate(controls: Controls, vehicle: Vehicle, x0: float, y0: float,
     vd = np.asarray(controls.drive_speed, dtype=np.float64)
     command = np.asarray(controls.steering, dtype=np.float64)
     if departure is None or departure.kinematic:
-        return _integrate(t, vd, command, command, vehicle, x0, y0, heading0)
+        return _integrate(t, vd, command, command, vehicle, x0, y0, heading0, t0_ns)
     error = (np.zeros_like(t) if departure.steering_error is None
              else np.asarray(departure.steering_error, dtype=np.float64))
     if departure.path_control > 0.0:
-        plan = _integrate(t, vd, command, command, vehicle, x0, y0, heading0)
+        plan = _integrate(t, vd, command, command, vehicle, x0, y0, heading0, t0_ns)
         command = _path_controlled(plan, error, departure, vehicle.h)
     delta = true_steering(vd, command + error, vehicle.h, departure.understeer)
-    return _integrate(t, vd, delta, command, vehicle, x0, y0, heading0)
+    return _integrate(t, vd, delta, command, vehicle, x0, y0, heading0, t0_ns)
 
 
-def _path_controlled(plan: Trajectory, error: FloatArray, dep: Departures,
+def _path_controlled(plan: TrueDrive, error: FloatArray, dep: Departures,
                      h: float) -> FloatArray:
     """The commanded steering of a vehicle whose path controller steers it back to ``plan``.
 
@@ -235,13 +252,14 @@ def _path_controlled(plan: Trajectory, error: FloatArray, dep: Departures,
     distance L of travel, whatever the speed), held while the vehicle stands. The true motion
     of each step is an exact arc of the resulting wheel angle plus ``error`` less its slip.
     """
-    t = plan.t
+    path = plan.path
+    t = path.t
     n = len(t) - 1
     dt = float(t[1] - t[0]) if n > 0 else 1.0
     length = dep.path_control
     k_heading, k_lateral = 2.0 / length, 1.0 / (length * length)
-    xs, ys, ths = plan.x.tolist(), plan.y.tolist(), plan.heading.tolist()
-    cs, sn = np.cos(plan.heading).tolist(), np.sin(plan.heading).tolist()
+    xs, ys, ths = path.x.tolist(), path.y.tolist(), path.heading.tolist()
+    cs, sn = np.cos(path.heading).tolist(), np.sin(path.heading).tolist()
     step = (plan.v * dt).tolist()
     vd = plan.drive_speed.tolist()
     planned = plan.steering.tolist()
@@ -297,7 +315,8 @@ def _path_controlled(plan: Trajectory, error: FloatArray, dep: Departures,
 
 
 def _integrate(t: FloatArray, vd: FloatArray, delta: FloatArray, command: FloatArray,
-               vehicle: Vehicle, x0: float, y0: float, heading0: float) -> Trajectory:
+               vehicle: Vehicle, x0: float, y0: float, heading0: float, t0_ns: int
+               ) -> TrueDrive:
     """The exact arcs of the true steering ``delta`` (``command``: what the drive unit was
     told, kept for the MCU)."""
     dt = np.diff(t)
@@ -322,6 +341,6 @@ def _integrate(t: FloatArray, vd: FloatArray, delta: FloatArray, command: FloatA
     s_right = np.zeros_like(t)
     np.cumsum(v_left[:-1] * dt, out=s_left[1:])
     np.cumsum(v_right[:-1] * dt, out=s_right[1:])
-    return Trajectory(t=t, x=x, y=y, heading=heading, v=v, omega=omega, drive_speed=vd,
-                      steering=delta, s_left=s_left, s_right=s_right, v_left=v_left,
-                      v_right=v_right, steering_command=command)
+    return TrueDrive(path=Trajectory(t, x, y, heading, t0_ns), v=v, omega=omega,
+                     drive_speed=vd, steering=delta, s_left=s_left, s_right=s_right,
+                     v_left=v_left, v_right=v_right, steering_command=command)

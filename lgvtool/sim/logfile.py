@@ -20,17 +20,18 @@ and marked so (the 'simulator' metadata's ``observations`` is ``"paper-scans"``:
 from __future__ import annotations
 
 import heapq
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from itertools import takewhile
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TypeVar, cast
 
 from lgvtool.devices.device_registry import registration
-from lgvtool.devices.log_decoding import WriterOutput, decode_chunk, finish_decoding
+from lgvtool.devices.log_decoding import LogDecoder, WriterOutput, decode_chunk, finish_decoding
 from lgvtool.log import LogWriter, topics
 from lgvtool.log.messages import pose_in_frame, reflector_scan_message
-from lgvtool.sim.event_stream import nav_scans, truth_samples
+from lgvtool.sim.event_stream import NavScan, TruthSample, nav_scans, truth_samples
+from lgvtool.sim.faults import FaultEvent
 from lgvtool.sim.simulation import Simulation
 
 # order of records that share a log time
@@ -50,9 +51,14 @@ class LogSummary:
     """Injected faults by kind."""
 
 
-Record = tuple[int, int, int, Any]
+Payload = TruthSample | FaultEvent | bytes | NavScan
+"""What a record carries, by its kind: a truth sample (:data:`_TRUTH`), an injected fault
+(:data:`_FAULT`), the bytes of a read or a write (:data:`_MCU`, :data:`_NAV_TX`,
+:data:`_NAV_RX`), a reflector scan (:data:`_SCAN`)."""
+Record = tuple[int, int, int, Payload]
 """(log time ns, kind, position in its source, payload): records compare by log time, then
 kind, then position (the payload is never compared)."""
+P = TypeVar("P")
 
 
 def _records(sim: Simulation) -> Iterator[Record]:
@@ -91,13 +97,13 @@ def _records(sim: Simulation) -> Iterator[Record]:
     return heapq.merge(*sources)
 
 
-def _in_time_order(sim: Simulation, items: list[tuple[float, Any]]) -> Iterator[tuple[int, Any]]:
+def _in_time_order(sim: Simulation, items: Sequence[tuple[float, P]]) -> Iterator[tuple[int, P]]:
     """``items`` (simulation time s, payload) as (log time ns, payload), stably sorted by
     time (in linear time when they are in order already, as they usually are)."""
     return iter(sorted(((sim.host_ns(t), payload) for t, payload in items), key=lambda r: r[0]))
 
 
-def _checked(items: Iterator[tuple[int, Any]]) -> Iterator[tuple[int, Any]]:
+def _checked(items: Iterator[tuple[int, P]]) -> Iterator[tuple[int, P]]:
     """``items``, made in time order by construction, checked to be (an error otherwise)."""
     last = -1
     for ns, payload in items:
@@ -107,7 +113,7 @@ def _checked(items: Iterator[tuple[int, Any]]) -> Iterator[tuple[int, Any]]:
         yield ns, payload
 
 
-def _numbered(kind: int, items: Iterator[tuple[int, Any]]) -> Iterator[Record]:
+def _numbered(kind: int, items: Iterator[tuple[int, Payload]]) -> Iterator[Record]:
     """``items`` as records of ``kind``, numbered in their order."""
     for i, (ns, payload) in enumerate(items):
         yield ns, kind, i, payload
@@ -123,28 +129,35 @@ def write_log(sim: Simulation, path: str | Path | IO[bytes], *, command: str | N
     with LogWriter(path, compression=compression, source="simulate", command=command) as w:
         out = WriterOutput(w)
 
-        def feed(family: str, direction: str, decoder: Any, ns: int, data: bytes) -> None:
+        def feed(family: str, direction: str, decoder: LogDecoder, ns: int, data: bytes
+                 ) -> None:
             w.write_raw(family, direction, data, ns)
             decode_chunk(decoder, topics.raw_topic(family, direction), data, ns, out)
 
         w.add_metadata("simulator", sim.metadata())
         w.write_config(sim.config)
         w.write_map(sim.config.reflectors, sim.start_ns)
+        # a record's kind says what its payload is (:data:`Payload`, as :func:`_records`
+        # makes them)
         for ns, order, _, payload in _records(sim):
             if order == _TRUTH:
-                w.write(topics.TRUTH, pose_in_frame(ns, payload.x, payload.y, payload.heading),
+                sample = cast("TruthSample", payload)
+                w.write(topics.TRUTH, pose_in_frame(ns, sample.x, sample.y, sample.heading),
                         ns)
             elif order == _FAULT:
-                w.write_diagnostic(payload.source, payload.kind, payload.message, ns, level=3,
-                                   details=payload.details)
+                fault = cast("FaultEvent", payload)
+                w.write_diagnostic(fault.source, fault.kind, fault.message, ns, level=3,
+                                   details=fault.details)
             elif order == _MCU:
-                feed("mcu", "rx", mcu, ns, payload)
+                feed("mcu", "rx", mcu, ns, cast("bytes", payload))
             elif order in (_NAV_TX, _NAV_RX):
-                feed(nav_family, "tx" if order == _NAV_TX else "rx", nav, ns, payload)
+                feed(nav_family, "tx" if order == _NAV_TX else "rx", nav, ns,
+                     cast("bytes", payload))
             else:
+                scan = cast("NavScan", payload)
                 w.write(topics.NAV_REFLECTORS,
-                        reflector_scan_message(sim.host_ns(payload.start + late),
-                                               payload.period, payload.observations), ns)
+                        reflector_scan_message(sim.host_ns(scan.start + late),
+                                               scan.period, scan.observations), ns)
         end_ns = sim.host_ns(sim.duration)
         finish_decoding(mcu, out, end_ns)
         finish_decoding(nav, out, end_ns)

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from lgvtool.config import Vehicle
 from lgvtool.devices.mcu.mcu_frame import McuFrame, McuStatus
-from lgvtool.sim.kinematics import FloatArray, Trajectory
+from lgvtool.sim.kinematics import FloatArray, TrueDrive
 from lgvtool.sim.settings import DriveSettings, McuSettings
 
 
@@ -56,7 +56,7 @@ def load_radius_scale(drive: DriveSettings) -> float:
     return 1.0 + drive.load_fraction * drive.radius_change_at_rated_load
 
 
-def simulate(traj: Trajectory, vehicle: Vehicle, mcu: McuSettings, noise: bool,
+def simulate(traj: TrueDrive, vehicle: Vehicle, mcu: McuSettings, noise: bool,
              rng: np.random.Generator, drive: DriveSettings | None = None) -> McuOutput:
     """Every MCU frame over ``traj``. ``noise`` False removes slip, gyro noise and bias walk,
     steering and speed noise and loop jitter (calibration errors stay). ``drive``: the load
@@ -64,7 +64,7 @@ def simulate(traj: Trajectory, vehicle: Vehicle, mcu: McuSettings, noise: bool,
     rate = 1.0 + mcu.clock_drift_ppm * 1e-6  # MCU seconds per true second
     period_true = mcu.period_s / rate
     phase = float(rng.random()) * period_true
-    end = traj.t[-1] - 0.02
+    end = traj.end - 0.02
     n = max(0, math.floor((end - phase) / period_true) + 1)
     k = np.arange(n, dtype=np.float64)
     draws = rng.standard_normal((7, n))

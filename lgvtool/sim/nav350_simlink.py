@@ -11,12 +11,15 @@ information the estimators use). The device clock runs ``DRIFT_PPM`` fast.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 from lgvtool.devices.nav350 import nav350_telegrams as tg
 from lgvtool.devices.nav350.nav350_device import Nav350Device, Observation, Revolution, RevolutionSource
 from lgvtool.devices.nav350.nav350_session import Nav350Session, Nav350Settings
 from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
+
+if TYPE_CHECKING:
+    from lgvtool.sim.simulation import Simulation
 
 __all__ = ["DRIFT_PPM", "LINK_LATENCY", "nav350_traffic"]
 
@@ -26,19 +29,19 @@ DRIFT_PPM, OFFSET_MS = 50.0, 987_654
 LINK_LATENCY, LINK_RATE = 0.0005, 12.5e6
 
 
-def _source(sim: Any) -> RevolutionSource:
+def _source(sim: Simulation) -> RevolutionSource:
     from lgvtool.sim.event_stream import nav_scans, nav_solutions
 
     revs = []
     for scan, sol in zip(nav_scans(sim), nav_solutions(sim), strict=True):
-        obs = tuple(Observation(o.range, o.bearing, o.time_in_scan, o.id)
+        obs = tuple(Observation(o.range, o.bearing, o.time_in_scan, o.id, o.echo)
                     for o in scan.observations)
         revs.append(Revolution(scan.start, scan.period, sol.t, sol.x, sol.y, sol.heading,
                                sol.valid, sol.quality, sol.reflectors_used, obs))
     return RevolutionSource(revs)
 
 
-def nav350_traffic(sim: Any) -> list[tuple[float, str, bytes]]:
+def nav350_traffic(sim: Simulation) -> list[tuple[float, str, bytes]]:
     """Every chunk of the simulated NAV350 link: (time s, 'tx' or 'rx', bytes), in order."""
     cfg = sim.config
     layout = {r.id: tg.LayoutLandmark(round(r.x * 1000), round(r.y * 1000), 1, 1,

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,7 +31,7 @@ from numpy.typing import NDArray
 from lgvtool.angles import TWO_PI, wrap_angle
 from lgvtool.config import Vehicle
 from lgvtool.sim.faults import Occlusions
-from lgvtool.sim.kinematics import FloatArray, Trajectory
+from lgvtool.sim.kinematics import FloatArray, TrueDrive
 from lgvtool.sim.settings import NavSettings
 from lgvtool.sim.site_model import Floor, Landmarks, Site
 
@@ -108,7 +107,7 @@ def scan_starts(duration: float, nav: NavSettings, phase: float) -> FloatArray:
     return first + period * np.arange(n, dtype=np.float64)
 
 
-def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, site: Site,
+def measure(traj: TrueDrive, vehicle: Vehicle, nav: NavSettings, site: Site,
             occl: Occlusions, noise: bool, rng: np.random.Generator) -> Scans:
     """Simulate every revolution of the head over ``traj`` on the true ``site`` (see the module
     docstring): what the head measures, not yet identified (``matched`` all -1; :func:`locate`
@@ -122,7 +121,7 @@ def measure(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, site: Site,
     when ``noise`` is off, so that switching a mechanism off leaves the other draws unchanged.
     """
     period = 1.0 / nav.rotation_hz
-    starts = scan_starts(traj.t[-1], nav, float(rng.random()))
+    starts = scan_starts(traj.end, nav, float(rng.random()))
     s, m = len(starts), len(site.landmarks)
     draws = _Draws(u_detect=rng.random((s, m)), n_range=rng.standard_normal((s, m)),
                    n_bearing=rng.standard_normal((s, m)), u_grid=rng.random(s))
@@ -182,7 +181,7 @@ class Tilt:
         return np.sqrt(1.0 + c * c)
 
 
-def tilt(traj: Trajectory, vehicle: Vehicle, floor: Floor, times: FloatArray) -> Tilt:
+def tilt(traj: TrueDrive, vehicle: Vehicle, floor: Floor, times: FloatArray) -> Tilt:
     """The head's lean and tilt at ``times`` (s), from the floor's slope ``g`` under the head's
     level position: the vehicle's up axis is the floor's normal ``(-g, 1) / |(-g, 1)|``, so the
     head, ``vehicle.nav_height`` up it, leans ``-nav_height g / sqrt(1 + g^2)`` (downhill) and
@@ -194,9 +193,9 @@ def tilt(traj: Trajectory, vehicle: Vehicle, floor: Floor, times: FloatArray) ->
     return Tilt(lean_x=lean * gx, lean_y=lean * gy, tan_tilt=steep, uphill=np.arctan2(gy, gx))
 
 
-def _measure_rows(traj: Trajectory, vehicle: Vehicle, nav: NavSettings, site: Site,
+def _measure_rows(traj: TrueDrive, vehicle: Vehicle, nav: NavSettings, site: Site,
                   occl: Occlusions, noise: bool, all_starts: FloatArray,
-                  draws: _Draws, rows: slice) -> dict[str, Any]:
+                  draws: _Draws, rows: slice) -> dict[str, FloatArray | NDArray[np.bool_]]:
     """The :class:`Scans` fields (but ``start``, ``period``, ``landmark``, ``matched`` and
     ``prior``) of the revolutions ``rows``."""
     period = 1.0 / nav.rotation_hz
@@ -300,7 +299,7 @@ def apparent_centre(r: FloatArray, alpha: FloatArray, radius: float, step: float
     return rng, bearing, hits
 
 
-def _match(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
+def _match(scans: Scans, traj: TrueDrive, vehicle: Vehicle, nav: NavSettings,
            marks: Landmarks) -> NDArray[np.intp]:
     """The device's data association of ``scans``: each observation, placed in the layout
     frame with the pose the device predicted for its instant (the true head pose plus the
@@ -339,7 +338,7 @@ def _match(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
     return matched
 
 
-def _matched_rows(scans: Scans, rows: NDArray[np.intp], traj: Trajectory, vehicle: Vehicle,
+def _matched_rows(scans: Scans, rows: NDArray[np.intp], traj: TrueDrive, vehicle: Vehicle,
                   nav: NavSettings, marks: Landmarks) -> NDArray[np.intp]:
     """:func:`_match` of the revolutions ``rows``, :data:`ROWS_PER_BLOCK` at a time."""
     parts = [_match(scans.take(rows[k:k + ROWS_PER_BLOCK]), traj, vehicle, nav, marks)
@@ -349,7 +348,7 @@ def _matched_rows(scans: Scans, rows: NDArray[np.intp], traj: Trajectory, vehicl
     return np.concatenate(parts)
 
 
-def locate(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
+def locate(scans: Scans, traj: TrueDrive, vehicle: Vehicle, nav: NavSettings,
            marks: Landmarks) -> tuple[Scans, Solutions]:
     """The device's identification and pose fit of every revolution of ``scans``
     (:func:`measure`): the scans with ``matched`` and ``prior`` set, and the solutions.
@@ -434,7 +433,7 @@ def compensate(scans: Scans, rows: NDArray[np.intp], vx: float, vy: float, omega
                    bearing=wrap_angle(np.arctan2(py, px)))
 
 
-def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
+def solve(scans: Scans, traj: TrueDrive, vehicle: Vehicle, nav: NavSettings,
           marks: Landmarks) -> Solutions:
     """Weighted Gauss-Newton fit of the head pose for every scan at once, from the matched
     observations and the stored map, as if all were measured at one instant.
@@ -455,7 +454,7 @@ def solve(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
                         for f in fields(Solutions)})
 
 
-def _solve_rows(scans: Scans, traj: Trajectory, vehicle: Vehicle, nav: NavSettings,
+def _solve_rows(scans: Scans, traj: TrueDrive, vehicle: Vehicle, nav: NavSettings,
                 marks: Landmarks) -> Solutions:
     """:func:`solve` of the scans ``scans`` at once."""
     use = scans.matched >= 0

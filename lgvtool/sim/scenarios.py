@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 from lgvtool.config import Vehicle
 from lgvtool.declared import as_dict, make, setting
@@ -39,7 +38,7 @@ class Plan:
     """What the scenario promises, for evaluation: e.g. circle centre and radius, m."""
 
 
-Builder = Callable[[Mapping[str, Any], Vehicle, float | None, float], Plan]
+Builder = Callable[[Mapping[str, float], Vehicle, float | None, float], Plan]
 
 
 @dataclass(frozen=True)
@@ -53,14 +52,14 @@ class Scenario:
     """The scenario's parameters at their defaults (:class:`CircleParameters`,
     :class:`WarehouseParameters`)."""
     build: Builder
-    presets: Mapping[str, Any] = field(default_factory=dict)
+    presets: Mapping[str, object] = field(default_factory=dict)
 
     @property
     def defaults(self) -> dict[str, float]:
         """The parameters' defaults by key."""
         return {k: float(v) for k, v in as_dict(self.base).items() if isinstance(v, int | float)}
 
-    def parameters(self, overrides: Mapping[str, Any]) -> dict[str, float]:
+    def parameters(self, overrides: Mapping[str, object]) -> dict[str, float]:
         """Defaults updated with ``overrides``, each checked by its declaration; ConfigError
         for an unknown key or a bad value."""
         group = make(type(self.base), "scenario", overrides, base=self.base, what="setting",
@@ -100,7 +99,7 @@ def _positive(params: Mapping[str, float], *keys: str) -> None:
             raise ConfigError(f"scenario.{key} must be positive, got {params[key]}")
 
 
-def build_circle(params: Mapping[str, Any], vehicle: Vehicle, duration: float | None,
+def build_circle(params: Mapping[str, float], vehicle: Vehicle, duration: float | None,
                  rate_hz: float) -> Plan:
     """The paper's experiment: steer to a fixed angle at standstill, drive circles, stop.
 
@@ -204,7 +203,7 @@ def _warehouse_lap(params: Mapping[str, float], vehicle: Vehicle) -> list[Leg]:
     ]
 
 
-def build_warehouse(params: Mapping[str, Any], vehicle: Vehicle, duration: float | None,
+def build_warehouse(params: Mapping[str, float], vehicle: Vehicle, duration: float | None,
                     rate_hz: float) -> Plan:
     """Laps of a warehouse route: straights, 90-degree turns, a stop and a reverse leg."""
     _positive(params, "speed", "turn_speed", "reverse_speed", "accel", "steering_rate_deg_per_m",
@@ -237,11 +236,11 @@ def build_warehouse(params: Mapping[str, Any], vehicle: Vehicle, duration: float
 
 # --------------------------------------------------------------------------- catalogue
 
-CIRCLE_PRESETS: dict[str, Any] = {"drive.path_control_m": 0.0}
+CIRCLE_PRESETS: dict[str, object] = {"drive.path_control_m": 0.0}
 """The circle scenarios hold the steering angle, as the paper's experiment did: no path
 controller brings the vehicle back to the planned circle."""
 
-DEGRADED_PRESETS: dict[str, Any] = {
+DEGRADED_PRESETS: dict[str, object] = {
     **CIRCLE_PRESETS,
     "faults.mcu_drop_rate": 0.02,
     "faults.mcu_corrupt_rate": 0.02,

@@ -14,10 +14,10 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
 
 from lgvtool.declared import REQUIRED, make, setting
 from lgvtool.errors import ConfigError
+from lgvtool.json_types import JSON, JSONObject
 from lgvtool.suggest import unknown_tail
 from lgvtool.values import MAX_COUNT, MAX_RATE_HZ
 
@@ -393,14 +393,15 @@ class SiteSettings:
         "[[simulator.site.extra]] tables.",
         unit="", item=ExtraObject)
 
-    def faults(self) -> dict[str, Any]:
+    def faults(self) -> JSONObject:
         """The site faults as JSON (the ``simulator`` metadata's ``site_faults``); empty when
         there are none."""
-        out: dict[str, Any] = {}
+        out: JSONObject = {}
         for name in ("missing", "moved", "weak", "extra"):
             value = getattr(self, name)
             if value:
-                out[name] = [v if isinstance(v, int) else asdict(v) for v in value]
+                items: list[JSON] = [v if isinstance(v, int) else asdict(v) for v in value]
+                out[name] = items
         return out
 
 
@@ -465,7 +466,7 @@ WORLD_MODEL = 2
 ``sim.world = "ideal"`` still gives; 2 added the ``drive`` and ``site`` sections and the
 NAV's own reflector identification."""
 
-IDEAL_WORLD: dict[str, Any] = {
+IDEAL_WORLD: dict[str, object] = {
     "sim.paper_scans": True,
     "nav.identification": "truth",
     "site.range_bias_sigma_mm": 0.0,
@@ -488,7 +489,7 @@ RENAMED: dict[str, str] = {"nav.map_sigma_mm": "site.survey_sigma_mm"}
 """Settings under their old names, as the logs of earlier versions store them -> their names
 now (accepted everywhere, so an old log's stored configuration stays valid)."""
 
-ONLY_WHEN_SET: dict[tuple[str, str], Any] = {
+ONLY_WHEN_SET: dict[tuple[str, str], object] = {
     ("sim", "nav_device"): "nav200",
     ("site", "missing"): (), ("site", "moved"): (), ("site", "weak"): (), ("site", "extra"): (),
 }
@@ -545,7 +546,7 @@ INSTALLATION: dict[str, str] = {
 (``simulate --list`` shows them; the log's stored configuration keeps the nominal values)."""
 
 
-def setting_value(settings: SimSettings, key: str) -> Any:
+def setting_value(settings: SimSettings, key: str) -> object:
     """The value of a ``section.name`` setting."""
     section, _, name = key.partition(".")
     return getattr(getattr(settings, section), name)
@@ -574,15 +575,15 @@ class SimSettings:
     site: SiteSettings = field(default_factory=SiteSettings)
     faults: FaultSettings = field(default_factory=FaultSettings)
     install: InstallSettings = field(default_factory=InstallSettings)
-    scenario: Mapping[str, Any] = field(default_factory=dict)
+    scenario: Mapping[str, object] = field(default_factory=dict)
     """Parameters of the scenario (validated by the scenario)."""
 
-    def to_dict(self, installation: bool = True) -> dict[str, Any]:
+    def to_dict(self, installation: bool = True) -> JSONObject:
         """Every setting as a nested JSON-able dict (NaN written as None); the settings of
         :data:`ONLY_WHEN_SET` only when they differ from their default. The ``install``
         section only when ``installation`` and some installation error is set (a log's stored
         configuration leaves it out: the host does not know it)."""
-        out: dict[str, Any] = {}
+        out: JSONObject = {}
         for name in SECTIONS:
             if name == "install" and not (installation and self.install != InstallSettings()):
                 continue
@@ -602,23 +603,30 @@ class SimSettings:
         return self.sim.noise and self.nav.noise
 
 
-def _jsonable(v: Any) -> Any:
+def _jsonable(v: object) -> JSON:
+    """A setting's value as JSON: a float that is not finite as None, a tuple as a list, a
+    table's values in turn; a number, a string, a boolean or None as it is.
+
+    :raises TypeError: a value that no setting holds (a date, an object).
+    """
     if isinstance(v, float) and not math.isfinite(v):
         return None
     if isinstance(v, tuple | list):
         return [_jsonable(x) for x in v]
     if isinstance(v, dict):
         return {k: _jsonable(x) for k, x in v.items()}
-    return v
+    if v is None or isinstance(v, str | int | float):
+        return v
+    raise TypeError(f"a setting's value of type {type(v).__name__} has no JSON form")
 
 
-def apply_overrides(settings: SimSettings, overrides: Mapping[str, Any]) -> SimSettings:
+def apply_overrides(settings: SimSettings, overrides: Mapping[str, object]) -> SimSettings:
     """Apply ``{"section.key": value}`` overrides (``scenario.*`` unchecked here), each checked
     by its declaration (:mod:`lgvtool.declared`), then the rules between settings.
 
     Raises ConfigError for an unknown section or key or a value of the wrong type or range.
     """
-    grouped: dict[str, dict[str, Any]] = {}
+    grouped: dict[str, dict[str, object]] = {}
     scenario = dict(settings.scenario)
     for full_key, value in overrides.items():
         full_key = RENAMED.get(full_key, full_key)
@@ -643,9 +651,9 @@ def apply_overrides(settings: SimSettings, overrides: Mapping[str, Any]) -> SimS
     return validate(out)
 
 
-def flatten(table: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+def flatten(table: Mapping[str, object], prefix: str = "") -> dict[str, object]:
     """Flatten a nested table (e.g. a TOML ``[simulator]`` section) to ``section.key`` keys."""
-    out: dict[str, Any] = {}
+    out: dict[str, object] = {}
     for k, v in table.items():
         key = f"{prefix}{k}"
         if isinstance(v, Mapping):

@@ -14,18 +14,18 @@ import math
 from collections import Counter
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, replace
-from typing import Any
 
 import numpy as np
 
 from lgvtool.config import Config, Vehicle, config_from_dict, default_config
 from lgvtool.devices.nav200.nav200_device import Nav200Device
 from lgvtool.errors import ConfigError, InputError
+from lgvtool.json_types import JSONObject
 from lgvtool.sim import event_stream as ev
 from lgvtool.sim import faults as faultlib
 from lgvtool.sim import mcu_model, mcu_simlink, nav200_simlink, nav_model
 from lgvtool.sim.faults import FaultEvent, Occlusions
-from lgvtool.sim.kinematics import Trajectory, departures, integrate
+from lgvtool.sim.kinematics import TrueDrive, departures, integrate
 from lgvtool.sim.mcu_model import McuOutput
 from lgvtool.sim.scenarios import Plan, Scenario, get_scenario
 from lgvtool.sim.settings import (
@@ -55,18 +55,18 @@ class Setup:
 
 
 def resolve(scenario: str, *, config: Config | None = None,
-            overrides: Mapping[str, Any] | None = None,
+            overrides: Mapping[str, object] | None = None,
             duration: float | None = None) -> Setup:
     """Resolve the scenario, configuration and settings; ConfigError/InputError when bad."""
     sc = get_scenario(scenario)
     cfg = config or default_config()
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         raise InputError(f"--duration must be a positive number of seconds, got {duration}")
-    given: dict[str, Any] = dict(sc.presets)
+    given: dict[str, object] = dict(sc.presets)
     given.update(flatten(cfg.simulator))
     given.update(overrides or {})
     world = IDEAL_WORLD if given.get("sim.world") == "ideal" else {}
-    merged: dict[str, Any] = {k: v for k, v in world.items() if not k.startswith("scenario.")
+    merged: dict[str, object] = {k: v for k, v in world.items() if not k.startswith("scenario.")
                               or k.partition(".")[2] in sc.defaults}
     merged.update(given)
     vehicle = {k.partition(".")[2]: v for k, v in merged.items() if k.startswith("vehicle.")}
@@ -93,7 +93,8 @@ class Simulation:
     setup: Setup
     seed: int
     plan: Plan
-    truth: Trajectory
+    truth: TrueDrive
+    """The true drive (its path of O: :attr:`TrueDrive.path`, the ground truth)."""
     site: Site
     """The true site (reflectors as they stand, the floor): the simulator's alone."""
     occlusions: Occlusions
@@ -170,7 +171,7 @@ class Simulation:
                 "nav_ids_wrong": int((seen & (given != ev.NO_ID) & (given != true_ids)).sum()),
                 "nav_ids_absent": int((seen & (given == ev.NO_ID)).sum())}
 
-    def metadata(self) -> dict[str, Any]:
+    def metadata(self) -> JSONObject:
         """The 'simulator' metadata record: scenario, seed, every setting, what was injected."""
         nav = self.nav_traffic
         return {
@@ -183,9 +184,9 @@ class Simulation:
             "settings": self.settings.to_dict(),
             "vehicle": {k: getattr(self.config.vehicle, k) for k in
                         ("h", "track", "nav_x", "nav_y")},
-            "reference": self.plan.reference,
+            "reference": {**self.plan.reference},
             "start_pose": {"x": self.plan.x0, "y": self.plan.y0, "heading": self.plan.heading0},
-            "faults_injected": self.fault_counts(),
+            "faults_injected": {**self.fault_counts()},
             "counts": {
                 "mcu_frames_sent": len(self.mcu),
                 "nav_revolutions": len(self.scans),
@@ -201,7 +202,7 @@ class Simulation:
             **({"site_faults": self.site_faults()} if self.site_faults() else {}),
         }
 
-    def site_faults(self) -> dict[str, Any]:
+    def site_faults(self) -> JSONObject:
         """The site's faults as they truly are (the ``simulator`` metadata's ``site_faults``,
         absent when there are none), for an audit to be scored against: ``missing`` (layout
         ids), ``moved`` (id, dx, dy m: true minus layout position), ``weak`` (id,
@@ -218,7 +219,7 @@ class Simulation:
         return out
 
 
-def _false_position(marks: Landmarks) -> dict[str, float] | None:
+def _false_position(marks: Landmarks) -> JSONObject | None:
     idx = np.nonzero(marks.is_false)[0]
     if len(idx) == 0:
         return None
@@ -243,7 +244,7 @@ def _landmark_faults(sim_marks: Landmarks, occl: Occlusions, scans: nav_model.Sc
 
 
 def simulate(scenario: str, *, seed: int = 0, config: Config | None = None,
-             overrides: Mapping[str, Any] | None = None,
+             overrides: Mapping[str, object] | None = None,
              duration: float | None = None) -> Simulation:
     """Simulate ``scenario`` (see :data:`lgvtool.sim.scenarios.SCENARIOS`) with ``seed``.
 
@@ -274,7 +275,8 @@ def run(setup: Setup, seed: int) -> Simulation:
     rngs = dict(zip(STREAMS, np.random.default_rng(seed).spawn(len(STREAMS)), strict=True))
     plan = setup.scenario.build(setup.parameters, vehicle, setup.duration, s.sim.rate_hz)
     drive = departures(s.drive, plan.controls.t, rngs["drive"])
-    truth = integrate(plan.controls, vehicle, plan.x0, plan.y0, plan.heading0, drive)
+    truth = integrate(plan.controls, vehicle, plan.x0, plan.y0, plan.heading0, drive,
+                      int(s.sim.start_epoch_s) * 1_000_000_000)
     site = build_site(cfg.reflectors, cfg.area, s.site, s.faults, rngs["landmarks"])
     marks = site.landmarks
     occl = faultlib.occlusions(len(marks), truth.duration, s.faults.occlusion_fraction,

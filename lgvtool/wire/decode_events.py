@@ -8,7 +8,8 @@ one to one onto an ``lgvtool.Diagnostic`` message.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import Any
+
+from lgvtool.json_types import JSONObject, JSONRecord, as_int
 
 #: Severity levels, as in foxglove.Log and lgvtool.Diagnostic.
 DEBUG, INFO, WARNING, ERROR, FATAL = 1, 2, 3, 4, 5
@@ -119,15 +120,15 @@ class DecodeEvent:
     message: str
     level: int = WARNING
     count: int = 1
-    details: dict[str, Any] = field(default_factory=dict)
+    details: JSONObject = field(default_factory=dict)
 
-    def diagnostic(self, timestamp: dict[str, int]) -> dict[str, Any]:
+    def diagnostic(self, timestamp: JSONRecord) -> JSONObject:
         """This event as an ``lgvtool.Diagnostic`` message dict at host time ``timestamp``.
 
         ``timestamp`` is ``{"sec": s, "nsec": ns}``.
         """
         return {
-            "timestamp": {"sec": int(timestamp["sec"]), "nsec": int(timestamp["nsec"])},
+            "timestamp": {"sec": as_int(timestamp["sec"]), "nsec": as_int(timestamp["nsec"])},
             "level": self.level,
             "source": self.source,
             "kind": self.kind,

@@ -12,6 +12,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
+from lgvtool.json_types import JSON
 from lgvtool.wire.decode_events import WARNING, DecodeEvent, DecoderStats
 
 T = TypeVar("T")
@@ -99,7 +100,7 @@ class StreamDecoder(ABC, Generic[T]):
         return events
 
     def _event(
-        self, kind: str, message: str, *, level: int = WARNING, count: int = 1, **details: Any
+        self, kind: str, message: str, *, level: int = WARNING, count: int = 1, **details: JSON
     ) -> None:
         if len(self._events) < MAX_PENDING_EVENTS:
             self._events.append(DecodeEvent(self.source, kind, message, level, count, details))

@@ -39,9 +39,12 @@ NO_BAD_VALUE = {"describe_scenarios", "column_help", "parameters"}
 """Functions a command calls that take no value which could be bad."""
 
 JOBS = {
-    "calibrate_job.calibrate_logs", "decode_job.decode_file", "evaluate_job.evaluate_logs",
+    "audit_job.audit_logs", "calibrate_job.calibrate_logs", "compare_job.compare_results",
+    "decode_job.decode_file",
+    "evaluate_job.evaluate_logs",
     "export_job.export_trajectories", "import_job.import_mrclam", "import_job.import_ros2",
-    "layout_job.convert_layout", "record_job.record_devices", "recover_job.recover_log",
+    "layout_job.convert_layout", "layout_job.refine_layout", "record_job.record_devices",
+    "recover_job.recover_log",
     "replay_job.replay_log", "simulate_job.simulate_log", "sweep_job.sweep_logs",
     "view_job.view_log",
 }
@@ -171,8 +174,14 @@ def _bad_toml(tmp: Path) -> Path:
 #: job -> (arguments, the one line on stderr); {log}: the sample log, {tmp}: the test's folder,
 #: {layout}: a layout file with one reflector in layer 0, {bad}: malformed TOML
 BAD_VALUES: dict[str, tuple[tuple[str, ...], str]] = {
+    "audit_logs": (("audit", "{log}", "-o", "{tmp}/audit", "--set", "audit.weak_sigmas"),
+                   "--set expects key=value, got 'audit.weak_sigmas'"),
     "calibrate_logs": (("calibrate", "{log}", "-o", "{log}", "--no-progress"),
                        "output {log} is the input {log}; choose another output"),
+    "compare_results": (("compare", "{log}", "{log}"),
+                        "{log} is a log; compare reads results: run 'lgvtool audit LOG -o DIR' "
+                        "or 'lgvtool evaluate LOG -o DIR' on each log first, then compare the "
+                        "DIRs"),
     "decode_file": (("decode", "{log}", "-o", "{log}"),
                     "output {log} is the input {log}; choose another output"),
     "evaluate_logs": (("evaluate", "{log}", "--tolerance", "abc", "--baseline", "{tmp}/b.json"),
@@ -189,6 +198,8 @@ BAD_VALUES: dict[str, tuple[tuple[str, ...], str]] = {
                     "--topic: no role 'bogus' (roles: odom, gyro, nav, reflectors, truth, tf)"),
     "convert_layout": (("layout", "convert", "{layout}", "-o", "{tmp}/l.imk", "--layer", "7"),
                        "layout convert: {layout} has no reflector in layer 7"),
+    "refine_layout": (("layout", "refine", "{log}", "-o", "{tmp}/r.toml", "--set", "novalue"),
+                      "--set expects key=value, got 'novalue'"),
     "record_devices": (("record", "--mcu", "tcp://127.0.0.1:1", "-o", "{tmp}/rec.mcap",
                         "--live", "nope"),
                        "--live: 'nope' is not [HOST:]PORT (the port must be a number)"),

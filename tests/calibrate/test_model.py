@@ -102,7 +102,7 @@ def test_elimination_order_keeps_the_factor_a_band(tmp_path: Path) -> None:
     (eliminating the quantities first would fill it), and solves it."""
     import scipy.sparse as sp
 
-    from lgvtool.calibrate.solve import _Factor, _scaled_normal
+    from lgvtool.sparse_normal import Factor, scaled_normal
 
     problem = _problem(tmp_path, use_poses=False)
     layout = problem.layout
@@ -125,12 +125,12 @@ def test_elimination_order_keeps_the_factor_a_band(tmp_path: Path) -> None:
         assert at < place[layout.pose_offset[0] + 3 * first_after]
     _, j, _, _, _ = problem.evaluate(problem.x)
     assert j is not None
-    h, _ = _scaled_normal(j)
+    h, _ = scaled_normal(j)
     h = (h + sp.identity(layout.size) * 1e-6).tocsc()
-    factor = _Factor(h, order)
+    factor = Factor(h, order)
     assert factor.lu.L.nnz + factor.lu.U.nnz <= 3 * h.nnz
     glob_first = np.concatenate([order[-n_glob:], order[:-n_glob]])
-    assert _Factor(h, glob_first).lu.L.nnz + _Factor(h, glob_first).lu.U.nnz > 3 * h.nnz
+    assert Factor(h, glob_first).lu.L.nnz + Factor(h, glob_first).lu.U.nnz > 3 * h.nnz
     rng = np.random.default_rng(3)
     rhs = rng.standard_normal((layout.size, 2))
     dense = np.linalg.solve(h.toarray(), rhs)
@@ -196,24 +196,24 @@ def test_normal_matrix_and_covariance_formed_a_slice_of_rows_at_a_time(
         tmp_path: Path, use_poses: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     """Slices of a few rows give the normal matrix ``jᵀj`` and the formal and cluster-robust
     covariances of one slice; the slices cover the rows once, in order."""
-    from lgvtool.calibrate import solve
+    from lgvtool import sparse_normal
 
     problem = _problem(tmp_path, use_poses)
     _, j, _, _, _ = problem.evaluate(problem.x)
     assert j is not None
     whole = (j.T @ j).toarray()
     formal0, robust0 = problem.covariance()
-    monkeypatch.setattr(solve, "NORMAL_SLICE_ENTRIES", 37)
-    slices = list(solve._row_slices(j))
+    monkeypatch.setattr(sparse_normal, "NORMAL_SLICE_ENTRIES", 37)
+    slices = list(sparse_normal.row_slices(j))
     assert len(slices) > 100
     assert [s[0] for s in slices[1:]] == [s[1] for s in slices[:-1]]
     assert slices[0][0] == 0 and slices[-1][1] == j.shape[0]
     assert sum(s.nnz for _, _, s in slices) == j.nnz
     tol = 1e-12 * float(np.abs(whole).max())
-    assert solve._normal(j).toarray() == pytest.approx(whole, rel=1e-12, abs=tol)
+    assert sparse_normal.normal_matrix(j).toarray() == pytest.approx(whole, rel=1e-12, abs=tol)
     import scipy.sparse as sp
 
-    assert solve._normal(sp.csr_matrix((0, 5))).toarray().tolist() == [[0.0] * 5] * 5
+    assert sparse_normal.normal_matrix(sp.csr_matrix((0, 5))).toarray().tolist() == [[0.0] * 5] * 5
     formal1, robust1 = problem.covariance()
     # inverses of the normal matrix, whose conditioning turns the sums' other rounding (1e-16
     # relative) into about 1e-7 here; a row lost or counted twice moves them by far more

@@ -10,7 +10,7 @@ from devices_helpers import circle_playback
 
 from lgvtool.config import Vehicle
 from lgvtool.devices.nav200.nav200_commands import (
-    AnyReply,
+    DeviceReply,
     ErrorReply,
     Reply,
     Request,
@@ -35,7 +35,7 @@ from lgvtool.sim.emulate import Playback, playback_from_scenario
 from lgvtool.sim.emulate.nav200.nav200_emulator import VirtualNav200
 
 
-def ask(dev: VirtualNav200, request: Request, t: float = 1.0) -> AnyReply:
+def ask(dev: VirtualNav200, request: Request, t: float = 1.0) -> DeviceReply:
     (reply,) = dev.feed(request.encode(), t)
     return decode_reply(reply)
 

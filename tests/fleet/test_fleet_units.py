@@ -15,6 +15,7 @@ from lgvtool.fleet.results import TaskStore, is_final, summary_table, task_recor
 from lgvtool.fleet.stats import describe
 from lgvtool.fleet.tasks import (
     SweepTask,
+    TaskMetrics,
     build_tasks,
     document_metrics,
     expand_logs,
@@ -198,8 +199,9 @@ def test_report_draws_each_varying_figure_against_each_swept_parameter(tmp_path)
     records = {}
     for i, t in enumerate(tasks):
         bad = t.label.endswith("b.mcap") and t.seed == 2
-        out = (Outcome(i, t, None, "MissingDataError: no <motion>", input_error=True) if bad else
-               Outcome(i, t, document_metrics(_doc(t.settings["pf.particles"] + t.seed, 0.01))))
+        out: Outcome[SweepTask, TaskMetrics] = (
+            Outcome(i, t, None, "MissingDataError: no <motion>", input_error=True) if bad else
+            Outcome(i, t, document_metrics(_doc(t.settings["pf.particles"] + t.seed, 0.01))))
         records[t.key] = task_record(t, out, "evaluate")
     grid: dict[str, list[Any]] = {"pf.particles": [10, 20, 40], "pf.init": ["uniform", "laser"]}
     tidy = tidy_table(tasks, records, grid_keys=list(grid))

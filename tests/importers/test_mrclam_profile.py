@@ -107,9 +107,9 @@ def test_evaluate_start_at_truth(log: Path, capsys: pytest.CaptureFixture[str]) 
     own = run_replay(reader, ["ekf"], settings={"ekf.init_max_sigma_xy_m": 0.0},
                      cloud_size=0).trajectories["ekf"]
     truth = reader.dataframe(topics.TRUTH)
-    tx = np.interp(own["t"], truth["t"], truth["x"])
-    ty = np.interp(own["t"], truth["t"], truth["y"])
-    own_rmse = float(np.sqrt(np.mean((own["x"] - tx) ** 2 + (own["y"] - ty) ** 2)))
+    tx = np.interp(own.t, truth["t"], truth["x"])
+    ty = np.interp(own.t, truth["t"], truth["y"])
+    own_rmse = float(np.sqrt(np.mean((own.x - tx) ** 2 + (own.y - ty) ** 2)))
     assert own_rmse > 2 * _truth_rmse(text, "ekf")
 
 

@@ -16,6 +16,7 @@ from lgvtool.app.evaluate_job import evaluate_log
 from lgvtool.errors import InputError
 from lgvtool.interop import trajfile
 from lgvtool.interop.trajectory_export import export_log
+from lgvtool.trajectory import Trajectory
 
 FAST = ["laser", "ekf"]
 
@@ -43,8 +44,8 @@ def test_export_writes_estimators_nav_truth_and_resampled_truth(exported: Path) 
 
 def test_nav_file_is_the_laser_baseline(exported: Path) -> None:
     """The NAV pose converted to O is what the laser baseline reports."""
-    nav = trajfile.read_trajectory(exported / "nav.tum")
-    laser = trajfile.read_trajectory(exported / "laser.tum")
+    nav = trajfile.read_trajectory(exported / "nav.tum").to_frame()
+    laser = trajfile.read_trajectory(exported / "laser.tum").to_frame()
     assert len(nav) == len(laser)
     assert np.allclose(nav[["x", "y"]].to_numpy(), laser[["x", "y"]].to_numpy(), atol=2e-6)
 
@@ -70,10 +71,10 @@ def test_evo_ape_equals_lgvtool_truth_rmse(sim_log: Path, exported: Path) -> Non
 
 def test_every_format_round_trips_the_poses(sim_log: Path, exported: Path,
                                             tmp_path: Path) -> None:
-    tum = trajfile.read_trajectory(exported / "ekf.tum")
+    tum = trajfile.read_trajectory(exported / "ekf.tum").to_frame()
     for fmt in ("kitti", "csv", "parquet"):
         export_log(sim_log, tmp_path / fmt, fmt, estimators=["ekf"])
-    csv = trajfile.read_trajectory(tmp_path / "csv" / "ekf.csv")
+    csv = trajfile.read_trajectory(tmp_path / "csv" / "ekf.csv").to_frame()
     assert (tmp_path / "csv" / "ekf.csv").read_text().splitlines()[0] == \
         "t_s,x_m,y_m,heading_rad"
     assert np.allclose(csv.to_numpy(), tum.to_numpy(), atol=2e-6)
@@ -157,7 +158,7 @@ def test_tum_reader_tells_the_bad_line(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="no poses"):
         trajfile.read_trajectory(p)
     p.write_text(f"{good}\n2.0 1 2 0 0 0 {math.sin(0.5)} {math.cos(0.5)}\n")
-    df = trajfile.read_trajectory(p)
+    df = trajfile.read_trajectory(p).to_frame()
     assert df["heading"].iloc[1] == pytest.approx(1.0, abs=1e-12)
     assert df["x"].iloc[1] == 1.0 and df["y"].iloc[1] == 2.0
 
@@ -182,7 +183,7 @@ def test_a_log_without_observations_exports_its_truth(tmp_path: Path, cli: CLI) 
 def test_csv_reader_takes_spreadsheet_exports_and_tells_the_bad_row(tmp_path: Path) -> None:
     p = tmp_path / "sheet.csv"
     p.write_text("\ufefftime;X;Y\n1.0;2.0;3.0\n1.5;2.5;3.5\n", encoding="utf-8")
-    df = trajfile.read_trajectory(p)
+    df = trajfile.read_trajectory(p).to_frame()
     assert df["x"].tolist() == [2.0, 2.5] and df["heading"].isna().all()
     p.write_text("t_s,x_m,y_m,heading_rad\n1,2,3,0\n\n2,2,x,0\n")
     with pytest.raises(InputError, match=r"sheet\.csv:4: y_m 'x' is not a number"):
@@ -212,8 +213,8 @@ def test_a_replayed_log_is_exported_in_one_pass_with_the_same_files(
     assert chunk_passes == [sorted([*(topics.estimate_pose(n) for n in FAST), topics.TRUTH,
                                     topics.NAV_POSE])]
     for path in sorted(exported.iterdir()):
-        mine = trajfile.read_trajectory(out / path.name)
-        theirs = trajfile.read_trajectory(path)
+        mine = trajfile.read_trajectory(out / path.name).to_frame()
+        theirs = trajfile.read_trajectory(path).to_frame()
         pd.testing.assert_frame_equal(mine, theirs, check_exact=False, rtol=0, atol=1e-9)
 
 
@@ -269,7 +270,7 @@ def test_text_files_written_a_block_of_rows_at_a_time_are_the_same(
     for block in (3, 10_000):
         monkeypatch.setattr(trajfile, "_BLOCK", block)
         paths = [tmp_path / f"{block}-{n}" for n in trajfile.file_names("a", fmt)]
-        trajfile.write_trajectory(df, paths, fmt, {"content": "test"})
+        trajfile.write_trajectory(Trajectory.from_frame(df), paths, fmt, {"content": "test"})
         written.append([p.read_bytes() for p in paths])
     assert written[0] == written[1]
     assert all(f.count(b"\n") >= 10 for f in written[0])

@@ -29,6 +29,7 @@ from lgvtool.evaluate.document import build_document
 from lgvtool.evaluate.evaluation import evaluate_trajectories
 from lgvtool.evaluate.reference import CircleFrom, circle_from_log
 from lgvtool.interop.ros2_import import import_bag
+from lgvtool.json_types import member
 from lgvtool.log import LogReader, topics
 
 CLI = Callable[..., tuple[int, str, str]]
@@ -371,8 +372,8 @@ def test_without_a_steering_angle_the_circle_is_fitted_to_the_truth_and_said(
     assert laser.pooled.rmse == pytest.approx(BIAS[0] / math.sqrt(2), abs=BIAS_TOL)
     assert laser.centre_offset == pytest.approx(BIAS[0], abs=0.002)
     doc = build_document([result])
-    assert doc["reference"]["circle_source"] == "truth"
-    assert doc["reference"]["circle_reference"] == "truth"
+    assert member(doc["reference"], "circle_source") == "truth"
+    assert member(doc["reference"], "circle_reference") == "truth"
     from lgvtool.evaluate.html_report import render_report
 
     assert "fitted to the ground truth (centre and radius)" in render_report([result])
@@ -387,7 +388,7 @@ def test_a_configured_steering_angle_keeps_the_kinematic_circle(tmp_path: Path) 
     summary = import_bag(bag, tmp_path / "k.mcap", config=cfg)
     assert summary.circle_reference is not None
     assert summary.circle_reference["source"] == "kinematic"
-    assert "60 deg of --config" in summary.circle_reference["note"]
+    assert "60 deg of --config" in str(summary.circle_reference["note"])
     result, _ = laser_truth(tmp_path / "k.mcap")
     assert result.reference.circle_source == "kinematic"
     assert result.reference.kinematic_radius == pytest.approx(RADIUS, abs=EXACT)
@@ -456,7 +457,7 @@ def test_a_truth_that_drives_no_circle_gives_no_circle_and_says_so(tmp_path: Pat
     summary = import_bag(bag, out)
     assert summary.circle_reference is not None
     assert summary.circle_reference["source"] == "none"
-    assert "is no circle drive" in summary.circle_reference["note"]
+    assert "is no circle drive" in str(summary.circle_reference["note"])
     result = evaluate_log(out, estimators=["laser"])
     assert not result.reference.circle_drive
     assert any("no reference circle" in w for w in result.warnings)

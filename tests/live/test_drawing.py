@@ -15,6 +15,7 @@ import orjson
 import pytest
 from simlogs import cloud_points
 
+from lgvtool.config import Vehicle
 from lgvtool.live.drawing import CIRCLE_PERIOD_NS, LiveDrawing, Thinned, drawing_of
 from lgvtool.log import LogReader, topics
 from lgvtool.log.foxglove import mounting_of
@@ -239,7 +240,7 @@ def test_invalid_poses_and_empty_scans_draw_nothing() -> None:
         LiveDrawing(mounting_of(_vehicle()), "pf")
 
 
-def _vehicle() -> object:
+def _vehicle() -> Vehicle:
     from lgvtool.config import default_config
 
     return default_config().vehicle

@@ -7,6 +7,7 @@ reflector scans are computed exactly from the true motion.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,6 +15,7 @@ import numpy as np
 from lgvtool.config import Area, Config, Reflector, Vehicle
 from lgvtool.localize.observations import RawScan
 from lgvtool.localize.replay_driver import LogData
+from lgvtool.trajectory import Trajectory
 
 T0_NS = 1_700_000_000_000_000_000
 
@@ -103,7 +105,7 @@ def circle_log(duration: float = 20.0, *, nav_x: float = 1.0, nav_y: float = 0.0
                       for t_start in np.arange(0.02, duration - period, period)]
     tt = np.arange(0.0, duration + 1e-9, 0.01)
     x, y, th = c.pose(tt)
-    data.truth = {"t": tt, "x": x, "y": y, "heading": th}
+    data.truth = Trajectory(tt, x, y, th, data.t0_ns)
     return data, c, cfg
 
 
@@ -153,7 +155,7 @@ def write_log(path, data: LogData, cfg: Config, *, mcu: bool = True, twist: bool
     def ns(t: float) -> int:
         return T0_NS + round(t * 1e9)
 
-    rows = []
+    rows: list[tuple[int, str, Mapping[str, object]]] = []
     if mcu and data.mcu is not None:
         m = data.mcu
         for i in range(len(m["t"])):
@@ -190,11 +192,10 @@ def write_log(path, data: LogData, cfg: Config, *, mcu: bool = True, twist: bool
                                                            s.ids, strict=True)]}))
     if truth and data.truth is not None:
         tr = data.truth
-        for i in range(0, len(tr["t"]), 5):
-            n = ns(float(tr["t"][i]))
-            rows.append((n, topics.TRUTH, pose_in_frame(n, float(tr["x"][i]),
-                                                        float(tr["y"][i]),
-                                                        float(tr["heading"][i]))))
+        for i in range(0, len(tr), 5):
+            n = ns(float(tr.t[i]))
+            rows.append((n, topics.TRUTH, pose_in_frame(n, float(tr.x[i]), float(tr.y[i]),
+                                                        float(tr.heading[i]))))
     rows.sort(key=lambda r: r[0])
     with LogWriter(path, source="test") as w:
         w.write_config(cfg)

@@ -30,7 +30,8 @@ from lgvtool.localize.fix import pose_fix, scan_fix
 from lgvtool.localize.geometry import pose_from_correspondences
 from lgvtool.localize.kernel_choice import KERNELS_ENV
 from lgvtool.localize.observations import ReflectorMap, ScanObservation
-from lgvtool.localize.replay_driver import EstimateTable, LogData, replay_data
+from lgvtool.localize.replay_driver import LogData, replay_data
+from lgvtool.trajectory import Trajectory
 
 #: tolerance of the kernels against the numpy path: positions m, headings rad
 TOL = 1e-9
@@ -176,12 +177,12 @@ def test_a_symmetric_layout_fixes_nothing_without_ids() -> None:
 # ------------------------------------------------------------------ kernels against numpy
 def _replay(monkeypatch: pytest.MonkeyPatch, mode: str, data: LogData, cfg: Config,
             names: list[str], settings: Mapping[str, object] | None = None
-            ) -> dict[str, EstimateTable]:
+            ) -> dict[str, Trajectory]:
     monkeypatch.setenv(KERNELS_ENV, mode)
-    return replay_data(data, names, config=cfg, seed=3, settings=settings).tables
+    return replay_data(data, names, config=cfg, seed=3, settings=settings).estimates
 
 
-def _same_rows(a: EstimateTable, b: EstimateTable) -> None:
+def _same_rows(a: Trajectory, b: Trajectory) -> None:
     assert len(a.x) == len(b.x) > 0
     assert np.array_equal(a.t_ns, b.t_ns)
     for col in ("x", "y"):
@@ -232,7 +233,7 @@ def test_pf_finds_and_tracks_the_vehicle_with_device_ids(ids: str) -> None:
     data = with_ids(data, ids, fraction=0.3, seed=3)
     for seed in range(3):
         traj = replay_data(data, ["pf"], config=cfg, seed=seed).trajectories["pf"]
-        t = traj["t"].to_numpy() - data.t0_ns * 1e-9
+        t = traj.t - data.t0_ns * 1e-9
         x, y, _ = circle.pose(t)
-        err = np.hypot(traj["x"].to_numpy() - x, traj["y"].to_numpy() - y)
+        err = np.hypot(traj.x - x, traj.y - y)
         assert err[t >= 2.0].max() < 0.05, (seed, float(err[t >= 2.0].max()))

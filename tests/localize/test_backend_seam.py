@@ -119,7 +119,7 @@ def test_a_fake_backend_runs_each_filter(sim_data: tuple[Any, Any], name: str,
     got = replay_data(data, [name], config=cfg, seed=2, settings=settings)
     assert len(made) == 1
     assert USED[name] <= set(calls), sorted(USED[name] - set(calls))
-    a, b = ref.tables[name], got.tables[name]
+    a, b = ref.estimates[name], got.estimates[name]
     assert len(a.x) > 40  # (pf-paper weighs at the NAV polls: 2.2 per second)
     for col in ("t_ns", "x", "y", "heading", "covariance", "particles", "ess"):
         assert np.array_equal(getattr(a, col), getattr(b, col)), col

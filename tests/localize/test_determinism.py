@@ -14,16 +14,16 @@ def test_same_seed_same_output() -> None:
     b = replay_data(data, ["pf", "pf-paper"], config=cfg, seed=7)
     c = replay_data(data, ["pf-paper", "pf"], config=cfg, seed=8)
     for name in ("pf-paper", "pf"):
-        assert np.array_equal(a.tables[name].x, b.tables[name].x)
-        assert np.array_equal(a.tables[name].covariance, b.tables[name].covariance)
-        assert not np.array_equal(a.tables[name].x, c.tables[name].x)
+        assert np.array_equal(a.estimates[name].x, b.estimates[name].x)
+        assert np.array_equal(a.estimates[name].covariance, b.estimates[name].covariance)
+        assert not np.array_equal(a.estimates[name].x, c.estimates[name].x)
 
 
 def test_pf_localises_from_a_uniform_start() -> None:
     """Reflector ids known: the filter is lost at first and resets around the landmark fix."""
     data, circle, cfg = circle_log(8.0, ids=True)
     res = replay_data(data, ["pf"], config=cfg, seed=1)
-    tab = res.tables["pf"]
+    tab = res.estimates["pf"]
     t = (tab.t_ns - T0_NS) * 1e-9
     x, y, _ = circle.pose(t)
     err = np.hypot(tab.x - x, tab.y - y)

@@ -22,13 +22,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 import pytest
 from device_ids import with_ids
 
 from lgvtool.evaluate.metrics import truth_errors
 from lgvtool.localize.logdata import load_log, scan_batch
 from lgvtool.localize.replay_driver import LogData, replay_data
+from lgvtool.trajectory import Trajectory
 
 SEED = 9100
 """The simulation seed of these tests (not one of those the filters were tuned on)."""
@@ -61,10 +61,9 @@ def sim(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
     return load_log(reader, cfg.reflectors, truth=True, decode_scans=True), cfg
 
 
-def _rmse(traj: pd.DataFrame, data: LogData) -> float:
-    truth = pd.DataFrame(data.truth)
-    truth["t"] = truth["t"] + data.t0_ns * 1e-9
-    err = truth_errors(traj, truth)["position_error"].to_numpy()
+def _rmse(traj: Trajectory, data: LogData) -> float:
+    assert data.truth is not None
+    err = truth_errors(traj, data.truth.on_epoch())["position_error"].to_numpy()
     assert len(err) > 0.9 * len(traj) > 100
     return float(np.sqrt(np.mean(err * err)))
 
@@ -81,7 +80,7 @@ def test_without_ids_ekf_and_pf_track_from_their_own_start(sim: tuple[LogData, A
     scans_only = replay_data(bare, ["ekf"], config=cfg, seed=0,
                              settings={"ekf.init": "landmarks", "ekf.observations": "scans"})
     traj = scans_only.trajectories["ekf"]
-    assert traj["t"].iloc[0] - data.t0_ns * 1e-9 < 2.0
+    assert traj.t[0] - data.t0_ns * 1e-9 < 2.0
     assert _rmse(traj, data) <= LASER_RATIO * laser
 
 
@@ -95,7 +94,7 @@ def test_wrong_ids_do_not_drag_the_estimate(sim: tuple[LogData, Any]) -> None:
     for name in names:
         a, b = logged[name], wrong[name]
         assert _rmse(b, data) <= _rmse(a, data) + WRONG_EXTRA_M, name
-        both = a.merge(b, on="t", suffixes=("_a", "_b"))
+        both = a.to_frame().merge(b.to_frame(), on="t", suffixes=("_a", "_b"))
         assert len(both) > 0.95 * len(a)
         apart = np.hypot(both["x_a"] - both["x_b"], both["y_a"] - both["y_b"]).to_numpy()
         assert math.sqrt(float(np.mean(apart * apart))) <= WRONG_APART_M, name

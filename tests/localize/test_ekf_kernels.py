@@ -19,7 +19,7 @@ NAMES = ["ekf", "deadreckoning"]
 def _tables(monkeypatch: pytest.MonkeyPatch, mode: str, **log: object) -> dict[str, Any]:
     monkeypatch.setenv(KERNELS_ENV, mode)
     data, _, cfg = circle_log(6.0, **log)
-    return replay_data(data, NAMES, config=cfg, seed=3).tables
+    return replay_data(data, NAMES, config=cfg, seed=3).estimates
 
 
 @pytest.mark.parametrize("log", [{}, {"ids": True}, {"scans": "none"}, {"scans": "snapshot"}])
@@ -40,9 +40,9 @@ def test_poses_and_scans_match(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(KERNELS_ENV, "numpy")
     data, _, cfg = circle_log(6.0, ids=True)
     settings = {"ekf.observations": "both"}
-    a = replay_data(data, ["ekf"], config=cfg, seed=3, settings=settings).tables["ekf"]
+    a = replay_data(data, ["ekf"], config=cfg, seed=3, settings=settings).estimates["ekf"]
     monkeypatch.setenv(KERNELS_ENV, "numba")
-    b = replay_data(data, ["ekf"], config=cfg, seed=3, settings=settings).tables["ekf"]
+    b = replay_data(data, ["ekf"], config=cfg, seed=3, settings=settings).estimates["ekf"]
     assert len(a.x) == len(b.x) > 0
     assert np.allclose(a.x, b.x, rtol=0, atol=1e-9)
     assert np.allclose(a.heading, b.heading, rtol=0, atol=1e-9)
@@ -60,7 +60,7 @@ def test_chunks_across_their_bounds(monkeypatch: pytest.MonkeyPatch,
     tables = []
     for mode in ("numpy", "numba"):
         monkeypatch.setenv(KERNELS_ENV, mode)
-        tables.append(replay_data(data, NAMES, config=cfg, seed=3, settings=settings).tables)
+        tables.append(replay_data(data, NAMES, config=cfg, seed=3, settings=settings).estimates)
     for name in NAMES:
         a, b = tables[0][name], tables[1][name]
         assert len(a.x) == len(b.x) > 2 * CHUNK

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from lgvtool.app.evaluate_job import evaluate_log
+from lgvtool.json_types import SettingValue
 from lgvtool.localize.replay_driver import load_log, replay_data
 from lgvtool.log import LogReader
 from lgvtool.sim.logfile import write_log
@@ -24,7 +25,7 @@ def circle_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def _averages(log: Path, settings: dict[str, object]):
+def _averages(log: Path, settings: dict[str, SettingValue]):
     res = evaluate_log(log, estimators=["laser", "pf-paper"], settings=settings)
     laser, paper = res.estimators["laser"].average, res.estimators["pf-paper"].average
     assert laser is not None and paper is not None
@@ -54,10 +55,10 @@ def _converged_by(scenario: str, seed: int, tmp: Path, by: float = 20.0) -> bool
     cfg = reader.config()
     data = load_log(reader, cfg.reflectors, truth=True)
     assert data.truth is not None
-    tab = replay_data(data, ["pf-paper"], config=cfg, seed=seed, cloud_size=0).tables["pf-paper"]
+    tab = replay_data(data, ["pf-paper"], config=cfg, seed=seed, cloud_size=0).estimates["pf-paper"]
     t = (tab.t_ns - data.t0_ns) * 1e-9
-    err = np.hypot(tab.x - np.interp(t, data.truth["t"], data.truth["x"]),
-                   tab.y - np.interp(t, data.truth["t"], data.truth["y"]))
+    err = np.hypot(tab.x - np.interp(t, data.truth.t, data.truth.x),
+                   tab.y - np.interp(t, data.truth.t, data.truth.y))
     bad = np.nonzero(err >= 0.1)[0]
     return len(bad) == 0 or (bad[-1] + 1 < len(t) and t[bad[-1] + 1] <= by)
 
@@ -75,6 +76,7 @@ def test_the_papers_literal_start_is_reachable_by_settings(tmp_path: Path) -> No
     from lgvtool.localize.registry import resolve_params
 
     p = resolve_params("pf-paper", {}, {"start_updates": 0, "deskew": "false"})
+    assert isinstance(p, ESTIMATORS["pf-paper"].Params)
     assert (p.start_updates, p.deskew, p.particles) == (0, False, 150)
     est: Any = ESTIMATORS["pf-paper"](params=p, rng=np.random.default_rng(0))
     assert len(est.z) == 150  # the paper's 150 particles from the start

@@ -31,6 +31,7 @@ def test_unknown_and_bad_parameters() -> None:
     with pytest.raises(InputError, match="at least"):
         resolve_params("pf-paper", {}, {"spread_m": -1.0})
     p = resolve_params("pf", {"pf": {"particles": 300}}, {"kld": "false"})
+    assert isinstance(p, ParticleFilter.Params)
     assert p.particles == 300 and p.kld is False
 
 

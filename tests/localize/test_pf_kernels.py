@@ -21,7 +21,7 @@ from lgvtool.localize.estimator import EstimateRows, Estimator
 from lgvtool.localize.kernel_choice import KERNELS_ENV, uses_kernels
 from lgvtool.localize.motion import MotionTrack
 from lgvtool.localize.particle_backend import NumpyParticles
-from lgvtool.localize.registry import ESTIMATORS, resolve_params
+from lgvtool.localize.registry import ESTIMATORS, motion_params, resolve_params
 from lgvtool.localize.replay_driver import _observations, estimator_rng
 
 pytest.importorskip("numba")
@@ -37,7 +37,7 @@ def _inputs(name: str, settings: dict[str, Any], duration: float = 30.0
     data, _, cfg = circle_log(duration, ids=True)
     cls = ESTIMATORS[name]
     params = resolve_params(name, {}, settings)
-    ms = params.motion_settings()
+    ms = motion_params(name, params).motion_settings()
     track = MotionTrack(data.increments(ms, cfg.vehicle), ms.step_form)
     obs, _ = _observations(data, cls, params, track, cfg.vehicle, start_poses=False)
     times = np.array([o.t for o in obs])
@@ -69,8 +69,9 @@ def _same_clouds(a: EstimateRows, b: EstimateRows) -> None:
             np.testing.assert_allclose(u, v, rtol=0, atol=TOL)
 
 
-def _close(a: EstimateRows, b: EstimateRows) -> None:
+def _close(rows_a: EstimateRows, rows_b: EstimateRows) -> None:
     """Within :data:`TOL` (the covariance and ESS relatively)."""
+    a, b = rows_a.poses, rows_b.poses
     assert np.array_equal(a.t, b.t)
     assert np.array_equal(a.particles, b.particles)
     np.testing.assert_allclose(a.x, b.x, rtol=0, atol=TOL)
@@ -116,7 +117,7 @@ def test_kernels_match_the_numpy_path(monkeypatch: pytest.MonkeyPatch, name: str
                                       settings: dict[str, Any]) -> None:
     fast, fast_state, fast_est = _run(monkeypatch, "numba", name, settings)
     ref, ref_state, ref_est = _run(monkeypatch, "numpy", name, settings)
-    assert len(ref.x) > 50
+    assert len(ref.poses) > 50
     assert fast_state == ref_state  # the same random numbers were drawn
     if name == "pf":
         assert fast_est.resamplings == ref_est.resamplings > 0  # type: ignore[attr-defined]
@@ -150,7 +151,7 @@ def test_pf_run_equals_its_steps(monkeypatch: pytest.MonkeyPatch,
     assert chunks_est.resamplings == steps_est.resamplings > 0
     assert chunks_est.injected == steps_est.injected
     assert chunks_est.w_slow == pytest.approx(steps_est.w_slow, rel=1e-9)
-    assert len(chunks.x) > 50
+    assert len(chunks.poses) > 50
     _close(chunks, steps)
     _same_clouds(chunks, steps)
 
@@ -167,7 +168,7 @@ def test_pf_run_hands_back_what_it_does_not_track(monkeypatch: pytest.MonkeyPatc
     data, _, cfg = circle_log(30.0, ids=True)
     cls = ESTIMATORS["pf"]
     params = resolve_params("pf", {}, {"observations": "both"})
-    ms = params.motion_settings()
+    ms = motion_params("pf", params).motion_settings()
     track = MotionTrack(data.increments(ms, cfg.vehicle), ms.step_form)
     obs, _ = _observations(data, cls, params, track, cfg.vehicle, start_poses=False)
     kinds = {type(o).__name__ for o in obs}

@@ -84,12 +84,12 @@ def test_a_jump_is_left_out_by_default_and_kept_when_switched_off(log: Path,
     gated = replay_data(data, ["laser"], config=cfg, seed=0)
     assert len(gated.gated) == 1 and "left out" in gated.gated[0][1]
     t_k = data.t0_ns + round(float(nav["t"][k]) * 1e9)
-    assert not np.any(np.abs(gated.tables["laser"].t_ns - t_k) < 1000)
+    assert not np.any(np.abs(gated.estimates["laser"].t_ns - t_k) < 1000)
     kept = replay_data(data, ["laser"], config=cfg, seed=0,
                        settings={"laser.pose_gate": False})
-    assert len(kept.tables["laser"].x) == len(gated.tables["laser"].x) + 1
-    assert float(np.max(np.abs(np.diff(kept.tables["laser"].x)))) > 2.0
-    assert float(np.max(np.abs(np.diff(gated.tables["laser"].x)))) < 1.0
+    assert len(kept.estimates["laser"].x) == len(gated.estimates["laser"].x) + 1
+    assert float(np.max(np.abs(np.diff(kept.estimates["laser"].x)))) > 2.0
+    assert float(np.max(np.abs(np.diff(gated.estimates["laser"].x)))) < 1.0
 
 
 def test_replay_flags_left_out_poses_in_diagnostics(log: Path, tmp_path: Path,

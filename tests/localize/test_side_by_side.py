@@ -45,9 +45,9 @@ def _replay(log: Path, threads: int) -> tuple[ReplayResult, int]:
 def test_threads_give_the_same_results_as_one(sim_log: Path) -> None:
     one, one_count = _replay(sim_log, 1)
     many, many_count = _replay(sim_log, 4)
-    assert list(many.tables) == ALL == list(one.tables)
+    assert list(many.estimates) == ALL == list(one.estimates)
     for name in ALL:
-        a, b = one.tables[name], many.tables[name]
+        a, b = one.estimates[name], many.estimates[name]
         # both runs on this CPU, the same arithmetic in the same order on every thread:
         # identical on any machine (no stored figures compared across CPUs)
         for field in ("t_ns", "x", "y", "heading", "covariance", "particles", "ess"):

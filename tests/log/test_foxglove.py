@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import math
+from typing import Any
 
 import jsonschema
 import numpy as np
@@ -59,7 +60,7 @@ def test_builders_validate_against_foxglove_schemas() -> None:
 
 
 def test_a_message_missing_a_required_field_fails() -> None:
-    msg = fx.frame_transforms(T0, "pf", 1.0, 2.0, 0.3, M)
+    msg: dict[str, Any] = dict(fx.frame_transforms(T0, "pf", 1.0, 2.0, 0.3, M))
     del msg["transforms"][0]["child_frame_id"]
     assert not jsonschema.Draft202012Validator(
         schema_json("foxglove.FrameTransforms")).is_valid(msg)
@@ -73,7 +74,8 @@ def test_head_frame_sits_at_the_mounting_of_o() -> None:
         assert ox + c * M.x - s * M.y == pytest.approx(x, abs=1e-12)
         assert oy + s * M.x + c * M.y == pytest.approx(y, abs=1e-12)
         assert math.remainder(oh + M.yaw - h, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
-    tf = fx.frame_transforms(T0, "nav", 1.0, 2.0, 0.5, M)["transforms"]
+    frames: dict[str, Any] = dict(fx.frame_transforms(T0, "nav", 1.0, 2.0, 0.5, M))
+    tf = frames["transforms"]
     assert [(t["parent_frame_id"], t["child_frame_id"]) for t in tf] == [
         ("map", "nav/O"), ("nav/O", "nav/head")]
     assert tf[1]["translation"] == {"x": 1.0, "y": 0.2, "z": 0.0}
@@ -87,8 +89,8 @@ def test_covariance_ellipse_axes() -> None:
     c = r @ np.diag([0.09, 0.01]) @ r.T
     a, b, angle = fx.ellipse_axes(c[0, 0], c[0, 1], c[1, 1])
     assert (a, b, angle) == pytest.approx((0.3, 0.1, th), rel=1e-9)
-    msg = fx.covariance_ellipse(T0, "pf", 1.0, 2.0, [c[0, 0], c[0, 1], 0, c[1, 0], c[1, 1], 0,
-                                                    0, 0, 1e-3])
+    msg: dict[str, Any] = dict(fx.covariance_ellipse(
+        T0, "pf", 1.0, 2.0, [c[0, 0], c[0, 1], 0, c[1, 0], c[1, 1], 0, 0, 0, 1e-3]))
     (sphere,) = msg["entities"][0]["spheres"]
     assert sphere["size"]["x"] == pytest.approx(2 * fx.SIGMAS * 0.3, rel=1e-9)
     assert sphere["size"]["y"] == pytest.approx(2 * fx.SIGMAS * 0.1, rel=1e-9)
@@ -97,7 +99,7 @@ def test_covariance_ellipse_axes() -> None:
 
 
 def test_scan_cloud_holds_each_observation_as_a_point_in_the_head_frame() -> None:
-    msg = fx.scan_cloud(T0 + 10_000_000, [0.0, 2.0], [5.0, 0.0], [3, -1])
+    msg: dict[str, Any] = dict(fx.scan_cloud(T0 + 10_000_000, [0.0, 2.0], [5.0, 0.0], [3, -1]))
     assert msg["frame_id"] == "nav/head"
     assert msg["timestamp"] == {"sec": T0 // 10**9, "nsec": 10_000_000}
     assert msg["pose"]["position"] == {"x": 0.0, "y": 0.0, "z": 0.0}
@@ -115,7 +117,8 @@ def test_scan_cloud_holds_each_observation_as_a_point_in_the_head_frame() -> Non
 
 
 def test_reference_circle_points_lie_on_it() -> None:
-    (e,) = fx.reference_circle(T0, 10.0, 9.0, 0.7, n=36)["entities"]
+    circle: dict[str, Any] = dict(fx.reference_circle(T0, 10.0, 9.0, 0.7, n=36))
+    (e,) = circle["entities"]
     pts = e["lines"][0]["points"]
     assert len(pts) == 36 and e["lines"][0]["type"] == 1  # a closed loop
     for p in pts:

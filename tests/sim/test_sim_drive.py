@@ -81,7 +81,8 @@ def test_without_the_drive_mechanisms_the_path_is_the_kinematic_circle(
 
 def test_the_ideal_warehouse_closes_its_route(sim_cache) -> None:
     tr = sim_cache("warehouse", **{"sim.world": "ideal"}).truth
-    assert math.hypot(tr.x[-1] - tr.x[0], tr.y[-1] - tr.y[0]) < 1e-5  # m: micrometres
+    p = tr.path
+    assert math.hypot(p.x[-1] - p.x[0], p.y[-1] - p.y[0]) < 1e-5  # m: micrometres
     assert np.array_equal(tr.steering, tr.steering_command)
 
 
@@ -131,7 +132,7 @@ def test_the_trailing_drive_wheel_slips_the_other_way_in_reverse() -> None:
                      steering=np.full_like(t, delta))
         tr = integrate(c, vehicle, 0.0, 0.0, 0.0, Departures(understeer=per_g))
         r = vehicle.h / math.tan(expected)
-        assert np.max(np.abs(np.hypot(tr.x, tr.y - r) - r)) < 1e-9
+        assert np.max(np.abs(np.hypot(tr.path.x, tr.path.y - r) - r)) < 1e-9
 
 
 def test_the_wobble_is_a_slow_random_steering_error_of_its_size_and_time() -> None:
@@ -161,8 +162,8 @@ def test_the_load_compresses_the_encoder_wheels_not_the_path(sim_cache) -> None:
     empty = sim_cache("paper-circle", **DRIVE_OFF)
     loaded = sim_cache("paper-circle", **_on(load_fraction=1.0,
                                              radius_change_at_rated_load=-0.01))
-    assert np.array_equal(empty.truth.x, loaded.truth.x)
-    assert np.array_equal(empty.truth.y, loaded.truth.y)
+    assert np.array_equal(empty.truth.path.x, loaded.truth.path.x)
+    assert np.array_equal(empty.truth.path.y, loaded.truth.path.y)
 
     def counts(sim: Simulation) -> tuple[int, int]:
         first, last = sim.mcu.frames[0], sim.mcu.frames[-1]
@@ -185,11 +186,11 @@ def _cross_track(sim: Simulation) -> np.ndarray:
     t = np.arange(ref["moving_from_s"], ref["moving_until_s"], 0.05)
     x, y, _ = sim.truth.pose_at(t)
     out = np.empty(len(t))
-    for i, k in enumerate(np.searchsorted(plan.t, t)):
-        lo, hi = max(k - 400, 0), min(k + 400, len(plan.t))
-        j = lo + int(np.argmin(np.hypot(plan.x[lo:hi] - x[i], plan.y[lo:hi] - y[i])))
-        c, s = math.cos(plan.heading[j]), math.sin(plan.heading[j])
-        out[i] = -s * (x[i] - plan.x[j]) + c * (y[i] - plan.y[j])
+    for i, k in enumerate(np.searchsorted(plan.path.t, t)):
+        lo, hi = max(k - 400, 0), min(k + 400, len(plan.path.t))
+        j = lo + int(np.argmin(np.hypot(plan.path.x[lo:hi] - x[i], plan.path.y[lo:hi] - y[i])))
+        c, s = math.cos(plan.path.heading[j]), math.sin(plan.path.heading[j])
+        out[i] = -s * (x[i] - plan.path.x[j]) + c * (y[i] - plan.path.y[j])
     return out * 1e3
 
 

@@ -39,7 +39,7 @@ def test_logged_truth_is_on_the_circle_and_turns_eight_times(log_cache) -> None:
 
 def test_integration_rate_is_at_least_200_hz(sim_cache) -> None:
     sim = sim_cache("paper-circle")
-    assert np.max(np.diff(sim.truth.t)) <= 1 / 200 + 1e-12
+    assert np.max(np.diff(sim.truth.path.t)) <= 1 / 200 + 1e-12
 
 
 def test_arc_steps_are_exact_for_any_step() -> None:
@@ -50,9 +50,9 @@ def test_arc_steps_are_exact_for_any_step() -> None:
         c = Controls(t=t, drive_speed=np.full_like(t, 0.5), steering=np.full_like(t, delta))
         tr = integrate(c, vehicle, 0.0, 0.0, 0.0)
         r = vehicle.h / math.tan(delta)
-        assert np.max(np.abs(np.hypot(tr.x, tr.y - r) - r)) < 1e-9
+        assert np.max(np.abs(np.hypot(tr.path.x, tr.path.y - r) - r)) < 1e-9
         # O moves at v_d cos(delta), turns at v_d sin(delta) / h
-        assert tr.heading[-1] == pytest.approx(0.5 * math.sin(delta) / vehicle.h * 10.0)
+        assert tr.path.heading[-1] == pytest.approx(0.5 * math.sin(delta) / vehicle.h * 10.0)
 
 
 def test_warehouse_has_turns_a_stop_and_a_reverse_leg(sim_cache) -> None:
@@ -62,15 +62,15 @@ def test_warehouse_has_turns_a_stop_and_a_reverse_leg(sim_cache) -> None:
     moving = np.abs(tr.drive_speed) > 1e-6
     starts = np.nonzero(moving[1:] & ~moving[:-1])[0]
     assert len(starts) == 1 + 2 * 2, "start, then on each lap: after the stop and after reversing"
-    turned = (tr.heading[-1] - tr.heading[0]) / (math.pi / 2)
+    turned = (tr.path.heading[-1] - tr.path.heading[0]) / (math.pi / 2)
     assert turned == pytest.approx(8.0, abs=1e-3)  # two laps of four left 90-degree turns
-    assert math.hypot(tr.x[-1] - tr.x[0], tr.y[-1] - tr.y[0]) < 0.01  # the route closes
+    assert math.hypot(tr.path.x[-1] - tr.path.x[0], tr.path.y[-1] - tr.path.y[0]) < 0.01  # the route closes
     area = sim.config.area
-    assert area.x_min + 1 < tr.x.min() and tr.x.max() < area.x_max - 1
-    assert area.y_min + 1 < tr.y.min() and tr.y.max() < area.y_max - 1
+    assert area.x_min + 1 < tr.path.x.min() and tr.path.x.max() < area.x_max - 1
+    assert area.y_min + 1 < tr.path.y.min() and tr.path.y.max() < area.y_max - 1
 
 
 def test_duration_drives_circles_until_the_end(sim_cache) -> None:
     sim = sim_cache("paper-circle", duration=400.0)
     assert sim.duration == pytest.approx(400.0)
-    assert (sim.truth.heading[-1] - sim.truth.heading[0]) / (2 * math.pi) > 15
+    assert (sim.truth.path.heading[-1] - sim.truth.path.heading[0]) / (2 * math.pi) > 15

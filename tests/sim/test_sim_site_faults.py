@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from lgvtool.config import default_config
+from lgvtool.json_types import member
 from lgvtool.log import LogReader
 from lgvtool.sim.settings import ExtraObject, MovedReflector, SimSettings, apply_overrides
 from lgvtool.sim.simulation import Simulation, simulate
@@ -98,7 +99,7 @@ def test_a_moved_reflector_is_measured_at_its_new_place(busiest: list[int]) -> N
     hx, hy, _ = sim.truth.point_at(t, sim.vehicle.nav_x, sim.vehicle.nav_y)
     off = np.abs(measured - np.hypot(layout.x - hx, layout.y - hy))
     assert off.max() > 0.02 and off.max() <= math.hypot(0.06, 0.03) + 1e-9
-    assert sim.metadata()["site_faults"]["moved"] == [{"id": rid, "dx": 0.06, "dy": -0.03}]
+    assert member(sim.metadata()["site_faults"], "moved") == [{"id": rid, "dx": 0.06, "dy": -0.03}]
 
 
 def test_a_weak_reflector_is_seen_on_its_share_of_chances(busiest: list[int]) -> None:
@@ -132,7 +133,7 @@ def test_an_extra_object_is_seen_and_is_not_in_the_stored_layout(tmp_path: Path)
     matched = sim.scans.matched[sim.scans.seen[:, j], j]
     given = {int(sim.landmarks.ids[m]) for m in matched if m >= 0}
     assert given <= {r.id for r in sim.config.reflectors}
-    extra = sim.metadata()["site_faults"]["extra"]
+    extra = member(sim.metadata()["site_faults"], "extra")
     assert extra == [{"x": 14.0, "y": 19.9, "detection": 0.6, "seen": seen}]
     out = tmp_path / "e.mcap"
     write_log(sim, out)
@@ -215,7 +216,8 @@ def test_the_older_false_reflector_still_works() -> None:
                  (old.scans.matched, new.scans.matched)):
         assert np.array_equal(a, b)
     assert old.metadata()["false_reflector"] == new.metadata()["false_reflector"]
-    assert old.metadata()["site_faults"]["extra"] == new.metadata()["site_faults"]["extra"]
+    assert (member(old.metadata()["site_faults"], "extra")
+            == member(new.metadata()["site_faults"], "extra"))
 
 
 def test_the_defaults_change_nothing() -> None:

@@ -9,11 +9,11 @@ completed it; its ``timestamp`` is that time too.
 
 from __future__ import annotations
 
-from typing import Any
-
 from lgvtool.devices.log_decoding import DecodedQueue, error_summary
+from lgvtool.devices.mcu.mcu_frame import McuFrame
 from lgvtool.devices.mcu.mcu_session import McuLink
 from lgvtool.devices.mcu.mcu_stream import McuStreamDecoder
+from lgvtool.json_types import JSONObject
 from lgvtool.log import topics
 from lgvtool.log.messages import mcu_frame_message
 from lgvtool.timestamps import stamp
@@ -38,7 +38,7 @@ class McuLogDecoder(DecodedQueue):
         self.stream = stream if stream is not None else McuStreamDecoder()
         self.frames = 0
 
-    def _frames(self, frames: list[Any], t_ns: int) -> None:
+    def _frames(self, frames: list[McuFrame], t_ns: int) -> None:
         ts = stamp(t_ns)
         for frame in frames:
             self.emit(topics.MCU_FRAME, mcu_frame_message(frame, ts), t_ns)
@@ -58,9 +58,9 @@ class McuLogDecoder(DecodedQueue):
         """Decoder events since the last call."""
         return self.stream.pop_events()
 
-    def report(self) -> dict[str, Any]:
+    def report(self) -> JSONObject:
         """``{"frames", "stats"}``."""
-        return {"frames": self.frames, "stats": self.stream.stats.as_dict()}
+        return {"frames": self.frames, "stats": dict(self.stream.stats.as_dict())}
 
     def summary(self) -> list[str]:
         """``mcu: N frames; errors: ...``."""

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable
 
 from lgvtool.config import Vehicle
 from lgvtool.devices.device_links import Link
@@ -19,6 +18,7 @@ from lgvtool.devices.log_decoding import decode_chunk
 from lgvtool.devices.logsink import LogSink
 from lgvtool.devices.mcu.mcu_logdecode import McuLogDecoder
 from lgvtool.devices.mcu.mcu_session import McuLink, Motion
+from lgvtool.json_types import JSONRecord
 from lgvtool.log import topics
 from lgvtool.wire.decode_events import ERROR, INFO, DecodeEvent
 
@@ -31,7 +31,7 @@ class McuWorker(LinkWorker):
     device = "mcu"
 
     def __init__(self, link: Link, sink: LogSink, stop: threading.Event, timing: LinkTiming,
-                 vehicle: Vehicle, warn: Any = None) -> None:
+                 vehicle: Vehicle, warn: Callable[[str], None] | None = None) -> None:
         super().__init__(link, sink, stop, timing, warn)
         self.decoder = McuLink(vehicle)
         self.log_decoder = McuLogDecoder(self.decoder)
@@ -84,7 +84,7 @@ class McuWorker(LinkWorker):
         if self.decoder.motion is not None:
             self.motion = (now, self.decoder.motion)
 
-    def message(self, topic: str, message: Mapping[str, Any], t_ns: int) -> None:
+    def message(self, topic: str, message: JSONRecord, t_ns: int) -> None:
         """A decoded frame (the worker is its decoder's output): to the sink; the first one
         also describes the MCU in the metadata."""
         self.sink.message(topic, message, t_ns)

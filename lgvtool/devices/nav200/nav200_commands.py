@@ -305,7 +305,7 @@ class ErrorReply:
 
 
 #: Anything the device sends.
-AnyReply = Reply | ErrorReply
+DeviceReply = Reply | ErrorReply
 
 
 def _as_telegram(message: Telegram | bytes | bytearray | memoryview) -> Telegram:
@@ -326,7 +326,7 @@ def decode_request(message: Telegram | bytes | bytearray | memoryview) -> Reques
     return Request(tel.code, _unpack(spec.request, tel))
 
 
-def decode_reply(message: Telegram | bytes | bytearray | memoryview) -> AnyReply:
+def decode_reply(message: Telegram | bytes | bytearray | memoryview) -> DeviceReply:
     """Decode one reply from a telegram or its framed bytes (host side).
 
     A telegram with function 'E' (and any mode letter) is an :class:`ErrorReply`. Raises the
@@ -349,7 +349,7 @@ def _unpack(payload_type: type[P], tel: Telegram) -> P:
         raise BadLengthError(f"NAV200 {tel.code}: {exc}") from None
 
 
-def reply_matches(request: Request, reply: AnyReply) -> bool:
+def reply_matches(request: Request, reply: DeviceReply) -> bool:
     """True when ``reply`` answers ``request``.
 
     A normal reply must carry the request's reply code (its LEN was checked when decoding). An
@@ -361,7 +361,7 @@ def reply_matches(request: Request, reply: AnyReply) -> bool:
     return reply.code == request.reply_code
 
 
-def check_reply(request: Request, reply: AnyReply) -> AnyReply:
+def check_reply(request: Request, reply: DeviceReply) -> DeviceReply:
     """Return ``reply`` if it answers ``request``; else raise UnexpectedReplyError."""
     if not reply_matches(request, reply):
         raise UnexpectedReplyError(
@@ -377,8 +377,8 @@ __all__ = [
     "ERROR_REPLY_LEN",
     "MODES",
     "REPLIES",
-    "AnyReply",
     "CommandSpec",
+    "DeviceReply",
     "ErrorReply",
     "Reply",
     "Request",

@@ -10,12 +10,11 @@ completed it, also the replies completed when the log ends.
 
 from __future__ import annotations
 
-from typing import Any
-
 from lgvtool.devices.log_decoding import DecodedQueue, error_summary
 from lgvtool.devices.nav200.nav200_commands import Reply
 from lgvtool.devices.nav200.nav200_matcher import Exchange, Nav200ReplyMatcher
 from lgvtool.devices.nav200.nav200_payloads import Pose
+from lgvtool.json_types import JSONObject
 from lgvtool.log import topics
 from lgvtool.log.messages import nav_pose_message
 from lgvtool.timestamps import stamp
@@ -68,11 +67,11 @@ class Nav200LogDecoder(DecodedQueue):
         """Decoder and matching events since the last call."""
         return self.matcher.pop_events()
 
-    def report(self) -> dict[str, Any]:
+    def report(self) -> JSONObject:
         """``{"replies", "poses", "requests", "stats", "request_stats"}``."""
         return {"replies": self.replies, "poses": self.poses, "requests": self.requests,
-                "stats": self.matcher.stats.as_dict(),
-                "request_stats": self.matcher.request_stats.as_dict()}
+                "stats": dict(self.matcher.stats.as_dict()),
+                "request_stats": dict(self.matcher.request_stats.as_dict())}
 
     def summary(self) -> list[str]:
         """The replies, poses and requests decoded, and the error counts."""

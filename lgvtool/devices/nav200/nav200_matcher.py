@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from lgvtool.devices.nav200.nav200_commands import AnyReply, Request, reply_matches
+from lgvtool.devices.nav200.nav200_commands import DeviceReply, Request, reply_matches
 from lgvtool.devices.nav200.nav200_stream import Nav200ReplyDecoder, Nav200RequestDecoder
 from lgvtool.wire.decode_events import WARNING, DecodeEvent, DecoderStats
 
@@ -24,7 +24,7 @@ class Exchange:
     """A reply and the request it answers (``request`` is None for an unexpected reply)."""
 
     request: Request | None
-    reply: AnyReply
+    reply: DeviceReply
 
     @property
     def matched(self) -> bool:
@@ -110,7 +110,7 @@ class Nav200ReplyMatcher:
             )
         )
 
-    def _match(self, reply: AnyReply) -> Exchange:
+    def _match(self, reply: DeviceReply) -> Exchange:
         request = self.pending
         if request is not None and reply_matches(request, reply):
             self.pending = None

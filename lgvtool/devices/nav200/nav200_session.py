@@ -41,7 +41,6 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Any
 
 from lgvtool.devices.head_speed import HeadSpeed
 from lgvtool.devices.nav200.nav200_commands import ErrorReply, Reply, Request
@@ -65,6 +64,7 @@ from lgvtool.devices.nav200.nav200_requests import (
     request_version,
 )
 from lgvtool.devices.session_events import DeviceSilent, PositioningEntered
+from lgvtool.json_types import JSON, JSONObject
 from lgvtool.wire.decode_events import ERROR, INFO, WARNING, DecodeEvent, DecoderStats
 from lgvtool.wire.units import OMEGA_UNITS_PER_RAD_S
 
@@ -136,7 +136,7 @@ class Nav200Settings:
     retry_max: float = 5.0
     """Largest retry delay, s."""
 
-    def applied(self) -> dict[str, Any]:
+    def applied(self) -> JSONObject:
         """The settings that shape the device's behaviour, JSON-able (for log metadata)."""
         return {
             "layer": self.layer,
@@ -348,7 +348,7 @@ class Nav200Session:
         return out
 
     # ------------------------------------------------------------------ internals
-    def _diag(self, kind: str, message: str, level: int = WARNING, **details: Any) -> None:
+    def _diag(self, kind: str, message: str, level: int = WARNING, **details: JSON) -> None:
         self._events.append(DecodeEvent("nav200", kind, message, level, 1, details))
 
     def _restart_plan(self) -> None:
@@ -631,7 +631,7 @@ class Nav200Session:
         ``resume_tries`` times in a row without a pose (then it is given up, said once)."""
         if self._resume_given_up:
             return
-        details = {"request": pending.request.code, "error_class": reply.error_class,
+        details: JSONObject = {"request": pending.request.code, "error_class": reply.error_class,
                    "group": reply.group, "detail": reply.detail}
         if self._resumes >= self.settings.resume_tries:
             self._resume_given_up = True

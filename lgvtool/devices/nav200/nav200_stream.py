@@ -13,7 +13,7 @@ from abc import abstractmethod
 from typing import TypeVar
 
 from lgvtool.devices.nav200.nav200_commands import (
-    AnyReply,
+    DeviceReply,
     ErrorReply,
     Request,
     decode_reply,
@@ -110,7 +110,7 @@ class _Nav200Decoder(StreamDecoder[T]):
             return Reject(exc.kind, str(exc))
 
 
-class Nav200ReplyDecoder(_Nav200Decoder[AnyReply]):
+class Nav200ReplyDecoder(_Nav200Decoder[DeviceReply]):
     """Host side: decode device replies; ``feed(chunk) -> list[Reply | ErrorReply]``.
 
     Error replies are delivered (they are valid telegrams) and also counted in
@@ -123,10 +123,10 @@ class Nav200ReplyDecoder(_Nav200Decoder[AnyReply]):
     def _length(self, code: str) -> int | None:
         return reply_length(code)
 
-    def _decode(self, raw: bytes) -> AnyReply:
+    def _decode(self, raw: bytes) -> DeviceReply:
         return decode_reply(parse_telegram(raw))
 
-    def _delivered(self, frame: AnyReply, offset: int) -> None:
+    def _delivered(self, frame: DeviceReply, offset: int) -> None:
         if isinstance(frame, ErrorReply):
             self.stats.error_replies += 1
             self._event(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 from lgvtool.config import Reflector, Vehicle
@@ -35,7 +36,7 @@ class Nav200Worker(SessionWorker):
     def __init__(self, link: Link, sink: LogSink, stop: threading.Event, timing: LinkTiming,
                  session: Nav200Session, *, vehicle: Vehicle,
                  known_map: tuple[Reflector, ...] = (), mcu: McuWorker | None = None,
-                 warn: Any = None) -> None:
+                 warn: Callable[[str], None] | None = None) -> None:
         super().__init__(link, sink, stop, timing, session, vehicle=vehicle, mcu=mcu, warn=warn)
         self.session: Nav200Session = session
         self._radius = {r.id: r.radius for r in known_map}

@@ -214,12 +214,13 @@ class BinaryReader(Reader):
         self.buf = buf
         self.pos = 0
 
-    def _take(self, fmt: str, size: int) -> Any:
+    def _take(self, fmt: str, size: int) -> int | float:
         p = self.pos
         if p + size > len(self.buf):
             raise BadLengthError("telegram ends inside its arguments")
         self.pos = p + size
-        return struct.unpack_from(fmt, self.buf, p)[0]
+        value: int | float = struct.unpack_from(fmt, self.buf, p)[0]
+        return value
 
     def u8(self) -> int:
         p = self.pos
@@ -352,7 +353,7 @@ class BinaryWriter(Writer):
     def __init__(self) -> None:
         self._parts: list[bytes] = []
 
-    def _put(self, fmt: str, v: Any) -> Writer:
+    def _put(self, fmt: str, v: float) -> Writer:
         self._parts.append(struct.pack(fmt, v))
         return self
 

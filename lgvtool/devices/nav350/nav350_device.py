@@ -49,7 +49,8 @@ from lgvtool.devices.nav350.nav350_telegrams import (
     Telegram,
 )
 
-__all__ = ["DeviceFaults", "Nav350Device", "Observation", "Revolution", "RevolutionSource"]
+__all__ = ["ECHO_FULL", "DeviceFaults", "Nav350Device", "Observation", "Revolution",
+           "RevolutionSource"]
 
 #: Identity the device reports.
 FIRMWARE = "V2.1.2-lgvtool"
@@ -64,17 +65,23 @@ CHANGE_DELAY = 0.05
 MAP_GROUP_M = 0.3
 #: Fewest reflectors a mapping run must find.
 MAP_MIN = 3
+#: Mean echo the model reports for a clean reflector within full range, device units (the
+#: NAV350's echo unit is not documented).
+ECHO_FULL = 200
 
 
 @dataclass(frozen=True, slots=True)
 class Observation:
     """A reflector measured in a revolution: range m, bearing rad (sensor frame,
-    counter-clockwise), time after the revolution start s, map id (-1 unknown)."""
+    counter-clockwise), time after the revolution start s, map id (-1 unknown), and its echo
+    relative to a clean reflector within full range, 0..1 (reported as the mean echo,
+    :data:`ECHO_FULL` device units at 1)."""
 
     range: float
     bearing: float
     time_in_scan: float
     id: int
+    echo: float = 1.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -465,7 +472,7 @@ class Nav350Device:
             bearing = math.atan2(y - sy, x - sx) - sphi
             centre = round(math.degrees(bearing) / 0.25) % SCAN_POINTS
             info = LandmarkInfo(i, 0xFFFF, 1, 1, 100, tick, self._state.refl_size,
-                                min(n, 0xFFFF), 200, centre, centre)
+                                min(n, 0xFFFF), ECHO_FULL, centre, centre)
             marks.append(Landmark((round(x * 1000.0), round(y * 1000.0)),
                                   (round(rng * 1000.0),
                                    round(math.degrees(bearing) * 1000.0) % 360_000), info))
@@ -539,7 +546,8 @@ class Nav350Device:
                 centre = round(math.degrees(o.bearing) / 0.25) % SCAN_POINTS
                 info = LandmarkInfo(i, o.id if 0 <= o.id < 0xFFFF else 0xFFFF, 1, 1,
                                     max(1, 100 - round(2.0 * o.range)),
-                                    self.tick(rev.start + o.time_in_scan), 80, width, 200,
+                                    self.tick(rev.start + o.time_in_scan), 80, width,
+                                    max(1, min(0xFFFF, round(ECHO_FULL * o.echo))),
                                     (centre - width // 2) % SCAN_POINTS,
                                     (centre + width // 2) % SCAN_POINTS)
             marks.append(Landmark(cart, polar, info))

@@ -16,6 +16,7 @@ from lgvtool.devices.log_decoding import error_summary
 from lgvtool.devices.nav350.nav350_clock import ClockEstimator
 from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 from lgvtool.devices.nav350.nav350_telegrams import PoseData, Telegram
+from lgvtool.json_types import JSONObject
 from lgvtool.log import topics
 from lgvtool.log.messages import nav350_pose_message, nav350_scan_message
 from lgvtool.wire.decode_events import STREAM_EVENT_KINDS, DecodeEvent, DecoderStats
@@ -100,9 +101,11 @@ class Nav350LogDecoder:
         if scan is not None:
             self._messages.append((topics.NAV_REFLECTORS, scan, t_ns))
             self.scans += 1
-            self.landmarks += len(scan["observations"])
+            observations = scan["observations"]
+            assert isinstance(observations, list)  # as nav350_scan_message builds it
+            self.landmarks += len(observations)
 
-    def pop_messages(self) -> list[tuple[str, dict[str, Any], int]]:
+    def pop_messages(self) -> list[tuple[str, JSONObject, int]]:
         """Decoded messages since the last call, in order."""
         out, self._messages = self._messages, []
         return out
@@ -117,10 +120,10 @@ class Nav350LogDecoder:
         for reply in self.replies.flush():
             self._on_reply(reply, t_ns)
 
-    def report(self) -> dict[str, Any]:
+    def report(self) -> JSONObject:
         """``{"poses", "scans", "landmarks", "stats"}`` (stats: of the reply stream)."""
         return {"poses": self.poses, "scans": self.scans, "landmarks": self.landmarks,
-                "stats": self.stats.as_dict()}
+                "stats": dict(self.stats.as_dict())}
 
     def summary(self) -> list[str]:
         """``nav350: N poses, M scans (K landmarks); errors: ...``."""

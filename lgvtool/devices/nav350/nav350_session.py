@@ -38,7 +38,6 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
-from typing import Any
 
 from lgvtool.devices.head_speed import HeadSpeed
 from lgvtool.devices.nav350 import nav350_telegrams as tg
@@ -56,6 +55,7 @@ from lgvtool.devices.nav350.nav350_telegrams import (
     Telegram,
 )
 from lgvtool.devices.session_events import DeviceSilent, PositioningEntered
+from lgvtool.json_types import JSON, JSONObject
 from lgvtool.wire.decode_events import ERROR, INFO, WARNING, DecodeEvent, DecoderStats
 
 __all__ = [
@@ -135,7 +135,7 @@ class Nav350Settings:
     retry_initial: float = 0.5
     retry_max: float = 5.0
 
-    def applied(self) -> dict[str, Any]:
+    def applied(self) -> JSONObject:
         """The settings that shape the device's behaviour, JSON-able (log metadata)."""
         return {"dialect": self.dialect, "access_level": self.access_level,
                 "layer": self.layer, "layout_read": self.read_layout,
@@ -382,7 +382,7 @@ class Nav350Session:
         return out
 
     # ------------------------------------------------------------------ internals
-    def _diag(self, kind: str, message: str, level: int = WARNING, **details: Any) -> None:
+    def _diag(self, kind: str, message: str, level: int = WARNING, **details: JSON) -> None:
         self._events.append(DecodeEvent("nav350", kind, message, level, 1, details))
 
     def _new_clock_session(self) -> None:
@@ -682,7 +682,7 @@ class Nav350Session:
         when = "after" if prefix == "got:" else "before"
         self._events.append(LayoutRead(self.settings.layer, tuple(self._stored), when))
 
-    def _layout_unreadable(self, message: str, *, popped: bool = False, **details: Any) -> None:
+    def _layout_unreadable(self, message: str, *, popped: bool = False, **details: JSON) -> None:
         """The stored layout cannot be read: said once, the rest of the read skipped (a
         requested write still goes ahead: it was asked for by name)."""
         if not popped:
@@ -720,12 +720,12 @@ class Nav350Session:
         while self._plan and self._plan[0] in ("mapping", "do_mapping"):
             self._plan.popleft()
 
-    def _clock_failed(self, why: str, *, report: bool = True, **details: Any) -> None:
+    def _clock_failed(self, why: str, *, report: bool = True, **details: JSON) -> None:
         """A clock read failed; after ``clock_tries`` in this device session the clock read
         is given up for it (said once) and the clock follows the pose replies' arrival."""
         self._clock_failures += 1
         if report:
-            self._diag("clock_read_failed", f"NAV350 clock read failed: {why}",
+            self._diag("clock_read_failed", f"NAV350 clock read failed: {why}", level=WARNING,
                        failures=self._clock_failures, **details)
         if self._clock_failures >= self.settings.clock_tries and self._clock_by_telegram:
             self._clock_by_telegram = False

@@ -573,7 +573,7 @@ def decode_frame(frame: Frame, size: int = 0) -> Telegram:
 
 
 # ---------------------------------------------------------------------------------- builders
-def request(kind: str, name: str, *values: Any) -> Telegram:
+def request(kind: str, name: str, *values: object) -> Telegram:
     """A request telegram (binary by default)."""
     return Telegram(kind, name, tuple(values) if (kind, name) not in _CUSTOM else values[0])
 
@@ -656,7 +656,7 @@ def get_landmarks(ids: Sequence[int]) -> Telegram:
     return Telegram("sMN", "mNLAYGetLandmark", values)
 
 
-def reply(kind: str, name: str, *values: Any) -> Telegram:
+def reply(kind: str, name: str, *values: object) -> Telegram:
     """A reply telegram with fixed-layout ``values``."""
     return Telegram(kind, name, tuple(values))
 

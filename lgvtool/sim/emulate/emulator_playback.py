@@ -19,16 +19,20 @@ import base64
 import bisect
 import math
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from lgvtool.config import Config, Reflector
 from lgvtool.devices.mcu.mcu_frame import McuFrame
 from lgvtool.devices.nav200.nav200_device import PoseFix
 from lgvtool.errors import MissingDataError
+from lgvtool.json_types import JSONRecord, as_float, as_int
+
+if TYPE_CHECKING:
+    from lgvtool.sim.event_stream import NavScan
 
 __all__ = ["McuChunk", "Playback", "playback_from_log", "playback_from_scenario"]
 
@@ -57,7 +61,7 @@ class Playback:
     :attr:`poses`) by a device that compensates its motion within the revolution with the head
     velocity ``vx``, ``vy`` (m/s, along the vehicle's axes) and ``omega`` (rad/s). None when the
     poses are what a device reported (a log)."""
-    scans: tuple[Any, ...] = ()
+    scans: tuple[NavScan, ...] = ()
     """The head revolution of each pose solution (:class:`lgvtool.sim.event_stream.NavScan`, same
     index as :attr:`poses`), for devices that report their reflectors (NAV350); empty for a
     log."""
@@ -89,7 +93,7 @@ class Playback:
 
 def playback_from_scenario(name: str, *, seed: int = 0, duration: float | None = None,
                            config: Config | None = None,
-                           overrides: dict[str, Any] | None = None) -> Playback:
+                           overrides: Mapping[str, object] | None = None) -> Playback:
     """Simulate scenario ``name`` (``lgvtool simulate`` settings) and play its device side."""
     import numpy as np
 
@@ -114,14 +118,14 @@ def playback_from_scenario(name: str, *, seed: int = 0, duration: float | None =
                     resolve=resolve, scans=tuple(nav_scans(sim)))
 
 
-def _frame_from_message(d: dict[str, Any]) -> bytes:
+def _frame_from_message(d: JSONRecord) -> bytes:
     return McuFrame(
-        seq=int(d["seq"]), mcu_time_ms=int(d["mcu_time_ms"]), enc_left=int(d["enc_left"]),
-        enc_right=int(d["enc_right"]), gyro_raw=int(d["gyro_raw"]),
-        gyro_scale_udeg_s=round(float(d["gyro_scale"]) * 1e6),
-        steering_cdeg=round(math.degrees(float(d["steering_angle"])) * 100.0),
-        drive_speed_mm_s=round(float(d["drive_speed"]) * 1000.0), status=int(d["status"]),
-        version=int(d.get("version", 1)),
+        seq=as_int(d["seq"]), mcu_time_ms=as_int(d["mcu_time_ms"]),
+        enc_left=as_int(d["enc_left"]), enc_right=as_int(d["enc_right"]),
+        gyro_raw=as_int(d["gyro_raw"]), gyro_scale_udeg_s=round(as_float(d["gyro_scale"]) * 1e6),
+        steering_cdeg=round(math.degrees(as_float(d["steering_angle"])) * 100.0),
+        drive_speed_mm_s=round(as_float(d["drive_speed"]) * 1000.0),
+        status=as_int(d["status"]), version=as_int(d.get("version", 1)),
     ).encode()
 
 

@@ -30,10 +30,11 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any, TypeGuard
+from typing import IO, TypeGuard
 
 from lgvtool.devices.device_registry import registration
 from lgvtool.errors import InputError
+from lgvtool.json_types import JSONObject
 from lgvtool.sim.emulate.emulator_playback import Playback
 from lgvtool.sim.emulate.emulator_registry import Emulator, FamilyEmulation, Pacer, emulations
 from lgvtool.sim.emulate.endpoints import PTY_SETTLE, Endpoint, PtyEndpoint, TcpEndpoint
@@ -424,9 +425,9 @@ class EmulatorServer:
             if emulator is not None and fault.kind in emulator.FAULT_KINDS:
                 emulator.apply_fault(fault.kind, t, fault.arg, fault.code)
 
-    def status(self) -> dict[str, Any]:
-        """Counts for people: run time, bytes each way, connections, faults applied."""
-        out: dict[str, Any] = {"run_time_s": self.run_time(), "faults": len(self.applied)}
+    def status(self) -> JSONObject:
+        """Counts for people: run time (s), bytes each way, connections, faults applied."""
+        out: JSONObject = {"run_time_s": self.run_time(), "faults": len(self.applied)}
         for name, ep in self.endpoints.items():
             out[name] = {"sent_bytes": len(self.sent(name)),
                          "received_bytes": len(self.received(name)),

@@ -5,7 +5,7 @@ record``; each device family's port option comes from its emulation
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
@@ -13,8 +13,14 @@ from lgvtool.options import Number, force_option, positive, scenario_option, set
 from lgvtool.sim.emulate.emulator_registry import emulations
 from lgvtool.values import MAX_SEED, MAX_SIM_DURATION_S, MAX_WALL_S
 
+if TYPE_CHECKING:
+    from lgvtool.sim.emulate.emulator_playback import Playback
+    from lgvtool.sim.emulate.emulator_server import Fault
 
-def _port_options(f: Callable[..., Any]) -> Callable[..., Any]:
+F = TypeVar("F", bound=Callable[..., object])
+
+
+def _port_options(f: F) -> F:
     """Every registered device family's ``serve`` port option, in the order the ports are
     listed."""
     for e in reversed(emulations()):
@@ -97,13 +103,14 @@ def serve(ctx: click.Context, /, log: str | None, scenario: str | None, seed: in
                exit_after)
 
 
-def _serve(playback: Any, ports: dict[str, str], pty_dir: str | None, speed: float,
-           fault_list: list[Any], start_now: bool, loop: bool, transcript: str | None,
+def _serve(playback: Playback, ports: dict[str, str], pty_dir: str | None, speed: float,
+           fault_list: list[Fault], start_now: bool, loop: bool, transcript: str | None,
            seed: int, exit_after: float | None) -> None:
     """Serve ``playback`` on the families' ``ports`` (by parameter name; 'none': not served)
     until it is played (``exit_after``) or stopped; print the counts."""
     import signal
 
+    from lgvtool.json_types import member
     from lgvtool.sim.emulate.emulator_server import EmulatorServer
 
     server = EmulatorServer(playback, link_dir=pty_dir, speed=speed, faults=fault_list,
@@ -126,15 +133,16 @@ def _serve(playback: Any, ports: dict[str, str], pty_dir: str | None, speed: flo
             for sig, handler in old.items():
                 signal.signal(sig, handler)
         status = server.status()
-        parts = [f"{n}: sent {status[n]['sent_bytes']} B, received {status[n]['received_bytes']}"
-                 f" B, {status[n]['connections']} connection(s)" for n in server.endpoints]
+        parts = [f"{n}: sent {member(status[n], 'sent_bytes')} B, received "
+                 f"{member(status[n], 'received_bytes')} B, "
+                 f"{member(status[n], 'connections')} connection(s)" for n in server.endpoints]
         click.echo("; ".join(parts) + f"; {status['faults']} fault(s) injected")
     finally:
         server.close()
 
 
 def _playback(log: str | None, scenario: str, seed: int, duration: float | None,
-              config_path: str | None, sets: tuple[str, ...]) -> Any:
+              config_path: str | None, sets: tuple[str, ...]) -> Playback:
     from lgvtool.sim.emulate.emulator_playback import playback_from_log, playback_from_scenario
 
     if log is not None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 from urllib.parse import parse_qs
 
 from lgvtool.devices.nav350 import nav350_telegrams as tg
@@ -19,6 +19,7 @@ from lgvtool.devices.nav350.nav350_stream import Nav350StreamDecoder
 from lgvtool.errors import InputError
 
 if TYPE_CHECKING:
+    from lgvtool.sim.emulate.emulator_playback import Playback
     from lgvtool.sim.emulate.endpoints import Endpoint
 
 __all__ = ["CLOCK_KEYS", "VirtualNav350", "revolutions_of", "split_port_spec"]
@@ -48,7 +49,7 @@ def split_port_spec(spec: str) -> tuple[str, dict[str, float]]:
     return base, out
 
 
-def revolutions_of(playback: Any) -> RevolutionSource:
+def revolutions_of(playback: Playback) -> RevolutionSource:
     """The revolutions of a :class:`~lgvtool.sim.emulate.emulator_playback.Playback`: its pose
     solutions with the reflectors of their revolution (none for a log's poses)."""
     revs = []
@@ -56,7 +57,8 @@ def revolutions_of(playback: Any) -> RevolutionSource:
     for k, fix in enumerate(playback.poses):
         scan = scans[k] if k < len(scans) else None
         obs = () if scan is None else tuple(
-            Observation(o.range, o.bearing, o.time_in_scan, o.id) for o in scan.observations)
+            Observation(o.range, o.bearing, o.time_in_scan, o.id, o.echo)
+            for o in scan.observations)
         start = fix.t if scan is None else scan.start
         period = 0.125 if scan is None else scan.period
         revs.append(Revolution(start, period, fix.t, fix.x, fix.y, fix.heading, fix.valid,
@@ -84,7 +86,7 @@ class VirtualNav350:
     #: the device faults of ``simulate serve`` it takes (:meth:`apply_fault`)
     FAULT_KINDS: tuple[str, ...] = ("reset", "sfa", "error", "badsum")
 
-    def __init__(self, playback: Any, *, drift_ppm: float = 50.0,
+    def __init__(self, playback: Playback, *, drift_ppm: float = 50.0,
                  offset_ms: int = 987_654) -> None:
         layout = {r.id: tg.LayoutLandmark(round(r.x * 1000), round(r.y * 1000), 1, 1,
                                           round(r.radius * 2000), (r.layer,))

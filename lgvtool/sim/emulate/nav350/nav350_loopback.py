@@ -12,7 +12,11 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from lgvtool.devices.recorder import RecordResult
+    from lgvtool.sim.emulate.emulator_playback import Playback
 
 __all__ = ["LoopbackResult", "loopback"]
 
@@ -29,7 +33,8 @@ class LoopbackResult:
     diagnostics: dict[str, int]
     clock_errors_ms: list[tuple[float, float]] = field(default_factory=list)
     reconnects: int = 0
-    record: Any = None
+    record: RecordResult | None = None
+    """What the recorder returned (None: it did not finish)."""
     speed_tick_errors_ms: list[float] = field(default_factory=list)
     """Per mNPOSSetSpeed received: its tick minus the device clock on arrival, ms."""
     in_flight: int = 0
@@ -42,7 +47,7 @@ class LoopbackResult:
         return max(errs) if errs else float("nan")
 
 
-def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...] = (),
+def loopback(playback: Playback, out: Path, *, seconds: float, faults: tuple[str, ...] = (),
              drift_ppm: float = 50.0, offset_ms: int = 4_294_000_000,
              speed_input: bool = False, dialect: str = "binary") -> LoopbackResult:
     """Serve ``playback``, record ``seconds`` s into ``out``, count both sides."""
@@ -73,7 +78,7 @@ def loopback(playback: Any, out: Path, *, seconds: float, faults: tuple[str, ...
         recorder = Recorder(settings)
         server.start()
         worker_box: list[Any] = []
-        result_box: list[Any] = []
+        result_box: list[RecordResult] = []
 
         failed: list[BaseException] = []
 

@@ -1,0 +1,1 @@
+"""The site audit: reflector layout checks, coverage along the drive, and their report."""
