@@ -113,8 +113,8 @@ def _num(v: float | None, digits: int = 2) -> str:
 
 def _nice(x: float) -> float:
     """The largest of 1, 2, 5 x 10^k not above ``x`` (> 0)."""
-    k = 10 ** math.floor(math.log10(x))
-    return next(m * k for m in (5, 2, 1) if m * k <= x)
+    k = 10.0 ** math.floor(math.log10(x))
+    return next(m * k for m in (5.0, 2.0, 1.0) if m * k <= x)
 
 
 def _statuses(doc: JSONObject, layout: Sequence[Reflector]) -> dict[int, JSONObject]:

@@ -203,10 +203,35 @@ def save_audited(path: Path, log: AuditedLog) -> None:
         raise
 
 
+#: the callables outside lgvtool that a kept evidence file may name: numpy's array and scalar
+#: rebuilders and the containers (a pickle names what it calls; anything else is refused)
+_ALLOWED = (
+    {("builtins", n) for n in ("dict", "list", "tuple", "set", "frozenset", "int", "float",
+                               "complex", "str", "bytes", "bool", "slice")}
+    | {(m, n) for m in ("numpy.core.multiarray", "numpy._core.multiarray")
+       for n in ("_reconstruct", "scalar")}
+    | {(m, "_frombuffer") for m in ("numpy.core.numeric", "numpy._core.numeric")}
+    | {("numpy", "ndarray"), ("numpy", "dtype"), ("copyreg", "_reconstructor")}
+)
+
+
+class _EvidenceUnpickler(pickle.Unpickler):
+    """An unpickler that makes only lgvtool's own classes, numpy arrays and plain containers:
+    a file that names any other callable (a function of ``os``, one of lgvtool's functions) is
+    refused, so a crafted file in an output folder cannot run code."""
+
+    def find_class(self, module: str, name: str) -> type:
+        found: type = super().find_class(module, name)
+        if (module, name) in _ALLOWED or module == "numpy.dtypes" or (
+                module.startswith("lgvtool.") and isinstance(found, type)):
+            return found
+        raise pickle.UnpicklingError(f"{module}.{name} is not part of an evidence file")
+
+
 def load_audited(path: Path, key: str) -> AuditedLog | None:
     """The evidence kept at ``path`` for the log of ``key``; None when there is no such file.
-    The file is the audit's own (written by :func:`save_audited` into the output folder): a
-    pickle, so only an output folder one trusts is resumed.
+    The file is the audit's own (written by :func:`save_audited` into the output folder), read
+    by an unpickler that makes only lgvtool's classes, numpy arrays and containers.
 
     :raises InputError: the file is unreadable, of another format, or not of ``key``.
     """
@@ -218,7 +243,7 @@ def load_audited(path: Path, key: str) -> AuditedLog | None:
            "instead of --resume)")
     try:
         with open(path, "rb") as f:
-            doc = pickle.load(f)  # the audit's own file, in its output folder
+            doc = _EvidenceUnpickler(f).load()
     except Exception as exc:
         raise InputError(bad) from exc
     if (not isinstance(doc, dict) or doc.get("format") != STORE_FORMAT

@@ -137,3 +137,29 @@ def test_the_vehicle_is_the_metadata_s_else_the_file_s() -> None:
     assert vehicle_of({"vehicle": {"name": "agv7"}, "recorder": {"host": "pc"}}, "a") == "agv7"
     assert vehicle_of({"recorder": {"host": "pc"}}, "a") == "pc"
     assert vehicle_of({"recorder": {"host": ""}}, "a") == "a"
+
+
+class _Shell:
+    """A pickle that asks the unpickler to call ``os.mkdir(where)`` when loaded."""
+
+    def __init__(self, where: Path) -> None:
+        self.where = where
+
+    def __reduce__(self) -> tuple[object, tuple[str]]:
+        import os
+
+        return (os.mkdir, (str(self.where),))
+
+
+def test_a_crafted_evidence_file_cannot_run_code(tmp_path: Path) -> None:
+    import pickle
+
+    from lgvtool.audit.fleet_table import load_audited
+    from lgvtool.errors import InputError
+
+    made = tmp_path / "made-by-the-pickle"
+    path = tmp_path / "crafted.pkl"
+    path.write_bytes(pickle.dumps({"format": "x", "log": _Shell(made)}))
+    with pytest.raises(InputError, match="not a readable audit evidence file"):
+        load_audited(path, "key")
+    assert not made.exists()
