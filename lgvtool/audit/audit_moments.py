@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-__all__ = ["Moments", "standard_error"]
+__all__ = ["Moments", "block_moments", "standard_error"]
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,18 @@ class Moments:
                                        self.m2 / np.maximum(self.n - 1.0, 1.0)[:, None, None],
                                        np.nan)
         return out
+
+
+def block_moments(group: IntArray, values: FloatArray, block: IntArray, groups: int
+                  ) -> Moments:
+    """Moments, per group (``groups`` of them), of the means of ``values`` (rows, the vectors'
+    unit) over each (group, time block): what :func:`standard_error` takes as ``blocks``."""
+    if len(group) == 0:
+        return Moments.empty(groups, values.shape[1])
+    key = np.stack([group, block], axis=1)
+    uniq, inv = np.unique(key, axis=0, return_inverse=True)
+    means = Moments.of(inv.reshape(-1), values, len(uniq)).mean
+    return Moments.of(uniq[:, 0], means, groups)
 
 
 def standard_error(points: Moments, blocks: Moments) -> FloatArray:

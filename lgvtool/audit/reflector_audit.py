@@ -43,7 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.angles import wrap_angle
-from lgvtool.audit.audit_moments import Moments, standard_error
+from lgvtool.audit.audit_moments import Moments, block_moments, standard_error
 from lgvtool.audit.audit_settings import AuditSettings
 from lgvtool.audit.unmapped_objects import UnmappedEvidence, pooled_unmapped, unmapped_evidence
 from lgvtool.audit.visibility import DeviceView, expected_visibility
@@ -279,17 +279,6 @@ def _leave_one_out(scan: IntArray, ex: FloatArray, ey: FloatArray, ux: FloatArra
     return lx, ly, usable
 
 
-def _block_moments(group: IntArray, values: FloatArray, block: IntArray, groups: int
-                   ) -> Moments:
-    """Moments, per group, of the means of ``values`` over each (group, block)."""
-    if len(group) == 0:
-        return Moments.empty(groups, values.shape[1])
-    key = np.stack([group, block], axis=1)
-    uniq, inv = np.unique(key, axis=0, return_inverse=True)
-    means = Moments.of(inv.reshape(-1), values, len(uniq)).mean
-    return Moments.of(uniq[:, 0], means, groups)
-
-
 def range_offsets(ranges: FloatArray, bx: FloatArray, by: FloatArray, matched: IntArray,
                   jm: IntArray, lx: FloatArray, ly: FloatArray, settings: AuditSettings
                   ) -> FloatArray:
@@ -425,7 +414,7 @@ def _block_evidence(reflectors: Sequence[Reflector], track: Trajectory, settled:
     offsets = Moments.of(off_group, np.stack([loo_x[usable], loo_y[usable],
                                               (lever_x / reach)[usable],
                                               (lever_y / reach)[usable]], axis=1), m)
-    offset_blocks = _block_moments(off_group, off, block[matched][usable], m)
+    offset_blocks = block_moments(off_group, off, block[matched][usable], m)
     # range and bearing residuals against the replayed pose
     dx, dy = lx[jm] - bx[matched], ly[jm] - by[matched]
     dr = ranges[matched] - np.hypot(dx, dy)

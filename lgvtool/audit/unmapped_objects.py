@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.audit.audit_moments import Moments, standard_error
+from lgvtool.audit.audit_moments import Moments, block_moments, standard_error
 from lgvtool.audit.audit_settings import AuditSettings
 
 FloatArray = NDArray[np.float64]
@@ -70,18 +70,6 @@ def _components(pairs: list[tuple[int, int]], n: int) -> IntArray:
     return labels.astype(np.int64)
 
 
-def _block_moments(label: IntArray, values: FloatArray, block: IntArray, groups: int
-                   ) -> Moments:
-    """Moments, per group, of the means of ``values`` over each (group, block)."""
-    if len(label) == 0:
-        return Moments.empty(groups, values.shape[1])
-    key = np.stack([label, block], axis=1)
-    uniq, inv = np.unique(key, axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
-    means = Moments.of(inv, values, len(uniq)).mean
-    return Moments.of(uniq[:, 0], means, groups)
-
-
 def unmapped_evidence(x: FloatArray, y: FloatArray, block: IntArray,
                       settings: AuditSettings) -> UnmappedEvidence:
     """The clusters of the unmatched detections at (x, y) (m) seen in the time blocks
@@ -101,7 +89,7 @@ def unmapped_evidence(x: FloatArray, y: FloatArray, block: IntArray,
     groups = int(label.max()) + 1
     values = np.stack([x, y], axis=1)
     ev = UnmappedEvidence(Moments.of(label, values, groups),
-                          _block_moments(label, values, np.asarray(block, np.int64), groups))
+                          block_moments(label, values, np.asarray(block, np.int64), groups))
     return _largest(ev, MAX_CLUSTERS)
 
 

@@ -20,28 +20,23 @@ if TYPE_CHECKING:
     from mcap.summary import Summary
 
 
-class TopicRow(TypedDict):
-    """One topic of a file: its schema and encodings, message count, first and last log
-    time (s since the Unix epoch; None before its first message)."""
+class TopicSummary(TypedDict):
+    """A topic's row of :func:`describe_any` (without the topic, its key): its schema and
+    encodings, message count, first and last log time (s since the Unix epoch; None before
+    its first message)."""
+
+    schema: str
+    schema_encoding: str
+    message_encoding: str
+    count: int
+    first_time_s: float | None
+    last_time_s: float | None
+
+
+class TopicRow(TopicSummary):
+    """One topic of a file: its name and its :class:`TopicSummary`."""
 
     topic: str
-    schema: str
-    schema_encoding: str
-    message_encoding: str
-    count: int
-    first_time_s: float | None
-    last_time_s: float | None
-
-
-class TopicSummary(TypedDict):
-    """A topic's row of :func:`describe_any` (without the topic, its key)."""
-
-    schema: str
-    schema_encoding: str
-    message_encoding: str
-    count: int
-    first_time_s: float | None
-    last_time_s: float | None
 
 
 class McapDescription(TypedDict):
