@@ -116,16 +116,19 @@ CALIBRATION_COLUMNS = {"s_v": "scale_v", "s_w": "scale_w"}
 :func:`mrclam_metrics.estimates_at_odometry` applies."""
 
 
-def scan_drive(reader: Any, config: Any, params: Any, *,
-               truth: bool) -> tuple[Any, Any, list[Any]]:
+def scan_drive(reader: Any, config: Any, params: Any, *, truth: bool,
+               data: Any = None) -> tuple[Any, Any, list[Any]]:
     """What the replay feeds an estimator with ``params`` on a scan-only log (MRCLAM): the
-    log's data (with the ground truth when ``truth``), the odometry track its motion settings
-    ask for, and its scan observations in time order."""
+    log's data (with the ground truth when ``truth``; ``data``, when given, is that log's
+    :class:`lgvtool.localize.logdata.LogData` already read), the odometry track its motion
+    settings ask for, and its scan observations in time order (times in s after the data's
+    ``t0_ns``)."""
     from lgvtool.localize.logdata import load_log, scan_batch
     from lgvtool.localize.motion import MotionTrack
     from lgvtool.localize.observations import scan_observations
 
-    data = load_log(reader, config.reflectors or None, truth=truth)
+    if data is None:
+        data = load_log(reader, config.reflectors or None, truth=truth)
     if data.has_poses:
         raise ValueError("this driver replays scan-only logs (MRCLAM), this one has NAV poses")
     ms = params.motion_settings()
@@ -153,38 +156,61 @@ def calibrated_trajectory(reader: Any, name: str, trajectory: Trajectory, *, con
     replay disagree and this raises. Any other estimator's ``trajectory`` is returned as its
     poses alone.
     """
-    from lgvtool.localize.registry import ESTIMATORS, resolve_params, split_settings
-    from lgvtool.localize.replay_driver import estimator_rng, truth_pose_at
+    from lgvtool.localize.registry import resolve_params, split_settings
+    from lgvtool.localize.replay_driver import truth_pose_at
 
-    cls = ESTIMATORS[name]
     params = resolve_params(name, config.estimators, split_settings(settings).get(name))
     if not getattr(params, "odometry_scales", False):
         return trajectory.to_frame()
     data, track, obs = scan_drive(reader, config, params, truth=initial_pose == "truth")
-    vehicle = config.vehicle
     start = truth_pose_at(data, obs[0].t) if initial_pose == "truth" else None
-    trace: list[dict[str, float]] = []
-
-    class Traced(cls):  # type: ignore[misc, valid-type]
-        def estimate(self) -> Any:
-            e = super().estimate()
-            if e is not None:
-                trace.append(self.odometry_calibration)
-            return e
-
-    est = Traced(params, vehicle=vehicle, reflectors=data.reflectors, area=config.area,
-                 rng=estimator_rng(seed, name), initial_pose=start)
     times = np.array([o.t for o in obs], dtype=np.float64)
-    rows = est.run(times, obs, track.deltas(times[:-1], times[1:]), cloud_size=0).poses
-    heading = np.remainder(rows.heading + math.pi, 2.0 * math.pi) - math.pi
-    same = (len(rows.x) == len(trajectory)
-            and np.allclose(rows.x, trajectory.x, rtol=0.0, atol=1e-9)
-            and np.allclose(rows.y, trajectory.y, rtol=0.0, atol=1e-9)
-            and np.allclose(heading, trajectory.heading, rtol=0.0, atol=1e-9))
+    rows = traced_run(name, params, data, config, track, times, obs, seed=seed, start=start)
+    same = (len(rows) == len(trajectory)
+            and np.allclose(rows["x"], trajectory.x, rtol=0.0, atol=1e-9)
+            and np.allclose(rows["y"], trajectory.y, rtol=0.0, atol=1e-9)
+            and np.allclose(rows["heading"], trajectory.heading, rtol=0.0, atol=1e-9))
     if not same:
         raise RuntimeError(f"{name}: the calibration driver does not reproduce run_replay's "
                            "trajectory")
     out = trajectory.to_frame()
+    for column in CALIBRATION_COLUMNS.values():
+        if column in rows:
+            out[column] = rows[column].to_numpy()
+    return out
+
+
+def traced_run(name: str, params: Any, data: Any, config: Any, track: Any, times: Any,
+               observations: list[Any], *, seed: int,
+               start: tuple[float, float, float] | None, cls: Any = None) -> pd.DataFrame:
+    """Run estimator ``name`` with ``params`` over ``observations`` at ``times`` (s after the
+    data's ``t0_ns``; an observation None only moves the estimator to its time), moved by
+    ``track``, from ``start`` (x, y m, heading rad; None: its own start), the way ``replay``
+    runs it on a scan-only log. Returns one row per estimate: ``t`` (s after ``t0_ns``),
+    ``x``, ``y`` (m), ``heading`` (rad, wrapped), and the odometry calibration it held then
+    (``scale_v``, ``scale_w``, when it has odometry scales). ``cls``: an estimator class
+    to run instead of the registered one of ``name`` (a prototype taking ``name``'s
+    parameters)."""
+    from lgvtool.localize.registry import ESTIMATORS
+    from lgvtool.localize.replay_driver import estimator_rng
+
+    cls = cls if cls is not None else ESTIMATORS[name]
+    trace: list[dict[str, float]] = []
+    scales = bool(getattr(params, "odometry_scales", False))
+
+    class Traced(cls):  # type: ignore[misc]
+        def estimate(self) -> Any:
+            e = super().estimate()
+            if e is not None and scales:
+                trace.append(self.odometry_calibration)
+            return e
+
+    est = Traced(params, vehicle=config.vehicle, reflectors=data.reflectors, area=config.area,
+                 rng=estimator_rng(seed, name), initial_pose=start)
+    rows = est.run(times, observations, track.deltas(times[:-1], times[1:]),
+                   cloud_size=0).poses
+    out = pd.DataFrame({"t": rows.t, "x": rows.x, "y": rows.y,
+                        "heading": np.remainder(rows.heading + math.pi, 2.0 * math.pi) - math.pi})
     for state, column in CALIBRATION_COLUMNS.items():
         if trace and state in trace[0]:
             out[column] = [c[state] for c in trace]

@@ -57,20 +57,25 @@ SCALE_VARIANTS: tuple[tuple[str, dict[str, float]], ...] = (
 """Candidates that change how the odometry scales are learnt (prior, random walk)."""
 
 
-def cached_log(dataset: Path, robot: int, cache: Path) -> Path:
+def cached_log(dataset: Path, robot: int, cache: Path,
+               odometry_delay_s: float | None = None) -> Path:
     """The imported log of ``robot`` in ``cache``, imported when missing or older than the
-    dataset's files (the importer's defaults: odometry delay measured from the camera)."""
+    dataset's files (the importer's defaults: odometry delay measured from the camera, unless
+    ``odometry_delay_s`` (s) gives it)."""
     from lgvtool.importers.mrclam_log import import_robot
     from lgvtool.importers.mrclam_profile import estimator_profile
+    from lgvtool.importers.mrclam_quirks import ImportSettings
 
     cache.mkdir(parents=True, exist_ok=True)
     # the log stores the profile: a changed profile is a new log
     digest = hashlib.sha1(json.dumps(estimator_profile(), sort_keys=True).encode()).hexdigest()
-    tag = f"{dataset.resolve().name}-robot{robot}-{digest[:10]}.mcap"
+    delay = "" if odometry_delay_s is None else f"-delay{odometry_delay_s:g}"
+    tag = f"{dataset.resolve().name}-robot{robot}{delay}-{digest[:10]}.mcap"
     log = cache / tag
     newest = max(f.stat().st_mtime for f in dataset.glob(f"Robot{robot}_*.dat"))
     if not log.exists() or log.stat().st_mtime < newest:
-        import_robot(dataset, robot, log)
+        import_robot(dataset, robot, log,
+                     settings=ImportSettings(odometry_delay_s=odometry_delay_s))
     return log
 
 

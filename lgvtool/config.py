@@ -95,8 +95,9 @@ class Vehicle:
     nav_pose_age: float = setting(
         0.0,
         "Age of a NAV pose when the host receives it, beyond ``nav_time_offset`` (the device's own "
-        "delay from the middle of the revolution to its reply), s; not negative.",
-        unit="s", minimum=0.0)
+        "delay from the middle of the revolution to its reply), s; 0 to 2 s (a NAV answers within "
+        "a few revolutions).",
+        unit="s", minimum=0.0, maximum=2.0)
     gyro_scale: float = setting(
         1.0,
         "Gyro scale factor: the MCU reports ``gyro_scale * rate + gyro_bias``, dimensionless.",

@@ -78,6 +78,10 @@ CONFIGS: dict[str, str] = {
     "simulator_latency_nan": "[simulator.nav]\nlatency_s = nan\n",
     "simulator_rate_huge": "[simulator.sim]\nrate_hz = 1e12\n",
     "simulator_scenario_bogus": "[simulator.scenario]\nbogus = 1\n",
+    "ekf_skew_sigma_negative": "[estimators.ekf]\npose_skew_sigma_m = -1.0\n",
+    "pf_pose_latency_negative": "[estimators.pf]\npose_latency_s = -0.2\n",
+    "pf_paper_pose_latency_absurd": "[estimators.pf-paper]\npose_latency_s = 1000.0\n",
+    "ekf_sigma_pose_zero": "[estimators.ekf]\nsigma_pose_xy_m = 0.0\n",
     "simulator_scenario_nan": "[simulator.scenario]\nspeed = nan\n",
     "simulator_vehicle_negative": "[simulator.vehicle]\nh = -1.0\n",
 }
@@ -111,6 +115,8 @@ BAD_MESSAGES: dict[str, tuple[str, Any, bool]] = {
     "mcu_seq_huge": ("/mcu/frame", lambda d: d.update(seq=2**80), False),
     "scan_range_huge": ("/nav/reflectors", lambda d: d["observations"][0].update(range=1e308),
                         False),
+    "nav_no_stamp": ("/nav/pose", lambda d: d.pop("timestamp"), True),
+    "nav_zero_stamp": ("/nav/pose", lambda d: d.update(timestamp={"sec": 0, "nsec": 0}), False),
 }
 
 
@@ -512,7 +518,8 @@ def _message_cases() -> list[Case]:
     needles = {"truth_huge": "/truth/pose", "nav_valid_string": "/nav/pose",
                "map_not_list": "/map/reflectors", "map_huge": "/map/reflectors",
                "map_duplicate_id": "duplicate id",
-               "mcu_seq_huge": "/mcu/frame", "scan_range_huge": "/nav/reflectors"}
+               "mcu_seq_huge": "/mcu/frame", "scan_range_huge": "/nav/reflectors",
+               "nav_no_stamp": "/nav/pose", "nav_zero_stamp": "/nav/pose"}
     cases = []
     for name in BAD_MESSAGES:
         for command, args in commands.items():
@@ -685,9 +692,41 @@ def _grammar_cases() -> list[Case]:
     ]
 
 
+def _pose_model_cases() -> list[Case]:
+    """A pose-model parameter out of its range (a negative skew spread, a negative or absurd
+    pose age, a noise of 0) through ``--set`` of replay and evaluate and a configuration of
+    calibrate, and calibrate of a log whose NAV poses carry no time stamp (or a zero one):
+    one line naming the parameter or the channel."""
+    cases = [
+        _case("replay-set-ekf.pose_skew_sigma_m=-1", "replay", "{w}/log.mcap", "-e", "ekf",
+              "--set", "ekf.pose_skew_sigma_m=-1", "-o", "{out}/r.mcap",
+              needle="pose_skew_sigma_m must be at least 0"),
+        _case("evaluate-set-pf.pose_latency_s=-0.1", "evaluate", "{w}/log.mcap", "-e", "pf",
+              "--set", "pf.pose_latency_s=-0.1", needle="pose_latency_s must be at least 0"),
+        _case("evaluate-set-ekf.pose_latency_s=1e6", "evaluate", "{w}/log.mcap", "-e", "ekf",
+              "--set", "ekf.pose_latency_s=1e6", needle="pose_latency_s must be at most"),
+        _case("replay-set-pf-paper.sigma_pose_heading_rad=0", "replay", "{w}/log.mcap", "-e",
+              "pf-paper", "--set", "pf-paper.sigma_pose_heading_rad=0", "-o", "{out}/r.mcap",
+              needle="sigma_pose_heading_rad must be at least"),
+        _case("evaluate-set-ekf.pose_period_s=0", "evaluate", "{w}/log.mcap", "-e", "ekf",
+              "--set", "ekf.pose_period_s=0", needle="pose_period_s must be at least"),
+    ]
+    for name, needle in (("ekf_skew_sigma_negative", "pose_skew_sigma_m"),
+                         ("pf_pose_latency_negative", "pose_latency_s"),
+                         ("pf_paper_pose_latency_absurd", "pose_latency_s"),
+                         ("ekf_sigma_pose_zero", "sigma_pose_xy_m")):
+        cases.append(_case(f"calibrate-config-{name}", "calibrate", "{w}/log.mcap", "-o",
+                           "{out}/v.toml", "--config", f"{{w}}/{name}.toml", needle=needle))
+    for name in ("nav_no_stamp", "nav_zero_stamp"):
+        cases.append(_case(f"calibrate-{name}", "calibrate", f"{{w}}/{name}.mcap", "-o",
+                           "{out}/v.toml", needle="/nav/pose"))
+    return cases
+
+
 CASES: list[Case] = [*_sim_setting_cases(), *_estimator_param_cases(), *_option_cases(),
                      *_fault_cases(), *_serve_cases(), *_record_cases(), *_output_cases(),
-                     *_file_cases(), *_message_cases(), *_config_cases(), *_grammar_cases()]
+                     *_file_cases(), *_message_cases(), *_config_cases(), *_grammar_cases(),
+                     *_pose_model_cases()]
 
 
 def test_the_catalogue_is_large_and_its_ids_unique() -> None:

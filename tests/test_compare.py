@@ -237,3 +237,29 @@ def test_a_negative_site_tolerance_is_refused(results: Results,
                                        "--site-tolerance", "-1"))
     assert err == ("lgvtool: error: --site-tolerance: compare.site_tolerance_m must be at "
                    "least 0, got -1\n")
+
+
+def test_station_figures_are_gated_per_source() -> None:
+    def audit(radius: float, failed: int) -> JSONObject:
+        summary: JSONObject = {"stations": 2, "visits": 20, "sigma_x_max_m": 0.004,
+                               "sigma_y_max_m": 0.003, "sigma_heading_max_deg": 0.2,
+                               "radius95_max_m": radius, "passed": 2 - failed,
+                               "failed": failed}
+        return {"logs": ["a.mcap"], "counts": {}, "reflectors": [], "coverage": {},
+                "stations": {"summary": {"estimator": summary, "laser": dict(summary)}}}
+
+    base = audit(0.010, 0)
+    same = compare_documents(base, audit(0.010, 0), 0.0)
+    keys = {r.key for r in same.rows if r.a is not None}
+    assert "stations.summary.estimator.radius95_max_m" in keys
+    assert "stations.summary.laser.failed" in keys
+    assert "stations.summary.truth.radius95_max_m" not in keys  # neither holds it
+    assert all(ch.passed for ch in same.checks)
+    # a 95 % radius 30 % larger fails a 10 % gate; a station failing its tolerance fails any
+    worse = compare_documents(base, audit(0.013, 1), 0.1)
+    failed = sorted(ch.key for ch in worse.checks if not ch.passed)
+    assert failed == ["stations.summary.estimator.failed", "stations.summary.estimator.passed",
+                      "stations.summary.estimator.radius95_max_m",
+                      "stations.summary.laser.failed", "stations.summary.laser.passed",
+                      "stations.summary.laser.radius95_max_m"]
+    assert all(ch.passed for ch in compare_documents(base, audit(0.0105, 0), 0.1).checks)

@@ -26,7 +26,7 @@ OUTPUT_FILES = ("audit.json", "report.html", "kpis.csv")
 and each log's evidence under ``logs/``)."""
 
 #: prefixes of ``--set`` keys that are the audit's own (the rest go to the estimator)
-SET_GROUPS = ("audit", "view", "coverage", "navigation", "segments")
+SET_GROUPS = ("audit", "view", "coverage", "navigation", "segments", "stations")
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,8 +46,12 @@ class AuditOptions:
     ``view.<key>`` (the device's :class:`lgvtool.audit.visibility.DeviceView`),
     ``coverage.<key>`` (:class:`lgvtool.audit.coverage.CoverageSettings`),
     ``navigation.<key>`` (:class:`lgvtool.audit.navigation_health.NavigationSettings`),
-    ``segments.<key>`` (:class:`lgvtool.audit.segment_errors.SegmentSettings`), else the
+    ``segments.<key>`` (:class:`lgvtool.audit.segment_errors.SegmentSettings`),
+    ``stations.<key>`` (:class:`lgvtool.audit.stations.StationSettings`), else the
     estimator's (``pf.particles``)."""
+    stations_path: str | None = None
+    """Stations file (TOML, :mod:`lgvtool.audit.stations_file`): the named stations the
+    standstills are assigned to; None: stations are found automatically."""
     config_path: str | None = None
     """Configuration (TOML) used instead of each log's own."""
     workers: int | None = None
@@ -180,8 +184,8 @@ def audit_logs(options: AuditOptions) -> AuditRun:
     with ``force``, an input never).
 
     :raises InputError: (or a subclass; exit 2) a bad option or setting, an unknown estimator,
-        an unreadable log, a log without a reflector layout, logs of different layouts, or an
-        output folder that is an input.
+        an unreadable log, a log without a reflector layout, logs of different layouts, a bad
+        stations file, or an output folder that is an input.
     """
     import json
     from pathlib import Path
@@ -196,6 +200,9 @@ def audit_logs(options: AuditOptions) -> AuditRun:
     from lgvtool.audit.navigation_health import NavigationSettings, navigation_section
     from lgvtool.audit.reflector_audit import judge, pooled
     from lgvtool.audit.segment_errors import SegmentSettings, segments_section
+    from lgvtool.audit.stations import StationSettings, find_stations, stations_section
+    from lgvtool.audit.stations import log_kpis as station_kpis
+    from lgvtool.audit.stations_file import read_stations
     from lgvtool.audit.unmapped_objects import listed_objects, pooled_unmapped
     from lgvtool.audit.visibility import DeviceView
     from lgvtool.config import load_config
@@ -211,7 +218,7 @@ def audit_logs(options: AuditOptions) -> AuditRun:
     o = options
     if o.estimator is not None:
         check_names([o.estimator])
-    inputs = [*o.logs, o.config_path]
+    inputs = [*o.logs, o.config_path, o.stations_path]
     _refuse_input_as_outdir(o.outdir, inputs, " and ".join(OUTPUT_FILES))
     out = guard_directory(o.outdir, (*OUTPUT_FILES, "kpis.parquet"), inputs,
                           force=o.force or o.resume)
@@ -221,6 +228,8 @@ def audit_logs(options: AuditOptions) -> AuditRun:
     cov_settings = make(CoverageSettings, "coverage", groups["coverage"], what="setting")
     nav_settings = make(NavigationSettings, "navigation", groups["navigation"], what="setting")
     seg_settings = make(SegmentSettings, "segments", groups["segments"], what="setting")
+    st_settings = make(StationSettings, "stations", groups["stations"], what="setting")
+    named = read_stations(o.stations_path) if o.stations_path is not None else None
     if o.workers is not None and o.scheduler is not None:
         raise InputError("give --workers or --scheduler, not both")
     if o.workers is not None:
@@ -230,7 +239,8 @@ def audit_logs(options: AuditOptions) -> AuditRun:
     per_log = LogAuditOptions(estimator=o.estimator, config=cfg, seed=o.seed,
                               settings=dict(estimator_settings), audit=settings,
                               view=dict(groups["view"]), coverage=cov_settings,
-                              navigation=nav_settings, segments=seg_settings)
+                              navigation=nav_settings, segments=seg_settings,
+                              stations=st_settings)
     bar = Progress(len(o.logs), "audit", enabled=o.show_progress, delay_s=1.0)
     try:
         logs = _evidence_of_all(o.logs, per_log, out=out, resume=o.resume,
@@ -257,10 +267,14 @@ def audit_logs(options: AuditOptions) -> AuditRun:
                                     nav_settings)
     segments = segments_section([e for p in parts for e in p.segments],
                                 [p.path for p in parts if not p.segments], seg_settings)
+    found = find_stations([v for p in parts for v in p.visits], named, st_settings)
+    stations = stations_section(found, st_settings, file=o.stations_path,
+                                without_odometry=[p.path for p in parts if not p.has_odometry])
     doc = audit_document(parts, verdicts, unmapped, coverage, settings, navigation=navigation,
-                         segments=segments)
+                         segments=segments, stations=stations)
     table = kpi_table([kpi_row(a, judge(a.evidence.reflectors, layout, settings)
-                               if a.evidence.reflectors is not None else [])
+                               if a.evidence.reflectors is not None else [],
+                               station_kpis(found, a.evidence.path))
                        for a in logs])
     parquet = out / "kpis.parquet" if available("pyarrow") else None
     written = [str(out / name) for name in OUTPUT_FILES]

@@ -124,8 +124,10 @@ def calibrate_logs(options: CalibrateOptions) -> JobOutput:
     """Estimate the installation (NAV mounting nav_x, nav_y mm and nav_yaw deg, wheel radii
     and track mm, gyro scale and bias deg/s, NAV time offset and pose age ms, or the generic
     odometry's two scales and its drift deg/m) from the ``options``' logs by a batch least
-    squares over the whole drives, and write the starting configuration with the calibrated
-    vehicle into its output (TOML); see :class:`CalibrateOptions`.
+    squares over the whole drives, and the NAV poses' observation model (age s, skew lever m,
+    noise at standstill m and rad; :mod:`lgvtool.calibrate.pose_calibration`), and write the
+    starting configuration with the calibrated vehicle and the pose model's estimator settings
+    into its output (TOML); see :class:`CalibrateOptions`.
 
     The document is the calibration (each estimate with its 1-sigma, the table, the warnings)
     with the output's path; the text the estimates and the before/after table; the warnings

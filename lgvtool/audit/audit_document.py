@@ -13,7 +13,9 @@ mean_echo {mean, trend_per_day} (the device's mean echo, device units), near: th
 ambiguous one is confused with), ``unmapped`` (x, y m, sightings, sigma_m), ``coverage``
 (:func:`lgvtool.audit.coverage.coverage_section`), ``navigation`` (the device's own
 navigation status: :func:`lgvtool.audit.navigation_health.navigation_section`), ``segments``
-(the errors by segment: :func:`lgvtool.audit.segment_errors.segments_section`). Numbers
+(the errors by segment: :func:`lgvtool.audit.segment_errors.segments_section`), ``stations``
+(the standstills grouped into stations, each source's repeatability there:
+:func:`lgvtool.audit.stations.stations_section`). Numbers
 that do not exist (no sightings, no quality or echo) are null. A NAV200 log without landmarks has
 ``reflectors`` empty and a note.
 ``layout`` (the site's layout as the first log stores it: per reflector id, x, y m) is
@@ -30,6 +32,7 @@ from lgvtool.audit.audit_settings import AuditSettings
 from lgvtool.audit.log_audit import LogEvidence
 from lgvtool.audit.reflector_audit import STATUSES, ReflectorVerdict
 from lgvtool.audit.segment_errors import summary_line as segment_summary
+from lgvtool.audit.stations import summary_line as station_summary
 from lgvtool.audit.unmapped_objects import UnmappedObject
 from lgvtool.declared import as_dict
 from lgvtool.json_types import JSON, JSONObject
@@ -74,11 +77,12 @@ def _unmapped(u: UnmappedObject) -> JSONObject:
 def audit_document(parts: Sequence[LogEvidence], verdicts: Sequence[ReflectorVerdict],
                    unmapped: Sequence[UnmappedObject], coverage: JSONObject,
                    settings: AuditSettings, *, navigation: JSONObject | None = None,
-                   segments: JSONObject | None = None) -> JSONObject:
+                   segments: JSONObject | None = None,
+                   stations: JSONObject | None = None) -> JSONObject:
     """The ``audit.json`` document of the logs ``parts`` (their evidence, in the order given),
     the pooled ``verdicts`` per layout reflector (empty: none audited), the ``unmapped``
-    objects, the ``coverage`` section and the ``navigation`` and ``segments`` sections (module
-    doc; None: an empty one)."""
+    objects, the ``coverage`` section and the ``navigation``, ``segments`` and ``stations``
+    sections (module doc; None: an empty one)."""
     notes: list[JSON] = [f"{p.path}: {p.note}" for p in parts if p.note]
     counts: JSONObject = {s: sum(v.status == s for v in verdicts) for s in STATUSES}
     counts["unmapped"] = len(unmapped)
@@ -99,6 +103,7 @@ def audit_document(parts: Sequence[LogEvidence], verdicts: Sequence[ReflectorVer
         "coverage": coverage,
         "navigation": navigation if navigation is not None else {},
         "segments": segments if segments is not None else {},
+        "stations": stations if stations is not None else {},
         "layout": [{"id": r.id, "x": _num(r.x), "y": _num(r.y)}
                    for r in (parts[0].layout if parts else ())],
     }
@@ -196,6 +201,10 @@ def summary_lines(doc: JSONObject, written: Sequence[str] = (), most: int = 12) 
     seg_line = segment_summary(seg) if isinstance(seg, dict) else None
     if seg_line:
         lines.append(seg_line)
+    st = doc.get("stations")
+    st_line = station_summary(st) if isinstance(st, dict) else None
+    if st_line:
+        lines.append(st_line)
     if written:
         lines.append("wrote " + ", ".join(written))
     return lines

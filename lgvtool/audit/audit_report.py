@@ -8,7 +8,9 @@ objects, and the coverage: heat maps of the worst GDOP and the fewest visible re
 cell, and the table of the worst segments; then the navigation health: a timeline per log of
 the dropouts (by cause), pose jumps and device clock jumps, and the table of the dropouts;
 then the error by segment: the RMS along-track and cross-track error by speed (a figure) and
-the table of every bin, each headed by its reference (the truth, or an estimator).
+the table of every bin, each headed by its reference (the truth, or an estimator); then the
+stations: each source's visits about each station's pose (a figure) and the table of sigma,
+95 % radius, worst visit and pass/fail per station and source.
 Every table carries ``data-table``, every figure ``data-figure``, every section
 ``data-section`` (as the evaluation report's), so tools and tests find them. Units: m on
 the map, mm in the tables' shifts.
@@ -60,6 +62,9 @@ CAPTIONS = {
                            "odometry does not explain) and each jump of the device clock.",
     "segments-speed": "RMS along-track (solid) and cross-track (hatched) error of each pose "
                       "source by the reference's speed; empty bins are left out.",
+    "stations": "Each visit's pose of O per source, as its offset (mm, map axes) from the "
+                "station's pose (a named station's, else the mean of the audit's estimator); "
+                "the circle: the station's position tolerance.",
     "coverage-visible": "Fewest layout reflectors visible (in range, not hidden) from any pose "
                         "in each cell; below the device's minimum no position is possible.",
 }
@@ -455,6 +460,126 @@ def _segments_html(seg: JSONObject, fig_html: Callable[[str, go.Figure], str]) -
     return "".join(out)
 
 
+STATION_PLOTS = 12
+"""Most stations drawn in the stations figure (the table lists them all)."""
+
+
+def _role_colour(role: str, name: str) -> str:
+    from lgvtool.colours import TRUTH_ON_LIGHT, source_colour
+
+    return TRUTH_ON_LIGHT if role == "truth" else source_colour(name)
+
+
+def stations_figure(st: JSONObject) -> go.Figure | None:
+    """The visits of each station of ``audit.json``'s ``stations`` (one panel per station, at
+    most :data:`STATION_PLOTS`): each source's visit positions as offsets (mm) from the
+    station's pose, and a named station's tolerance circle; None without a visit."""
+    from plotly.subplots import make_subplots
+
+    stations = [_obj(v) for v in _list(st.get("per_station"))][:STATION_PLOTS]
+    stations = [s for s in stations if _list(s.get("visit_list"))]
+    if not stations:
+        return None
+    names = _obj(st.get("sources"))
+    cols = min(3, len(stations))
+    rows = (len(stations) + cols - 1) // cols
+    fig = make_subplots(rows=rows, cols=cols, subplot_titles=[
+        f"{s.get('name')} ({s.get('visits')} visits)" for s in stations],
+        horizontal_spacing=0.08, vertical_spacing=0.12)
+    shown: set[str] = set()
+    for i, s in enumerate(stations):
+        r, c = i // cols + 1, i % cols + 1
+        cx, cy = _f(s.get("x")) or 0.0, _f(s.get("y")) or 0.0
+        for role in ("truth", "laser", "estimator"):
+            pts = [(_list(_obj(_obj(v).get("poses")).get(role)), _obj(v))
+                   for v in _list(s.get("visit_list"))]
+            pts = [(p, v) for p, v in pts if len(p) == 3 and _f(p[0]) is not None]
+            if not pts:
+                continue
+            name = str(names.get(role, role))
+            fig.add_trace(go.Scatter(
+                x=[((_f(p[0]) or 0.0) - cx) * 1000 for p, _ in pts],
+                y=[((_f(p[1]) or 0.0) - cy) * 1000 for p, _ in pts], mode="markers",
+                marker={"size": 6, "color": _role_colour(role, name),
+                        "symbol": "x" if role == "truth" else "circle"},
+                name=name, legendgroup=name, showlegend=name not in shown,
+                text=[f"{Path(str(v.get('log', ''))).name} at {_num(_f(v.get('t_s')), 1)} s"
+                      for _, v in pts],
+                hovertemplate="%{x:.1f}, %{y:.1f} mm; %{text}<extra>" + name + "</extra>"),
+                row=r, col=c)
+            shown.add(name)
+        tol = _f(s.get("tolerance_xy_m"))
+        if tol is not None:
+            a = np.linspace(0.0, 2 * math.pi, 73)
+            fig.add_trace(go.Scatter(
+                x=tol * 1000 * np.cos(a), y=tol * 1000 * np.sin(a), mode="lines",
+                line={"color": "#d62728", "dash": "dot", "width": 1}, name="tolerance",
+                legendgroup="tolerance", showlegend="tolerance" not in shown,
+                hoverinfo="skip"), row=r, col=c)
+            shown.add("tolerance")
+        axis = "" if i == 0 else str(i + 1)
+        fig.update_xaxes(title_text="dx (mm)", row=r, col=c)
+        fig.update_yaxes(title_text="dy (mm)", scaleanchor=f"x{axis}", scaleratio=1,
+                         row=r, col=c)
+    fig.update_layout(title={"text": "Visits per station", "x": 0.0, "xanchor": "left"},
+                      height=120 + 300 * rows, legend=LEGEND_BELOW, margin=MARGIN)
+    return fig
+
+
+def _station_rows(st: JSONObject) -> list[list[str]]:
+    rows = []
+    for s in (_obj(v) for v in _list(st.get("per_station"))):
+        tol, tol_deg = _f(s.get("tolerance_xy_m")), _f(s.get("tolerance_deg"))
+        tol_text = (f"{_mm(tol)} mm, {_num(tol_deg, 2)} deg" if tol is not None
+                    and tol_deg is not None else "no tolerance")
+        for src in (_obj(v) for v in _list(s.get("sources"))):
+            mean, worst = _obj(src.get("mean")), _obj(src.get("worst"))
+            ok = src.get("pass")
+            err = _obj(src.get("error_vs_truth"))
+            rows.append([
+                str(s.get("name", "")), str(src.get("source", "")), str(src.get("visits", "")),
+                f"{_num(_f(mean.get('x')), 3)}, {_num(_f(mean.get('y')), 3)}",
+                _num(_f(mean.get("heading_deg")), 2), _mm(_f(src.get("sigma_x_m"))),
+                _mm(_f(src.get("sigma_y_m"))), _num(_f(src.get("sigma_heading_deg")), 3),
+                _mm(_f(src.get("radius95_m"))),
+                f"{Path(str(worst.get('log', ''))).name} at {_num(_f(worst.get('t_s')), 1)} s: "
+                f"{_mm(_f(worst.get('distance_m')))} mm, "
+                f"{_num(_f(worst.get('heading_deg')), 2)} deg",
+                _mm(_f(err.get("rms_m"))) if err else "",
+                tol_text, "" if ok is None else ("pass" if ok else
+                                                 f"FAIL ({src.get('within_tolerance')} of "
+                                                 f"{src.get('visits')} within)")])
+    return rows
+
+
+def _stations_html(st: JSONObject, fig_html: Callable[[str, go.Figure], str]) -> str:
+    """The stations section: how they were found, the visits per station, the table."""
+    e = html.escape
+    per = _list(st.get("per_station"))
+    how = (f"the named stations of {st.get('file')}" if st.get("mode") == "named"
+           else "found automatically (standstills grouped by position and heading)")
+    out = ['<section data-section="stations" id="stations"><h2>Stations</h2>',
+           f'<p class="note">{len(per)} station{"s" if len(per) != 1 else ""}, {e(how)}; '
+           f"{e(str(st.get('visits')))} standstills, {len(_list(st.get('unmatched')))} at no "
+           "station. Each visit's pose per source is the mean pose of O over the standstill "
+           "after its settling time.</p>"]
+    fig = stations_figure(st)
+    if fig is not None:
+        out.append(fig_html("stations", fig))
+    rows = _station_rows(st)
+    if rows:
+        out.append(_table_html(
+            "stations", ["station", "source", "visits", "mean x, y (m)", "heading (deg)",
+                         "sigma x (mm)", "sigma y (mm)", "sigma heading (deg)",
+                         "95 % radius (mm)", "worst visit", "error vs truth rms (mm)",
+                         "tolerance", "result"], rows,
+            "sigma: standard deviation of the visits about their mean; 95 % radius: the 95th "
+            "percentile of the visits' distances from their mean; worst: the visit farthest "
+            "from the station's pose", title="Repeatability per station"))
+    out.append("</section>")
+    return "".join(out)
+
+
 def _summary_html(doc: JSONObject, layout: Sequence[Reflector]) -> str:
     """The lead box: reflectors by status, unmapped objects, coverage in a few lines."""
     e = html.escape
@@ -528,7 +653,8 @@ def render_audit_report(doc: JSONObject, layout: Sequence[Reflector],
     expected_sightings, sightings, residual_m, shift_m, shift_sigma_m), ``unmapped`` (x, y,
     sightings, sigma_m), ``coverage`` (:func:`lgvtool.audit.coverage.coverage_section`),
     ``notes`` (strings shown in the summary, e.g. what a NAV200 log cannot audit), ``logs``
-    (names), ``navigation`` (:func:`lgvtool.audit.navigation_health.navigation_section`));
+    (names), ``navigation`` (:func:`lgvtool.audit.navigation_health.navigation_section`),
+    ``segments``, ``stations`` (:func:`lgvtool.audit.stations.stations_section`));
     any may be missing. ``layout``: the layout reflectors as surveyed (m);
     ``tracks``: the drives of the NAV head (m) drawn on the map.
     """
@@ -600,6 +726,9 @@ def render_audit_report(doc: JSONObject, layout: Sequence[Reflector],
     seg = _obj(doc.get("segments"))
     if _list(seg.get("sources")):
         body.append(_segments_html(seg, fig_html))
+    st = _obj(doc.get("stations"))
+    if "per_station" in st:
+        body.append(_stations_html(st, fig_html))
     return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
             '<meta name="viewport" content="width=device-width, initial-scale=1">'
             f"<title>{e(title)}</title><style>{_STYLE}{_MORE_STYLE}</style></head><body>\n"

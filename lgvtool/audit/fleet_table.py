@@ -38,17 +38,20 @@ LOGS_DIR = "logs"
 """Sub-folder of the audit's output folder that keeps each log's evidence."""
 
 STORE_FORMAT = "lgvtool.audit-log"
-STORE_VERSION = 1
+STORE_VERSION = 2
+"""Bumped when the kept evidence changes shape (2: the stations' visits)."""
 
 KPI_COLUMNS = (
     "vehicle", "day", "logs", "duration_s",
     *(f"reflectors_{s}" for s in STATUSES),
     "visible_median", "gdop_median", "reported_used_median",
-    "share_in_navigation", "dropouts", "dropout_time_s", "pose_jumps", "elapsed_s",
+    "share_in_navigation", "dropouts", "dropout_time_s", "pose_jumps",
+    "station_visits", "station_visits_outside", "station_deviation_rms_m", "elapsed_s",
 )
 """Columns of the KPI table, in order (docs/audit.md, "Many logs: the KPI table")."""
 
-COUNT_COLUMNS = ("logs", *(f"reflectors_{s}" for s in STATUSES), "dropouts", "pose_jumps")
+COUNT_COLUMNS = ("logs", *(f"reflectors_{s}" for s in STATUSES), "dropouts", "pose_jumps",
+                 "station_visits", "station_visits_outside")
 """Columns of the KPI table that are counts (integers; empty where unknown)."""
 
 
@@ -98,13 +101,15 @@ def _median(values: np.ndarray) -> float:
     return float(np.median(v)) if len(v) else math.nan
 
 
-def kpi_row(log: AuditedLog, verdicts: Sequence[ReflectorVerdict]) -> dict[str, float | str]:
+def kpi_row(log: AuditedLog, verdicts: Sequence[ReflectorVerdict],
+            stations: Mapping[str, float] | None = None) -> dict[str, float | str]:
     """One log's KPIs (:data:`KPI_COLUMNS` but ``logs``): its reflectors per status as judged
     from this log's evidence alone (``verdicts``; zero everywhere for a log without landmark
     observations), the medians over its poses of the reflectors visible, of the GDOP (where a
     position is possible) and of the reflectors the device reported using, the navigation
     health (share in navigation, dropouts, their time s, pose jumps; NaN without NAV poses),
-    its duration s and the wall time s its audit took."""
+    the station figures (``stations``: :func:`lgvtool.audit.stations.log_kpis`, NaN when not
+    given), its duration s and the wall time s its audit took."""
     ev = log.evidence
     cov = ev.coverage
     reported = cov.reported[cov.reported >= 0].astype(np.float64)
@@ -120,18 +125,21 @@ def kpi_row(log: AuditedLog, verdicts: Sequence[ReflectorVerdict]) -> dict[str, 
     row["dropouts"] = float(len(nav.dropouts)) if nav else math.nan
     row["dropout_time_s"] = float(sum(d.duration for d in nav.dropouts)) if nav else math.nan
     row["pose_jumps"] = float(len(nav.jumps)) if nav else math.nan
+    for col in ("station_visits", "station_visits_outside", "station_deviation_rms_m"):
+        row[col] = float(stations.get(col, math.nan)) if stations is not None else math.nan
     row["elapsed_s"] = log.elapsed_s
     return row
 
 
 _SUMMED = {"duration_s", "dropouts", "dropout_time_s", "pose_jumps", "elapsed_s",
-           *(f"reflectors_{s}" for s in STATUSES)}
+           "station_visits", "station_visits_outside", *(f"reflectors_{s}" for s in STATUSES)}
 
 
 def kpi_table(rows: Sequence[Mapping[str, float | str]]) -> list[dict[str, float | str]]:
     """The rows of :func:`kpi_row` grouped per vehicle and day (sorted by both): counts,
     durations and times summed; medians and the share in navigation weighted by each log's
-    duration (NaN ignored); ``logs`` the number of logs."""
+    duration (NaN ignored), the stations' RMS deviation pooled over the logs' visits (each
+    log's mean square weighted by its station visits); ``logs`` the number of logs."""
     groups: dict[tuple[str, str], list[Mapping[str, float | str]]] = {}
     for r in rows:
         groups.setdefault((str(r["vehicle"]), str(r["day"])), []).append(r)
@@ -145,6 +153,11 @@ def kpi_table(rows: Sequence[Mapping[str, float | str]]) -> list[dict[str, float
             if col in _SUMMED:
                 finite = values[np.isfinite(values)]
                 row[col] = float(finite.sum()) if len(finite) else math.nan
+            elif col == "station_deviation_rms_m":
+                n = np.array([float(m["station_visits"]) for m in members])
+                ok = np.isfinite(values) & (n > 0)
+                row[col] = (math.sqrt(float(np.average(values[ok] ** 2, weights=n[ok])))
+                            if ok.any() else math.nan)
             else:
                 ok = np.isfinite(values) & (weights > 0)
                 row[col] = (float(np.average(values[ok], weights=weights[ok]))

@@ -3,9 +3,11 @@ estimator (:mod:`lgvtool.localize.replay_driver`), and turned into the reflector
 (:mod:`lgvtool.audit.reflector_audit`), the unmapped detections
 (:mod:`lgvtool.audit.unmapped_objects`), the coverage along the drive
 (:mod:`lgvtool.audit.coverage`), the device's own navigation status
-(:mod:`lgvtool.audit.navigation_health`) and the errors by segment against the truth
-(:mod:`lgvtool.audit.segment_errors`). This is what a worker of the fleet engine computes per log;
-what it returns is small (moments, and the head track the coverage needs) and pools.
+(:mod:`lgvtool.audit.navigation_health`), the errors by segment against the truth
+(:mod:`lgvtool.audit.segment_errors`) and the visits of stations: the standstills with each
+source's pose there (:mod:`lgvtool.audit.stations`). This is what a worker of the fleet
+engine computes per log; what it returns is small (moments, the head track the coverage
+needs, the visits) and pools.
 
 Positions m, angles rad, times s.
 """
@@ -24,6 +26,7 @@ from lgvtool.audit.coverage import CoverageSettings, HeadTrack, PoseCoverage, co
 from lgvtool.audit.navigation_health import NavigationHealth, NavigationSettings, NavStatusTap
 from lgvtool.audit.reflector_audit import DEVICE_VALUES, ReflectorEvidence, reflector_evidence
 from lgvtool.audit.segment_errors import SegmentErrors, SegmentSettings
+from lgvtool.audit.stations import StationSettings, Visit
 from lgvtool.audit.unmapped_objects import UnmappedEvidence
 from lgvtool.audit.visibility import DeviceView
 from lgvtool.config import Config, Reflector
@@ -65,6 +68,8 @@ class LogAuditOptions:
     """The navigation-health thresholds."""
     segments: SegmentSettings = field(default_factory=SegmentSettings)
     """How the errors by segment are binned."""
+    stations: StationSettings = field(default_factory=StationSettings)
+    """How standstills are found (:mod:`lgvtool.audit.stations`)."""
 
 
 @dataclass(frozen=True)
@@ -97,6 +102,11 @@ class LogEvidence:
     """The errors by segment (:mod:`lgvtool.audit.segment_errors`) of the replayed estimator
     and the laser against the truth, else of the laser against the estimator; empty: nothing
     to compare."""
+    visits: tuple[Visit, ...] = ()
+    """The log's standstills with each source's pose of O there
+    (:func:`lgvtool.audit.stations.log_visits`); they pool into stations over the logs."""
+    has_odometry: bool = True
+    """Whether the log has motion samples to find standstills in."""
 
 
 def best_estimator(data: LogData) -> tuple[str, str]:
@@ -183,20 +193,30 @@ class _Taps:
             tap.add(block)
 
 
-def _navigation(data: LogData, status: NavStatusTap, track: Trajectory, cfg: Config,
+def _increments(data: LogData, cfg: Config) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    """The log's odometry as motion increments (sample times s, distance m and heading change
+    rad per increment; the estimators' default fusion), None without motion samples."""
+    from lgvtool.localize.motion import MotionSettings
+
+    if not data.has_motion:
+        return None
+    inc = data.increments(MotionSettings(), cfg.vehicle)
+    return (np.asarray(inc.t, dtype=np.float64), np.asarray(inc.ds, dtype=np.float64),
+            np.asarray(inc.dth, dtype=np.float64))
+
+
+def _navigation(status: NavStatusTap, track: Trajectory,
+                increments: tuple[FloatArray, FloatArray, FloatArray] | None, cfg: Config,
                 settings: NavigationSettings) -> NavigationHealth | None:
     """The log's navigation health (None without NAV poses): dropouts placed on the replayed
-    head ``track`` (s, m, rad), steps against the odometry of the log's motion samples."""
+    head ``track`` (s, m, rad), steps against the odometry of the log's motion
+    ``increments`` (:func:`_increments`)."""
     from lgvtool.audit.navigation_health import navigation_health, odometry_path
-    from lgvtool.localize.motion import MotionSettings
 
     if not status.rows:
         return None
-    odometry = None
-    if data.has_motion:
-        inc = data.increments(MotionSettings(), cfg.vehicle)
-        odometry = odometry_path(inc.t, inc.ds, inc.dth)
-    return navigation_health(status.status(data.t0_ns), track=track, odometry=odometry,
+    odometry = None if increments is None else odometry_path(*increments)
+    return navigation_health(status.status(track.t0_ns), track=track, odometry=odometry,
                              nav_offset=(cfg.vehicle.nav_x, cfg.vehicle.nav_y),
                              settings=settings)
 
@@ -216,6 +236,8 @@ def log_evidence(path: str, options: LogAuditOptions) -> LogEvidence:
     """
     import warnings
 
+    from lgvtool.audit.segment_errors import log_segments
+    from lgvtool.audit.stations import log_visits
     from lgvtool.errors import MissingDataError
     from lgvtool.gc_pause import collector_paused
     from lgvtool.localize.geometry import o_to_nav
@@ -260,14 +282,21 @@ def log_evidence(path: str, options: LogAuditOptions) -> LogEvidence:
                          reported_used=used)
     coverage = coverage_at_poses(track, layout, view, o.coverage)
     duration = float(data.end)
-    health = _navigation(data, status, Trajectory(t, hx, hy, hth, data.t0_ns), cfg,
+    increments = _increments(data, cfg)
+    health = _navigation(status, Trajectory(t, hx, hy, hth, data.t0_ns), increments, cfg,
                          o.navigation)
-    segments = _segments(data, Trajectory(t, est.x, est.y, est.heading, data.t0_ns), name, cfg,
-                         o.segments)
+    estimate = Trajectory(t, est.x, est.y, est.heading, data.t0_ns)
+    laser = _laser_at_o(data, cfg)
+    truth = data.truth if data.truth is not None and len(data.truth) >= 2 else None
+    segments = log_segments(estimate, name, laser, truth, o.segments)
+    visits = () if increments is None else log_visits(
+        path, increments, {"truth": truth, "laser": laser, "estimator": estimate}, name,
+        o.stations)
     if not data.has_scans:
         return LogEvidence(path, name, why, family, duration, tuple(layout), view, track,
                            coverage, None, None, NO_LANDMARKS, navigation=health,
-                           segments=segments)
+                           segments=segments, visits=visits,
+                           has_odometry=increments is not None)
     settled = _settled(est.covariance, len(t), o.audit.max_pose_sigma_m)
     corrected = apply_installation(data, cfg.vehicle)
     scans = corrected.scans
@@ -279,26 +308,22 @@ def log_evidence(path: str, options: LogAuditOptions) -> LogEvidence:
         layout, est, settled, batch, device, nav_x=cfg.vehicle.nav_x, nav_y=cfg.vehicle.nav_y,
         t0_s=data.t0_ns * 1e-9, view=view, settings=o.audit)
     return LogEvidence(path, name, why, family, duration, tuple(layout), view, track, coverage,
-                       refl, unmapped, navigation=health, segments=segments)
+                       refl, unmapped, navigation=health, segments=segments, visits=visits,
+                       has_odometry=increments is not None)
 
 
-def _segments(data: LogData, estimate: Trajectory, name: str, cfg: Config,
-              settings: SegmentSettings) -> tuple[SegmentErrors, ...]:
-    """The log's errors by segment (:func:`lgvtool.audit.segment_errors.log_segments`): the
-    replayed ``estimate`` of O (s, m, rad) named ``name`` and the NAV's valid poses moved to O
-    against the log's truth, else the NAV's poses against the estimate."""
-    from lgvtool.audit.segment_errors import log_segments
+def _laser_at_o(data: LogData, cfg: Config) -> Trajectory | None:
+    """The NAV's valid poses moved from the head to O (s, m, rad; the errors by segment and
+    the stations' raw laser); None: no valid NAV pose."""
     from lgvtool.localize.geometry import nav_to_o
 
-    laser = None
     nav = data.nav
-    if nav is not None and bool(np.any(nav["valid"])):
-        ok = np.asarray(nav["valid"], dtype=bool)
-        x, y, th = nav_to_o(nav["x"][ok], nav["y"][ok], nav["heading"][ok], cfg.vehicle.nav_x,
-                            cfg.vehicle.nav_y)
-        laser = Trajectory.cleaned(nav["t"][ok], x, y, th, data.t0_ns)
-    truth = data.truth if data.truth is not None and len(data.truth) >= 2 else None
-    return log_segments(estimate, name, laser, truth, settings)
+    if nav is None or not bool(np.any(nav["valid"])):
+        return None
+    ok = np.asarray(nav["valid"], dtype=bool)
+    x, y, th = nav_to_o(nav["x"][ok], nav["y"][ok], nav["heading"][ok], cfg.vehicle.nav_x,
+                        cfg.vehicle.nav_y)
+    return Trajectory.cleaned(nav["t"][ok], x, y, th, data.t0_ns)
 
 
 def _holds_layout(reader: LogReader) -> bool:

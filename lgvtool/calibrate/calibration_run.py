@@ -14,15 +14,23 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from lgvtool.calibrate.compare import Row
+from lgvtool.calibrate.pose_calibration import (
+    PoseModelEstimate,
+    estimate_pose_model,
+    pose_model_settings,
+)
 from lgvtool.calibrate.quantities import QUANTITIES, default_names
-from lgvtool.config import Config
+from lgvtool.config import Config, Vehicle
 from lgvtool.errors import InputError, MissingDataError
 from lgvtool.extras import require
 from lgvtool.json_types import JSONObject
 from lgvtool.progress import Progress
+
+if TYPE_CHECKING:
+    from lgvtool.localize.logdata import LogData
 
 TIME_FLOOR_S = 1e-3
 """Added in quadrature to the time offset's 1-sigma: the host's read latency of the MCU frames,
@@ -75,6 +83,7 @@ class CalibrationDocument(TypedDict):
     comparison: list[JSONObject]
     residuals: dict[str, object]
     timings_s: dict[str, float]
+    pose_model: JSONObject | None
 
 
 @dataclass
@@ -90,6 +99,9 @@ class Calibration:
     comparison: list[Row] = field(default_factory=list)
     residuals: dict[str, Any] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    pose_model: PoseModelEstimate | None = None
+    """The NAV poses' observation model (age, skew lever, noise at standstill), when the logs
+    have NAV poses beside motion data (:mod:`lgvtool.calibrate.pose_calibration`)."""
 
     def settings_set(self) -> dict[str, dict[str, object]]:
         """Estimator settings the calibrated configuration sets to other values than the
@@ -109,7 +121,9 @@ class Calibration:
                 "estimator_settings": self.settings_set(),
                 "logs": self.logs, "warnings": self.warnings,
                 "comparison": [r.to_dict() for r in self.comparison],
-                "residuals": self.residuals, "timings_s": self.timings}
+                "residuals": self.residuals, "timings_s": self.timings,
+                "pose_model": (self.pose_model.to_dict() if self.pose_model is not None
+                               else None)}
 
 
 def _names(estimate: Sequence[str] | None, fix: Sequence[str], motion: str, has_scans: bool,
@@ -172,8 +186,10 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     if not reflectors:
         raise MissingDataError("no reflector map: neither the configuration nor the log has one")
     drives = []
+    datas = []
     for path, reader in zip(paths, readers, strict=True):
         data = load_log(reader, reflectors, decode_scans=observations != "poses")
+        datas.append((path, data))
         drives.append(prepare(path, data, reflectors, observations=observations,
                               mcu_baud=log_mcu_baud(reader.metadata)))
         if progress is not None:
@@ -240,8 +256,11 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
             estimates[n] = Estimate(n, start[n], start[n], None, "fixed")
     calibrated: dict[str, Any] = {n: e.value for n, e in estimates.items()}
     vehicle = replace(v, **calibrated)
+    pose_model = _pose_model(datas, vehicle, cfg.estimators)
+    warnings.extend(pose_model.warnings() if pose_model is not None else [])
     out_cfg = replace(cfg, vehicle=vehicle, simulator={},
-                      estimators=scale_priors(cfg.estimators, estimates))
+                      estimators=pose_model_settings(scale_priors(cfg.estimators, estimates),
+                                                     pose_model))
     solve_s = time.perf_counter() - started - read_s
     logs = []
     for d, drive in enumerate(drives):
@@ -252,7 +271,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
                                      if drive.motion == "mcu" else None))
         logs.append(info)
     result = Calibration(estimates=estimates, config=out_cfg, start_config=cfg, logs=logs,
-                         warnings=warnings,
+                         warnings=warnings, pose_model=pose_model,
                          residuals={"noise_scale": sol.noise_scale,
                                     "rms_normalised": sol.rms,
                                     "beyond_3_sigma": sol.outliers,
@@ -269,6 +288,21 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         result.timings["compare"] = time.perf_counter() - t0
     result.timings.update(read=read_s, solve=solve_s)
     return result
+
+
+def _pose_model(logs: Sequence[tuple[str, LogData]], vehicle: Vehicle,
+                settings: Mapping[str, Mapping[str, object]]) -> PoseModelEstimate | None:
+    """The NAV poses' observation model of the logs with the calibrated ``vehicle``
+    (:func:`lgvtool.calibrate.pose_calibration.estimate_pose_model`), with the head period,
+    ``pose_latency_s`` and odometry of the starting ``[estimators.ekf]``."""
+    from lgvtool.localize.pose_model import PoseModelParams
+    from lgvtool.localize.registry import motion_params, resolve_params
+
+    params = resolve_params("ekf", settings, None)
+    if not isinstance(params, PoseModelParams):
+        return None
+    return estimate_pose_model(logs, vehicle, params,
+                               motion_params("ekf", params).motion_settings())
 
 
 def scale_priors(settings: Mapping[str, Mapping[str, object]], estimates: Mapping[str, Estimate]

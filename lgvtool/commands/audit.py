@@ -24,7 +24,9 @@ _HELP = """Audit a site's reflector layout from ordinary drives: replay LOG... w
     actual ones: ok, missing, moved (with its shift and 1-sigma), weak or ambiguous; list the
     recurring detections that match no reflector (unmapped); the coverage along the drive; the
     NAV's own health (time in navigation, dropouts, pose jumps); and the error along and across
-    the path by speed, curvature and direction (against the truth where the log has one).
+    the path by speed, curvature and direction (against the truth where the log has one);
+    the stations: standstills grouped into stations (or assigned to the named stations of
+    --stations FILE) and each pose source's repeatability there.
 
     Writes audit.json and report.html into DIR and prints a one-screen summary (--json: the
     document). A log without landmark observations (a NAV200 recording of poses) gets the
@@ -33,7 +35,7 @@ _HELP = """Audit a site's reflector layout from ordinary drives: replay LOG... w
     extra is installed. One row per vehicle and day goes to kpis.csv (and kpis.parquet with
     pyarrow); each log's evidence is kept under DIR/logs/, and --resume re-runs only the logs
     not kept there. Thresholds: --set GROUP.<key>=<value>, GROUP one of audit, view,
-    coverage, navigation, segments (docs/audit.md).
+    coverage, navigation, segments, stations (docs/audit.md).
 
     Exit 0 success, 2 bad input.
     """
@@ -54,11 +56,15 @@ _HELP = """Audit a site's reflector layout from ordinary drives: replay LOG... w
 @seed_option("Seed of the estimator's random draws.")
 @set_option("A threshold (audit.moved_min_shift_m=0.03), the device's view "
             "(view.range_max_m=30), the coverage's (coverage.gdop_max=3), the navigation "
-            "health's (navigation.jump_m=0.3) or an estimator parameter (pf.particles=500); "
-            "repeatable; docs/audit.md.")
+            "health's (navigation.jump_m=0.3), the stations' (stations.min_standstill_s=3) or an "
+            "estimator parameter (pf.particles=500); repeatable; docs/audit.md.")
 @click.option("--config", "config_path", type=click.Path(dir_okay=False, path_type=str),
               help="Configuration TOML (vehicle, layout) instead of the one stored in each "
                    "log.")
+@click.option("--stations", "stations_path", type=click.Path(dir_okay=False, path_type=str),
+              metavar="FILE", help="Stations file (TOML: [[stations]] with name, x, y, "
+              "heading deg, tolerance_xy_m, tolerance_deg): standstills are assigned to these "
+              "and judged against their tolerance; default: stations found automatically.")
 @click.option("--workers", type=workers_type(), default=None,
               help="Audit several logs on a local Dask cluster of this many processes "
                    "(default with several logs: one per CPU).")
@@ -69,7 +75,8 @@ _HELP = """Audit a site's reflector layout from ordinary drives: replay LOG... w
               "re-running it; the outputs are replaced.")
 @progress_option()
 def audit(logs: tuple[str, ...], outdir: str, as_json: bool, estimator: str | None,
-          seed: int, sets: tuple[str, ...], config_path: str | None, workers: int | None,
+          seed: int, sets: tuple[str, ...], config_path: str | None,
+          stations_path: str | None, workers: int | None,
           scheduler: str | None, tls_ca_file: str | None, tls_cert: str | None,
           tls_key: str | None, force: bool, resume: bool = False,
           show_progress: bool = True) -> None:
@@ -81,7 +88,8 @@ def audit(logs: tuple[str, ...], outdir: str, as_json: bool, estimator: str | No
 
     run = audit_logs(AuditOptions(
         tuple(logs), outdir, estimator=estimator, seed=seed,
-        settings=parse_settings(sets), config_path=config_path, workers=workers,
+        settings=parse_settings(sets), config_path=config_path,
+        stations_path=stations_path, workers=workers,
         scheduler=scheduler, tls_ca_file=tls_ca_file, tls_cert=tls_cert, tls_key=tls_key,
         force=force, resume=resume, show_progress=show_progress))
     if as_json:

@@ -53,9 +53,11 @@ def calibrate(logs: tuple[str, ...], output: str, config_path: str | None,
     (mm), the gyro's scale and bias (deg/s), the NAV-to-host time offset and the NAV poses' age
     (ms), or, with generic odometry, its two scales and its drift (deg/m), from one or more
     LOG... by a batch least squares over the whole drives, each with its 1-sigma; write them
-    into FILE (-o: the starting configuration with the calibrated vehicle, TOML).
+    into FILE (-o: the starting configuration with the calibrated vehicle, TOML). From NAV
+    poses also their observation model (the age ms and the skew lever m, each with its 1-sigma,
+    and the noise at standstill), written as the settings of ekf, pf and pf-paper.
 
-    Prints the estimates and a before/after table of the estimators' errors. Exit 2 for bad
+    Prints the estimates, the pose model and a before/after table of the estimators' errors. Exit 2 for bad
     input, a drive that cannot observe what is asked (unless --allow-unobservable), or an
     output that is an input.
     """

@@ -110,14 +110,24 @@ AUDIT_KPIS: tuple[Kpi, ...] = (
     Kpi("navigation.dropout_time_s", "s", "lower", 1e-3),
     Kpi("navigation.pose_jumps", "jumps", "lower"),
     Kpi("navigation.clock_jumps", "jumps", "lower"),
+    *(k for role in ("truth", "laser", "estimator") for k in (
+        Kpi(f"stations.summary.{role}.sigma_x_max_m", "m", "lower", 1e-6),
+        Kpi(f"stations.summary.{role}.sigma_y_max_m", "m", "lower", 1e-6),
+        Kpi(f"stations.summary.{role}.sigma_heading_max_deg", "deg", "lower", 1e-4),
+        Kpi(f"stations.summary.{role}.radius95_max_m", "m", "lower", 1e-6),
+        Kpi(f"stations.summary.{role}.passed", "stations", "higher"),
+        Kpi(f"stations.summary.{role}.failed", "stations", "lower"))),
 )
 """The site's figures in an ``audit.json``: reflectors per status and unmapped objects, the
 coverage along the drive (reflectors visible, GDOP, the pose's position 1-sigma in m, the
 share of poses without a position / below the minimum of reflectors / above the GDOP limit,
 the reflectors the device reported using, the poor segments and their time in s) and the
 navigation health over all logs (the share of time in navigation, the dropouts and their
-time in s, the pose jumps, the device clock's jumps). A KPI that neither document holds (an
-audit.json written before its section existed) is left out."""
+time in s, the pose jumps, the device clock's jumps) and the stations per pose source (the
+truth, the raw laser, the audit's estimator): the largest sigma x, y (m), sigma heading (deg)
+and 95 % radius (m) over the stations, and with a stations file the stations that passed and
+failed their tolerance. A KPI that neither document holds (an audit.json written before its
+section existed, pass counts of stations found automatically) is left out."""
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,14 @@ estimate cannot know:
 - ``observations = auto`` uses reflector scans once one has arrived (and a map is known), NAV
   poses before;
 - the paper filter's ``scans = nav-poll`` takes, at each NAV pose, the last scan received before
-  it.
+  it;
+- a NAV pose is read through the rotating-head pose model as stated in the configuration
+  (``pose_model = rotating-head``: the age ``pose_latency_s``, plus one head period when the
+  vehicle states no pose age, after the vehicle's ``nav_time_offset + nav_pose_age``; the skew
+  lever ``pose_skew_x_m``, ``pose_skew_y_m``; the odometry's motion at its reference instant,
+  :func:`lgvtool.localize.pose_model.pose_observations`), never fitted: a log's age and lever
+  are fitted over the whole log, which a live feed does not have (``lgvtool calibrate`` writes
+  them into the configuration).
 
 Times are the messages' own stamps (ns), as in replay. Processing time per update (s) is kept
 in :attr:`OnlineEstimator.update_seconds`.
@@ -33,7 +40,7 @@ import numpy as np
 import orjson
 
 from lgvtool.angles import wrap_scalar
-from lgvtool.config import Config, Reflector
+from lgvtool.config import Config, Reflector, Vehicle
 from lgvtool.json_types import JSONRecord, SettingValue, as_float, as_list, member
 from lgvtool.localize.estimator import Estimator, Motion, Observation, cloud_sample
 from lgvtool.localize.motion import (
@@ -47,6 +54,13 @@ from lgvtool.localize.observations import (
     ScanBatch,
     scan_observations,
     sources,
+)
+from lgvtool.localize.pose_model import (
+    PoseFit,
+    PoseModelParams,
+    pose_observations,
+    stated_fit,
+    vehicle_states_age,
 )
 from lgvtool.localize.registry import (
     ESTIMATORS,
@@ -118,6 +132,7 @@ class OnlineEstimator:
                         topics.estimate_tf(name), topics.estimate_covariance(name),
                         topics.estimate_particles(name))
         self._mounting = fx.mounting_of(config.vehicle)
+        self._pose_fit = _stated_pose_fit(self.params, config.vehicle)
         #: processing time of every observation applied, s
         self.update_seconds: list[float] = []
 
@@ -193,14 +208,15 @@ class OnlineEstimator:
         if not (doc.get("valid") and math.isfinite(x) and math.isfinite(y) and math.isfinite(h)):
             return out
         self._poses_seen = True
-        lat = float(getattr(self.params, "pose_latency_s", 0.0))
-        obs = PoseObservation(t - lat, x, y, h)
         _, use_poses = self._uses()
         if use_poses:
             started = time.perf_counter()
-            out.extend(self._apply(obs, obs.t, self._track(), started))
+            track = self._track()
+            obs = self._pose(t, x, y, h, track)
+            out.extend(self._apply(obs, obs.t, track, started))
         elif self.reflectors or not self.cls.uses_scans:
             # an estimator that does not update with NAV poses may still start from one
+            obs = PoseObservation(t - float(getattr(self.params, "pose_latency_s", 0.0)), x, y, h)
             if self.est is None:
                 self.est = self._build()
             if self.est.initialized:
@@ -208,6 +224,20 @@ class OnlineEstimator:
             self.est.update(obs)
             self._motion_t = min(obs.t, max(self._motion_end(), -1e300))
         return out
+
+    def _pose(self, t: float, x: float, y: float, h: float, track: MotionTrack | None
+              ) -> PoseObservation:
+        """A NAV head pose received at ``t`` (s) as the observation replay would make of it:
+        through the stated pose model (rotating-head), else at ``t - pose_latency_s``."""
+        fit = self._pose_fit
+        if fit is None:
+            return PoseObservation(t - float(getattr(self.params, "pose_latency_s", 0.0)), x, y,
+                                   h)
+        v = self.config.vehicle
+        period = float(getattr(self.params, "pose_period_s", 0.125))
+        return pose_observations(np.array([t - v.nav_time_offset - v.nav_pose_age]),
+                                 np.array([x]), np.array([y]),
+                                 np.array([wrap_scalar(h - v.nav_yaw)]), track, fit, period)[0]
 
     # ------------------------------------------------------------------ motion
     def _motion_end(self) -> float:
@@ -296,3 +326,13 @@ class OnlineEstimator:
                                   orjson.dumps(messages.poses_in_frame(t_ns, poses)), t_ns))
                 self._next_cloud = t + self.cloud_period_s
         return out
+
+
+def _stated_pose_fit(params: object, vehicle: Vehicle) -> PoseFit | None:
+    """The pose model as the configuration states it (nothing fitted:
+    :func:`lgvtool.localize.pose_model.stated_fit`) for an estimator with the rotating-head
+    model, else None (a pose is then taken at its receive time minus ``pose_latency_s``)."""
+    if not (isinstance(params, PoseModelParams) and params.pose_model == "rotating-head"):
+        return None
+    configured = vehicle_states_age(vehicle.nav_time_offset, vehicle.nav_pose_age)
+    return stated_fit(params, float(getattr(params, "pose_latency_s", 0.0)), configured)

@@ -8,7 +8,7 @@ or decoded as they are read when the caller says it will use them all.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from operator import itemgetter
 from typing import TYPE_CHECKING, Any, NotRequired, TypedDict, TypeVar, overload
@@ -365,11 +365,15 @@ _DECODE_BYTES = 64 * 1024
 
 
 def _decode_columns(raw: Sequence[bytes], log_ns: IntArray,
-                    fields: Callable[[list[_M]], tuple[Column, ...]]
-                    ) -> tuple[IntArray, list[Column]]:
+                    fields: Callable[[list[_M]], tuple[Column, ...]],
+                    stamped: str | None = None) -> tuple[IntArray, list[Column]]:
     """Decode JSON messages block by block (about :data:`_DECODE_BYTES` each): their own time
     stamps (ns, else the log times) and the arrays ``fields`` extracts from each block's dicts
-    (messages on the last axis)."""
+    (messages on the last axis). With ``stamped`` (the topic's name) every message must carry
+    its ``timestamp`` (``{sec, nsec}``): the time its content refers to, which the log time
+    (when the host wrote it) cannot stand in for.
+
+    :raises ValueError: ``topic ...: ...`` when a message of a ``stamped`` topic has none."""
     import orjson
 
     loads = orjson.loads
@@ -379,11 +383,23 @@ def _decode_columns(raw: Sequence[bytes], log_ns: IntArray,
     step = max(1, min(_DECODE_BLOCK, _DECODE_BYTES * len(raw) // max(size, 1)))
     for a in range(0, len(raw), step):
         docs = [loads(x) for x in raw[a:a + step]]
+        if stamped is not None:
+            _require_stamps(stamped, docs, a)
         stamps.append(message_stamps_ns(docs, log_ns[a:a + step]))
         parts.append(fields(docs))
     if not parts:
         return np.zeros(0, dtype=np.int64), []
     return np.concatenate(stamps), _joined(parts)
+
+
+def _require_stamps(topic: str, docs: Sequence[object], first: int) -> None:
+    """Raise ``ValueError`` (``topic ...``) naming the first of ``docs`` (messages ``first``
+    on of ``topic``) without a ``timestamp`` of ``sec`` and ``nsec``."""
+    for i, d in enumerate(docs):
+        ts = d.get("timestamp") if isinstance(d, Mapping) else None
+        if not (isinstance(ts, Mapping) and "sec" in ts and "nsec" in ts):
+            raise ValueError(f"topic {topic}: message {first + i + 1} has no timestamp "
+                             f"({{sec, nsec}}): the time a NAV pose refers to must be in it")
 
 
 def _joined(parts: list[Sequence[Column]]) -> list[Column]:
@@ -545,7 +561,8 @@ def _log_data(reader: LogReader, chunks: Iterable[RawBlock],
             if topic == T.TRUTH:
                 stamps, cols = _decode_columns(raw, log_ns, _truth_fields)
             else:
-                stamps, cols = _decode_columns(raw, log_ns, _FIELDS[topic])
+                stamps, cols = _decode_columns(raw, log_ns, _FIELDS[topic],
+                                               topic if topic == T.NAV_POSE else None)
         acc.setdefault(topic, _Topic()).add(log_ns, stamps, cols)
 
     for block in chunks:

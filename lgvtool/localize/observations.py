@@ -454,7 +454,7 @@ class SourceParams:
                                   "applied at receive time minus this (with the rotating-head "
                                   "pose model: the age when the log does not determine it, "
                                   "plus one head period when the vehicle states no pose age), "
-                                  "s", minimum=0.0)
+                                  "s", minimum=0.0, maximum=2.0)
     pose_gate: bool = param(True, "leave out NAV poses that jump farther than the odometry "
                             "allows since the last accepted one (docs/reading.md)")
 

@@ -78,7 +78,7 @@ from lgvtool.localize.estimator import (
     Observation,
 )
 from lgvtool.localize.kld import KldSizing
-from lgvtool.localize.noise import MotionParams
+from lgvtool.localize.noise import MotionParams, _Size
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
 from lgvtool.localize.particle_backend import (
@@ -220,6 +220,12 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams, PoseModelParams):
     fix_reset_fraction: float = param(0.5, "fraction of the particles the fix disagreement "
                                       "reset re-draws around the fix", minimum=0.0,
                                       maximum=1.0)
+    jitter_m: float = param(0.001, "prior proposal: position noise added to every motion, "
+                            "along and across track alike (in quadrature with the motion "
+                            "noise), m per update: keeps the cloud able to move while the "
+                            "vehicle stands, when the motion noise is zero", minimum=0.0, maximum=0.1)
+    jitter_rad: float = param(0.0005, "prior proposal: heading noise added to every motion (in "
+                              "quadrature), rad per update", minimum=0.0, maximum=0.1)
     proposal: str = param("prior", "where a reflector scan's particles are drawn from: prior "
                           "(the motion model, the particles moved with motion noise), ekf "
                           "(each particle's motion Gaussian updated by the scan's landmarks "
@@ -233,6 +239,17 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams, PoseModelParams):
                                              "degrees of freedom) of this probability is left "
                                              "out of that particle's proposal (not of its "
                                              "weight)", minimum=0.5, maximum=0.999999999)
+
+    def noise_sigmas(self, dist: _Size, rot: _Size) -> tuple[_Size, _Size, _Size]:
+        """The motion noise (:meth:`MotionParams.noise_sigmas`: along m, across m, heading
+        rad), with the prior proposal ``jitter_m`` and ``jitter_rad`` added in quadrature (the
+        ekf and marginal proposals move each particle's Gaussian by its own Kalman step, also
+        at a standstill)."""
+        sa, sl, st = super().noise_sigmas(dist, rot)
+        if self.proposal != "prior" or (self.jitter_m == 0.0 and self.jitter_rad == 0.0):
+            return sa, sl, st
+        jm, jr = self.jitter_m ** 2, self.jitter_rad ** 2
+        return (np.sqrt(sa * sa + jm), np.sqrt(sl * sl + jm), np.sqrt(st * st + jr))
 
 
 class ParticleFilter(ParticleSet[PfParams]):

@@ -34,9 +34,13 @@ the device alone (docs/filter.md, "The pose observation model"):
 With the motion ``v, omega`` of the odometry at the reference instant, :func:`pose_covariance`
 gives the covariance of a reported head pose; :func:`prepare_poses` turns a log's NAV poses
 into :class:`lgvtool.localize.observations.PoseObservation` at their reference instants with the
-skew taken off. :class:`PoseGate` is the robust gate every estimator applies: a Mahalanobis gate
-on the model's covariance with a re-anchoring to the reported pose once poses have been refused
-for longer than ``pose_reanchor_s``.
+skew taken off: :func:`fit_pose_model` fits the age and the lever (or takes them as stated,
+:func:`stated_fit`), :func:`pose_observations` applies them (the live view calls it with the
+stated model, ``lgvtool calibrate`` the fit once per drive). :func:`standstill_noise` gives the
+scatter of the poses while the vehicle stands, the noise at standstill. :class:`PoseGate` is
+the robust gate every estimator applies: a Mahalanobis gate on the model's covariance with a
+re-anchoring to the reported pose once poses have been refused for longer than
+``pose_reanchor_s``.
 
 Pure: arrays in, arrays out. Units: m, rad, s.
 """
@@ -66,6 +70,9 @@ estimator's ``sigma_pose_xy_m``, ``sigma_pose_heading_rad``) at receive time min
 
 #: the ages a fit considers, s (0 to AGE_MAX_S in AGE_STEP_S)
 AGE_MAX_S = 0.6
+#: the least age a fit considers when the vehicle states a pose age (what is fitted is then
+#: what the installation's correction left, which may be slightly negative), s
+AGE_MIN_STATED_S = -0.2
 AGE_STEP_S = 0.0025
 #: a fitted age is used only when its standard error is at most this, s
 AGE_MAX_SIGMA_S = 0.010
@@ -77,6 +84,15 @@ SKEW_PAIR_S = 3.0
 SKEW_MAX_SIGMA_M = 1.5
 #: pairs whose residual exceeds this many times the median's are left out of the skew fit
 SKEW_CLIP = 5.0
+#: a standstill: the odometry's speed below this, m/s, ...
+STANDSTILL_SPEED = 0.002
+#: ... and its turn rate below this, rad/s, ...
+STANDSTILL_TURN = 0.002
+#: ... for at least this long, s (a shorter stop is left out of the noise at standstill)
+STANDSTILL_MIN_S = 2.0
+#: the noise at standstill is determined by at least this many degrees of freedom (poses less
+#: one per standstill)
+STANDSTILL_MIN_DOF = 10
 
 
 @dataclass(frozen=True)
@@ -180,7 +196,9 @@ def pose_covariances(heading: FloatArray, v: FloatArray, omega: FloatArray, nav_
 class PoseFit:
     """What :func:`prepare_poses` used: the age (s) and skew lever (m, head frame), whether
     each came from the log (``age_fitted``, ``skew_fitted``), and their standard errors (s, m;
-    NaN when not fitted)."""
+    NaN when not fitted). ``age_tried_sigma_s`` and ``skew_tried_sigma_m`` are the standard
+    errors of the fits tried, used or not (s, m; inf when nothing determined them, NaN when no
+    fit was tried): how far the log was from determining them."""
 
     age_s: float
     age_sigma_s: float
@@ -189,6 +207,34 @@ class PoseFit:
     skew_y_m: float
     skew_sigma_m: float
     skew_fitted: bool
+    age_tried_sigma_s: float = math.nan
+    skew_tried_sigma_m: float = math.nan
+
+
+def vehicle_states_age(nav_time_offset: float, nav_pose_age: float) -> bool:
+    """Whether a vehicle configuration states the age of its NAV poses: a ``nav_time_offset``
+    or a ``nav_pose_age`` (s) other than 0, which the installation takes off the poses' times
+    (:mod:`lgvtool.localize.installation`) before this model sees them."""
+    return nav_time_offset != 0.0 or nav_pose_age != 0.0
+
+
+def stated_age(latency_s: float, period_s: float, configured_age: bool) -> float:
+    """The age (s) of a pose when none is fitted: ``pose_latency_s`` plus, when the vehicle
+    states no pose age, one head period ``T`` (s: the revolution's middle and the mean wait)."""
+    return latency_s + (0.0 if configured_age else period_s)
+
+
+def latency_for(age_s: float, period_s: float, configured_age: bool) -> float:
+    """The ``pose_latency_s`` (s) that makes :func:`stated_age` give ``age_s`` (s): its
+    inverse; negative when ``age_s`` is below what the vehicle's statement already gives."""
+    return age_s - (0.0 if configured_age else period_s)
+
+
+def stated_fit(p: PoseModelParams, latency_s: float, configured_age: bool) -> PoseFit:
+    """The model as configured, nothing fitted: the age of :func:`stated_age` and the lever
+    ``(pose_skew_x_m, pose_skew_y_m)`` (m)."""
+    return PoseFit(stated_age(latency_s, p.pose_period_s, configured_age), math.nan, False,
+                   p.pose_skew_x_m, p.pose_skew_y_m, math.nan, False)
 
 
 def _local_mean(t: FloatArray, values: FloatArray, half: float) -> FloatArray:
@@ -200,17 +246,19 @@ def _local_mean(t: FloatArray, values: FloatArray, half: float) -> FloatArray:
     return out
 
 
-def fit_age(t: FloatArray, heading: FloatArray, track: MotionTrack) -> tuple[float, float]:
+def fit_age(t: FloatArray, heading: FloatArray, track: MotionTrack, *, min_age: float = 0.0
+            ) -> tuple[float, float]:
     """The age of NAV poses (s) and its standard error (s): the shift that best aligns their
     headings (rad, at receive times ``t`` s) with the odometry's, after the slowly varying
-    rotation between the two frames (averaged over 2 x 5 s) is taken off.
+    rotation between the two frames (averaged over 2 x 5 s) is taken off. The ages tried run
+    from ``min_age`` to :data:`AGE_MAX_S` (s).
 
     Only changes of the turn rate determine it (on a steady circle a late pose looks like a
     rotated frame): the standard error is then large, or infinite with fewer than 10 poses.
     """
     if len(t) < 10:
         return 0.0, math.inf
-    ages = np.arange(0.0, AGE_MAX_S + 0.5 * AGE_STEP_S, AGE_STEP_S)
+    ages = min_age + np.arange(0.0, AGE_MAX_S - min_age + 0.5 * AGE_STEP_S, AGE_STEP_S)
     h = np.unwrap(heading)
     cost = np.empty(len(ages))
     for i, a in enumerate(ages):
@@ -330,49 +378,169 @@ def fit_skew(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
     return float(sol[0]), float(sol[1]), skew_sigma, float(sol[2]), float(math.sqrt(var[2, 2]))
 
 
+def fit_pose_model(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
+                   track: MotionTrack | None, nav_x: float, nav_y: float, p: PoseModelParams,
+                   latency_s: float, configured_age: bool) -> PoseFit:
+    """The age (s) and skew lever (m, head frame) of a log's NAV head poses (m, rad; receive
+    times ``t`` s, after the installation's corrections) against the odometry ``track``: fitted
+    where ``pose_age_fit`` and ``pose_skew_fit`` ask for it and the log determines them (see
+    the module docstring), else as stated (:func:`stated_fit`).
+
+    :param track: the odometry; without it nothing is fitted.
+    :param latency_s: the estimator's ``pose_latency_s``, s: the age when it is not fitted,
+        plus one period when ``configured_age`` is False (the vehicle states no pose age).
+    """
+    stated = stated_fit(p, latency_s, configured_age)
+    age, age_sigma, age_fitted = stated.age_s, math.nan, False
+    sx, sy, s_sigma, skew_fitted = stated.skew_x_m, stated.skew_y_m, math.nan, False
+    tried_age = tried_skew = math.nan
+    # what the installation took off may leave a slightly negative age to fit
+    lowest = AGE_MIN_STATED_S if configured_age else 0.0
+    if track is not None and p.pose_age_fit:
+        a, sa = fit_age(t, heading, track, min_age=lowest)
+        tried_age = sa
+        if sa <= AGE_MAX_SIGMA_S:
+            age, age_sigma, age_fitted = a, sa, True
+    if track is not None and (p.pose_skew_fit or p.pose_age_fit):
+        # the age from the positions when they determine it (the heading's may lag),
+        # else the skew alone
+        fit = fit_skew(t - age, x, y, heading, track, nav_x, nav_y, p.pose_period_s,
+                       with_age=p.pose_age_fit)
+        if p.pose_age_fit:
+            tried_age = fit[4] if not math.isfinite(tried_age) else min(tried_age, fit[4])
+        if fit[4] <= AGE_MAX_SIGMA_S and lowest <= age + fit[3] <= AGE_MAX_S:
+            age, age_sigma, age_fitted = age + fit[3], fit[4], True
+        else:
+            fit = fit_skew(t - age, x, y, heading, track, nav_x, nav_y, p.pose_period_s,
+                           with_age=False)
+        tried_skew = fit[2]
+        if p.pose_skew_fit and fit[2] <= SKEW_MAX_SIGMA_M:
+            sx, sy, s_sigma, skew_fitted = fit[0], fit[1], fit[2], True
+    return PoseFit(age, age_sigma, age_fitted, sx, sy, s_sigma, skew_fitted, tried_age,
+                   tried_skew)
+
+
+def pose_observations(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
+                      track: MotionTrack | None, fit: PoseFit, period_s: float
+                      ) -> list[PoseObservation]:
+    """NAV head poses (m, rad; receive times ``t`` s) as observations at their reference
+    instants ``t - fit.age_s``, with the skew ``(omega T / pi) R(heading) (s_x, s_y)`` of the
+    ``fit``'s lever taken off and the odometry's forward speed (m/s) and turn rate (rad/s) over
+    the revolution about that instant (0 without a ``track``). ``period_s``: the head period
+    ``T``, s. Replay (:func:`prepare_poses`) and the live view call it alike."""
+    tr = t - fit.age_s
+    if track is not None:
+        v, w = odometry_motion(track, tr, period_s)
+    else:
+        v = w = np.zeros(len(t))
+    k = w * period_s / math.pi
+    c, s = np.cos(heading), np.sin(heading)
+    cx = x - k * (c * fit.skew_x_m - s * fit.skew_y_m)
+    cy = y - k * (s * fit.skew_x_m + c * fit.skew_y_m)
+    return [PoseObservation(*row) for row in zip(tr.tolist(), cx.tolist(), cy.tolist(),
+                                                 wrap_angle(heading).tolist(), v.tolist(),
+                                                 w.tolist(), strict=True)]
+
+
 def prepare_poses(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
                   track: MotionTrack | None, nav_x: float, nav_y: float, p: PoseModelParams,
                   latency_s: float, configured_age: bool) -> tuple[list[PoseObservation],
                                                                     PoseFit]:
     """A log's NAV head poses (m, rad; receive times ``t`` s, after the installation's
     corrections) as observations at their reference instants, with the skew taken off and the
-    odometry's motion at that instant.
+    odometry's motion at that instant: :func:`fit_pose_model`, then
+    :func:`pose_observations`.
 
     :param track: the odometry; without it no fit is made and the motion is 0.
     :param latency_s: the estimator's ``pose_latency_s``, s: the age when it is not fitted,
         plus one period when ``configured_age`` is False (the vehicle states no pose age).
     """
-    fixed = latency_s + (0.0 if configured_age else p.pose_period_s)
-    age, age_sigma, age_fitted = fixed, math.nan, False
-    if track is not None and p.pose_age_fit:
-        a, sa = fit_age(t, heading, track)
-        if sa <= AGE_MAX_SIGMA_S:
-            age, age_sigma, age_fitted = a, sa, True
-    sx, sy, s_sigma, skew_fitted = p.pose_skew_x_m, p.pose_skew_y_m, math.nan, False
-    v = w = np.zeros(len(t))
-    if track is not None:
-        if p.pose_skew_fit or p.pose_age_fit:
-            # the age from the positions when they determine it (the heading's may lag),
-            # else the skew alone
-            fit = fit_skew(t - age, x, y, heading, track, nav_x, nav_y, p.pose_period_s,
-                           with_age=p.pose_age_fit)
-            if fit[4] <= AGE_MAX_SIGMA_S and 0.0 <= age + fit[3] <= AGE_MAX_S:
-                age, age_sigma, age_fitted = age + fit[3], fit[4], True
-            else:
-                fit = fit_skew(t - age, x, y, heading, track, nav_x, nav_y, p.pose_period_s,
-                               with_age=False)
-            if p.pose_skew_fit and fit[2] <= SKEW_MAX_SIGMA_M:
-                sx, sy, s_sigma, skew_fitted = fit[0], fit[1], fit[2], True
-        v, w = odometry_motion(track, t - age, p.pose_period_s)
-    tr = t - age
-    k = w * p.pose_period_s / math.pi
-    c, s = np.cos(heading), np.sin(heading)
-    cx = x - k * (c * sx - s * sy)
-    cy = y - k * (s * sx + c * sy)
-    obs = [PoseObservation(*row) for row in zip(tr.tolist(), cx.tolist(), cy.tolist(),
-                                                wrap_angle(heading).tolist(), v.tolist(),
-                                                w.tolist(), strict=True)]
-    return obs, PoseFit(age, age_sigma, age_fitted, sx, sy, s_sigma, skew_fitted)
+    fit = fit_pose_model(t, x, y, heading, track, nav_x, nav_y, p, latency_s, configured_age)
+    return pose_observations(t, x, y, heading, track, fit, p.pose_period_s), fit
+
+
+@dataclass(frozen=True)
+class StandstillNoise:
+    """The scatter of NAV poses while the vehicle stood still: the position noise (m, per
+    axis) and heading noise (rad), each with its standard error (m, rad), from ``poses`` poses
+    over ``standstills`` standstills lasting ``duration_s`` s in all; ``determined`` when they
+    give at least :data:`STANDSTILL_MIN_DOF` degrees of freedom (else the sigmas are NaN)."""
+
+    sigma_xy_m: float
+    sigma_xy_se_m: float
+    sigma_heading_rad: float
+    sigma_heading_se_rad: float
+    poses: int
+    standstills: int
+    duration_s: float
+
+    @property
+    def determined(self) -> bool:
+        """Whether enough poses were seen at standstill to give the noise."""
+        return self.poses - self.standstills >= STANDSTILL_MIN_DOF
+
+
+def standstills(track: MotionTrack, t: FloatArray, *, min_s: float = STANDSTILL_MIN_S
+                ) -> list[tuple[float, float]]:
+    """The stretches ``(start, end)`` (s) within the times ``t`` (s, sorted) during which the
+    odometry moved slower than :data:`STANDSTILL_SPEED` (m/s) and turned slower than
+    :data:`STANDSTILL_TURN` (rad/s) for at least ``min_s`` s (a head period is left off at
+    each end, where the pose may still be a moving one)."""
+    if len(track.t) < 2 or len(t) == 0:
+        return []
+    grid = np.arange(max(track.t[0], t[0]), min(track.t[-1], t[-1]), 0.05)
+    if len(grid) < 2:
+        return []
+    x, y, th, _, _ = track.poses_at(grid)
+    dt = np.diff(grid)
+    still = ((np.hypot(np.diff(x), np.diff(y)) / dt < STANDSTILL_SPEED)
+             & (np.abs(np.diff(th)) / dt < STANDSTILL_TURN))
+    out: list[tuple[float, float]] = []
+    start: float | None = None
+    for i, s in enumerate(still.tolist()):
+        if s and start is None:
+            start = float(grid[i])
+        elif not s and start is not None:
+            out.append((start, float(grid[i])))
+            start = None
+    if start is not None:
+        out.append((start, float(grid[-1])))
+    return [(a, b) for a, b in out if b - a >= min_s]
+
+
+def standstill_noise(t: FloatArray, x: FloatArray, y: FloatArray, heading: FloatArray,
+                     track: MotionTrack, *, min_s: float = STANDSTILL_MIN_S,
+                     margin_s: float = 0.25) -> StandstillNoise:
+    """The noise of NAV head poses (m, rad; reference instants ``t`` s) at standstill: their
+    scatter about each standstill's mean (:func:`standstills` of at least ``min_s`` s, less
+    ``margin_s`` s at each end), pooled over the standstills (one degree of freedom taken per
+    standstill). The position's is the mean of the x and y variances, per axis (m); the
+    standard errors are those of a sigma from that many degrees of freedom."""
+    xs: list[FloatArray] = []
+    ys: list[FloatArray] = []
+    hs: list[FloatArray] = []
+    used = 0
+    duration = 0.0
+    for a, b in standstills(track, t, min_s=min_s):
+        inside = (t >= a + margin_s) & (t <= b - margin_s)
+        if int(inside.sum()) < 2:
+            continue
+        used += 1
+        duration += b - a
+        xs.append(x[inside] - float(np.mean(x[inside])))
+        ys.append(y[inside] - float(np.mean(y[inside])))
+        h = np.unwrap(heading[inside])
+        hs.append(h - float(np.mean(h)))
+    n = sum(len(v) for v in xs)
+    dof = n - used
+    if dof < STANDSTILL_MIN_DOF:
+        return StandstillNoise(math.nan, math.nan, math.nan, math.nan, n, used, duration)
+    ex, ey, eh = np.concatenate(xs), np.concatenate(ys), np.concatenate(hs)
+    sxy = math.sqrt(float(np.sum(ex * ex) + np.sum(ey * ey)) / (2.0 * dof))
+    sh = math.sqrt(float(np.sum(eh * eh)) / dof)
+    # the standard error of a sigma from k degrees of freedom: sigma / sqrt(2 k)
+    return StandstillNoise(sxy, sxy / math.sqrt(4.0 * dof), sh, sh / math.sqrt(2.0 * dof), n,
+                           used, duration)
 
 
 class PoseGate:

@@ -40,7 +40,7 @@ from lgvtool.localize.observations import (
 )
 from lgvtool.localize.obsstream import ObservationStream, Tail, scan_times, times_of
 from lgvtool.localize.params import params_dict
-from lgvtool.localize.pose_model import PoseModelParams, prepare_poses
+from lgvtool.localize.pose_model import PoseModelParams, prepare_poses, vehicle_states_age
 from lgvtool.localize.registry import (
     DEFAULT_ESTIMATORS,
     ESTIMATORS,
@@ -128,7 +128,7 @@ def _pose_observations(data: LogData, est_cls: type[Estimator[object]], params: 
     ok = np.nonzero(usable)[0]
     if isinstance(params, PoseModelParams) and params.pose_model == "rotating-head" and \
             vehicle is not None:
-        configured = vehicle.nav_pose_age != 0.0 or vehicle.nav_time_offset != 0.0
+        configured = vehicle_states_age(vehicle.nav_time_offset, vehicle.nav_pose_age)
         poses, _ = prepare_poses(nav["t"][ok], nav["x"][ok], nav["y"][ok], nav["heading"][ok],
                                  track, vehicle.nav_x, vehicle.nav_y, params, lat, configured)
         return poses

@@ -5,6 +5,9 @@ Modules, one purpose each:
 - :mod:`~lgvtool.sim.kinematics`: the tricycle model, integrated as exact arcs;
 - :mod:`~lgvtool.sim.routes`, :mod:`~lgvtool.sim.scenarios`: routes, speed profiles and the
   scenario catalogue;
+- :mod:`~lgvtool.sim.docking`: the docking controller (where the vehicle comes to rest at a
+  station, each visit with its own error); :mod:`~lgvtool.sim.station_poses`: a scenario's
+  stations and their nominal poses (``scenario_stations``);
 - :mod:`~lgvtool.sim.mcu_model`: encoders, gyro, drive unit and MCU clock (its serial link is
   :mod:`~lgvtool.sim.mcu_simlink`);
 - :mod:`~lgvtool.sim.nav_model`: the NAV200 head (one instant per reflector) and its pose fit

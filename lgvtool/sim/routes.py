@@ -2,7 +2,8 @@
 
 A route is a list of legs. Each leg fixes, as functions of the drive wheel's travel along it,
 the steering angle (piecewise linear) and the direction (forward or reverse), plus a speed
-limit and an optional stop with a dwell at its end. Because the heading change of the
+limit and an optional stop with a dwell at its end, which may be a station's (the vehicle docks
+there: :mod:`lgvtool.sim.docking`). Because the heading change of the
 tricycle is ``(1/h) * integral of sin(delta) d(travel)``, the geometry of the path does not
 depend on the speed profile: turns come out exact whatever the acceleration.
 
@@ -31,6 +32,8 @@ class Leg:
     :param direction: +1 forward, -1 reverse.
     :param max_speed: limit of the drive wheel speed, m/s.
     :param dwell: standstill at the end of the leg, s; > 0 forces a stop there.
+    :param station: the name of the station at which the leg's stop is ('' none: a stop, no
+        station); a station's leg needs a dwell.
     """
 
     length: float
@@ -38,13 +41,22 @@ class Leg:
     direction: int = 1
     max_speed: float = 0.5
     dwell: float = 0.0
+    station: str = ""
+
+    @property
+    def is_straight(self) -> bool:
+        """True when the steering angle is 0 all along the leg."""
+        return all(delta == 0.0 for _, delta in self.steering)
 
 
 def straight(length: float, max_speed: float, *, direction: int = 1, dwell: float = 0.0,
-             steering: float = 0.0) -> Leg:
-    """A leg at a constant steering angle (0: straight), ``length`` m of drive wheel travel."""
+             steering: float = 0.0, station: str = "") -> Leg:
+    """A leg at a constant steering angle (0: straight), ``length`` m of drive wheel travel,
+    ending at ``station`` ('' none) when it has one."""
+    if station and dwell <= 0:
+        raise ValueError(f"the stop at station {station!r} needs a dwell")
     return Leg(length=length, steering=((0.0, steering), (length, steering)),
-               direction=direction, max_speed=max_speed, dwell=dwell)
+               direction=direction, max_speed=max_speed, dwell=dwell, station=station)
 
 
 def turn(angle: float, steering_max: float, steering_per_m: float, h: float,
@@ -65,6 +77,32 @@ def turn(angle: float, steering_max: float, steering_per_m: float, h: float,
 
 
 @dataclass(frozen=True)
+class StationStop:
+    """One stop of a route at a station, where the vehicle docks (:mod:`lgvtool.sim.docking`).
+
+    The straight travel on either side of the stop bounds how far back the docking controller
+    may start its approach and how far on it may bring the vehicle back to the route.
+    """
+
+    station: str
+    """The station's name."""
+    travel: float
+    """Drive wheel travel from the start of the route to the stop, m."""
+    arrive_s: float
+    """Time at which the vehicle comes to a standstill there, s."""
+    leave_s: float
+    """Time at which it drives off again, s."""
+    straight_before: float
+    """Straight travel (steering 0) of the leg ending at the stop, m (0: its leg turns)."""
+    straight_after: float
+    """Straight travel of the leg after the stop, m (0: it turns, or the route ends)."""
+    direction_before: int
+    """Direction of the leg ending at the stop: +1 forward, -1 reverse."""
+    direction_after: int
+    """Direction of the leg after it (that of the leg before when the route ends there)."""
+
+
+@dataclass(frozen=True)
 class Profile:
     """A route laid out in time: drive wheel travel p(t) at nodes, plus what the legs define."""
 
@@ -80,6 +118,8 @@ class Profile:
     """Travel of the steering knots, m."""
     steer_delta: FloatArray
     """Steering angle at the knots, rad."""
+    stops: tuple[StationStop, ...] = ()
+    """The stops at stations, in route order."""
 
     @property
     def end_time(self) -> float:
@@ -127,6 +167,20 @@ def lay_out(legs: list[Leg], accel: float, start_time: float = 0.0,
     stops = np.nonzero(dwell_at > 0)[0]
     t_nodes = np.insert(t_arrive, stops + 1, t_arrive[stops] + dwell_at[stops])
     p_nodes = np.insert(p, stops + 1, p[stops])
+    station_stops: list[StationStop] = []
+    for i, leg in enumerate(legs):
+        if not leg.station:
+            continue
+        j = int(boundary[i + 1])
+        after = legs[i + 1] if i + 1 < len(legs) else None
+        arrive = float(t_arrive[j])
+        dwell = float(dwell_at[j]) if after is not None else leg.dwell  # the route ends there
+        station_stops.append(StationStop(
+            station=leg.station, travel=float(p[j]), arrive_s=arrive, leave_s=arrive + dwell,
+            straight_before=leg.length if leg.is_straight else 0.0,
+            straight_after=after.length if after is not None and after.is_straight else 0.0,
+            direction_before=leg.direction,
+            direction_after=after.direction if after is not None else leg.direction))
     knots_p: list[float] = []
     knots_d: list[float] = []
     for i, leg in enumerate(legs):
@@ -135,7 +189,8 @@ def lay_out(legs: list[Leg], accel: float, start_time: float = 0.0,
             knots_d.append(kd)
     return Profile(t_nodes=t_nodes, p_nodes=p_nodes, leg_starts=starts[:-1],
                    directions=np.array([float(leg.direction) for leg in legs]),
-                   steer_p=np.array(knots_p), steer_delta=np.array(knots_d))
+                   steer_p=np.array(knots_p), steer_delta=np.array(knots_d),
+                   stops=tuple(station_stops))
 
 
 def sample(profile: Profile, duration: float, rate_hz: float) -> Controls:

@@ -1,9 +1,11 @@
 """The scenario catalogue: what the vehicle drives, and the settings each scenario presets.
 
 A scenario turns its parameters (``scenario.*`` settings, SI unless the key says ``_deg``)
-and an optional duration into a :class:`Plan`: the start pose of O and the drive commands on
-the integration grid. Faults and device settings that a scenario implies are *presets*,
-applied before the user's own ``--config`` and ``--set`` values.
+and an optional duration into a :class:`Plan`: the start pose of O, the drive commands on
+the integration grid and the stops at stations (where the vehicle docks,
+:mod:`lgvtool.sim.docking`; their nominal poses: :mod:`lgvtool.sim.station_poses`). Faults and
+device settings that a scenario implies are *presets*, applied before the user's own
+``--config`` and ``--set`` values.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from lgvtool.config import Vehicle
 from lgvtool.declared import as_dict, make, setting
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.sim.kinematics import Controls
-from lgvtool.sim.routes import Leg, lay_out, sample, straight, turn
+from lgvtool.sim.routes import Leg, StationStop, lay_out, sample, straight, turn
 from lgvtool.suggest import unknown_tail
 
 MAX_REPEATS = 10_000.0
@@ -36,6 +38,9 @@ class Plan:
     controls: Controls
     reference: dict[str, float] = field(default_factory=dict)
     """What the scenario promises, for evaluation: e.g. circle centre and radius, m."""
+    stops: tuple[StationStop, ...] = ()
+    """The stops at stations that the run completes (arrives and drives off again, or stands
+    to the end), in time order; none for a scenario without stations."""
 
 
 Builder = Callable[[Mapping[str, float], Vehicle, float | None, float], Plan]
@@ -53,6 +58,9 @@ class Scenario:
     :class:`WarehouseParameters`)."""
     build: Builder
     presets: Mapping[str, object] = field(default_factory=dict)
+    stations: tuple[str, ...] = ()
+    """The names of the stations its route stops at, in the order of their first visit (none:
+    a scenario without stations)."""
 
     @property
     def defaults(self) -> dict[str, float]:
@@ -163,12 +171,15 @@ class WarehouseParameters:
         60.0, "steering change per metre of drive wheel travel, deg/m", unit="deg/m",
         minimum=0.0, min_open=True)
     length_a: float = setting(10.0, "long straights, m", minimum=0.0, min_open=True)
-    length_b: float = setting(6.0, "short straights (the second one holds the stop), m",
+    length_b: float = setting(6.0, "short straights (each holds a station halfway: the pick "
+                              "station on the first, the drop station on the second), m",
                               minimum=0.0, min_open=True)
-    reverse_length: float = setting(2.0, "reverse leg after the stop, m", minimum=0.0,
+    reverse_length: float = setting(2.0, "reverse leg after the pick station, m", minimum=0.0,
                                     min_open=True)
-    pick_dwell_s: float = setting(3.0, "standstill at the stop (load handling), s",
+    pick_dwell_s: float = setting(3.0, "standstill at the pick station (load handling), s",
                                   minimum=0.0, min_open=True)
+    drop_dwell_s: float = setting(4.0, "standstill at the drop station (setting the load "
+                                  "down), s", minimum=0.0, min_open=True)
     laps: float = setting(2.0, "laps of the route; ignored when --duration is given",
                           minimum=0.0, min_open=True, maximum=MAX_REPEATS)
     standstill_s: float = setting(5.0, "standstill at the start, s", minimum=0.0)
@@ -179,9 +190,22 @@ class WarehouseParameters:
                                        maximum=360.0)
 
 
+PICK = "pick"
+"""The warehouse's pick station: halfway along the first short side, left after a reverse leg."""
+DROP = "drop"
+"""The warehouse's drop station: halfway along the second short side, left forward."""
+
+
+REVERSE_PAUSE_S = 1.0
+"""The standstill at the end of the warehouse's reverse leg, s: a pause, not a station (shorter
+than the 2 s a standstill detector would need)."""
+
+
 def _warehouse_lap(params: Mapping[str, float], vehicle: Vehicle) -> list[Leg]:
-    """One lap: a rectangle of long and short straights joined by left 90-degree turns; on the
-    first short side the vehicle stops, reverses out and drives on."""
+    """One lap: a rectangle of long and short straights joined by left 90-degree turns; halfway
+    along the first short side the vehicle stops at the pick station, reverses out, stops for
+    1 s (not a station) and drives on; halfway along the second it stops at the drop station
+    and drives on."""
     speed, tspeed, rspeed = params["speed"], params["turn_speed"], params["reverse_speed"]
     delta = math.radians(params["steering_deg"])
     per_m = math.radians(params["steering_rate_deg_per_m"])
@@ -191,28 +215,31 @@ def _warehouse_lap(params: Mapping[str, float], vehicle: Vehicle) -> list[Leg]:
     return [
         straight(a, speed),
         quarter,
-        straight(half, speed, dwell=params["pick_dwell_s"]),
-        straight(rev, rspeed, direction=-1, dwell=1.0),
+        straight(half, speed, dwell=params["pick_dwell_s"], station=PICK),
+        straight(rev, rspeed, direction=-1, dwell=REVERSE_PAUSE_S),
         straight(rev, rspeed),
         straight(b - half, speed),
         quarter,
         straight(a, speed),
         quarter,
-        straight(b, speed),
+        straight(half, speed, dwell=params["drop_dwell_s"], station=DROP),
+        straight(b - half, speed),
         quarter,
     ]
 
 
 def build_warehouse(params: Mapping[str, float], vehicle: Vehicle, duration: float | None,
                     rate_hz: float) -> Plan:
-    """Laps of a warehouse route: straights, 90-degree turns, a stop and a reverse leg."""
+    """Laps of a warehouse route: straights, 90-degree turns, a pick and a drop station and a
+    reverse leg."""
     _positive(params, "speed", "turn_speed", "reverse_speed", "accel", "steering_rate_deg_per_m",
               "length_a", "length_b", "reverse_length", "laps")
     delta = math.radians(params["steering_deg"])
     if not 0.0 < delta < math.pi / 2:
         raise ConfigError("scenario.steering_deg must be in (0, 90)")
-    if params["pick_dwell_s"] <= 0:
-        raise ConfigError("scenario.pick_dwell_s must be positive")
+    for key in ("pick_dwell_s", "drop_dwell_s"):
+        if params[key] <= 0:
+            raise ConfigError(f"scenario.{key} must be positive")
     try:
         lap = _warehouse_lap(params, vehicle)
     except ValueError as exc:
@@ -231,7 +258,8 @@ def build_warehouse(params: Mapping[str, float], vehicle: Vehicle, duration: flo
     return Plan(x0=params["start_x"], y0=params["start_y"],
                 heading0=math.radians(params["start_heading_deg"]), controls=controls,
                 reference={"laps": float(laps), "moving_from_s": lead_in,
-                           "moving_until_s": profile.end_time})
+                           "moving_until_s": profile.end_time},
+                stops=tuple(s for s in profile.stops if s.arrive_s < total))
 
 
 # --------------------------------------------------------------------------- catalogue
@@ -271,10 +299,13 @@ SCENARIOS: dict[str, Scenario] = {
     "warehouse": Scenario(
         name="warehouse",
         description=("Two laps of a 10 m x 6 m rectangular route at 0.8 m/s with left "
-                     "90-degree turns at 0.4 m/s; on each lap a 3 s stop, a 2 m reverse leg "
-                     "and back."),
+                     "90-degree turns at 0.4 m/s; on each lap a 3 s stop at the pick station, "
+                     "a 2 m reverse leg and back, and a 4 s stop at the drop station; the "
+                     "vehicle docks at each station to within its docking controller's "
+                     "repeatability (drive.dock_*)."),
         base=WarehouseParameters(),
         build=build_warehouse,
+        stations=(PICK, DROP),
     ),
     "fast": Scenario(
         name="fast",

@@ -295,6 +295,28 @@ class DriveSettings:
         "load (tyre compression), proportional to the load: the true radius is the MCU's "
         "(mcu.wheel_radius_error_*) x (1 + load_fraction x this), dimensionless.",
         unit="", minimum=-0.05, maximum=0.05)
+    dock_sigma_along_m: float = setting(
+        0.010,
+        "Docking controller: standard deviation of where the vehicle comes to rest at a "
+        "station along its approach (O's stop minus the station's nominal one, forward), "
+        "drawn per visit, m.",
+        unit="m", minimum=0.0, maximum=0.05)
+    dock_sigma_across_m: float = setting(
+        0.008,
+        "Docking controller: standard deviation of O's stop across the approach (to the "
+        "left), drawn per visit, m.",
+        unit="m", minimum=0.0, maximum=0.05)
+    dock_sigma_heading_deg: float = setting(
+        0.3,
+        "Docking controller: standard deviation of the heading at rest minus the station's "
+        "nominal heading (counter-clockwise), drawn per visit, deg.",
+        unit="deg", minimum=0.0, maximum=2.0)
+    dock_approach_m: float = setting(
+        2.0,
+        "Docking controller: drive-wheel travel over which the stop's error builds up on the "
+        "final approach to a station, and dies away again after it drives off (at most the "
+        "straight travel there), m.",
+        unit="m", minimum=0.2, maximum=20.0)
 
 
 MAX_MOVE_M = 5.0
@@ -476,10 +498,14 @@ IDEAL_WORLD: dict[str, object] = {
     "drive.path_control_m": 0.0,
     "drive.understeer_deg_per_g": 0.0,
     "drive.load_fraction": 0.0,
+    "drive.dock_sigma_along_m": 0.0,
+    "drive.dock_sigma_across_m": 0.0,
+    "drive.dock_sigma_heading_deg": 0.0,
     "scenario.overrun_deg": 0.0,
 }
 """The settings of ``sim.world = "ideal"``: every mechanism of the ``drive`` and ``site``
-sections off except the survey error (model 1 had it), no planned turn past the last rotation
+sections off except the survey error (model 1 had it; the docking controller stops exactly
+at each station's nominal pose), no planned turn past the last rotation
 (a kinematic vehicle needs none; ``scenario.*`` keys apply to the scenarios that have them),
 the NAV200's reflector scans logged, and
 the reflectors identified from the true pose, with their true ids (``nav.identification``).

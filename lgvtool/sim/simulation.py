@@ -4,8 +4,8 @@ Order of the settings, later ones winning: the defaults, the scenario's presets,
 ``[simulator]`` table of the configuration file, then ``--set`` overrides (``vehicle.*`` keys
 change the configuration's vehicle). All randomness comes from one
 ``numpy.random.default_rng(seed)``, split with ``spawn`` into one stream per part (landmarks,
-MCU, MCU link, NAV head, NAV link, faults, drive) so that switching one mechanism off does not
-reshuffle the draws of the others.
+MCU, MCU link, NAV head, NAV link, faults, drive: the steering wobble, then the docking errors)
+so that switching one mechanism off does not reshuffle the draws of the others.
 """
 
 from __future__ import annotations
@@ -21,9 +21,10 @@ from lgvtool.config import Config, Vehicle, config_from_dict, default_config
 from lgvtool.devices.nav200.nav200_device import Nav200Device
 from lgvtool.errors import ConfigError, InputError
 from lgvtool.json_types import JSONObject
+from lgvtool.sim import docking, mcu_model, mcu_simlink, nav200_simlink, nav_model
 from lgvtool.sim import event_stream as ev
 from lgvtool.sim import faults as faultlib
-from lgvtool.sim import mcu_model, mcu_simlink, nav200_simlink, nav_model
+from lgvtool.sim.docking import StationVisit
 from lgvtool.sim.faults import FaultEvent, Occlusions
 from lgvtool.sim.kinematics import TrueDrive, departures, integrate
 from lgvtool.sim.mcu_model import McuOutput
@@ -37,6 +38,7 @@ from lgvtool.sim.settings import (
     flatten,
 )
 from lgvtool.sim.site_model import Landmarks, Site, build_site
+from lgvtool.sim.station_poses import Station, setup_stations
 from lgvtool.timestamps import seconds_to_ns
 
 STREAMS = ("landmarks", "mcu", "mcu_link", "nav", "nav_link", "faults", "drive")
@@ -93,6 +95,8 @@ class Simulation:
     setup: Setup
     seed: int
     plan: Plan
+    """What the vehicle is told: the scenario's plan with the docking controller's manoeuvre
+    at each station (:mod:`lgvtool.sim.docking`)."""
     truth: TrueDrive
     """The true drive (its path of O: :attr:`TrueDrive.path`, the ground truth)."""
     site: Site
@@ -106,6 +110,11 @@ class Simulation:
     nav_traffic: nav200_simlink.NavTraffic
     faults: tuple[FaultEvent, ...]
     """Every injected fault, in time order."""
+    stations: tuple[Station, ...] = ()
+    """The scenario's stations, their nominal poses (:mod:`lgvtool.sim.station_poses`)."""
+    visits: tuple[StationVisit, ...] = ()
+    """Every stop of the run at a station, with the docking controller's error, in time
+    order."""
 
     @property
     def settings(self) -> SimSettings:
@@ -200,6 +209,7 @@ class Simulation:
             "false_reflector": _false_position(self.landmarks),
             "random_streams": list(STREAMS),
             **({"site_faults": self.site_faults()} if self.site_faults() else {}),
+            **({"stations": [st.to_json() for st in self.stations]} if self.stations else {}),
         }
 
     def site_faults(self) -> JSONObject:
@@ -267,16 +277,32 @@ def true_vehicle(vehicle: Vehicle, install: InstallSettings) -> Vehicle:
                    track=vehicle.track + install.track_error_mm * 1e-3)
 
 
+def true_drive(setup: Setup, vehicle: Vehicle, rng: np.random.Generator
+               ) -> tuple[Plan, TrueDrive, tuple[StationVisit, ...]]:
+    """The drive of a run: the plan of its scenario with the docking controller's manoeuvre at
+    each station, the true drive of ``vehicle`` (the true one, :func:`true_vehicle`) on it,
+    and the visits of the stations with their docking errors. ``rng``: the run's ``drive``
+    stream (the steering wobble first, then the docking errors)."""
+    s = setup.settings
+    plan = setup.scenario.build(setup.parameters, vehicle, setup.duration, s.sim.rate_hz)
+    drive = departures(s.drive, plan.controls.t, rng)
+    errors = docking.draw_errors(s.drive, len(plan.stops), rng)
+    plan = replace(plan, controls=docking.dock(plan.controls, plan.stops, errors,
+                                               s.drive.dock_approach_m, vehicle.h))
+    visits = tuple(StationVisit(stop.station, stop.arrive_s, stop.leave_s, e)
+                   for stop, e in zip(plan.stops, errors, strict=True))
+    truth = integrate(plan.controls, vehicle, plan.x0, plan.y0, plan.heading0, drive,
+                      int(s.sim.start_epoch_s) * 1_000_000_000)
+    return plan, truth, visits
+
+
 def run(setup: Setup, seed: int) -> Simulation:
     """Run a resolved setup with ``seed``."""
     s = setup.settings
     cfg = setup.config
     vehicle = true_vehicle(cfg.vehicle, s.install)
     rngs = dict(zip(STREAMS, np.random.default_rng(seed).spawn(len(STREAMS)), strict=True))
-    plan = setup.scenario.build(setup.parameters, vehicle, setup.duration, s.sim.rate_hz)
-    drive = departures(s.drive, plan.controls.t, rngs["drive"])
-    truth = integrate(plan.controls, vehicle, plan.x0, plan.y0, plan.heading0, drive,
-                      int(s.sim.start_epoch_s) * 1_000_000_000)
+    plan, truth, visits = true_drive(setup, vehicle, rngs["drive"])
     site = build_site(cfg.reflectors, cfg.area, s.site, s.faults, rngs["landmarks"])
     marks = site.landmarks
     occl = faultlib.occlusions(len(marks), truth.duration, s.faults.occlusion_fraction,
@@ -295,4 +321,4 @@ def run(setup: Setup, seed: int) -> Simulation:
     return Simulation(setup=setup, seed=seed, plan=plan, truth=truth, site=site,
                       occlusions=occl, scans=scans, solutions=solutions, device=device,
                       mcu=mcu, mcu_traffic=mcu_traffic, nav_traffic=nav_traffic,
-                      faults=tuple(all_faults))
+                      faults=tuple(all_faults), stations=setup_stations(setup), visits=visits)

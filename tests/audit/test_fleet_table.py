@@ -133,6 +133,24 @@ def test_the_table_groups_the_logs_of_one_vehicle_and_day() -> None:
     assert row["gdop_median"] == pytest.approx(1.0, abs=1e-9)  # NaN left out
 
 
+def test_the_station_deviation_pools_over_the_visits() -> None:
+    base: dict[str, float | str] = {c: 0.0 for c in KPI_COLUMNS}
+    a: dict[str, float | str] = {**base, "vehicle": "agv7", "day": "2026-01-02",
+                                 "duration_s": 100.0, "station_visits": 3.0,
+                                 "station_visits_outside": 1.0,
+                                 "station_deviation_rms_m": 0.01}
+    b: dict[str, float | str] = {**base, "vehicle": "agv7", "day": "2026-01-02",
+                                 "duration_s": 900.0, "station_visits": 1.0,
+                                 "station_visits_outside": math.nan,
+                                 "station_deviation_rms_m": 0.03}
+    (row,) = kpi_table([a, b])
+    assert row["station_visits"] == pytest.approx(4.0, abs=1e-9)
+    assert row["station_visits_outside"] == pytest.approx(1.0, abs=1e-9)
+    # the mean square of the four visits, not a mean by duration
+    assert row["station_deviation_rms_m"] == pytest.approx(
+        math.sqrt((3 * 0.01**2 + 0.03**2) / 4), abs=1e-12)
+
+
 def test_the_vehicle_is_the_metadata_s_else_the_file_s() -> None:
     assert vehicle_of({"vehicle": {"name": "agv7"}, "recorder": {"host": "pc"}}, "a") == "agv7"
     assert vehicle_of({"recorder": {"host": "pc"}}, "a") == "pc"

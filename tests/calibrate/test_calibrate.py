@@ -58,7 +58,11 @@ def test_cli_writes_a_usable_config(installed_logs: list[Path], tmp_path: Path, 
     doc = json.loads(p.stdout)
     cfg = load_config(out)
     assert cfg.vehicle.nav_x == pytest.approx(doc["estimates"]["nav_x"]["value_si"], rel=1e-12)
-    assert doc["estimator_settings"] == {}  # MCU odometry: no estimator setting changes
+    # MCU odometry: no scale priors; only the NAV poses' model, for the estimators that read it
+    pose_model = {"pose_age_fit", "pose_latency_s", "pose_skew_fit", "pose_skew_x_m",
+                  "pose_skew_y_m", "sigma_pose_xy_m", "sigma_pose_heading_rad"}
+    assert set(doc["estimator_settings"]) <= {"ekf", "pf", "pf-paper"}
+    assert all(set(t) <= pose_model for t in doc["estimator_settings"].values())
     assert run_cli("config", out).returncode == 0
     rows = {(r["log"], r["estimator"]): r for r in doc["comparison"]}
     # the EKF, which uses every reflector, gains most from the calibration

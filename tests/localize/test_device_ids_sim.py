@@ -42,6 +42,15 @@ WRONG_APART_M = 0.015
 """...and the estimates of the two runs may be this far apart (RMS over the run), m (measured
 1.6-7.8 mm: the particle filter's own randomness, which its resampling decisions let
 diverge, is most of it)."""
+WITHIN_M, BY_S, BOUND_M = 0.10, 20.0, 0.5
+"""The target from their own start: within 10 cm of the truth by 20 s, and never farther than
+0.5 m after first coming within 10 cm (m, s, m)."""
+FIRST_S = 2.0
+"""...which they meet far sooner on these runs: the first estimate within 10 cm by this, s
+(measured 0.6 s, the first NAV350 scan; benchmarks/own_start_convergence.py)."""
+AFTER_M = 0.2
+"""...and the largest error after it at most this, m (measured without ids on seed 9100: at
+most 84 mm, see the test)."""
 
 
 @pytest.fixture(scope="module", params=["degraded", "fast"])
@@ -82,6 +91,35 @@ def test_without_ids_ekf_and_pf_track_from_their_own_start(sim: tuple[LogData, A
     traj = scans_only.trajectories["ekf"]
     assert traj.t[0] - data.t0_ns * 1e-9 < 2.0
     assert _rmse(traj, data) <= LASER_RATIO * laser
+
+
+def _first_within_and_after(traj: Trajectory, data: LogData) -> tuple[float, float]:
+    """The time (s after the log's start) of the first estimate within :data:`WITHIN_M` of the
+    truth, and the largest error from then on (m)."""
+    assert data.truth is not None
+    t = (traj.t_ns - data.t0_ns) * 1e-9
+    tt = (data.truth.t_ns - data.t0_ns) * 1e-9
+    err = np.hypot(traj.x - np.interp(t, tt, data.truth.x),
+                   traj.y - np.interp(t, tt, data.truth.y))
+    hit = np.nonzero(err < WITHIN_M)[0]
+    assert len(hit) > 0, "never within 10 cm"
+    return float(t[hit[0]]), float(err[hit[0]:].max())
+
+
+def test_without_ids_ekf_and_pf_converge_from_their_own_start(sim: tuple[LogData, Any]
+                                                              ) -> None:
+    """The target with the ids ignored (``use_ids = false``, the reflectors associated against
+    the layout alone): ``pf`` from its uniform start and ``ekf`` from the first scan's fix
+    (its geometry matched on the layout) within 10 cm by 20 s, never farther than 0.5 m
+    after; measured on seed 9100: both within 10 cm at the first scan (0.51 s on ``degraded``,
+    0.61 s on ``fast``), then ``pf`` at most 84 and 50 mm, ``ekf`` 14 and 17 mm."""
+    data, cfg = sim
+    out = replay_data(data, ["ekf", "pf"], config=cfg, seed=0,
+                      settings={"ekf.use_ids": False, "pf.use_ids": False})
+    for name in ("ekf", "pf"):
+        first, after = _first_within_and_after(out.trajectories[name], data)
+        assert first <= min(BY_S, FIRST_S), (name, first)
+        assert after <= min(BOUND_M, AFTER_M), (name, after)
 
 
 def test_wrong_ids_do_not_drag_the_estimate(sim: tuple[LogData, Any]) -> None:

@@ -55,13 +55,14 @@ def test_arc_steps_are_exact_for_any_step() -> None:
         assert tr.path.heading[-1] == pytest.approx(0.5 * math.sin(delta) / vehicle.h * 10.0)
 
 
-def test_warehouse_has_turns_a_stop_and_a_reverse_leg(sim_cache) -> None:
+def test_warehouse_has_turns_two_stations_and_a_reverse_leg(sim_cache) -> None:
     sim = sim_cache("warehouse")
     tr = sim.truth
     assert np.any(tr.drive_speed < -0.1), "no reverse leg"
     moving = np.abs(tr.drive_speed) > 1e-6
     starts = np.nonzero(moving[1:] & ~moving[:-1])[0]
-    assert len(starts) == 1 + 2 * 2, "start, then on each lap: after the stop and after reversing"
+    assert len(starts) == 1 + 2 * 3, ("start, then on each lap: after the pick station, after "
+                                      "reversing and after the drop station")
     turned = (tr.path.heading[-1] - tr.path.heading[0]) / (math.pi / 2)
     assert turned == pytest.approx(8.0, abs=1e-3)  # two laps of four left 90-degree turns
     assert math.hypot(tr.path.x[-1] - tr.path.x[0], tr.path.y[-1] - tr.path.y[0]) < 0.01  # the route closes
