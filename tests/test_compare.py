@@ -17,6 +17,7 @@ from simlogs import simulate_log
 from lgvtool.compare.result_comparison import (
     AUDIT_KPIS,
     ESTIMATOR_KPIS,
+    SEGMENT_KPIS,
     compare_documents,
     site_check,
 )
@@ -137,9 +138,11 @@ def test_audits_of_one_site_compare_and_a_worse_count_fails(
     code, out_missing, err = run_command(capsys, "compare", results.audit_a,
                                          results.audit_missing, "--tolerance", "10%")
     assert code == 1
-    assert err.splitlines()[-2:] == [
-        "check  FAIL  counts.missing = 1 is worse than the baseline 0 (tolerance 10%)",
-        "checks: 1 of 1 FAILED"]
+    lines = err.splitlines()
+    assert lines[0] == "check  FAIL  counts.missing = 1 is worse than the baseline 0 (tolerance 10%)"
+    assert lines[-1].startswith("checks: ") and lines[-1].endswith(" FAILED")
+    # the error by segment is compared per source and reference (one check line each)
+    assert sum(line.startswith("check  ") and " segments." in line for line in lines) >= 2
     assert any(line.startswith("counts.missing ") and line.endswith("WORSE")
                for line in out_missing.splitlines())
     assert out.splitlines()[1].split()[:3] == ["kpi", "unit", "better"]
@@ -165,11 +168,12 @@ def test_two_sites_are_refused_in_one_line(results: Results,
     assert err == ("lgvtool: error: A and B are not of one site: reflector 3 stands 1.500 m "
                    "apart in their layouts (site tolerance 0.05 m); --any-site compares them "
                    "anyway\n")
+    # another hall: its error by segment differs (here by up to about 25 %), its counts not
     code, _, err = run_command(capsys, "compare", results.audit_a, results.audit_other_site,
-                               "--any-site")
+                               "--any-site", "--tolerance", "60%")
     assert code == 0 and "site not checked (--any-site)" in err
     code, _, err = run_command(capsys, "compare", results.audit_a, results.audit_other_site,
-                               "--site-tolerance", "2")
+                               "--site-tolerance", "2", "--tolerance", "60%")
     assert code == 0, err
 
 
@@ -224,7 +228,7 @@ def test_a_bad_tolerance_is_refused_in_evaluate_s_words(
 
 
 def test_every_kpi_is_declared_once_with_a_direction() -> None:
-    for table in (AUDIT_KPIS, ESTIMATOR_KPIS):
+    for table in (AUDIT_KPIS, ESTIMATOR_KPIS, SEGMENT_KPIS):
         paths = [k.path for k in table]
         assert len(paths) == len(set(paths))
         assert {k.better for k in table} <= {"lower", "higher"}
@@ -263,3 +267,31 @@ def test_station_figures_are_gated_per_source() -> None:
                       "stations.summary.laser.failed", "stations.summary.laser.passed",
                       "stations.summary.laser.radius95_max_m"]
     assert all(ch.passed for ch in compare_documents(base, audit(0.0105, 0), 0.1).checks)
+
+
+def test_the_error_by_segment_is_gated_per_source_and_reference() -> None:
+    def audit(pf_cross: float, laser_ref: str = "truth") -> JSONObject:
+        def entry(source: str, reference: str, cross: float) -> JSONObject:
+            return {"source": source, "reference": reference, "poses": 100,
+                    "overall": {"count": 100, "along": {"rms": 0.006, "mean": -0.0003},
+                                "cross": {"rms": cross, "mean": 0.001},
+                                "heading": {"rms": 0.001, "mean": 0.0}}}
+        return {"logs": ["a.mcap"], "counts": {}, "reflectors": [], "coverage": {},
+                "segments": {"sources": [entry("pf", "truth", pf_cross),
+                                         entry("laser", laser_ref, 0.025)]}}
+
+    same = compare_documents(audit(0.005), audit(0.005), 0.0)
+    keys = {r.key for r in same.rows if r.a is not None}
+    assert {"segments.pf-vs-truth.overall.cross.rms", "segments.laser-vs-truth.overall.along.rms",
+            "segments.pf-vs-truth.overall.heading.rms"} <= keys
+    assert all(ch.passed for ch in same.checks)
+    # pf's cross-track error 40 % larger fails a 10 % gate; 5 % larger passes it
+    worse = compare_documents(audit(0.005), audit(0.007), 0.1)
+    assert [ch.key for ch in worse.checks if not ch.passed] == [
+        "segments.pf-vs-truth.overall.cross.rms"]
+    assert all(ch.passed for ch in compare_documents(audit(0.005), audit(0.00525), 0.1).checks)
+    # the laser judged against another reference in B is not compared, and a note says so
+    other = compare_documents(audit(0.005), audit(0.005, laser_ref="ekf"), 0.0)
+    assert not any(r.key.startswith("segments.laser") for r in other.rows)
+    assert other.notes == ("error by segment segments.laser-vs-truth of A is not in B",
+                           "error by segment segments.laser-vs-ekf of B is not in A")

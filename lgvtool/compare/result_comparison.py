@@ -2,10 +2,10 @@
 
 A result is an ``audit.json`` (:func:`lgvtool.audit.audit_document.audit_document`) or an
 evaluation document (``table1.json``, :func:`lgvtool.evaluate.document.build_document`). A is
-the baseline, B the run judged against it. Every KPI is declared once, in :data:`AUDIT_KPIS`
-and :data:`ESTIMATOR_KPIS`, with its unit and whether lower or higher is better; a KPI is named
-by its path in the document, as ``evaluate --max`` names it (``pf.truth.position_rmse_m``,
-``coverage.gdop.median``).
+the baseline, B the run judged against it. Every KPI is declared once, in :data:`AUDIT_KPIS`,
+:data:`SEGMENT_KPIS` and :data:`ESTIMATOR_KPIS`, with its unit and whether lower or higher is
+better; a KPI is named by its path in the document, as ``evaluate --max`` names it
+(``pf.truth.position_rmse_m``, ``coverage.gdop.median``).
 
 The gate is the one of ``evaluate --baseline --tolerance`` (:mod:`lgvtool.evaluate.regress`:
 its tolerance, its :class:`~lgvtool.evaluate.regress.Check`, its wording): a KPI fails when B
@@ -30,7 +30,7 @@ from lgvtool.errors import InputError
 from lgvtool.evaluate.regress import BASELINE_FIGURES, Check
 from lgvtool.json_types import JSON, JSONObject, JSONRecord
 
-__all__ = ["AUDIT_KPIS", "ESTIMATOR_KPIS", "CompareSettings", "Comparison", "Kpi", "KpiRow",
+__all__ = ["AUDIT_KPIS", "ESTIMATOR_KPIS", "SEGMENT_KPIS", "CompareSettings", "Comparison", "Kpi", "KpiRow",
            "compare_documents", "comparison_dict", "kind_of", "names_of", "site_check",
            "table_lines"]
 
@@ -128,6 +128,18 @@ truth, the raw laser, the audit's estimator): the largest sigma x, y (m), sigma 
 and 95 % radius (m) over the stations, and with a stations file the stations that passed and
 failed their tolerance. A KPI that neither document holds (an audit.json written before its
 section existed, pass counts of stations found automatically) is left out."""
+
+
+SEGMENT_KPIS: tuple[Kpi, ...] = (
+    Kpi("overall.along.rms", "m", "lower", 1e-6),
+    Kpi("overall.cross.rms", "m", "lower", 1e-6),
+    Kpi("overall.heading.rms", "rad", "lower", 1e-7),
+)
+"""The error by segment of each pose source of an ``audit.json`` against its reference
+(``segments.sources``), over the whole drive: the RMS along-track and cross-track error (m)
+and heading error (rad). Compared per source and reference, named
+``segments.<source>-vs-<reference>.<path>``: a pair that only one result holds (another
+estimator, no truth) is named in a note."""
 
 
 @dataclass(frozen=True)
@@ -255,7 +267,12 @@ def _groups(kind: Kind, a: JSONRecord, b: JSONRecord
             ) -> tuple[list[tuple[str, JSON, JSON, tuple[Kpi, ...]]], list[str]]:
     """(group name, A's node, B's node, its KPIs) to compare, and notes."""
     if kind == "audit":
-        return [("audit", dict(a), dict(b), AUDIT_KPIS)], []
+        sa, sb = _segment_sources(a), _segment_sources(b)
+        notes = [f"error by segment {n} of {which} is not in {other}"
+                 for which, other, mine, theirs in (("A", "B", sa, sb), ("B", "A", sb, sa))
+                 for n in mine if n not in theirs]
+        return ([("audit", dict(a), dict(b), AUDIT_KPIS),
+                 *((n, sa[n], sb[n], SEGMENT_KPIS) for n in sa if n in sb)], notes)
     ea, eb = a.get("estimators"), b.get("estimators")
     ea = ea if isinstance(ea, Mapping) else {}
     eb = eb if isinstance(eb, Mapping) else {}
@@ -266,6 +283,20 @@ def _groups(kind: Kind, a: JSONRecord, b: JSONRecord
     notes = [f"estimator '{n}' of A is not in B" for n in ea if n not in eb]
     notes += [f"estimator '{n}' of B is not in A" for n in eb if n not in ea]
     return [(n, ea[n], eb[n], ESTIMATOR_KPIS) for n in common], notes
+
+
+def _segment_sources(doc: JSONRecord) -> dict[str, JSON]:
+    """``segments.<source>-vs-<reference>`` -> that source's entry of the audit's error by
+    segment (empty when the audit has none)."""
+    seg = doc.get("segments")
+    sources = seg.get("sources") if isinstance(seg, Mapping) else None
+    out: dict[str, JSON] = {}
+    for entry in sources if isinstance(sources, list) else []:
+        if isinstance(entry, Mapping):
+            src, ref = entry.get("source"), entry.get("reference")
+            if isinstance(src, str) and isinstance(ref, str):
+                out[f"segments.{src}-vs-{ref}"] = entry
+    return out
 
 
 def compare_documents(a: JSONRecord, b: JSONRecord, tolerance: float, *,
@@ -291,7 +322,7 @@ def compare_documents(a: JSONRecord, b: JSONRecord, tolerance: float, *,
         worst: tuple[float, str] | None = None
         for kpi in kpis:
             va, vb = _number(na, kpi.path), _number(nb, kpi.path)
-            key = kpi.path if kind == "audit" else f"{name}.{kpi.path}"
+            key = kpi.path if kind == "audit" and name == "audit" else f"{name}.{kpi.path}"
             bad = False
             if va is not None:
                 compared += 1
