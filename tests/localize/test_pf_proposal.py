@@ -236,7 +236,10 @@ DEFAULT_RMSE = 0.5017012149958955
 def test_the_default_proposal_leaves_pf_unchanged() -> None:
     assert ParticleFilter().params.proposal == "prior"
     got = run_default()
-    assert got == pytest.approx(DEFAULT_RMSE, abs=1e-9)
+    # a pin against an unintended change of the default filter, to 3 cm (the ekf and marginal
+    # proposals give 0.64 and 0.63 m here, the prior without its jitter 0.57 m): on another CPU
+    # the last bits of numpy's vectorised trigonometry may send a resampling another way
+    assert got == pytest.approx(DEFAULT_RMSE, abs=0.03)
     assert run_default(proposal="prior") == got
 
 
