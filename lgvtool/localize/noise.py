@@ -21,7 +21,7 @@ from lgvtool.localize.motion import FUSIONS, STEP_FORMS, MotionSettings
 from lgvtool.localize.params import param
 
 #: a motion's size: one (float) or one per motion (an array)
-_Size = TypeVar("_Size", float, NDArray[np.float64])
+MotionSize = TypeVar("MotionSize", float, NDArray[np.float64])
 
 
 @dataclass(frozen=True)
@@ -48,7 +48,8 @@ class MotionParams:
         """The settings of the odometry track these parameters ask for."""
         return MotionSettings(self.fusion, self.gyro_weight, self.max_gyro_gap_s, self.step_form)
 
-    def noise_sigmas(self, dist: _Size, rot: _Size) -> tuple[_Size, _Size, _Size]:
+    def noise_sigmas(self, dist: MotionSize, rot: MotionSize
+                     ) -> tuple[MotionSize, MotionSize, MotionSize]:
         """Body-frame standard deviations (along m, across m, heading rad) of one motion of
         length ``dist`` (m) and rotation ``rot`` (rad), or of each of arrays of them."""
         return (self.noise_dist * dist, self.noise_lat * dist,

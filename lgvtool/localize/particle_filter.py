@@ -78,7 +78,7 @@ from lgvtool.localize.estimator import (
     Observation,
 )
 from lgvtool.localize.kld import KldSizing
-from lgvtool.localize.noise import MotionParams, _Size
+from lgvtool.localize.noise import MotionParams, MotionSize
 from lgvtool.localize.observations import PoseObservation, ScanObservation, SourceParams
 from lgvtool.localize.params import param
 from lgvtool.localize.particle_backend import (
@@ -240,7 +240,8 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams, PoseModelParams):
                                              "out of that particle's proposal (not of its "
                                              "weight)", minimum=0.5, maximum=0.999999999)
 
-    def noise_sigmas(self, dist: _Size, rot: _Size) -> tuple[_Size, _Size, _Size]:
+    def noise_sigmas(self, dist: MotionSize, rot: MotionSize
+                     ) -> tuple[MotionSize, MotionSize, MotionSize]:
         """The motion noise (:meth:`MotionParams.noise_sigmas`: along m, across m, heading
         rad), with the prior proposal ``jitter_m`` and ``jitter_rad`` added in quadrature (the
         ekf and marginal proposals move each particle's Gaussian by its own Kalman step, also
