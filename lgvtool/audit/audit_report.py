@@ -534,6 +534,7 @@ def _station_rows(st: JSONObject) -> list[list[str]]:
                     and tol_deg is not None else "no tolerance")
         for src in (_obj(v) for v in _list(s.get("sources"))):
             mean, worst = _obj(src.get("mean")), _obj(src.get("worst"))
+            alone = _obj(src.get("stops_alone"))
             ok = src.get("pass")
             err = _obj(src.get("error_vs_truth"))
             rows.append([
@@ -541,6 +542,8 @@ def _station_rows(st: JSONObject) -> list[list[str]]:
                 f"{_num(_f(mean.get('x')), 3)}, {_num(_f(mean.get('y')), 3)}",
                 _num(_f(mean.get("heading_deg")), 2), _mm(_f(src.get("sigma_x_m"))),
                 _mm(_f(src.get("sigma_y_m"))), _num(_f(src.get("sigma_heading_deg")), 3),
+                f"{_mm(_f(alone.get('sigma_x_m')))}, {_mm(_f(alone.get('sigma_y_m')))}; "
+                f"noise {_mm(_f(alone.get('noise_x_m')))}, {_mm(_f(alone.get('noise_y_m')))}",
                 _mm(_f(src.get("radius95_m"))),
                 f"{Path(str(worst.get('log', ''))).name} at {_num(_f(worst.get('t_s')), 1)} s: "
                 f"{_mm(_f(worst.get('distance_m')))} mm, "
@@ -571,11 +574,14 @@ def _stations_html(st: JSONObject, fig_html: Callable[[str, go.Figure], str]) ->
         out.append(_table_html(
             "stations", ["station", "source", "visits", "mean x, y (m)", "heading (deg)",
                          "sigma x (mm)", "sigma y (mm)", "sigma heading (deg)",
-                         "95 % radius (mm)", "worst visit", "error vs truth rms (mm)",
-                         "tolerance", "result"], rows,
-            "sigma: standard deviation of the visits about their mean; 95 % radius: the 95th "
-            "percentile of the visits' distances from their mean; worst: the visit farthest "
-            "from the station's pose", title="Repeatability per station"))
+                         "stops alone sigma x, y (mm)", "95 % radius (mm)", "worst visit",
+                         "error vs truth rms (mm)", "tolerance", "result"], rows,
+            "sigma: standard deviation of the visits about their mean; stops alone: the same "
+            "with the source's own noise over each stop taken off (noise: the RMS standard "
+            "error of a visit's mean pose), the vehicle's own repeatability as this source "
+            "sees it; 95 % radius: the 95th percentile of the visits' distances from their "
+            "mean; worst: the visit farthest from the station's pose",
+            title="Repeatability per station"))
     out.append("</section>")
     return "".join(out)
 

@@ -15,9 +15,11 @@ radius and heading; the rest are reported as unmatched).
 Per station and source (:func:`stations_section`): the visits, the mean pose, the standard
 deviations of x, y (m) and of the heading (deg) about the mean (n - 1), the 95 % radius (the
 95th percentile, numpy's linear interpolation, of the visits' horizontal distances from their
-mean), the worst visit (farthest from the station's pose: the named pose, else the source's
-mean), and against a named station's tolerance the visits within it and pass/fail (every
-visit within ``tolerance_xy_m`` of the named position and ``tolerance_deg`` of its heading);
+mean), the same standard deviations of the stops alone (the source's own noise over each
+stop taken off: :func:`stop_spread`), the worst visit (farthest from the station's pose: the
+named pose, else the source's mean), and against a named station's tolerance the visits
+within it and pass/fail (every visit within ``tolerance_xy_m`` of the named position and
+``tolerance_deg`` of its heading);
 where the log has a truth, each source's error against it per visit.
 
 Pure: arrays and trajectories in, visits and JSON out. Positions m, angles rad (deg where a
@@ -42,7 +44,7 @@ FloatArray = NDArray[np.float64]
 
 __all__ = ["ROLES", "NamedStation", "Station", "StationFindings", "StationSettings", "Visit",
            "VisitPose", "find_stations", "log_kpis", "log_visits", "mean_pose", "spread",
-           "standstills", "stations_section", "summary_line"]
+           "standstills", "stations_section", "stop_spread", "summary_line"]
 
 ROLES = ("truth", "laser", "estimator")
 """The pose sources of a visit: the log's ground truth, the NAV's own poses (moved to O) and
@@ -128,12 +130,17 @@ class NamedStation:
 @dataclass(frozen=True)
 class VisitPose:
     """One source's mean pose of O over a visit: ``x``, ``y`` m, ``heading`` rad (circular
-    mean), from ``samples`` poses."""
+    mean), from ``samples`` poses, and the standard errors of that mean, ``se_x``, ``se_y`` m
+    and ``se_heading`` rad: the samples' standard deviation (n - 1) over the square root of
+    their number, NaN below two samples (:func:`mean_pose`)."""
 
     x: float
     y: float
     heading: float
     samples: int
+    se_x: float = math.nan
+    se_y: float = math.nan
+    se_heading: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -218,12 +225,23 @@ def standstills(t: FloatArray, ds: FloatArray, dth: FloatArray,
 
 def mean_pose(track: Trajectory, start: float, end: float) -> VisitPose | None:
     """The mean pose of ``track`` (s, m, rad) over ``start <= t <= end`` (s): mean x, y and
-    the circular mean heading; None: no pose there."""
+    the circular mean heading, with their standard errors (:class:`VisitPose`); None: no pose
+    there."""
     part = track.between(start, end)
-    if len(part) == 0:
+    n = len(part)
+    if n == 0:
         return None
-    return VisitPose(float(np.mean(part.x)), float(np.mean(part.y)),
-                     circular_mean(np.asarray(part.heading, dtype=np.float64)), len(part))
+    x = np.asarray(part.x, dtype=np.float64)
+    y = np.asarray(part.y, dtype=np.float64)
+    heading = np.asarray(part.heading, dtype=np.float64)
+    mh = circular_mean(heading)
+    if n < 2:
+        return VisitPose(float(np.mean(x)), float(np.mean(y)), mh, n)
+    dh = wrap_angle(heading - mh)
+    root = math.sqrt(n)
+    return VisitPose(float(np.mean(x)), float(np.mean(y)), mh, n,
+                     float(np.std(x, ddof=1)) / root, float(np.std(y, ddof=1)) / root,
+                     math.sqrt(float(np.sum(dh * dh)) / (n - 1)) / root)
 
 
 def log_visits(log: str, odometry: tuple[FloatArray, FloatArray, FloatArray],
@@ -332,6 +350,7 @@ def _num(v: float, digits: int = 5) -> float | None:
 class _Scatter:
     """One source's poses over a station's visits (those with the source)."""
 
+    role: str
     visits: tuple[Visit, ...]
     x: FloatArray
     y: FloatArray
@@ -340,7 +359,7 @@ class _Scatter:
 
 def _scatter(st: Station, role: str) -> _Scatter:
     have = tuple(v for v in st.visits if role in v.poses)
-    return _Scatter(have, np.array([v.poses[role].x for v in have], dtype=np.float64),
+    return _Scatter(role, have, np.array([v.poses[role].x for v in have], dtype=np.float64),
                     np.array([v.poses[role].y for v in have], dtype=np.float64),
                     np.array([v.poses[role].heading for v in have], dtype=np.float64))
 
@@ -365,6 +384,27 @@ def spread(x: FloatArray, y: FloatArray, heading: FloatArray
             float(np.sqrt(np.sum(dh * dh) / (n - 1))), float(np.percentile(r, PERCENTILE)))
 
 
+def stop_spread(sigma: float, se: FloatArray) -> tuple[float, float]:
+    """The spread of the stops themselves (m or rad) from a source's spread ``sigma`` of its
+    visit means (:func:`spread`) and the standard errors ``se`` of those means (one per visit,
+    NaN where unknown), and the RMS of the standard errors (the source's own noise over a
+    stop).
+
+    A visit's mean is the stop's pose plus the source's noise averaged over the stop, so the
+    variance of the means is the stops' variance plus the mean squared standard error; the
+    stops' sigma is ``sqrt(max(0, sigma^2 - mean(se^2)))`` (the method-of-moments estimate of
+    one-way random effects). It tells a vehicle that stops repeatably, seen through a noisy
+    NAV over short stops, from one that does not: a NAV200 at 2.2 Hz gives about six poses
+    over a 3 s stop. For poses correlated in time (a filter's output, a NAV's slow drift)
+    ``se`` understates the noise of the mean, and less is taken off. NaN when ``sigma`` is
+    NaN or no standard error is known."""
+    known = se[np.isfinite(se)]
+    if not math.isfinite(sigma) or len(known) == 0:
+        return math.nan, math.nan
+    noise2 = float(np.mean(known * known))
+    return math.sqrt(max(0.0, sigma * sigma - noise2)), math.sqrt(noise2)
+
+
 def _source_entry(st: Station, role: str, name: str) -> JSONObject | None:
     """One source's figures at one station (module doc); None: no visit has the source."""
     sc = _scatter(st, role)
@@ -382,6 +422,7 @@ def _source_entry(st: Station, role: str, name: str) -> JSONObject | None:
         "mean": {"x": _num(mx), "y": _num(my), "heading_deg": _num(math.degrees(mh), 4)},
         "sigma_x_m": _num(sx, 6), "sigma_y_m": _num(sy, 6),
         "sigma_heading_deg": _num(math.degrees(sh), 5), "radius95_m": _num(r95, 6),
+        "stops_alone": _stops_alone(sc, sx, sy, sh),
         "worst": {"log": sc.visits[k].log, "t_s": _num(sc.visits[k].start_s, 3),
                   "distance_m": _num(float(dist[k]), 6),
                   "heading_deg": _num(math.degrees(float(dev[k])), 5)},
@@ -410,20 +451,45 @@ def _source_entry(st: Station, role: str, name: str) -> JSONObject | None:
     return out
 
 
+def _stops_alone(sc: _Scatter, sx: float, sy: float, sh: float) -> JSONObject:
+    """A source's sigma x, y (m) and heading (deg) of the stops themselves, its own noise
+    over each stop taken off (:func:`stop_spread`), and that noise (the RMS standard error of
+    a visit's mean: ``noise_x_m``, ``noise_y_m``, ``noise_heading_deg``)."""
+    out: JSONObject = {}
+    for key, sigma, se, deg in (
+            ("x", sx, [v.poses[sc.role].se_x for v in sc.visits], False),
+            ("y", sy, [v.poses[sc.role].se_y for v in sc.visits], False),
+            ("heading", sh, [v.poses[sc.role].se_heading for v in sc.visits], True)):
+        stops, noise = stop_spread(sigma, np.array(se, dtype=np.float64))
+        if deg:
+            out["sigma_heading_deg"] = _num(math.degrees(stops), 5)
+            out["noise_heading_deg"] = _num(math.degrees(noise), 5)
+        else:
+            out[f"sigma_{key}_m"] = _num(stops, 6)
+            out[f"noise_{key}_m"] = _num(noise, 6)
+    return out
+
+
 def _visit_entry(v: Visit) -> JSONObject:
-    """A visit as listed: its log, start s, duration s and each source's pose [x m, y m,
-    heading rad]."""
+    """A visit as listed: its log, start s, duration s, each source's pose [x m, y m,
+    heading rad] and the standard errors of that mean pose [m, m, rad] (null: one sample)."""
     return {"log": v.log, "t_s": _num(v.start_s, 3), "duration_s": _num(v.end_s - v.start_s, 3),
             "poses": {r: [_num(p.x, 6), _num(p.y, 6), _num(p.heading, 7)]
-                      for r, p in v.poses.items()}}
+                      for r, p in v.poses.items()},
+            "standard_errors": {r: [_num(p.se_x, 7), _num(p.se_y, 7), _num(p.se_heading, 8)]
+                                for r, p in v.poses.items()}}
 
 
 def _summary(entries: Sequence[JSONObject], named: bool) -> JSONObject:
     """Per role over the stations: stations and visits, the largest sigma x, y (m), sigma
-    heading (deg) and 95 % radius (m), and (named stations) how many passed and failed."""
+    heading (deg) and 95 % radius (m), the largest sigma of the stops alone (the source's own
+    noise over each stop taken off, :func:`stop_spread`), and (named stations) how many
+    passed and failed."""
 
-    def most(key: str) -> float | None:
-        vals = [float(v) for e in entries if isinstance(v := e.get(key), int | float)]
+    def most(key: str, part: str | None = None) -> float | None:
+        held = [e.get(part) if part else e for e in entries]
+        vals = [float(v) for d in held
+                if isinstance(d, dict) and isinstance(v := d.get(key), int | float)]
         return max(vals) if vals else None
 
     passes = [e.get("pass") for e in entries]
@@ -433,6 +499,9 @@ def _summary(entries: Sequence[JSONObject], named: bool) -> JSONObject:
         "sigma_x_max_m": most("sigma_x_m"), "sigma_y_max_m": most("sigma_y_m"),
         "sigma_heading_max_deg": most("sigma_heading_deg"),
         "radius95_max_m": most("radius95_m"),
+        "stops_alone_sigma_x_max_m": most("sigma_x_m", "stops_alone"),
+        "stops_alone_sigma_y_max_m": most("sigma_y_m", "stops_alone"),
+        "stops_alone_sigma_heading_max_deg": most("sigma_heading_deg", "stops_alone"),
         "passed": sum(p is True for p in passes) if named else None,
         "failed": sum(p is False for p in passes) if named else None,
     }
@@ -537,7 +606,9 @@ def summary_line(section: JSONObject) -> str | None:
             src = section.get("sources")
             name = src.get(role, role) if isinstance(src, dict) else role
             text = (f"{name} worst sigma x {_mm(r.get('sigma_x_max_m'))}, y "
-                    f"{_mm(r.get('sigma_y_max_m'))} mm, 95 % radius "
+                    f"{_mm(r.get('sigma_y_max_m'))} mm (stops alone "
+                    f"{_mm(r.get('stops_alone_sigma_x_max_m'))}, "
+                    f"{_mm(r.get('stops_alone_sigma_y_max_m'))}), 95 % radius "
                     f"{_mm(r.get('radius95_max_m'))} mm")
             if named:
                 text += f", {r.get('passed')} passed, {r.get('failed')} failed"

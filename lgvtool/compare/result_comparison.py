@@ -114,6 +114,8 @@ AUDIT_KPIS: tuple[Kpi, ...] = (
         Kpi(f"stations.summary.{role}.sigma_x_max_m", "m", "lower", 1e-6),
         Kpi(f"stations.summary.{role}.sigma_y_max_m", "m", "lower", 1e-6),
         Kpi(f"stations.summary.{role}.sigma_heading_max_deg", "deg", "lower", 1e-4),
+        Kpi(f"stations.summary.{role}.stops_alone_sigma_x_max_m", "m", "lower", 1e-6),
+        Kpi(f"stations.summary.{role}.stops_alone_sigma_y_max_m", "m", "lower", 1e-6),
         Kpi(f"stations.summary.{role}.radius95_max_m", "m", "lower", 1e-6),
         Kpi(f"stations.summary.{role}.passed", "stations", "higher"),
         Kpi(f"stations.summary.{role}.failed", "stations", "lower"))),
@@ -125,7 +127,8 @@ the reflectors the device reported using, the poor segments and their time in s)
 navigation health over all logs (the share of time in navigation, the dropouts and their
 time in s, the pose jumps, the device clock's jumps) and the stations per pose source (the
 truth, the raw laser, the audit's estimator): the largest sigma x, y (m), sigma heading (deg)
-and 95 % radius (m) over the stations, and with a stations file the stations that passed and
+and 95 % radius (m) over the stations, the largest sigma x, y (m) of the stops alone (the
+source's own noise over each stop taken off), and with a stations file the stations that passed and
 failed their tolerance. A KPI that neither document holds (an audit.json written before its
 section existed, pass counts of stations found automatically) is left out."""
 

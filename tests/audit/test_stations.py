@@ -1,7 +1,8 @@
 """The stations section of ``lgvtool audit``: standstills found from the odometry, a visit's
 pose per source, grouping into stations (automatic and named), sigma and the 95 % radius
-against hand values, a station outside its tolerance failing, the stations file's faults
-(one line, exit 2), and a station found on small simulated warehouse logs."""
+against hand values, the stops' own spread with a source's noise over each stop taken off, a
+station outside its tolerance failing, the stations file's faults (one line, exit 2), and a
+station found on small simulated warehouse logs."""
 
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from lgvtool.audit.stations import (
     spread,
     standstills,
     stations_section,
+    stop_spread,
     summary_line,
 )
 from lgvtool.audit.stations_file import parse_stations
@@ -161,6 +163,48 @@ def test_sigma_and_the_95_percent_radius_against_hand_values() -> None:
     assert src["worst"]["distance_m"] == pytest.approx(0.03, abs=1e-6)
     assert src["worst"]["t_s"] == 3.0
     assert src["pass"] is None  # an automatic station has no tolerance
+
+
+def test_the_stops_alone_take_the_noise_of_each_mean_off() -> None:
+    # hand values: sigma 10 mm, standard errors 6 and 8 mm -> mean square 50 mm^2
+    stops, noise = stop_spread(0.01, np.array([0.006, 0.008, math.nan]))
+    assert stops == pytest.approx(math.sqrt(50e-6), abs=TOL)
+    assert noise == pytest.approx(math.sqrt(50e-6), abs=TOL)
+    assert stop_spread(0.005, np.array([0.008]))[0] == 0.0  # noise above the spread: none left
+    assert all(math.isnan(v) for v in stop_spread(0.01, np.array([math.nan])))
+    assert all(math.isnan(v) for v in stop_spread(math.nan, np.array([0.001])))
+    # a visit's standard error: the poses' standard deviation (n - 1) over sqrt(n)
+    xs = np.array([1.0, 1.004, 0.998, 1.002, 0.996, 1.0])
+    track = Trajectory(np.arange(6.0), xs, np.zeros(6), np.array([0.0, 0.002, -0.002] * 2))
+    p = mean_pose(track, 0.0, 5.0)
+    assert p is not None
+    assert p.se_x == pytest.approx(float(np.std(xs, ddof=1)) / math.sqrt(6), abs=TOL)
+    assert p.se_y == 0.0
+    assert p.se_heading == pytest.approx(math.sqrt(4 * 4e-6 / 5) / math.sqrt(6), abs=TOL)
+    one = mean_pose(track, 0.0, 0.5)
+    assert one is not None and math.isnan(one.se_x)
+    # statistically: 400 stops spread 9 mm in y, each seen through 6 poses with 10 mm of noise
+    # each; the spread of the visit means is sqrt(81 + 100 / 6) = 9.9 mm, the stops' own 9 mm
+    rng = np.random.default_rng(7)
+    visits = []
+    for i in range(400):
+        stop_y = 5.0 + rng.normal(0.0, 0.009)
+        ys = stop_y + rng.normal(0.0, 0.010, 6)
+        pose = mean_pose(Trajectory(np.arange(6.0), np.full(6, 3.0), ys, np.zeros(6)), 0, 5)
+        assert pose is not None
+        visits.append(Visit("a.mcap", 10.0 * i, 10.0 * i + 3.0, {"laser": pose}, "ekf"))
+    doc: dict[str, Any] = cast(dict[str, Any], stations_section(
+        find_stations(visits, None, StationSettings()), StationSettings()))
+    (src,) = doc["per_station"][0]["sources"]
+    # the sampling error of a sigma from 400 visits is about 4 %
+    assert src["sigma_y_m"] == pytest.approx(math.sqrt(81e-6 + 100e-6 / 6), rel=0.08)
+    assert src["stops_alone"]["sigma_y_m"] == pytest.approx(0.009, rel=0.08)
+    assert src["stops_alone"]["noise_y_m"] == pytest.approx(0.010 / math.sqrt(6), rel=0.08)
+    assert src["stops_alone"]["sigma_x_m"] == 0.0
+    assert doc["summary"]["laser"]["stops_alone_sigma_y_max_m"] == src["stops_alone"][
+        "sigma_y_m"]
+    listed = doc["per_station"][0]["visit_list"][0]["standard_errors"]["laser"]
+    assert listed[1] == pytest.approx(visits[0].poses["laser"].se_y, abs=1e-7)
 
 
 def test_a_station_outside_its_tolerance_fails() -> None:
