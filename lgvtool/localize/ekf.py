@@ -13,7 +13,11 @@ squared Mahalanobis distance is inside the gate, the chi-square quantile (2 dof)
 with the smallest Mahalanobis distance, inside the gate, unless a second one is inside it too
 at less than ``ambiguity_ratio`` times that distance (ambiguous: dropped). A reflector with
 nothing inside the gate is rejected as an outlier. The accepted reflectors are applied together in
-information form (exact for the linearised model). Update from a NAV pose: ``h = pose of the
+information form (exact for the linearised model). A filter that has lost the vehicle (it
+slipped, was lifted, or started confidently in the wrong place) rejects every reflector from
+then on; so once scans of at least two reflectors have found nothing for ``scan_recover_s``,
+the pose restarts at the next such scan's landmark fix, as the start does (:meth:`Ekf.recover`,
+:func:`lost_scan`). Update from a NAV pose: ``h = pose of the
 head`` (eq. 5 inverted), its noise the rotating-head pose model's covariance at the pose's
 motion (:mod:`lgvtool.localize.pose_model`), behind its robust gate (3 dof; refused poses move
 nothing, and after ``pose_reanchor_s`` of them the state is re-anchored at the pose).
@@ -122,6 +126,12 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams, PoseModelParams)
     init_max_sigma_xy_m: float = param(0.0, "weighted fix: start only from a scan whose fix has "
                                        "a position standard deviation (the larger axis) at "
                                        "most this, m; 0 takes the first fix", minimum=0.0)
+    scan_recover_s: float = param(2.0, "recovery on reflector scans: once every scan of at "
+                                  "least two reflectors has had none accepted for this long, "
+                                  "the next such scan that fixes a pose (as the start does, "
+                                  "init_fix) restarts the pose there with the start's "
+                                  "uncertainty, the odometry scales kept; 0: never, s",
+                                  minimum=0.0)
 
 
 class GaussianParams(Protocol):
@@ -148,6 +158,24 @@ class GaussianParams(Protocol):
 #: the parameters of a Gaussian estimator (covariant, as :data:`lgvtool.localize.estimator.P`:
 #: an ``Ekf`` is a ``GaussianPoseEstimator[GaussianParams]``)
 GP = TypeVar("GP", bound=GaussianParams, covariant=True)
+
+
+def lost_scan(lost: FloatArray, t: float, reflectors: int, accepted: bool,
+              recover_s: float) -> bool:
+    """Keep ``lost[0]``, the time (s) of the first scan of at least two reflectors with none
+    accepted since the last scan with one accepted (NaN: none), after a scan at ``t`` (s)
+    of ``reflectors`` reflectors; True when a recovery is due: such a scan has come
+    ``recover_s`` (s, 0: never) or more after the first. A scan of one reflector says
+    nothing either way (one stray reflection is no sign of being lost)."""
+    if accepted:
+        lost[0] = math.nan
+        return False
+    if reflectors < 2:
+        return False
+    if math.isnan(lost[0]):
+        lost[0] = t
+        return False
+    return recover_s > 0.0 and t - lost[0] >= recover_s
 
 
 def scaled_motion(dx: float, dy: float, dth: float, s_v: float, s_w: float
@@ -193,6 +221,11 @@ class GaussianPoseEstimator(Estimator[GP]):
         n = SCALED if self.scaled else POSE
         self.mu: np.ndarray | None = None
         self.P = np.zeros((n, n))
+        #: time of the first scan with nothing accepted since the last one with a reflector
+        #: accepted, s (NaN: none; :func:`lost_scan`); an array, which the compiled loop keeps
+        self.scan_lost = np.full(1, math.nan)
+        #: restarts from a scan's landmark fix after scans found nothing (:meth:`recover`)
+        self.recovered = 0
         if self.initial_pose is not None:
             self._start(self.initial_pose)
 
@@ -213,6 +246,11 @@ class GaussianPoseEstimator(Estimator[GP]):
         """Means and variances of the state after the pose at the start (none here: the
         odometry scales are the EKF's, :meth:`Ekf._scale_prior`)."""
         return [], []
+
+    def recover(self, obs: Observation) -> bool:
+        """Restart the pose from a landmark fix of ``obs`` after scans have found nothing
+        (:meth:`Ekf.recover`); True when it did. This one never does."""
+        return False
 
     @property
     def odometry_calibration(self) -> dict[str, float]:
@@ -344,7 +382,33 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         p = self.params
         return GaussianModel(p.noise_dist, p.noise_lat, p.noise_rot, p.noise_rot_per_m,
                              p.sigma_range_m, p.sigma_range_per_m, p.sigma_bearing_rad,
-                             self._gate2, p.use_ids, p.ambiguity_ratio)
+                             self._gate2, p.use_ids, p.ambiguity_ratio, p.scan_recover_s)
+
+    def recover(self, obs: Observation) -> bool:
+        """After scans have found nothing for ``scan_recover_s`` (:func:`lost_scan`): the pose
+        restarted at the landmark fix of the scan ``obs`` (:func:`start_fix`, as the start:
+        the reflector ids when they agree, else the scan's geometry on the layout), with the
+        start's uncertainty plus the fix's covariance and no correlation with the odometry
+        scales, which keep their estimate and variance. False (nothing changed) when the scan
+        gives no fix."""
+        if self.mu is None or not isinstance(obs, ScanObservation):
+            return False
+        fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, self.params)
+        if fix is None:
+            return False
+        (x, y, th), cov = fix
+        p = self.params
+        self.mu[:POSE] = [x, y, wrap_scalar(th)]
+        P = np.zeros_like(self.P)
+        P[:POSE, :POSE] = np.diag([p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2,
+                                   p.init_sigma_heading_rad ** 2])
+        if cov is not None:
+            P[:POSE, :POSE] += cov
+        P[POSE:, POSE:] = self.P[POSE:, POSE:]
+        self.P = P
+        self.scan_lost[0] = math.nan
+        self.recovered += 1
+        return True
 
     def count_reflectors(self, accepted: int, rejected: int, id_rejected: int,
                          ambiguous: int) -> None:
@@ -419,6 +483,14 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         self.accepted += 1
 
     def _update_scan(self, obs: ScanObservation) -> bool:
+        """The reflector update (:meth:`_correct_scan`), then the recovery when scans have
+        found nothing for ``scan_recover_s`` (:meth:`recover`)."""
+        accepted = self._correct_scan(obs)
+        if lost_scan(self.scan_lost, obs.t, len(obs), accepted, self.params.scan_recover_s):
+            return self.recover(obs)
+        return accepted
+
+    def _correct_scan(self, obs: ScanObservation) -> bool:
         if len(obs) == 0 or len(self.map) == 0:
             return False
         p = self.params

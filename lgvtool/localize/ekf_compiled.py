@@ -34,8 +34,9 @@ def kernel_params(model: GaussianModel) -> FloatArray:
     prm[[k.P_NOISE_DIST, k.P_NOISE_LAT, k.P_NOISE_ROT, k.P_NOISE_ROT_PER_M]] = (
         m.noise_dist, m.noise_lat, m.noise_rot, m.noise_rot_per_m)
     prm[[k.P_SIGMA_RANGE, k.P_SIGMA_RANGE_PER_M, k.P_SIGMA_BEARING, k.P_GATE2, k.P_USE_IDS,
-         k.P_RATIO2]] = (m.sigma_range_m, m.sigma_range_per_m, m.sigma_bearing_rad, m.gate2,
-                         1.0 if m.use_ids else 0.0, m.ambiguity_ratio * m.ambiguity_ratio)
+         k.P_RATIO2, k.P_RECOVER_S]] = (
+        m.sigma_range_m, m.sigma_range_per_m, m.sigma_bearing_rad, m.gate2,
+        1.0 if m.use_ids else 0.0, m.ambiguity_ratio * m.ambiguity_ratio, m.scan_recover_s)
     return prm
 
 
@@ -100,9 +101,13 @@ class CompiledGaussian:
                     j += 1
                 else:
                     # the scans and times without an observation from here, in one call
-                    j, kk = k.track(est.mu, est.P, j, i0, dx, dy, dth, dist, rot, c.kinds, c.offs,
-                                    c.q, c.u, c.ranges, c.ints, mx, my, mids, prm, counts, ts,
-                                    kk, *rows)
+                    j, kk, due = k.track(est.mu, est.P, j, i0, dx, dy, dth, dist, rot, c.kinds,
+                                         c.offs, c.q, c.u, c.ranges, c.ints, mx, my, mids, prm,
+                                         counts, ts, est.scan_lost, kk, *rows)
+                    lost_at = chunk[j - 1]
+                    if due and lost_at is not None and est.recover(lost_at):
+                        # the row of that scan, as the step-by-step loop records it
+                        k._record(est.mu, est.P, tl[i0 + j - 1], kk - 1, *rows)
             i0 += len(chunk)
             report.at(i0)
             if coasted:

@@ -41,7 +41,9 @@ P_NOISE_DIST, P_NOISE_LAT, P_NOISE_ROT, P_NOISE_ROT_PER_M = 0, 1, 2, 3
 P_SIGMA_RANGE, P_SIGMA_RANGE_PER_M, P_SIGMA_BEARING, P_GATE2, P_USE_IDS = 4, 5, 6, 7, 8
 #: the square of the association's ambiguity ratio (lgvtool.localize.association)
 P_RATIO2 = 9
-N_PARAMS = 10
+#: how long scans may find nothing before the estimator looks for a fix (``scan_recover_s``)
+P_RECOVER_S = 10
+N_PARAMS = 11
 
 
 def _jit(f: _F) -> _F:
@@ -301,19 +303,37 @@ def _record(mu: FloatArray, P: FloatArray, t: float, k: int, ct: FloatArray, cx:
 
 
 @_jit
+def lost_scan(lost: FloatArray, t: float, reflectors: int, accepted: bool,
+              recover_s: float) -> bool:
+    """:func:`lgvtool.localize.ekf.lost_scan` (the same rule, for the compiled loop)."""
+    if accepted:
+        lost[0] = math.nan
+        return False
+    if reflectors < 2:
+        return False
+    if math.isnan(lost[0]):
+        lost[0] = t
+        return False
+    return recover_s > 0.0 and t - lost[0] >= recover_s
+
+
+@_jit
 def step(mu: FloatArray, P: FloatArray, i_move: int, dx: FloatArray, dy: FloatArray,
          dth: FloatArray, dist: FloatArray, rot: FloatArray, scan: bool, q: ComplexArray,
          u: ComplexArray, ranges: FloatArray, ids: IntArray, map_x: FloatArray,
          map_y: FloatArray, map_ids: IntArray, prm: FloatArray, counts: IntArray, t: float,
          k: int, ct: FloatArray, cx: FloatArray, cy: FloatArray, ch: FloatArray,
-         covs: FloatArray) -> None:
+         covs: FloatArray) -> bool:
     """One observation of a started estimator: the motion ``i_move`` of the step arrays
-    (none when negative), the reflector update when ``scan``, then row ``k`` of the table."""
+    (none when negative), the reflector update when ``scan``, then row ``k`` of the table.
+    True when a reflector was accepted."""
     if i_move >= 0:
         _predict(mu, P, dx[i_move], dy[i_move], dth[i_move], dist[i_move], rot[i_move], prm)
+    accepted = False
     if scan:
-        _update_scan(mu, P, q, u, ranges, ids, map_x, map_y, map_ids, prm, counts)
+        accepted = _update_scan(mu, P, q, u, ranges, ids, map_x, map_y, map_ids, prm, counts)
     _record(mu, P, t, k, ct, cx, cy, ch, covs)
+    return accepted
 
 
 @_jit
@@ -321,27 +341,32 @@ def track(mu: FloatArray, P: FloatArray, j0: int, i0: int, dx: FloatArray, dy: F
           dth: FloatArray, dist: FloatArray, rot: FloatArray, kinds: NDArray[np.int8],
           offs: IntArray, q: ComplexArray, u: ComplexArray, ranges: FloatArray,
           ids: IntArray, map_x: FloatArray, map_y: FloatArray, map_ids: IntArray,
-          prm: FloatArray, counts: IntArray, times: FloatArray, k: int, ct: FloatArray,
-          cx: FloatArray, cy: FloatArray, ch: FloatArray, covs: FloatArray
-          ) -> tuple[int, int]:
+          prm: FloatArray, counts: IntArray, times: FloatArray, lost: FloatArray, k: int,
+          ct: FloatArray, cx: FloatArray, cy: FloatArray, ch: FloatArray, covs: FloatArray
+          ) -> tuple[int, int, bool]:
     """:func:`step` for the entries of a chunk (:func:`lgvtool.localize.chunks.scan_chunk`)
     from ``j0`` on (observation ``i0 + j0`` of the run; ``dx[i - 1]`` moves to observation
     ``i``, no motion when ``dx`` is empty), as long as they are scans (kind 1: points
     ``offs[j]:offs[j + 1]`` of ``q``, ``u``, ``ranges`` m and reflector ``ids``) or times
-    without one (kind 0). Returns the entry it stopped at (another kind, or the chunk's end)
-    and the next free row."""
+    without one (kind 0). ``lost`` is the estimator's ``scan_lost`` (:func:`lost_scan`).
+    Returns the entry it stopped at (another kind, the chunk's end, or the one after a scan
+    that makes a recovery due), the next free row, and whether a recovery is due (the
+    caller tries it with the scan before that entry and rewrites its row)."""
     moving = dx.shape[0] > 0
     j = j0
     while j < kinds.shape[0] and kinds[j] != 2:
         i = i0 + j
         a = offs[j]
         b = offs[j + 1]
-        step(mu, P, i - 1 if moving and i > 0 else -1, dx, dy, dth, dist, rot, kinds[j] == 1,
-             q[a:b], u[a:b], ranges[a:b], ids[a:b], map_x, map_y, map_ids, prm, counts,
-             times[i], k, ct, cx, cy, ch, covs)
+        accepted = step(mu, P, i - 1 if moving and i > 0 else -1, dx, dy, dth, dist, rot,
+                        kinds[j] == 1, q[a:b], u[a:b], ranges[a:b], ids[a:b], map_x, map_y,
+                        map_ids, prm, counts, times[i], k, ct, cx, cy, ch, covs)
         k += 1
         j += 1
-    return j, k
+        if kinds[j - 1] == 1 and lost_scan(lost, times[i], b - a, accepted,
+                                           prm[P_RECOVER_S]):
+            return j, k, True
+    return j, k, False
 
 
 @_jit
