@@ -9,14 +9,16 @@ the bag's receive time where a stamp is zero), positions m, angles rad, speeds m
   ``twist.angular.z``; the odometry's frame is the vehicle frame;
 - ``sensor_msgs/Imu``: ``angular_velocity.z``;
 - ``sick_scan_xd/NAVPoseData``: the telegram's own ``x``, ``y`` (mm) and ``phi`` (mdeg) in the
-  device's map frame, valid when ``pose_valid`` > 0; a ``geometry_msgs`` pose or an Odometry's
+  device's map frame, valid when ``pose_valid`` > 0, and what the device says of it
+  (:attr:`BagContent.nav_device`); a ``geometry_msgs`` pose or an Odometry's
   ``pose`` as it is, with the frames each message names (:attr:`BagContent.nav_frames`); a
   ``tf2_msgs/TFMessage`` on the nav role: every transform from ``map``, by child frame
   (:attr:`BagContent.map_poses`), one of which the importer takes;
 - ``sick_scan_xd/NAVLandmarkData``: each reflector with polar data as range ``dist`` (mm) and
   bearing ``phi`` (mdeg, counter-clockwise from the head's x axis), id its ``global_id`` when the
   optional block is present, else -1; with reflector times on all, ``time_in_scan`` after the
-  earliest and the NAV350's revolution as the scan period;
+  earliest and the NAV350's revolution as the scan period; with the optional block also its
+  local and global ids, quality, hit count, mean echo and tick, as a recorded NAV350 scan;
 - ``tf2_msgs/TFMessage``: the first transform seen for each child frame;
 - the circle role (a pose topic named by ``--circle-from``): poses as the truth's.
 """
@@ -33,7 +35,7 @@ from lgvtool.angles import wrap_scalar
 from lgvtool.errors import InputError
 from lgvtool.interop import ros2_roles as R
 from lgvtool.interop.ros2_types import NAV_POSE_DATA, require_rosbags, typestore
-from lgvtool.log.messages import yaw_from_quaternion
+from lgvtool.log.messages import NAV350_NO_POSITION, yaw_from_quaternion
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Connection
@@ -70,6 +72,11 @@ class BagContent:
     gyro: list[tuple[int, float]] = field(default_factory=list)
     nav: list[tuple[int, float, float, float, int, bool]] = field(default_factory=list)
     """t, x, y, heading, reflectors used, valid."""
+    nav_device: dict[int, dict[str, int]] = field(default_factory=dict)
+    """What a NAVPoseData says of its pose beside it, by the pose's time (ns): the fields of
+    :func:`lgvtool.log.messages.nav350_pose_message` it holds (``quality`` 0 or 0xFF as a
+    NAV350's; with the optional pose block ``device_time_ms``, ``mean_dev``, ``nav_mode``,
+    ``info_state``, ``output_mode``)."""
     scans: list[tuple[int, float, list[dict[str, float | int]]]] = field(default_factory=list)
     """t, scan period s, the observations (range m, bearing rad, id, time_in_scan s)."""
     truth: list[tuple[int, float, float, float]] = field(default_factory=list)
@@ -207,6 +214,12 @@ def _read_nav(c: BagContent, message: object, msgtype: str, ns: int) -> None:
         valid = int(msg.pose_valid) > 0
         if msg.header.frame_id and frame_name(msg.header.frame_id) not in c.sensor_frames:
             c.sensor_frames.append(frame_name(msg.header.frame_id))
+        device = {"quality": 0 if valid else NAV350_NO_POSITION}
+        if msg.opt_pose_data_valid:
+            device.update(device_time_ms=int(msg.timestamp), mean_dev=int(msg.mean_dev),
+                          nav_mode=int(msg.nav_mode), info_state=int(msg.info_state),
+                          output_mode=int(msg.output_mode))
+        c.nav_device[_ns(header, ns)] = device
     else:
         pose = _pose(message, msgtype)
         x, y, h = float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)
@@ -225,7 +238,7 @@ def _read_reflectors(c: BagContent, message: object, _msgtype: str, ns: int) -> 
     msg = cast("NavLandmarkData", message)
     if msg.header.frame_id and frame_name(msg.header.frame_id) not in c.sensor_frames:
         c.sensor_frames.append(frame_name(msg.header.frame_id))
-    seen: list[tuple[float, float, int, int | None]] = []
+    seen: list[tuple[float, float, int, int | None, dict[str, int]]] = []
     for r in msg.reflectors:
         if not r.polar_data_valid:
             c.count("dropped_reflectors_without_polar_data")
@@ -233,7 +246,12 @@ def _read_reflectors(c: BagContent, message: object, _msgtype: str, ns: int) -> 
         rng, bearing = r.dist / 1000.0, wrap_scalar(r.phi * MDEG)
         ident = int(r.global_id) if r.opt_reflector_data_valid else -1
         tick = int(r.timestamp) if r.opt_reflector_data_valid and r.timestamp else None
-        seen.append((rng, bearing, ident, tick))
+        # what the device says of the reflector, under the keys a recorded NAV350 scan has
+        device = ({"local_id": int(r.local_id), "global_id": int(r.global_id),
+                   "quality": int(r.quality), "hit_count": int(r.hit_count),
+                   "mean_echo": int(r.mean_echo), "device_time_ms": int(r.timestamp)}
+                  if r.opt_reflector_data_valid else {})
+        seen.append((rng, bearing, ident, tick, device))
     ticks = [s[3] for s in seen if s[3] is not None]
     timed = len(ticks) == len(seen) and bool(seen)
     # ms ticks of a 32-bit counter: differences to the first one, across a wrap-around
@@ -241,8 +259,8 @@ def _read_reflectors(c: BagContent, message: object, _msgtype: str, ns: int) -> 
     start = min(rel, default=0)
     obs: list[dict[str, float | int]] = [
         {"range": rng, "bearing": b, "id": i,
-         "time_in_scan": (rel[k] - start) / 1000.0 if timed else 0.0}
-        for k, (rng, b, i, _tick) in enumerate(seen)]
+         "time_in_scan": (rel[k] - start) / 1000.0 if timed else 0.0, **device}
+        for k, (rng, b, i, _tick, device) in enumerate(seen)]
     period = max([NAV350_PERIOD_S, *(o["time_in_scan"] for o in obs)]) if timed else 0.0
     c.scans.append((_ns(msg.header, ns), period, obs))
 

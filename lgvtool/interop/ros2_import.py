@@ -70,8 +70,10 @@ if TYPE_CHECKING:
 
 AREA_MARGIN_M = 2.0
 """Margin of the work area around the poses when no --config gives one, m."""
-VALID_QUALITY, INVALID_QUALITY = 100, 255
-"""/nav/pose quality written for a valid and an invalid pose (ROS poses carry no quality)."""
+UNKNOWN_QUALITY, INVALID_QUALITY = 0, 255
+"""/nav/pose quality written for a valid and an invalid pose: a ROS pose carries no quality
+(0, as a NAV350's, says so: no localisation score is made up from it), and a NAVPoseData
+carries the NAV350's own (:attr:`lgvtool.interop.ros2_bag.BagContent.nav_device`)."""
 DEFAULT_VEHICLE_FRAME = "base_link"
 DEFAULT_SENSOR_FRAME = "nav"
 VEHICLE_FRAMES = (DEFAULT_VEHICLE_FRAME, "base_footprint")
@@ -305,8 +307,8 @@ def _records(content: BagContent, fused: np.ndarray | None
     for t, x, y, h, used, valid in content.nav:
         out.append((t, 2, topics.NAV_POSE, {
             "timestamp": stamp(t), "x": x, "y": y, "heading": h,
-            "quality": VALID_QUALITY if valid else INVALID_QUALITY, "reflectors_used": used,
-            "valid": valid}))
+            "quality": UNKNOWN_QUALITY if valid else INVALID_QUALITY, "reflectors_used": used,
+            "valid": valid, **content.nav_device.get(t, {})}))
     for t, period, obs in content.scans:
         out.append((t, 3, topics.NAV_REFLECTORS,
                     {"timestamp": stamp(t), "scan_period": period, "observations": obs}))

@@ -138,26 +138,38 @@ class TFMessage(Protocol):
 
 
 class NavPoseData(Protocol):
-    """``sick_scan_xd/NAVPoseData``: the NAV350's pose, x and y in mm, phi in mdeg."""
+    """``sick_scan_xd/NAVPoseData``: the NAV350's pose, x and y in mm, phi in mdeg; its tick
+    ``timestamp`` in ms; ``mean_dev``, ``nav_mode``, ``info_state`` as the device reports them
+    (units and codes not documented)."""
 
     header: Header
     x: int
     y: int
     phi: int
     opt_pose_data_valid: int
+    output_mode: int
+    timestamp: int
+    mean_dev: int
+    nav_mode: int
+    info_state: int
     quant_used_reflectors: int
     pose_valid: int
 
 
 class NavReflectorData(Protocol):
-    """``sick_scan_xd/NAVReflectorData``: dist in mm, phi in mdeg, timestamp in ms."""
+    """``sick_scan_xd/NAVReflectorData``: dist in mm, phi in mdeg, timestamp in ms; quality,
+    hit count and mean echo in device units."""
 
     polar_data_valid: int
     dist: int
     phi: int
     opt_reflector_data_valid: int
+    local_id: int
     global_id: int
+    quality: int
     timestamp: int
+    hit_count: int
+    mean_echo: int
 
 
 class NavLandmarkData(Protocol):

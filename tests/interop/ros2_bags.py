@@ -91,13 +91,19 @@ class Bag:
                                                        pose=self.pose(x, y, yaw))
 
     def nav_pose(self, ns: int, x: float, y: float, heading: float, used: int,
-                 valid: bool) -> Any:
+                 valid: bool, device: dict[str, Any] | None = None) -> Any:
+        """A NAVPoseData; ``device``: the recorded NAV350 pose's own fields (tick, meanDev,
+        navMode, infoState, outputMode), else made-up ones."""
         phi = round((heading % (2 * math.pi)) / MDEG) % 360000
+        d = {"device_time_ms": (ns // 1_000_000) % 2**32, "mean_dev": 10, "nav_mode": 4,
+             "info_state": 0, "output_mode": 0, **(device or {})}
         return self.T["sick_scan_xd/msg/NAVPoseData"](
             header=self.header(ns, SENSOR_FRAME), x=round(x * 1000), y=round(y * 1000), phi=phi,
-            opt_pose_data_valid=1, output_mode=0, timestamp=(ns // 1_000_000) % 2**32,
-            mean_dev=10, nav_mode=4, info_state=0, quant_used_reflectors=used,
-            pose_valid=1 if valid else 0, pose_x=-x, pose_y=-y, pose_yaw=phi * MDEG - math.pi)
+            opt_pose_data_valid=1, output_mode=int(d["output_mode"]),
+            timestamp=int(d["device_time_ms"]), mean_dev=int(d["mean_dev"]),
+            nav_mode=int(d["nav_mode"]), info_state=int(d["info_state"]),
+            quant_used_reflectors=used, pose_valid=1 if valid else 0, pose_x=-x, pose_y=-y,
+            pose_yaw=phi * MDEG - math.pi)
 
     def landmarks(self, ns: int, observations: Iterable[dict[str, Any]]) -> Any:
         refl = []
@@ -107,10 +113,12 @@ class Bag:
             refl.append(self.T["sick_scan_xd/msg/NAVReflectorData"](
                 cartesian_data_valid=0, x=0, y=0, polar_data_valid=1,
                 dist=round(o["range"] * 1000), phi=phi, opt_reflector_data_valid=1,
-                local_id=0, global_id=o["id"] if known else 0, type=1, sub_type=0, quality=90,
-                timestamp=round(ns / 1e6 + o["time_in_scan"] * 1000) % 2**32, size=80,
-                hit_count=5, mean_echo=100, start_index=0, end_index=0, pos_valid=0,
-                pos_x=0.0, pos_y=0.0))
+                local_id=o.get("local_id", 0), global_id=o["id"] if known else 0, type=1,
+                sub_type=0, quality=o.get("quality", 90),
+                timestamp=o.get("device_time_ms",
+                                round(ns / 1e6 + o["time_in_scan"] * 1000) % 2**32),
+                size=80, hit_count=o.get("hit_count", 5), mean_echo=o.get("mean_echo", 100),
+                start_index=0, end_index=0, pos_valid=0, pos_x=0.0, pos_y=0.0))
         return self.T["sick_scan_xd/msg/NAVLandmarkData"](
             header=self.header(ns, SENSOR_FRAME), landmark_filter=1, num_reflectors=len(refl),
             reflectors=refl)
@@ -121,6 +129,10 @@ class Bag:
             header=self.header(ns, parent), child_frame_id=child,
             transform=T["geometry_msgs/msg/Transform"](translation=self.vec(x, y),
                                                        rotation=self.quat(0.0)))])
+
+
+DEVICE_POSE_KEYS = ("device_time_ms", "mean_dev", "nav_mode", "info_state", "output_mode")
+"""What a recorded NAV350 pose says of itself, written into the NAVPoseData."""
 
 
 def bag_from_log(log: Path, path: Path, *, storage: str = "mcap", odom_yaw_scale: float = 1.1,
@@ -156,11 +168,13 @@ def bag_from_log(log: Path, path: Path, *, storage: str = "mcap", odom_yaw_scale
                 bag.write("/ground_truth/pose", "geometry_msgs/msg/PoseStamped",
                           bag.pose_stamped(ns, float(x[k]), float(y[k]), float(h[k])), ns)
         if nav:
-            for row in reader.dataframe(topics.NAV_POSE).itertuples():
-                ns = round(row.stamp * 1e9)
+            for m in reader.messages([topics.NAV_POSE]):
+                d = m.data
+                ns = d["timestamp"]["sec"] * 1_000_000_000 + d["timestamp"]["nsec"]
+                device = {k: d[k] for k in DEVICE_POSE_KEYS if k in d} or None
                 bag.write("/sick_nav_350/nav_pose", "sick_scan_xd/msg/NAVPoseData",
-                          bag.nav_pose(ns, row.x, row.y, row.heading, int(row.reflectors_used),
-                                       bool(row.valid)), ns)
+                          bag.nav_pose(ns, d["x"], d["y"], d["heading"],
+                                       int(d["reflectors_used"]), bool(d["valid"]), device), ns)
         if reflectors:
             for m in reader.messages([topics.NAV_REFLECTORS]):
                 ns = m.data["timestamp"]["sec"] * 1_000_000_000 + m.data["timestamp"]["nsec"]

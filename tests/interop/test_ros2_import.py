@@ -298,3 +298,58 @@ def test_an_imported_bag_passes_the_reference_checker(imported: Path) -> None:
 
     assert_reference_clean(imported)
     assert schema_errors(imported) == []
+
+
+@pytest.fixture(scope="module")
+def nav350_pair(folder: Path) -> tuple[Path, Path]:
+    """A simulated NAV350 drive and its import from the bag sick_scan_xd would have recorded
+    (NAVPoseData and NAVLandmarkData with their optional blocks)."""
+    from lgvtool.sim.logfile import write_log
+    from lgvtool.sim.simulation import simulate
+
+    log = folder / "nav350.mcap"
+    write_log(simulate("warehouse", seed=5, duration=60.0,
+                       overrides={"sim.nav_device": "nav350"}), log)
+    d = LogReader(log).config().to_dict()
+    d.pop("simulator")
+    hall = folder / "nav350-hall.toml"
+    hall.write_text(to_toml(d))
+    out = folder / "nav350-imported.mcap"
+    import_bag(bag_from_log(log, folder / "nav350_bag"), out, config=hall)
+    return log, out
+
+
+def test_a_nav350_bag_keeps_what_the_device_says(nav350_pair: tuple[Path, Path]) -> None:
+    """meanDev, navMode, infoState and the tick of every pose, and each reflector's ids,
+    quality, hit count, mean echo and tick: as the recorded NAV350 log has them."""
+    log, imported = nav350_pair
+    poses = [[m.data.get(k) for m in LogReader(p).messages([topics.NAV_POSE])]
+             for p in (log, imported) for k in ("device_time_ms", "mean_dev", "nav_mode",
+                                                "info_state", "quality", "valid")]
+    assert all(None not in column for column in poses)
+    assert poses[:6] == poses[6:]
+    keys = ("global_id", "quality", "hit_count", "mean_echo", "device_time_ms")
+    scans = [[tuple(o.get(k) for k in keys) for m in LogReader(p).messages(
+        [topics.NAV_REFLECTORS]) for o in m.data["observations"]] for p in (log, imported)]
+    assert len(scans[0]) > 1000 and scans[0] == scans[1]
+
+
+def test_a_nav350_bag_audits_as_the_recorded_log(nav350_pair: tuple[Path, Path],
+                                                 tmp_path: Path, cli: CLI) -> None:
+    """The navigation health of the import: the device, meanDev and its clock as recorded,
+    and no localisation score made up from a pose that carries no quality."""
+    import json
+
+    docs = []
+    for k, path in enumerate(nav350_pair):
+        out = tmp_path / f"audit{k}"
+        code, _, err = cli("audit", path, "-o", out, "-e", "ekf", "--no-progress")
+        assert code == 0, err
+        docs.append(json.loads((out / "audit.json").read_text())["navigation"]["logs"][0])
+    recorded, imported = docs
+    assert imported["device"] == recorded["device"] == "nav350"
+    assert imported["mean_dev"] == recorded["mean_dev"] and recorded["mean_dev"]["p50"] > 0
+    assert imported["nav_mode"] == recorded["nav_mode"]
+    assert imported["clock_jumps"] == recorded["clock_jumps"] == []
+    assert imported["clock_drift_ppm"] == pytest.approx(recorded["clock_drift_ppm"], abs=1.0)
+    assert imported["vda5050"]["localizationScore"] is None
