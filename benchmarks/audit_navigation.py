@@ -4,16 +4,17 @@ for site reasons (too few reflectors in range) on a drive with a short detection
 
 Run by hand (never a timed test)::
 
-    python benchmarks/audit_navigation.py [--seeds 1-8] [--workdir DIR]
+    python benchmarks/audit_navigation.py [--seeds 1-8] [--workdir DIR] [--error-rate 0.03]
 
 Per seed: ``lgvtool simulate --scenario degraded --seed S`` (a NAV200 polled every 0.45 s;
 faults injected on 2-3 % of polls each: request lost, reply lost, reply corrupted, reply
-'no valid position'), then ``lgvtool audit LOG -o DIR``. The injected faults are read back from
+'no valid position'; with ``--error-rate R`` also a share R of polls answered with an error
+reply), then ``lgvtool audit LOG -o DIR``. The injected faults are read back from
 the log's /diagnostics (source ``simulator``): every poll that lost its valid pose (its fault
 time mapped to its poll by the poll period), consecutive polls merged into one interval.
 Target: as many dropouts as injected intervals on every seed, each found start within one NAV
-period of the injected one, causes matching (``no_position`` where the device replied, else
-``no_reply``).
+period of the injected one, causes matching (``error`` where an error reply arrived,
+``no_position`` where a reply without a position did, else ``no_reply``).
 
 Then the same drive with ``nav.detection_range_m=6`` and no injected NAV fault: the device
 loses its position where fewer than three reflectors are in range (the simulator records no
@@ -33,9 +34,13 @@ from pathlib import Path
 from typing import Any
 
 NAV_FAULTS = {"nav_request_dropped": "no_reply", "nav_reply_dropped": "no_reply",
-              "nav_reply_corrupted": "no_reply", "nav_no_position": "no_position"}
+              "nav_reply_corrupted": "no_reply", "nav_no_position": "no_position",
+              "nav_error_reply": "error"}
 """The simulator's NAV fault kinds that cost a poll its valid pose, and the cause the audit
-should give (a lost or corrupted reply wins over a 'no position' one that never arrived)."""
+should give (a lost or corrupted reply wins over a 'no position' or an error reply that never
+arrived)."""
+RANK = ("error", "no_position", "no_reply")
+"""An interval's cause: the first of these that one of its polls has."""
 
 
 def _injected(log: Path) -> tuple[list[tuple[float, str]], float]:
@@ -65,10 +70,9 @@ def _injected(log: Path) -> tuple[list[tuple[float, str]], float]:
     out: list[tuple[float, str]] = []
     last = -10
     for k in sorted(polls):
-        cause = "no_reply" if "no_reply" in polls[k] else "no_position"
+        cause = "no_reply" if "no_reply" in polls[k] else min(polls[k], key=RANK.index)
         if k == last + 1:
-            out[-1] = (out[-1][0], "no_position" if "no_position" in (out[-1][1], cause)
-                       else "no_reply")
+            out[-1] = (out[-1][0], min((out[-1][1], cause), key=RANK.index))
         else:
             out.append((first[k], cause))
         last = k
@@ -95,6 +99,9 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--seeds", default="1-8", help="first-last seed (inclusive)")
     p.add_argument("--workdir", default=None, help="keep the logs and audits here")
+    p.add_argument("--error-rate", type=float, default=0.0,
+                   help="polls answered with an error reply (faults.nav_error_rate) on top "
+                        "of the scenario's faults")
     a = p.parse_args()
     work = Path(a.workdir or tempfile.mkdtemp(prefix="audit_navigation_"))
     work.mkdir(parents=True, exist_ok=True)
@@ -103,7 +110,7 @@ def main() -> None:
     for seed in _seeds(a.seeds):
         log = work / f"degraded-{seed}.mcap"
         _run(["simulate", "--scenario", "degraded", "--seed", str(seed), "-o", str(log),
-              "--force"])
+              "--force", "--set", f"faults.nav_error_rate={a.error_rate}"])
         injected, period = _injected(log)
         found = _audit(log, work / f"audit-{seed}")
         drops = [d for d in found["dropouts"] if isinstance(d, dict)]

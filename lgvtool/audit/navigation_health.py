@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -110,6 +110,9 @@ class NavStatus:
     info_state: IntArray
     device_ms: IntArray
     device_stamp: FloatArray
+    device_errors: FloatArray = field(default_factory=lambda: np.zeros(0))
+    """When the device answered a poll with an error reply that is not on /nav/pose (a
+    NAV200's: ``device_error`` on /diagnostics), s on the same clock as ``t``."""
 
     @property
     def t(self) -> FloatArray:
@@ -140,17 +143,29 @@ class NavStatus:
 
 class NavStatusTap:
     """A tap of :func:`lgvtool.localize.logdata.load_log`: every /nav/pose message's fields
-    (:class:`NavStatus`), by the message's own time stamp."""
+    (:class:`NavStatus`), by the message's own time stamp, and the NAV200's error replies
+    (``device_error`` events of source ``nav200`` on /diagnostics, by their time stamp)."""
 
-    topics = ("/nav/pose",)
+    topics = ("/nav/pose", "/diagnostics")
 
     def __init__(self) -> None:
         self.rows: list[tuple[float, ...]] = []
+        self.errors_ns: list[int] = []
 
     def add(self, block: RawBlock) -> None:
-        """Collect the /nav/pose messages of one chunk."""
+        """Collect the /nav/pose messages and the device's error replies of one chunk."""
         import orjson
 
+        events = block.get("/diagnostics")
+        if events is not None:
+            for log_ns, raw in zip(events[0], events[1], strict=True):
+                if b"device_error" not in raw:  # most events are not: no JSON parse
+                    continue
+                e = orjson.loads(raw)
+                if e.get("kind") == "device_error" and e.get("source") == "nav200":
+                    ts = e.get("timestamp")
+                    self.errors_ns.append(int(ts["sec"]) * 1_000_000_000 + int(ts["nsec"])
+                                          if isinstance(ts, dict) else int(log_ns))
         found = block.get("/nav/pose")
         if found is None:
             return
@@ -180,7 +195,8 @@ class NavStatusTap:
             valid=a[:, 4] > 0, quality=a[:, 5].astype(np.int64), used=a[:, 6].astype(np.int64),
             error_code=a[:, 7].astype(np.int64), mean_dev=a[:, 8],
             nav_mode=a[:, 9].astype(np.int64), info_state=a[:, 10].astype(np.int64),
-            device_ms=a[:, 11].astype(np.int64), device_stamp=(a[:, 12] - t0_ns) * 1e-9)
+            device_ms=a[:, 11].astype(np.int64), device_stamp=(a[:, 12] - t0_ns) * 1e-9,
+            device_errors=np.sort((np.array(self.errors_ns, dtype=np.float64) - t0_ns) * 1e-9))
 
 
 @dataclass(frozen=True)
@@ -190,7 +206,8 @@ class Dropout:
     last valid pose), ``duration`` s (to the next valid pose, or the last
     reply), where the replayed head pose was at the start (``x``, ``y`` m; NaN unknown),
     ``cause`` (``no_position``: the device said so with enough reflectors; ``few_reflectors``:
-    it said so reporting fewer than ``min_reflectors``; ``error``: an error code;
+    it said so reporting fewer than ``min_reflectors``; ``error``: an error code, or an error
+    reply of the device's after the last valid pose (:attr:`NavStatus.device_errors`);
     ``no_reply``: no pose reply at all), ``replies`` (the replies in it) and
     ``used_min`` (fewest reflectors used among them, -1 none)."""
 
@@ -316,8 +333,10 @@ def _jumps(st: NavStatus, ok: BoolArray, odometry: Trajectory | None,
 
 
 def _dropouts(st: NavStatus, ok: BoolArray, period: float, track: Trajectory | None,
-              s: NavigationSettings) -> tuple[Dropout, ...]:
-    """Every interval without a valid pose of at least one NAV period (:class:`Dropout`)."""
+              s: NavigationSettings, log_end: float) -> tuple[Dropout, ...]:
+    """Every interval without a valid pose of at least one NAV period (:class:`Dropout`);
+    ``log_end``: when the log's motion data end, s (-inf: unknown), so that replies that stop
+    before the log does make a dropout too."""
     n = len(st.t)
     if n == 0 or not math.isfinite(period):
         return ()
@@ -331,7 +350,7 @@ def _dropouts(st: NavStatus, ok: BoolArray, period: float, track: Trajectory | N
             spans.append((-1, int(idx[0])))
         gaps = np.flatnonzero(np.diff(st.t[idx]) > s.dropout_gap_periods * period)
         spans += [(int(idx[k]), int(idx[k + 1])) for k in gaps]
-        if idx[-1] < n - 1:
+        if idx[-1] < n - 1 or log_end - float(st.t[idx[-1]]) > s.dropout_gap_periods * period:
             spans.append((int(idx[-1]), None))
     out = []
     for before, after in spans:
@@ -345,15 +364,19 @@ def _dropouts(st: NavStatus, ok: BoolArray, period: float, track: Trajectory | N
             start = float(st.t[lo])
         else:
             continue
-        end = float(st.t[after]) if after is not None else float(st.t[-1])
+        end = float(st.t[after]) if after is not None else max(float(st.t[-1]), log_end)
         if after is None and end - start < period:
             end = start + period  # the log ends inside the dropout: at least one period
         used = st.used[inside]
         errors = st.error_code[inside] != 0
-        if len(inside) == 0:
-            cause = "no_reply"
-        elif bool(errors.any()):
+        # an error reply (not on /nav/pose) after the last valid pose, before the next
+        after_valid = float(st.t[before]) if before >= 0 else -math.inf
+        replied_error = bool(np.any((st.device_errors > after_valid)
+                                    & (st.device_errors < end)))
+        if bool(errors.any()) or replied_error:
             cause = "error"
+        elif len(inside) == 0:
+            cause = "no_reply"
         elif int(used.min()) < s.min_reflectors:
             cause = "few_reflectors"
         else:
@@ -395,14 +418,17 @@ def navigation_health(st: NavStatus, *, track: Trajectory | None,
                       settings: NavigationSettings) -> NavigationHealth:
     """One log's navigation health from its pose replies ``st``; ``track``: the replayed head
     poses (s on the same clock, m, rad) that place the dropouts (None: not placed);
-    ``odometry``: the dead-reckoned path of O (:func:`odometry_path`; None: no pose jumps);
+    ``odometry``: the dead-reckoned path of O (:func:`odometry_path`; None: no pose jumps),
+    whose last sample is where the log ends (replies that stop before it: a dropout);
     ``nav_offset``: the head's mounting (nav_x, nav_y m from O)."""
     s = settings
     ok = st.navigating
     n = len(st.t)
     period = float(np.median(np.diff(st.t))) if n >= 2 else float("nan")
-    span = float(st.t[-1] - st.t[0]) if n else 0.0
-    drops = _dropouts(st, ok, period, track, s)
+    # the replies' span, to the end of the motion data when they stop before it
+    log_end = float(odometry.t[-1]) if odometry is not None and len(odometry) else -math.inf
+    span = max(float(st.t[-1]), log_end) - float(st.t[0]) if n else 0.0
+    drops = _dropouts(st, ok, period, track, s, log_end)
     lost = sum(d.duration for d in drops)
     share = (max(0.0, 1.0 - lost / span) if span > 0 else
              (float(ok.all()) if n else float("nan")))
@@ -414,7 +440,8 @@ def navigation_health(st: NavStatus, *, track: Trajectory | None,
               if has_quality else ())
     return NavigationHealth(
         period_s=period, span_s=span, replies=n, navigating=int(ok.sum()),
-        errors=int(np.count_nonzero(st.error_code)), share_in_navigation=share,
+        errors=int(np.count_nonzero(st.error_code)) + len(st.device_errors),
+        share_in_navigation=share,
         dropouts=drops, used_counts=_counts(st.used[ok]),
         mean_dev=_percentiles(md) if np.isfinite(md).any() else (),
         nav_modes=_counts(st.nav_mode[st.nav_mode >= 0]),

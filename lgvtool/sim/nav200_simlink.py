@@ -21,8 +21,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from lgvtool.config import Reflector
+from lgvtool.devices.nav200.nav200_commands import ERROR_REPLY_LEN
 from lgvtool.devices.nav200.nav200_device import Nav200Device, PoseFix
-from lgvtool.devices.nav200.nav200_replies import NO_POSITION
+from lgvtool.devices.nav200.nav200_replies import NO_POSITION, build_error_reply
 from lgvtool.devices.nav200.nav200_requests import request_pose
 from lgvtool.sim import faults as faultlib
 from lgvtool.sim.faults import FaultEvent
@@ -33,6 +34,9 @@ from lgvtool.sim.settings import FaultSettings, NavSettings
 
 REPLY_SIZE = 17
 """Bytes of a PP reply."""
+POLL_ERROR = (4, 7, 7)
+"""F1-F3 of the error reply a failed poll gets (``faults.nav_error_rate``): spurious
+measurement, positioning, input not possible (an assumption: not documented)."""
 
 
 @dataclass(frozen=True)
@@ -96,12 +100,15 @@ def simulate(device: Nav200Device, nav: NavSettings, fault: FaultSettings, durat
     u_poll = rng_link.random(n)
     polls = (nav.poll_start_s + nav.poll_period_s * np.arange(n)
              + nav.poll_jitter_s * u_poll * (1.0 if noise else 0.0))
+    # drawn only when asked for: a log without error replies keeps its other faults' draws
+    error = (faultlib.choose(fault.nav_error_rate, n, rng_faults) if fault.nav_error_rate > 0
+             else np.zeros(n, dtype=bool))
     lost_request = faultlib.choose(fault.nav_request_drop_rate, n, rng_faults)
     lost_reply = faultlib.choose(fault.nav_reply_drop_rate, n, rng_faults)
     corrupt = faultlib.choose(fault.nav_corrupt_rate, n, rng_faults)
     no_position = faultlib.choose(fault.nav_invalid_rate, n, rng_faults)
     compose = polls + t_request + nav.reply_delay_s
-    delivery = deliver(compose, np.full(n, REPLY_SIZE), nav.baud, BITS_8E1,
+    delivery = deliver(compose, np.where(error, ERROR_REPLY_LEN, REPLY_SIZE), nav.baud, BITS_8E1,
                        nav.host_latency_s, nav.host_jitter_s * (1.0 if noise else 0.0),
                        nav.split_probability, rng_link)
     tx: list[Chunk] = []
@@ -117,7 +124,13 @@ def simulate(device: Nav200Device, nav: NavSettings, fault: FaultSettings, durat
             continue
         forced = bool(no_position[i])
         data, index = device.pose_reply(float(compose[i]), no_position=forced)
-        if forced:
+        if error[i]:
+            data, forced = build_error_reply(request, *POLL_ERROR), True
+            events.append(FaultEvent(float(compose[i]), "simulator", "nav_error_reply",
+                                     "NAV200 answers the PP poll with an error reply",
+                                     dict(zip(("error_class", "group", "detail"), POLL_ERROR,
+                                              strict=True))))
+        elif forced:
             events.append(FaultEvent(float(compose[i]), "simulator", "nav_no_position",
                                      "NAV200 replies 'no valid position' (quality 0xFF)",
                                      {"quality": NO_POSITION}))

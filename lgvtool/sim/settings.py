@@ -451,6 +451,13 @@ class FaultSettings:
         0.0,
         "Fraction of PP replies in which the device reports no valid position (quality 0xFF).",
         unit="", minimum=0.0, maximum=1.0)
+    nav_error_rate: float = setting(
+        0.0,
+        "Fraction of PP polls the device answers with an error reply instead of a pose "
+        "(function E; class 4 spurious measurement, group 7 positioning, detail 7 input not "
+        "possible: which codes a NAV200 sends for a failed poll is not documented). Above 0 "
+        "it draws its own random numbers first, so the other link faults fall elsewhere.",
+        unit="", minimum=0.0, maximum=1.0)
     occlusion_fraction: float = setting(
         0.0,
         "Fraction of the time each reflector is hidden (pallets, people), dimensionless.",

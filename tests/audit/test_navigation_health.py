@@ -95,6 +95,47 @@ def test_dropouts_equal_the_injected_no_position_replies(invalid_log: Path) -> N
     assert health.share_in_navigation == pytest.approx(1.0 - lost / health.span_s, abs=1e-9)
 
 
+def test_dropouts_equal_the_injected_error_replies(tmp_path: Path) -> None:
+    """A NAV200 that answers 15 % of its polls with an error reply (function E, not on
+    /nav/pose): each such dropout is found from /diagnostics and called an error."""
+    log = simulate_log(tmp_path / "errors.mcap", 40.0, 5, paper_scans=False,
+                       sets=["faults.nav_error_rate=0.15"])
+    st, health, events = _read(log)
+    injected = _runs([t for t, kind in events if kind == "nav_error_reply"])
+    assert len(injected) >= 3
+    assert len(st.device_errors) == sum(kind == "nav_error_reply" for _, kind in events)
+    assert [d.cause for d in health.dropouts] == ["error"] * len(injected)
+    for d, t in zip(health.dropouts, injected, strict=True):
+        assert abs(d.start - t) < POLL_PERIOD_S
+    assert health.errors == len(st.device_errors)
+
+
+def test_replies_that_stop_before_the_log_ends_are_a_dropout() -> None:
+    """The NAV's last valid reply at 2.25 s, the motion data going on to 4 s: a dropout from
+    when the next reply was due to the log's end, none when the motion ends with the replies;
+    an error reply between two valid poses makes its dropout an error."""
+    t = np.array([0.0, 0.45, 0.9, 1.35, 1.8, 2.25])
+    motion = np.arange(0.0, 4.001, 0.1)
+    odometry = odometry_path(motion, np.zeros(len(motion) - 1), np.zeros(len(motion) - 1))
+    h = navigation_health(_status(t), track=None, odometry=odometry, nav_offset=(0.0, 0.0),
+                          settings=NavigationSettings())
+    (d,) = h.dropouts
+    assert d.cause == "no_reply"
+    assert d.start == pytest.approx(2.7, abs=1e-9)
+    assert d.duration == pytest.approx(4.0 - 2.7, abs=1e-9)
+    assert h.span_s == pytest.approx(4.0, abs=1e-9)
+    assert h.share_in_navigation == pytest.approx(1.0 - 1.3 / 4.0, abs=1e-9)
+    short = odometry_path(motion[:24], np.zeros(23), np.zeros(23))  # ends at 2.3 s
+    assert navigation_health(_status(t), track=None, odometry=short, nav_offset=(0.0, 0.0),
+                             settings=NavigationSettings()).dropouts == ()
+    gap = np.delete(t, 3)  # the poll at 1.35 s answered with an error reply at 1.36 s
+    err = replace(_status(gap), device_errors=np.array([1.36]))
+    (e,) = navigation_health(err, track=None, odometry=None, nav_offset=(0.0, 0.0),
+                             settings=NavigationSettings()).dropouts
+    assert e.cause == "error" and e.replies == 0
+    assert e.start == pytest.approx(1.35, abs=1e-9)
+
+
 def test_site_losses_are_found_as_too_few_reflectors(tmp_path: Path) -> None:
     """With the reflectors detected only up to 5 m, the simulated NAV loses its position where
     fewer than three are in range: no fault injected, the device reports it."""
