@@ -28,6 +28,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from lgvtool.localize.ekf import lost_scan as ekf_lost_scan
+
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 IntArray = NDArray[np.int64]
@@ -302,19 +304,8 @@ def _record(mu: FloatArray, P: FloatArray, t: float, k: int, ct: FloatArray, cx:
             covs[k, 3 * i + j] = 0.5 * (P[i, j] + P[j, i])
 
 
-@_jit
-def lost_scan(lost: FloatArray, t: float, reflectors: int, accepted: bool,
-              recover_s: float) -> bool:
-    """:func:`lgvtool.localize.ekf.lost_scan` (the same rule, for the compiled loop)."""
-    if accepted:
-        lost[0] = math.nan
-        return False
-    if reflectors < 2:
-        return False
-    if math.isnan(lost[0]):
-        lost[0] = t
-        return False
-    return recover_s > 0.0 and t - lost[0] >= recover_s
+lost_scan = _jit(ekf_lost_scan)
+""":func:`lgvtool.localize.ekf.lost_scan` itself, compiled for the loop (one rule, one text)."""
 
 
 @_jit
