@@ -127,7 +127,8 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams, PoseModelParams)
                                        "a position standard deviation (the larger axis) at "
                                        "most this, m; 0 takes the first fix", minimum=0.0)
     scan_recover_s: float = param(2.0, "recovery on reflector scans: once every scan of at "
-                                  "least two reflectors has had none accepted for this long, "
+                                  "least two reflectors has had none accepted (and no NAV pose "
+                                  "was) for this long, "
                                   "the next such scan that fixes a pose (as the start does, "
                                   "init_fix) restarts the pose there with the start's "
                                   "uncertainty, the odometry scales kept; 0: never, s",
@@ -163,7 +164,8 @@ GP = TypeVar("GP", bound=GaussianParams, covariant=True)
 def lost_scan(lost: FloatArray, t: float, reflectors: int, accepted: bool,
               recover_s: float) -> bool:
     """Keep ``lost[0]``, the time (s) of the first scan of at least two reflectors with none
-    accepted since the last scan with one accepted (NaN: none), after a scan at ``t`` (s)
+    accepted since the last scan with one accepted or the last NAV pose taken (NaN: none;
+    :meth:`Ekf._update_pose` clears it too), after a scan at ``t`` (s)
     of ``reflectors`` reflectors; True when a recovery is due: such a scan has come
     ``recover_s`` (s, 0: never) or more after the first. A scan of one reflector says
     nothing either way (one stray reflection is no sign of being lost)."""
@@ -440,6 +442,8 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         if verdict == "refuse":
             self.rejected += 1
             return False
+        # a pose taken: the filter is not lost, whatever the scans found (lost_scan)
+        self.scan_lost[0] = math.nan
         if verdict == "reanchor":
             self._reanchor(obs, R)
             return True

@@ -37,6 +37,22 @@ def test_the_lost_rule() -> None:
     assert not any(lost_scan(never, t, 5, False, 0.0) for t in np.arange(0.0, 60.0, 0.125))
 
 
+def test_a_nav_pose_taken_means_not_lost() -> None:
+    """With NAV poses besides the scans, a pose the gate takes clears the scans' lost time: a
+    filter that its poses keep is not restarted by scans that find nothing."""
+    from lgvtool.config import Vehicle
+    from lgvtool.localize.ekf import Ekf
+    from lgvtool.localize.observations import PoseObservation
+
+    ekf = Ekf(vehicle=Vehicle(nav_x=0.0, nav_y=0.0), initial_pose=(1.0, 2.0, 0.3))
+    ekf.scan_lost[0] = 5.0
+    assert ekf.update(PoseObservation(6.0, 1.01, 2.0, 0.3))
+    assert math.isnan(ekf.scan_lost[0])
+    ekf.scan_lost[0] = 5.0
+    assert not ekf.update(PoseObservation(6.1, 9.0, 9.0, 0.3))  # refused: still lost
+    assert ekf.scan_lost[0] == 5.0
+
+
 def _errors(mode: str, monkeypatch: pytest.MonkeyPatch, ids: bool,
             settings: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, Any]:
     """A 30 s circle with 8 scans a second, ``ekf`` started 1 m off and sure of it: time (s
