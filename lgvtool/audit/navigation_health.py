@@ -204,7 +204,8 @@ class Dropout:
     """An interval without a valid pose: ``start`` s (the first reply that was not a valid pose,
     or, when a reply was missing before it, when that reply was due: one NAV period after the
     last valid pose), ``duration`` s (to the next valid pose, or the end of the log's motion
-    data or its last reply, whichever is later), where the replayed head pose was at the start (``x``, ``y`` m; NaN unknown),
+    data or its last reply, whichever is later), where the replayed head pose was at the start
+    (``x``, ``y`` m; NaN unknown),
     ``cause`` (``no_position``: the device said so with enough reflectors; ``few_reflectors``:
     it said so reporting fewer than ``min_reflectors``; ``error``: an error code, or an error
     reply of the device's after the last valid pose (:attr:`NavStatus.device_errors`);
