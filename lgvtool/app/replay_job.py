@@ -213,16 +213,29 @@ def write_replay_log(reader: LogReader, output: str, result: ReplayResult, confi
     messages are encoded one window of log time (``window_ns``, default
     lgvtool.log.windows.WINDOW_NS) at a time, as the merge reaches it. ``rows``: the rows
     the view draws, already gathered (:class:`lgvtool.log.view_channels.LogRows`, with the
-    scans as the estimators decoded them), which the view then does not read again."""
+    scans as the estimators decoded them), which the view then does not read again. The
+    input's estimates and view channels are replaced; its events (/diagnostics and their
+    mirror) are kept, and the NAV poses the gate left out are added to them (once: a
+    replayed log replayed again does not repeat them)."""
+    from dataclasses import replace
     from pathlib import Path
 
-    from lgvtool.localize.replay_sources import replay_sources
-    from lgvtool.log import LogWriter
+    from lgvtool.localize.replay_sources import GATE_EVENT, replay_sources
+    from lgvtool.log import LogWriter, topics
     from lgvtool.log.windows import WINDOW_NS, WindowedMerge
 
+    if result.gated and reader.has_topic(topics.DIAGNOSTICS):
+        # a replayed log replayed again: its gate's events are in the input already
+        known = {(m.log_time_ns, m.data.get("message"))
+                 for m in reader.messages([topics.DIAGNOSTICS])
+                 if m.data.get("kind") == GATE_EVENT}
+        result = replace(result, gated=[g for g in result.gated if g not in known])
     merge = WindowedMerge(replay_sources(reader, result, view_config, rows),
                           WINDOW_NS if window_ns is None else window_ns)
-    skip = frozenset(t for t in merge.topics if reader.has_topic(t))
+    # the replay's topics replace the input's, but for the events: those of the input stay,
+    # the replay's are added to them
+    skip = frozenset(t for t in merge.topics if reader.has_topic(t)
+                     and t not in (topics.DIAGNOSTICS, topics.DIAGNOSTICS_LOG))
     with LogWriter(output, source="replay", chunk_seconds=None, compression=compression) as w:
         n_written = w.copy_from(reader, skip_topics=skip, extra=merge) + merge.count
         w.add_metadata("replay", {

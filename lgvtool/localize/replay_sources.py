@@ -61,13 +61,17 @@ def _cloud_source(name: str, clouds: list[Cloud]) -> Source:
     return source(topics.estimate_particles(name), [c[0] for c in clouds], encode)
 
 
+GATE_EVENT = "pose_implausible"
+"""The ``kind`` of the event a NAV pose the plausibility gate left out becomes."""
+
+
 def _gated_sources(gated: list[tuple[int, str]]) -> list[Source]:
     import orjson
 
     from lgvtool.log import messages, topics
 
     def diags(idx: NDArray[np.intp]) -> list[JSONObject]:
-        return [messages.diagnostic_message(gated[i][0], "nav200", "pose_implausible",
+        return [messages.diagnostic_message(gated[i][0], "nav200", GATE_EVENT,
                                             gated[i][1], level=3) for i in idx.tolist()]
 
     def diagnostics(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:

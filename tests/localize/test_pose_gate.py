@@ -94,7 +94,10 @@ def test_a_jump_is_left_out_by_default_and_kept_when_switched_off(log: Path,
 
 def test_replay_flags_left_out_poses_in_diagnostics(log: Path, tmp_path: Path,
                                                     run_cli) -> None:
+    """The pose the gate leaves out is an event of the output, beside every event the input
+    had (none lost), and a replay of that output does not repeat it."""
     from lgvtool.log import LogWriter
+    from lgvtool.log.messages import diagnostic_message
 
     bad = tmp_path / "jump.mcap"
     reader, _, _ = read(log)
@@ -108,14 +111,26 @@ def test_replay_flags_left_out_poses_in_diagnostics(log: Path, tmp_path: Path,
                 poses += 1
                 if poses == 50:
                     m.data["y"] += 5.0
+                    w.write(topics.DIAGNOSTICS, diagnostic_message(
+                        m.log_time_ns, "mcu", "seq_gap", "a recorded event"), m.log_time_ns)
             w.write(m.topic, m.data, m.log_time_ns)
+
+    def events(path: Path) -> list[dict[str, object]]:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return [m.data for m in LogReader(path).messages([topics.DIAGNOSTICS])]
+
     out = tmp_path / "out.mcap"
     res = run_cli("replay", bad, "-o", out, "-e", "laser")
     assert res.returncode == 0, res.stderr
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        diags = [m.data for m in LogReader(out).messages([topics.DIAGNOSTICS])
-                 if m.data.get("kind") == "pose_implausible"]
+    diags = [d for d in events(out) if d.get("kind") == "pose_implausible"]
     assert len(diags) == 1
-    assert diags[0]["source"] == "nav200" and "left out" in diags[0]["message"]
+    assert diags[0]["source"] == "nav200" and "left out" in str(diags[0]["message"])
+    assert isinstance(diags[0]["timestamp"], dict)
     assert math.isfinite(float(diags[0]["timestamp"]["sec"]))
+    recorded = events(bad)
+    assert recorded and all(d in events(out) for d in recorded)
+    assert len(events(out)) == len(recorded) + 1
+    again = tmp_path / "again.mcap"
+    assert run_cli("replay", out, "-o", again, "-e", "laser").returncode == 0
+    assert len(events(again)) == len(events(out))
