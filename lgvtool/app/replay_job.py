@@ -74,11 +74,12 @@ class ReplayOptions:
 
 class EstimatorRun(TypedDict):
     """One estimator of a replay: the estimates and particle clouds it wrote, the seconds it
-    took."""
+    took, and its events (restarts, re-anchorings: each also an event of the output)."""
 
     estimates: int
     clouds: int
     seconds: float
+    events: int
 
 
 class ReplaySummary(TypedDict):
@@ -173,6 +174,11 @@ def _replay(options: ReplayOptions, warn: Callable[[str], None]) -> ReplaySummar
                 raise MissingDataError(f"{log}: {result.skipped[n]}")
     for why in result.skipped.values():
         warn(f"{why}; skipped")
+    for name, events in result.events.items():
+        kinds = ", ".join(f"{k} {sum(e[1] == k for e in events)}"
+                          for k in dict.fromkeys(e[1] for e in events))
+        warn(f"{name}: {kinds} (the first at {(events[0][0] - result.t0_ns) * 1e-9:.1f} s: "
+             f"{events[0][2]}); each is an event on /diagnostics")
 
     t1 = time.perf_counter()
     with atomic_output(output) as tmp:
@@ -189,7 +195,8 @@ def _replay(options: ReplayOptions, warn: Callable[[str], None]) -> ReplaySummar
         "seed": seed,
         "estimators": {n: {"estimates": len(result.estimates[n]),
                            "clouds": len(result.clouds.get(n, [])),
-                           "seconds": round(result.timings.get(n, 0.0), 4)}
+                           "seconds": round(result.timings.get(n, 0.0), 4),
+                           "events": len(result.events.get(n, []))}
                        for n in result.estimates},
         "skipped": result.skipped,
         "messages_written": written,
@@ -215,21 +222,15 @@ def write_replay_log(reader: LogReader, output: str, result: ReplayResult, confi
     the view draws, already gathered (:class:`lgvtool.log.view_channels.LogRows`, with the
     scans as the estimators decoded them), which the view then does not read again. The
     input's estimates and view channels are replaced; its events (/diagnostics and their
-    mirror) are kept, and the NAV poses the gate left out are added to them (once: a
-    replayed log replayed again does not repeat them)."""
-    from dataclasses import replace
+    mirror) are kept, and the replay's are added to them
+    (:func:`lgvtool.localize.replay_sources.replay_events`: once, a replayed log replayed
+    again does not repeat them)."""
     from pathlib import Path
 
-    from lgvtool.localize.replay_sources import GATE_EVENT, replay_sources
+    from lgvtool.localize.replay_sources import replay_sources
     from lgvtool.log import LogWriter, topics
     from lgvtool.log.windows import WINDOW_NS, WindowedMerge
 
-    if result.gated and reader.has_topic(topics.DIAGNOSTICS):
-        # a replayed log replayed again: its gate's events are in the input already
-        known = {(m.log_time_ns, m.data.get("message"))
-                 for m in reader.messages([topics.DIAGNOSTICS])
-                 if m.data.get("kind") == GATE_EVENT}
-        result = replace(result, gated=[g for g in result.gated if g not in known])
     merge = WindowedMerge(replay_sources(reader, result, view_config, rows),
                           WINDOW_NS if window_ns is None else window_ns)
     # the replay's topics replace the input's, but for the events: those of the input stay,

@@ -334,7 +334,7 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         self._gate2 = chi2_quantile(self.params.gate_probability, 2)
         self._gate3 = chi2_quantile(self.params.gate_probability, 3)
         #: the robust gate on NAV poses (refused poses, re-anchoring)
-        self.pose_gate = PoseGate(self._gate3, self.params.pose_reanchor_s)
+        self.pose_gate = PoseGate(self._gate3, self.params.pose_reanchor_s, self.events)
         self.rejected = 0
         self.accepted = 0
         #: reflectors whose id failed its gate (then associated without it, or dropped)
@@ -400,6 +400,10 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
             return False
         (x, y, th), cov = fix
         p = self.params
+        self.events.append((obs.t, "restarted", (
+            f"restarted at a scan's landmark fix {math.hypot(x - self.mu[0], y - self.mu[1]):.2f}"
+            f" m from its estimate, after {obs.t - self.scan_lost[0]:.1f} s of scans that "
+            f"found nothing")))
         self.mu[:POSE] = [x, y, wrap_scalar(th)]
         P = np.zeros_like(self.P)
         P[:POSE, :POSE] = np.diag([p.init_sigma_xy_m ** 2, p.init_sigma_xy_m ** 2,

@@ -138,6 +138,10 @@ class Estimator(ABC, Generic[P]):
         self.area = area or Area()
         self.rng = rng if rng is not None else np.random.default_rng(0)
         self.initial_pose = initial_pose
+        #: what the estimator did that its rows alone do not tell, in time order: (time s,
+        #: kind, text), e.g. ``restarted`` (``ekf`` found a lost vehicle again) or
+        #: ``reanchored`` (the robust gate on NAV poses); ``replay`` writes each as an event
+        self.events: list[tuple[float, str, str]] = []
 
     @classmethod
     def configure(cls, **values: object) -> P:

@@ -180,7 +180,7 @@ class PaperParticleFilter(ParticleSet[PaperPfParams]):
         #: exponent factor of eq. 10: w = exp(factor D^2)
         self._factor = -0.5 / (p.sigma_m * p.sigma_m)
         #: the robust gate on NAV poses of the rotating-head model
-        self.pose_gate = PoseGate(chi2_quantile(0.99, 3), p.pose_reanchor_s)
+        self.pose_gate = PoseGate(chi2_quantile(0.99, 3), p.pose_reanchor_s, self.events)
         self._packing: tuple[ComplexArray, ComplexArray, ComplexArray] | None = None
         n = p.particles
         self._uniform_w = np.full(n, 1.0 / n)

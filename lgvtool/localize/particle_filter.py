@@ -297,7 +297,8 @@ class ParticleFilter(ParticleSet[PfParams]):
         #: log(eps) + the log density of an outlier NAV pose (the pose likelihood's mixture)
         self._log_pose_outlier = math.log(eps) + self._log_outlier(3)
         #: the robust gate on NAV poses (refused poses, re-anchoring)
-        self.pose_gate = PoseGate(chi2_quantile(p.pose_gate_probability, 3), p.pose_reanchor_s)
+        self.pose_gate = PoseGate(chi2_quantile(p.pose_gate_probability, 3), p.pose_reanchor_s,
+                                  self.events)
         if self.initial_pose is not None:
             self._start_around(self.initial_pose, p.particles)
         elif p.init == "uniform":

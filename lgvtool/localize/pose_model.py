@@ -547,13 +547,17 @@ class PoseGate:
     """The robust gate on NAV poses: a pose is refused when its squared Mahalanobis distance
     exceeds the chi-square quantile (3 dof); once poses have been refused for ``reanchor_s``
     (s; 0: never) since the first of them, with no pose accepted in between, the next refused
-    one re-anchors the estimate instead (the filter had lost the vehicle, or the device moved)."""
+    one re-anchors the estimate instead (the filter had lost the vehicle, or the device moved).
+    Each re-anchoring is added to ``events`` (an estimator's :attr:`Estimator.events`) when
+    given."""
 
-    __slots__ = ("gate2", "reanchor_s", "reanchored", "refused", "since")
+    __slots__ = ("events", "gate2", "reanchor_s", "reanchored", "refused", "since")
 
-    def __init__(self, gate2: float, reanchor_s: float) -> None:
+    def __init__(self, gate2: float, reanchor_s: float,
+                 events: list[tuple[float, str, str]] | None = None) -> None:
         self.gate2 = gate2
         self.reanchor_s = reanchor_s
+        self.events = events
         #: time of the first pose refused since the last accepted one, s (None: none refused)
         self.since: float | None = None
         self.refused = 0
@@ -568,6 +572,9 @@ class PoseGate:
         if self.since is None:
             self.since = t
         if self.reanchor_s > 0.0 and t - self.since >= self.reanchor_s:
+            if self.events is not None:
+                self.events.append((t, "reanchored", f"re-anchored at the NAV pose: its poses "
+                                    f"were refused for {t - self.since:.1f} s"))
             self.since = None
             self.reanchored += 1
             return "reanchor"

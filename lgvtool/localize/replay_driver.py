@@ -86,6 +86,10 @@ class ReplayResult:
     seed: int
     #: NAV poses the plausibility gate rejected: (log time ns, text)
     gated: list[tuple[int, str]] = field(default_factory=list)
+    #: per estimator, what it did that its rows alone do not tell (its restarts and
+    #: re-anchorings, :attr:`lgvtool.localize.estimator.Estimator.events`): (log time ns,
+    #: kind, text)
+    events: dict[str, list[tuple[int, str, str]]] = field(default_factory=dict)
 
     @property
     def trajectories(self) -> dict[str, Trajectory]:
@@ -268,7 +272,8 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
                 todo = _start(est, obs, start_only, job.track)
         table, clouds = _run_one(est, todo, job.track, data.t0_ns, report, cloud_period_s,
                                  cloud_size)
-        return table, clouds, time.perf_counter() - started
+        events = [(data.t0_ns + seconds_to_ns(t), kind, text) for t, kind, text in est.events]
+        return table, clouds, time.perf_counter() - started, events
 
     def prepare() -> bool:
         """Make the estimators' compiled kernels ready; whether there are any."""
@@ -287,15 +292,17 @@ def replay_data(data: LogData, names: Sequence[str] | None = None, *,
         if done is None:
             result.skipped[job.name] = f"{job.name} has no usable observations in this log"
             continue
-        result.estimates[job.name], clouds, result.timings[job.name] = done
+        result.estimates[job.name], clouds, result.timings[job.name], events = done
         if clouds:
             result.clouds[job.name] = clouds
+        if events:
+            result.events[job.name] = events
     return result
 
 
 _Clouds = list[tuple[int, FloatArray, FloatArray, FloatArray]]
-#: what one estimator's run gives: its estimates, particle clouds and seconds
-_Done = tuple[Trajectory, _Clouds, float]
+#: what one estimator's run gives: its estimates, particle clouds, seconds and events
+_Done = tuple[Trajectory, _Clouds, float, list[tuple[int, str, str]]]
 
 
 @dataclass

@@ -64,24 +64,44 @@ def _cloud_source(name: str, clouds: list[Cloud]) -> Source:
 GATE_EVENT = "pose_implausible"
 """The ``kind`` of the event a NAV pose the plausibility gate left out becomes."""
 
+#: an event of a replay: (log time ns, source, kind, text)
+_Event = tuple[int, str, str, str]
 
-def _gated_sources(gated: list[tuple[int, str]]) -> list[Source]:
+
+def replay_events(reader: LogReader, result: ReplayResult) -> list[_Event]:
+    """The events a replay ``result`` adds to the log of ``reader``, in time order: the NAV
+    poses the gate left out (source ``nav200``, kind ``pose_implausible``) and what each
+    estimator did that its rows do not tell (source its name: ``restarted``, ``reanchored``),
+    less those the log holds already (a replayed log replayed again)."""
+    from lgvtool.log import topics
+
+    events: list[_Event] = [(t, "nav200", GATE_EVENT, text) for t, text in result.gated]
+    events += [(t, name, kind, text) for name, rows in result.events.items()
+               for t, kind, text in rows]
+    if events and reader.has_topic(topics.DIAGNOSTICS):
+        held = {(m.log_time_ns, m.data.get("source"), m.data.get("kind"), m.data.get("message"))
+                for m in reader.messages([topics.DIAGNOSTICS])}
+        events = [e for e in events if e not in held]
+    return sorted(events)
+
+
+def _event_sources(events: list[_Event]) -> list[Source]:
     import orjson
 
     from lgvtool.log import messages, topics
 
     def diags(idx: NDArray[np.intp]) -> list[JSONObject]:
-        return [messages.diagnostic_message(gated[i][0], "nav200", GATE_EVENT,
-                                            gated[i][1], level=3) for i in idx.tolist()]
+        return [messages.diagnostic_message(events[i][0], events[i][1], events[i][2],
+                                            events[i][3], level=3) for i in idx.tolist()]
 
     def diagnostics(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
-        return [gated[i][0] for i in idx.tolist()], [orjson.dumps(d) for d in diags(idx)]
+        return [events[i][0] for i in idx.tolist()], [orjson.dumps(d) for d in diags(idx)]
 
     def mirror(idx: NDArray[np.intp]) -> tuple[list[int], list[bytes]]:
-        return ([gated[i][0] for i in idx.tolist()],
+        return ([events[i][0] for i in idx.tolist()],
                 [orjson.dumps(messages.log_message_of(d)) for d in diags(idx)])
 
-    t = [t_ns for t_ns, _ in gated]
+    t = [e[0] for e in events]
     return [source(topics.DIAGNOSTICS, t, diagnostics),
             source(topics.DIAGNOSTICS_LOG, t, mirror)]
 
@@ -90,7 +110,8 @@ def replay_sources(reader: LogReader, result: ReplayResult, view_config: Config 
                    rows: LogRows | None = None) -> list[Source]:
     """The sources of a replay ``result`` (lgvtool.localize.replay_driver.ReplayResult) of the log of
     ``reader``: estimates, then (with ``view_config``, the configuration the view is drawn
-    with) the view channels, then the gated NAV poses. ``rows``: the log's rows the view
+    with) the view channels, then the replay's events (:func:`replay_events`). ``rows``: the
+    log's rows the view
     draws, already gathered (:class:`lgvtool.log.view_channels.LogRows`; else the view
     reads them)."""
     from lgvtool.log.view_channels import view_streams
@@ -105,6 +126,7 @@ def replay_sources(reader: LogReader, result: ReplayResult, view_config: Config 
         # every estimate has its covariance: each is an EstimateTable
         out += view_streams(reader, view_config, cast("Mapping[str, EstimateTable]", tables),
                             rows)
-    if result.gated:
-        out += _gated_sources(result.gated)
+    events = replay_events(reader, result)
+    if events:
+        out += _event_sources(events)
     return out

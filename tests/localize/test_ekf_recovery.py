@@ -6,6 +6,7 @@ loop gives the numpy path's rows."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,6 +21,8 @@ WRONG_BY_M = 1.0
 """How far off (m, sideways) the confident start is; its heading is 0.2 rad off too."""
 CONFIDENT = {"ekf.init_sigma_xy_m": 0.02, "ekf.init_sigma_heading_rad": 0.01}
 """A start that trusts itself: its gate rejects every reflector 1 m away."""
+LAST_EVENTS: dict[str, list[tuple[int, str, str]]] = {}
+"""The events of the last replay :func:`_errors` ran."""
 
 
 def test_the_lost_rule() -> None:
@@ -63,6 +66,8 @@ def _errors(mode: str, monkeypatch: pytest.MonkeyPatch, ids: bool,
     res = replay_data(data, ["ekf"], config=cfg, seed=3, settings={**CONFIDENT, **settings},
                       initial_pose=(x - WRONG_BY_M * math.sin(th),
                                     y + WRONG_BY_M * math.cos(th), th + 0.2))
+    LAST_EVENTS.clear()
+    LAST_EVENTS.update(res.events)
     rows = res.estimates["ekf"]
     t = (rows.t_ns - T0_NS) * 1e-9
     tx, ty, _ = circle.pose(t)
@@ -73,6 +78,9 @@ def _errors(mode: str, monkeypatch: pytest.MonkeyPatch, ids: bool,
 def test_a_lost_ekf_finds_the_vehicle_again(monkeypatch: pytest.MonkeyPatch,
                                             ids: bool) -> None:
     t, err, _ = _errors("numpy", monkeypatch, ids, {"ekf.use_ids": ids})
+    ((when, kind, text),) = LAST_EVENTS["ekf"]
+    assert kind == "restarted" and "landmark fix" in text
+    assert 2.0 <= (when - T0_NS) * 1e-9 <= 3.0  # 2 s after its first scan found nothing
     assert err[t < 1.5].min() > 0.5  # lost: every reflector outside its gate
     # found within the recovery time and a scan or two, and kept from then on
     assert err[t > 3.0].max() < 0.01
@@ -80,15 +88,47 @@ def test_a_lost_ekf_finds_the_vehicle_again(monkeypatch: pytest.MonkeyPatch,
     t0, err0, _ = _errors("numpy", monkeypatch, ids,
                           {"ekf.use_ids": ids, "ekf.scan_recover_s": 0.0})
     assert err0[t0 > 20.0].min() > 0.5
+    assert "ekf" not in LAST_EVENTS
 
 
 def test_a_drive_that_is_not_lost_never_restarts(monkeypatch: pytest.MonkeyPatch) -> None:
     """With the true start the rows are the same with and without the recovery."""
     monkeypatch.setenv(KERNELS_ENV, "numpy")
     data, _, cfg = circle_log(30.0, ids=True, poses=False)
-    rows = [replay_data(data, ["ekf"], config=cfg, seed=3, settings={
-        "ekf.scan_recover_s": s}).estimates["ekf"] for s in (2.0, 0.0)]
+    runs = [replay_data(data, ["ekf"], config=cfg, seed=3, settings={
+        "ekf.scan_recover_s": s}) for s in (2.0, 0.0)]
+    rows = [r.estimates["ekf"] for r in runs]
     assert np.array_equal(rows[0].x, rows[1].x) and np.array_equal(rows[0].y, rows[1].y)
+    assert runs[0].events == {}
+
+
+def test_a_restart_is_an_event_of_the_replayed_log(tmp_path: Path) -> None:
+    """``replay`` writes the restart on /diagnostics (source ``ekf``), says so in its
+    summary, and a replay of its output does not repeat it."""
+    from simlogs import simulate_log
+
+    from lgvtool.app.replay_job import write_replay_log
+    from lgvtool.localize.replay_driver import run_replay
+    from lgvtool.log import LogReader, topics
+
+    log = simulate_log(tmp_path / "drive.mcap", 20.0, 3, "warehouse", paper_scans=False,
+                       sets=["sim.nav_device=nav350"])
+
+    def replayed(src: Path, out: Path) -> list[dict[str, Any]]:
+        reader = LogReader(src)
+        truth = next(iter(reader.messages([topics.TRUTH]))).data["pose"]
+        x, y = truth["position"]["x"], truth["position"]["y"]
+        q = truth["orientation"]
+        th = 2.0 * math.atan2(q["z"], q["w"])
+        res = run_replay(reader, ["ekf"], settings=CONFIDENT,
+                         initial_pose=(x - math.sin(th), y + math.cos(th), th + 0.2))
+        write_replay_log(reader, str(out), res, None, src.name)
+        return [m.data for m in LogReader(out).messages([topics.DIAGNOSTICS])
+                if m.data.get("source") == "ekf"]
+
+    first = replayed(log, tmp_path / "out.mcap")
+    assert [d["kind"] for d in first] == ["restarted"]
+    assert replayed(tmp_path / "out.mcap", tmp_path / "again.mcap") == first
 
 
 @pytest.mark.parametrize("ids", [True, False])
