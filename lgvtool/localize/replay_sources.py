@@ -111,9 +111,8 @@ def replay_sources(reader: LogReader, result: ReplayResult, view_config: Config 
     """The sources of a replay ``result`` (lgvtool.localize.replay_driver.ReplayResult) of the log of
     ``reader``: estimates, then (with ``view_config``, the configuration the view is drawn
     with) the view channels, then the replay's events (:func:`replay_events`). ``rows``: the
-    log's rows the view
-    draws, already gathered (:class:`lgvtool.log.view_channels.LogRows`; else the view
-    reads them)."""
+    log's rows the view draws, already gathered (:class:`lgvtool.log.view_channels.LogRows`;
+    else the view reads them)."""
     from lgvtool.log.view_channels import view_streams
 
     pairs = [_estimate_sources(name, tab) for name, tab in result.estimates.items()]
