@@ -226,8 +226,6 @@ class GaussianPoseEstimator(Estimator[GP]):
         #: time of the first scan with nothing accepted since the last one with a reflector
         #: accepted, s (NaN: none; :func:`lost_scan`); an array, which the compiled loop keeps
         self.scan_lost = np.full(1, math.nan)
-        #: restarts from a scan's landmark fix after scans found nothing (:meth:`recover`)
-        self.recovered = 0
         if self.initial_pose is not None:
             self._start(self.initial_pose)
 
@@ -413,7 +411,6 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         P[POSE:, POSE:] = self.P[POSE:, POSE:]
         self.P = P
         self.scan_lost[0] = math.nan
-        self.recovered += 1
         return True
 
     def count_reflectors(self, accepted: int, rejected: int, id_rejected: int,
