@@ -212,7 +212,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     solved = [n for n in names if n != "nav_pose_age"]
     use_poses = [not len(d.obs_t) for d in drives]
     warnings: list[str] = []
-    settings = SolveSettings()
+    settings = SolveSettings(pose_period_s=_skew_period(cfg.estimators))
     problem = Problem(drives, solved, start, reflectors, v.encoder_ppr, settings, use_poses)
     if progress is not None:
         progress.stage("solve", 1)
@@ -288,6 +288,19 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         result.timings["compare"] = time.perf_counter() - t0
     result.timings.update(read=read_s, solve=solve_s)
     return result
+
+
+def _skew_period(settings: Mapping[str, Mapping[str, object]]) -> float | None:
+    """The head period (s) of the starting ``[estimators.ekf]`` when its pose model is the
+    rotating head's (the poses carry a skew the calibration estimates beside the mounting),
+    else None."""
+    from lgvtool.localize.pose_model import PoseModelParams
+    from lgvtool.localize.registry import resolve_params
+
+    params = resolve_params("ekf", settings, None)
+    if isinstance(params, PoseModelParams) and params.pose_model == "rotating-head":
+        return float(params.pose_period_s)
+    return None
 
 
 def _pose_model(logs: Sequence[tuple[str, LogData]], vehicle: Vehicle,

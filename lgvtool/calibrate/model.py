@@ -19,7 +19,12 @@ Factors of each reflector measurement, stamped ``t`` (scan start plus time in th
 pose at ``t - nav_time_offset`` interpolated between its two nodes, the head at
 ``(nav_x, nav_y)`` turned by ``nav_yaw``; range and bearing to the map reflector. A NAV pose
 (when there are no scans) is a factor on the head's pose at its receive time minus
-``nav_time_offset``. Gyro bias stretches are tied by a random walk.
+``nav_time_offset``, its position moved by the revolution's skew
+``(omega T / pi) R(heading) (s_x, s_y)`` (:mod:`lgvtool.localize.pose_model`; ``omega`` the
+odometry's turn rate, ``T`` the head period, ``heading`` the reported one) with the lever
+``(pose_lever_x, pose_lever_y)`` (m, head frame) in the state: a turning head pulls its fit off
+by a bias proportional to the turn rate, which a mounting offset alone would absorb. Gyro bias
+stretches are tied by a random walk.
 """
 
 from __future__ import annotations
@@ -38,6 +43,16 @@ from lgvtool.calibrate.drive import Drive
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+LEVER = ("pose_lever_x", "pose_lever_y")
+"""The NAV poses' skew lever (m, head frame), free when NAV poses are observed: nuisance
+unknowns of the mounting's estimate, not vehicle quantities. One lever per drive
+(:func:`lever_names`): it depends on the reflectors the head fits, so on the route."""
+
+
+def lever_names(drive: int) -> tuple[str, str]:
+    """State names of drive ``drive``'s skew lever."""
+    return f"{LEVER[0]}:{drive}", f"{LEVER[1]}:{drive}"
 
 GROUPS = ("distance", "lateral", "gyro", "encoder", "turn", "range", "bearing", "pose_xy",
           "pose_heading")
@@ -88,6 +103,9 @@ class Factors:
     """Multiplier of each group's standard deviation."""
     acc: list[FloatArray] = field(default_factory=list)
     """Mean acceleration over each interval (:func:`interval_acceleration`)."""
+    pose_skew: list[FloatArray] = field(default_factory=list)
+    """Per NAV pose, the odometry's turn rate over its interval times the head period over pi
+    (``omega T / pi``, dimensionless): the factor of the skew lever."""
     capacity: tuple[int, int] = (0, 0)
     """Rows and Jacobian entries of the last evaluation, for which the next one makes room
     up front."""
@@ -231,6 +249,9 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
         po = layout.pose_offset[d]
         n = len(drive.t)
         pose = x[po:po + 3 * n].reshape(n, 3)
+        lx_name, ly_name = lever_names(d)
+        lever = (layout.values.get(lx_name, 0.0), layout.values.get(ly_name, 0.0))
+        c_lever = (col(lx_name), col(ly_name))
         cx = po + 3 * np.arange(n, dtype=np.int64)
         px, py, pth = pose[:, 0], pose[:, 1], pose[:, 2]
         # ---------------------------------------------------------------- odometry
@@ -355,8 +376,9 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                          (c_mx, c_my), ct, st, d, t_obs)
 
             def add(e: FloatArray, grp: int, gx: FloatArray, gy: FloatArray, gth: FloatArray,
-                    gyaw: FloatArray | float, ip: _Interp = ip, head: bool = True) -> None:
-                _add_interpolated(rows, ip, e, grp, gx, gy, gth, gyaw, head)
+                    gyaw: FloatArray | float, ip: _Interp = ip, head: bool = True,
+                    extra: tuple[tuple[int, FloatArray], ...] = ()) -> None:
+                _add_interpolated(rows, ip, e, grp, gx, gy, gth, gyaw, head, extra)
 
             if kind == "scan":
                 lx, ly = drive.obs_lx[use], drive.obs_ly[use]
@@ -379,12 +401,18 @@ def evaluate(x: FloatArray, layout: Layout, drives: list[Drive], factors: Factor
                 sig_h = noise.pose_heading_rad * sc["pose_heading"]
                 qx, qy, qh = drive.pose_x[use], drive.pose_y[use], drive.pose_heading[use]
                 zero = np.zeros(len(kk))
+                # the skew of a turning head, fixed in its reported frame: columns s_x, s_y
+                kw = factors.pose_skew[d][use]
+                cq, sq = kw * np.cos(qh), kw * np.sin(qh)
+                skew = ((cq, -sq), (sq, cq))
                 for comp, h, meas in ((0, hx, qx), (1, hy, qy)):
-                    e = (h - meas) / sig_p
+                    ds_x, ds_y = skew[comp]
+                    e = (h + ds_x * lever[0] + ds_y * lever[1] - meas) / sig_p
                     one = np.full(len(kk), 1.0 / sig_p)
                     dth_ = (dhx_dth if comp == 0 else dhy_dth) / sig_p
                     add(e, g["pose_xy"], one if comp == 0 else zero,
-                        zero if comp == 0 else one, dth_, 0.0)
+                        zero if comp == 0 else one, dth_, 0.0,
+                        extra=((c_lever[0], ds_x / sig_p), (c_lever[1], ds_y / sig_p)))
                 eh = wrap_angle(p[:, 2] + myaw - qh)
                 add(eh / sig_h, g["pose_heading"], zero, zero, np.full(len(kk), 1.0 / sig_h),
                     1.0 / sig_h, head=False)
@@ -436,12 +464,12 @@ class _Interp:
 
 def _add_interpolated(rows: Rows, ip: _Interp, e: FloatArray, grp: int, gx: FloatArray,
                       gy: FloatArray, gth: FloatArray, gyaw: FloatArray | float,
-                      head: bool) -> None:
+                      head: bool, extra: tuple[tuple[int, FloatArray], ...] = ()) -> None:
     """Rows of measurements whose derivatives by the interpolated pose are ``(gx, gy, gth)``
     and by the mounting yaw ``gyaw``: chained onto the two nodes and the time offset; with
     ``head`` (the head's position is measured, not only its heading) also onto the mounting
     offset, by which the head moves ``(cos, sin)`` per m of ``nav_x`` and ``(-sin, cos)``
-    per m of ``nav_y``."""
+    per m of ``nav_y``; ``extra``: further ``(column, derivatives)`` of state quantities."""
     gp = (gx, gy, gth)
     cols: list[tuple[IntArray | int, FloatArray | float]] = []
     for i in range(3):
@@ -452,6 +480,7 @@ def _add_interpolated(rows: Rows, ip: _Interp, e: FloatArray, grp: int, gx: Floa
     if head:
         cols.append((ip.c_mount[0], gx * ip.cos + gy * ip.sin))
         cols.append((ip.c_mount[1], -gx * ip.sin + gy * ip.cos))
+    cols.extend(extra)
     rows.add(e, grp, ip.t, ip.drive, cols)
 
 

@@ -34,6 +34,7 @@ from lgvtool.calibrate.model import (
     Noise,
     evaluate,
     interval_acceleration,
+    lever_names,
 )
 from lgvtool.calibrate.quantities import QUANTITIES
 from lgvtool.config import Reflector
@@ -65,6 +66,14 @@ class SolveSettings:
     """Length of the stretches of the cluster-robust uncertainty, s."""
     gate_m: float = 0.5
     """A measurement without a known id goes to the nearest map reflector within this, m."""
+    pose_period_s: float | None = None
+    """Head revolution period of the NAV whose poses are observed, s: with it each drive's
+    skew lever of the poses is estimated beside the mounting
+    (:data:`lgvtool.calibrate.model.LEVER`); None: the poses carry no skew (a ``plain`` pose
+    model)."""
+    lever_prior_m: float = 2.0
+    """1-sigma of the weak prior of each component of the skew lever around its starting
+    value, m."""
     noise: Noise = field(default_factory=Noise)
 
 
@@ -234,10 +243,18 @@ class Problem:
         self.use_poses = use_poses
         self.prior = {q.name: q.prior_sigma for q in QUANTITIES.values()}
         self.unknown = [~np.isfinite(d.obs_lx) for d in drives]
+        if settings.pose_period_s is not None:
+            for d, drive in enumerate(drives):
+                if use_poses[d] and len(drive.pose_t):
+                    lever = lever_names(d)
+                    self.prior.update(dict.fromkeys(lever, settings.lever_prior_m))
+                    for n in lever:
+                        self.start.setdefault(n, 0.0)
+                    names = [*names, *lever]
         self.set_free(names)
         self.x = np.zeros(self.layout.size)
         for i, name in enumerate(self.layout.names):
-            self.x[i] = start[name]
+            self.x[i] = self.start[name]
         for d, drive in enumerate(drives):
             pose = initial_poses(drive, start, ppr)
             po = self.layout.pose_offset[d]
@@ -317,7 +334,8 @@ class Problem:
         """Node of every measurement at the current time offset; re-associate unknown ids."""
         v = self.layout.values
         f = self.factors
-        f.obs_k, f.obs_use, f.pose_k, f.pose_use, f.acc = [], [], [], [], []
+        f.obs_k, f.obs_use, f.pose_k, f.pose_use, f.acc, f.pose_skew = [], [], [], [], [], []
+        period = self.settings.pose_period_s or 0.0
         for d, drive in enumerate(self.drives):
             po = self.layout.pose_offset[d]
             pose = self.x[po:po + 3 * len(drive.t)].reshape(-1, 3)
@@ -331,6 +349,8 @@ class Problem:
             k, inside = _interp_index(drive, drive.pose_t - v["nav_time_offset"])
             f.pose_k.append(k)
             f.pose_use.append(inside & self.use_poses[d])
+            rate = dth / np.maximum(np.diff(drive.t), 1e-6) if len(drive.t) > 1 else np.zeros(1)
+            f.pose_skew.append(rate[k] * period / math.pi if len(k) else np.zeros(0))
 
     def evaluate(self, x: FloatArray, jac: bool = True) -> tuple[
             FloatArray, sp.csr_matrix | None, NDArray[np.int64], FloatArray, NDArray[np.int64]]:
@@ -502,7 +522,7 @@ def solve(problem: Problem, *, allow_unobservable: bool) -> Solution:
         if rnd == 1:
             sig_f, sig_r = _sigmas(problem)
             bad = {n: max(s, sig_r[n]) for n, s in sig_f.items()
-                   if max(s, sig_r[n]) > QUANTITIES[n].max_sigma}
+                   if n in QUANTITIES and max(s, sig_r[n]) > QUANTITIES[n].max_sigma}
             if bad and not allow_unobservable:
                 raise UnobservableError(bad)
             if bad:

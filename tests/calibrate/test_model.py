@@ -46,7 +46,8 @@ def _problem(tmp_path: Path, use_poses: bool) -> Problem:
     start = {n: float(getattr(cfg.vehicle, n)) for n in QUANTITIES}
     names = [n for n in default_names("mcu", not use_poses, use_poses) if n != "nav_pose_age"]
     problem = Problem([drive], names, start, cfg.reflectors, cfg.vehicle.encoder_ppr,
-                      SolveSettings(bias_stretch_s=5.0), [use_poses])
+                      SolveSettings(bias_stretch_s=5.0,
+                                    pose_period_s=0.125 if use_poses else None), [use_poses])
     problem.relink()
     return problem
 
@@ -54,6 +55,8 @@ def _problem(tmp_path: Path, use_poses: bool) -> Problem:
 @pytest.mark.parametrize("use_poses", [False, True])
 def test_jacobian_matches_finite_differences(tmp_path: Path, use_poses: bool) -> None:
     problem = _problem(tmp_path, use_poses)
+    # the poses' skew lever is in the state when poses are observed
+    assert ("pose_lever_y:0" in problem.layout.names) == use_poses
     x = problem.x.copy()
     x[: len(problem.layout.names)] += 1e-4  # away from the prior's minimum
     r0, jac, _, _, _ = problem.evaluate(x)
