@@ -83,10 +83,17 @@ class Candidate:
     log's ``importer`` record; no ground truth)."""
 
 
+RULE_PROFILE: dict[str, object] = {"ekf.scale_sigma_w": 0.15, "ekf.scale_walk_v": 0.01,
+                                   "ekf.scale_walk_w": 0.01}
+"""The ``ekf`` odometry scales of the stored profile when the rule was written (prior 1-sigma
+of the turn scale; random walks per sqrt(m) and per sqrt(rad)): the candidates that vary the
+profile vary that one, so that their figures stay what the rule saw whatever the stored profile
+becomes."""
+
 CANDIDATES: tuple[Candidate, ...] = (
-    Candidate("ekf profile", "ekf", {}),
-    Candidate("ekf gate 0.99", "ekf", {"ekf.gate_probability": 0.99}),
-    Candidate("ekf camera noise x1.5", "ekf", {"ekf.sigma_bearing_rad": 0.01875,
+    Candidate("ekf profile", "ekf", dict(RULE_PROFILE)),
+    Candidate("ekf gate 0.99", "ekf", {**RULE_PROFILE, "ekf.gate_probability": 0.99}),
+    Candidate("ekf camera noise x1.5", "ekf", {**RULE_PROFILE, "ekf.sigma_bearing_rad": 0.01875,
                                                "ekf.sigma_range_per_m": 0.42}),
     Candidate("ekf scales slow", "ekf", {"ekf.scale_sigma_w": 0.075, "ekf.scale_walk_v": 0.003,
                                          "ekf.scale_walk_w": 0.003}),
@@ -95,16 +102,18 @@ CANDIDATES: tuple[Candidate, ...] = (
 """The rule's candidates, in the order that breaks ties (fixed before scoring)."""
 
 PROTOTYPES: tuple[Candidate, ...] = (
-    Candidate("bearing noise x1.5", "ekf", {"ekf.sigma_bearing_rad": 0.01875}),
-    Candidate("range noise x1.5", "ekf", {"ekf.sigma_range_per_m": 0.42}),
-    Candidate("camera noise x2", "ekf", {"ekf.sigma_bearing_rad": 0.025,
+    Candidate("bearing noise x1.5", "ekf", {**RULE_PROFILE, "ekf.sigma_bearing_rad": 0.01875}),
+    Candidate("range noise x1.5", "ekf", {**RULE_PROFILE, "ekf.sigma_range_per_m": 0.42}),
+    Candidate("camera noise x2", "ekf", {**RULE_PROFILE, "ekf.sigma_bearing_rad": 0.025,
                                          "ekf.sigma_range_per_m": 0.56}),
-    Candidate("bearing noise from the camera", "ekf", {}, bearing_from_camera=True),
-    Candidate("online bearing noise 0.01", "ekf", {}, {"alpha": 0.01}),
-    Candidate("online bearing noise 0.002", "ekf", {}, {"alpha": 0.002}),
-    Candidate("online camera noise 0.01", "ekf", {}, {"alpha": 0.01, "range": 1.0}),
-    Candidate("frame weight 5.99", "ekf", {}, {"huber": 5.99}),
-    Candidate("online range scale 0.002", "ekf", {}, {"rscale": 0.002}),
+    Candidate("bearing noise from the camera", "ekf", dict(RULE_PROFILE),
+              bearing_from_camera=True),
+    Candidate("online bearing noise 0.01", "ekf", dict(RULE_PROFILE), {"alpha": 0.01}),
+    Candidate("online bearing noise 0.002", "ekf", dict(RULE_PROFILE), {"alpha": 0.002}),
+    Candidate("online camera noise 0.01", "ekf", dict(RULE_PROFILE),
+              {"alpha": 0.01, "range": 1.0}),
+    Candidate("frame weight 5.99", "ekf", dict(RULE_PROFILE), {"huber": 5.99}),
+    Candidate("online range scale 0.002", "ekf", dict(RULE_PROFILE), {"rscale": 0.002}),
 )
 """Variants measured after the rule's table had been seen (``--prototypes``): scored beside
 the rule's candidates, never chosen. Settings over the stored profile, or the prototypes of
@@ -507,7 +516,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--prototypes", action="store_true",
                     help="add the variants measured after the rule (PROTOTYPES), never chosen")
     ap.add_argument("--only-extra", action="store_true",
-                    help="score the --extra candidates and the stored profile only")
+                    help="score the --extra candidates and the rule's `ekf profile` only")
     ap.add_argument("--json", action="store_true", help="print JSON instead of Markdown")
     ap.add_argument("--json-out", type=Path, default=None,
                     help="also write the JSON result to this file")
