@@ -2,12 +2,16 @@
 errors (docs/calibration.md, "Accuracy").
 
 Simulates a paper-circle and a warehouse drive (200 s each by default) of a vehicle with the
-installation errors below, runs ``lgvtool calibrate`` on both as a subprocess (timed, with and
+installation errors below, in the paper's setup (the NAV200's reflector scans logged beside its
+poses, ``sim.paper_scans``; with ``--observations poses`` without them, as a NAV200 recording
+is), runs ``lgvtool calibrate`` on both as a subprocess (timed, with and
 without the before/after table), and prints every estimate against the true value, its error,
 its 1-sigma and the error in sigmas, then the before/after table of the estimators.
 
-The true gyro bias is the mean over both drives of the simulated bias (constant plus random
-walk), read back from the MCU frames: the reported rate minus the scaled true rate. The true
+The true wheel radii are the wheels' own times the load's compression of them (``drive.*``,
+on by default: what a calibration can find). The true gyro bias is the mean over both drives
+of the simulated bias (constant plus random walk), read back from the MCU frames: the
+reported rate minus the scaled true rate. The true
 NAV pose age is the mean over both drives of each logged pose's receive time minus the middle
 of the revolution the device reported in it, minus the time offset.
 
@@ -38,7 +42,7 @@ sys.path.insert(0, str(ROOT))
 ERRORS = {"install.nav_dx_mm": 20.0, "install.nav_dy_mm": -10.0, "install.nav_yaw_deg": 0.5,
           "install.track_error_mm": 5.0, "install.nav_time_offset_ms": 30.0,
           "mcu.wheel_radius_error_left": 0.004, "mcu.wheel_radius_error_right": -0.003,
-          "mcu.gyro_scale_error": 0.005}
+          "mcu.gyro_scale_error": 0.005, "sim.paper_scans": True}
 TOLERANCE = {"nav_x": (3.0, "mm"), "nav_y": (3.0, "mm"), "nav_yaw": (0.05, "deg"),
              "wheel_radius_left": (0.05, "%"), "wheel_radius_right": (0.05, "%"),
              "track": (2.0, "mm"), "gyro_scale": (0.05, "%"), "nav_time_offset": (3.0, "ms")}
@@ -62,9 +66,13 @@ def pose_ages(sim, log: str) -> np.ndarray:  # type: ignore[no-untyped-def]
 def true_values(sims: list, logs: list[str]) -> dict[str, float]:  # type: ignore[type-arg]
     v = sims[0].vehicle
     mcu = sims[0].settings.mcu
+    drive = sims[0].settings.drive
+    # the load compresses the encoder wheels: the radius a calibration can find is this much
+    # smaller than the wheel's own
+    load = 1.0 + drive.load_fraction * drive.radius_change_at_rated_load
     out = {"nav_x": v.nav_x, "nav_y": v.nav_y, "nav_yaw": v.nav_yaw, "track": v.track,
-           "wheel_radius_left": 0.075 * (1 + mcu.wheel_radius_error_left),
-           "wheel_radius_right": 0.075 * (1 + mcu.wheel_radius_error_right),
+           "wheel_radius_left": 0.075 * (1 + mcu.wheel_radius_error_left) * load,
+           "wheel_radius_right": 0.075 * (1 + mcu.wheel_radius_error_right) * load,
            "gyro_scale": 1 + mcu.gyro_scale_error,
            "nav_time_offset": sims[0].settings.install.nav_time_offset_ms * 1e-3}
     biases = []
@@ -133,7 +141,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         sims, logs = [], []
         for scenario, seed in zip(("paper-circle", "warehouse"), args.seeds, strict=True):
-            sim = simulate(scenario, seed=seed, duration=args.duration, overrides=ERRORS)
+            # a NAV200 recording has no reflector scans: with --observations poses none are
+            # logged, so that the before/after table replays what such a recording holds
+            overrides = {**ERRORS, "sim.paper_scans": args.observations != "poses"}
+            sim = simulate(scenario, seed=seed, duration=args.duration, overrides=overrides)
             path = Path(tmp) / f"{scenario}-{seed}.mcap"
             write_log(sim, path)
             sims.append(sim)

@@ -212,6 +212,10 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     solved = [n for n in names if n != "nav_pose_age"]
     use_poses = [not len(d.obs_t) for d in drives]
     warnings: list[str] = []
+    if observations == "poses" and any(d.has_scans for _, d in datas):
+        warnings.append("the logs have reflector scans, calibrated here from the NAV poses: "
+                        "nav_time_offset takes the poses' whole age, so this file would replay "
+                        "the scans that much late (docs/calibration.md, \"Limits\")")
     settings = SolveSettings(pose_period_s=_skew_period(cfg.estimators))
     problem = Problem(drives, solved, start, reflectors, v.encoder_ppr, settings, use_poses)
     if progress is not None:

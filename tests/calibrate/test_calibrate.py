@@ -164,3 +164,13 @@ def test_robust_to_a_false_reflector_and_bad_links(installed_logs: list[Path],
         e = cal.estimates[name]
         assert e.value == pytest.approx(TRUE[name], abs=TOLERANCE[name]), name
     assert cal.residuals["beyond_3_sigma"]["range"] > 0  # the outliers were seen, and held off
+
+
+def test_poses_of_logs_with_scans_warn_about_the_time_offset(installed_logs: list[Path]) -> None:
+    """From the poses of logs that also have reflector scans, the time offset is the poses'
+    whole age: a file that would replay the scans that much late says so."""
+    cal = calibrate([str(installed_logs[1])], compare_with=(), observations="poses")
+    assert cal.estimates["nav_time_offset"].value > 0.1  # the age, not the 30 ms of the scans
+    assert any("replay the scans that much late" in w for w in cal.warnings), cal.warnings
+    auto = calibrate([str(installed_logs[1])], compare_with=(), fix=["nav_pose_age"])
+    assert not any("replay the scans" in w for w in auto.warnings)
