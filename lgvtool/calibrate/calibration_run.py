@@ -31,6 +31,7 @@ from lgvtool.progress import Progress
 
 if TYPE_CHECKING:
     from lgvtool.localize.logdata import LogData
+    from lgvtool.localize.pose_model import PoseModelParams
 
 TIME_FLOOR_S = 1e-3
 """Added in quadrature to the time offset's 1-sigma: the host's read latency of the MCU frames,
@@ -216,7 +217,8 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
         warnings.append("the logs have reflector scans, calibrated here from the NAV poses: "
                         "nav_time_offset takes the poses' whole age, so this file would replay "
                         "the scans that much late (docs/calibration.md, \"Limits\")")
-    settings = SolveSettings(pose_period_s=_skew_period(cfg.estimators))
+    pose_params = _pose_params(cfg.estimators)
+    settings = SolveSettings(pose_period_s=_skew_period(pose_params))
     problem = Problem(drives, solved, start, reflectors, v.encoder_ppr, settings, use_poses)
     if progress is not None:
         progress.stage("solve", 1)
@@ -260,7 +262,7 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
             estimates[n] = Estimate(n, start[n], start[n], None, "fixed")
     calibrated: dict[str, Any] = {n: e.value for n, e in estimates.items()}
     vehicle = replace(v, **calibrated)
-    pose_model = _pose_model(datas, vehicle, cfg.estimators)
+    pose_model = _pose_model(datas, vehicle, pose_params)
     warnings.extend(pose_model.warnings() if pose_model is not None else [])
     out_cfg = replace(cfg, vehicle=vehicle, simulator={},
                       estimators=pose_model_settings(scale_priors(cfg.estimators, estimates),
@@ -294,29 +296,32 @@ def calibrate(paths: Sequence[str], *, config: Config | None = None,
     return result
 
 
-def _skew_period(settings: Mapping[str, Mapping[str, object]]) -> float | None:
-    """The head period (s) of the starting ``[estimators.ekf]`` when its pose model is the
-    rotating head's (the poses carry a skew the calibration estimates beside the mounting),
-    else None."""
+def _pose_params(settings: Mapping[str, Mapping[str, object]]) -> PoseModelParams | None:
+    """The starting ``[estimators.ekf]``'s pose-model parameters (its head period,
+    ``pose_latency_s``, pose model), None when it has none."""
     from lgvtool.localize.pose_model import PoseModelParams
     from lgvtool.localize.registry import resolve_params
 
     params = resolve_params("ekf", settings, None)
-    if isinstance(params, PoseModelParams) and params.pose_model == "rotating-head":
+    return params if isinstance(params, PoseModelParams) else None
+
+
+def _skew_period(params: PoseModelParams | None) -> float | None:
+    """The head period (s) when the pose model of ``params`` is the rotating head's (the poses
+    carry a skew the calibration estimates beside the mounting), else None."""
+    if params is not None and params.pose_model == "rotating-head":
         return float(params.pose_period_s)
     return None
 
 
 def _pose_model(logs: Sequence[tuple[str, LogData]], vehicle: Vehicle,
-                settings: Mapping[str, Mapping[str, object]]) -> PoseModelEstimate | None:
+                params: PoseModelParams | None) -> PoseModelEstimate | None:
     """The NAV poses' observation model of the logs with the calibrated ``vehicle``
     (:func:`lgvtool.calibrate.pose_calibration.estimate_pose_model`), with the head period,
-    ``pose_latency_s`` and odometry of the starting ``[estimators.ekf]``."""
-    from lgvtool.localize.pose_model import PoseModelParams
-    from lgvtool.localize.registry import motion_params, resolve_params
+    ``pose_latency_s`` and odometry of the starting ``[estimators.ekf]`` (``params``)."""
+    from lgvtool.localize.registry import motion_params
 
-    params = resolve_params("ekf", settings, None)
-    if not isinstance(params, PoseModelParams):
+    if params is None:
         return None
     return estimate_pose_model(logs, vehicle, params,
                                motion_params("ekf", params).motion_settings())
