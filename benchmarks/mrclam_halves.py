@@ -331,13 +331,21 @@ def rmse_between(estimate: pd.DataFrame, log: RobotLog, t_from: float, t_to: flo
     return float(position_rmse(carried[keep], log.truth)[0])
 
 
-def half_scores(log: RobotLog, span: Span, cand: Candidate, seed: int) -> dict[str, float]:
-    """RMSE (m) of a candidate on half A and half B, each replayed from the ground truth at
-    the half's start."""
+def candidate_settings(log: RobotLog, cand: Candidate) -> dict[str, object]:
+    """The settings a candidate runs with on ``log``: its own, with the bearing noise the
+    importer measured from the camera where it asks for that
+    (:attr:`Candidate.bearing_from_camera`)."""
     settings = dict(cand.settings)
     if cand.bearing_from_camera:
         settings[f"{cand.estimator}.sigma_bearing_rad"] = float(
             log.timing["bearing_rms_with_delay_rad"])
+    return settings
+
+
+def half_scores(log: RobotLog, span: Span, cand: Candidate, seed: int) -> dict[str, float]:
+    """RMSE (m) of a candidate on half A and half B, each replayed from the ground truth at
+    the half's start."""
+    settings = candidate_settings(log, cand)
     a = replay(log, cand.estimator, settings, span.start, span.mid, seed=seed,
                adapt=cand.adapt)
     b = replay(log, cand.estimator, settings, span.mid, span.end + 1.0, seed=seed,

@@ -39,11 +39,13 @@ from mrclam_halves import (
     CANDIDATES as RULE_CANDIDATES,
 )
 from mrclam_halves import (
-    PLAIN_EKF,
     PROTOTYPES,
     Candidate,
     RobotLog,
+    Span,
+    candidate_settings,
     choose,
+    plain_scores,
     replay,
     rmse_between,
     span_of,
@@ -73,15 +75,11 @@ def whole_run_ratios(dataset: Path, robots: list[int], cache: Path, seed: int
         span = span_of(log.data)
         stamped = RobotLog.read(cached_log(dataset, robot, cache, odometry_delay_s=0.0))
         shift = log.t0_s - stamped.t0_s
-        est = replay(stamped, "ekf", PLAIN_EKF, span.start + shift, span.end + shift + 1.0,
-                     seed=seed)
-        plain[robot] = rmse_between(est, stamped, span.start + shift, span.end + shift)
+        plain[robot] = plain_scores(stamped, Span(span.start + shift, span.mid + shift,
+                                                  span.end + shift), seed)["run"]
         for c, cand in enumerate(CANDIDATES):
-            settings = dict(cand.settings)
-            if cand.bearing_from_camera:
-                settings[f"{cand.estimator}.sigma_bearing_rad"] = float(
-                    log.timing["bearing_rms_with_delay_rad"])
-            est = replay(log, cand.estimator, settings, span.start, span.end + 1.0, seed=seed)
+            est = replay(log, cand.estimator, candidate_settings(log, cand), span.start,
+                         span.end + 1.0, seed=seed)
             rmse[c, k] = rmse_between(est, log, span.start, span.end)
         print(f"robot {robot}: plain EKF {plain[robot]:.3f} m; " + ", ".join(
             f"{cand.label} {rmse[c, k]:.3f}" for c, cand in enumerate(CANDIDATES))
