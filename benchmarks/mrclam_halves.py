@@ -22,6 +22,7 @@ Usage::
     python benchmarks/mrclam_halves.py DIR --robots 3,5 --json
     python benchmarks/mrclam_halves.py DIR --prototypes     # and the variants tried after it
     python benchmarks/mrclam_halves.py DIR --extra "gate 0.995=ekf.gate_probability=0.995"
+    python benchmarks/mrclam_halves.py DIR --set ekf.update_iterations=10   # every ekf candidate
 
 ``--extra LABEL=EST.KEY=V[,EST.KEY=V...]`` adds a candidate that is scored and shown but never
 chosen (it is not part of the rule): for prototyping a setting before it is proposed;
@@ -46,7 +47,7 @@ import math
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -492,6 +493,16 @@ def markdown(res: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def with_change(cands: list[Candidate], change: dict[str, object]) -> list[Candidate]:
+    """``cands`` with ``change`` (``{"est.key": value}``, from ``--set``) over the settings of
+    every candidate of that estimator: a change of the estimator under all of them, not a
+    candidate (the labels stay; :data:`PLAIN_EKF`, which apportions the reference, is no
+    candidate and stays as it is)."""
+    return [replace(c, settings={**c.settings, **{k: v for k, v in change.items()
+                                                  if k.partition(".")[0] == c.estimator}})
+            for c in cands]
+
+
 def parse_extra(text: str) -> Candidate:
     """``LABEL=EST.KEY=V[,EST.KEY=V...]`` -> a candidate of estimator EST."""
     from lgvtool.config import parse_set_options
@@ -525,10 +536,15 @@ def main(argv: list[str] | None = None) -> int:
                     help="add the variants measured after the rule (PROTOTYPES), never chosen")
     ap.add_argument("--only-extra", action="store_true",
                     help="score the --extra candidates and the rule's `ekf profile` only")
+    ap.add_argument("--set", dest="change", action="append", default=[],
+                    help="EST.KEY=V: a setting over every candidate of EST (a change of the "
+                         "estimator under the rule, e.g. ekf.update_iterations=10; "
+                         "repeatable)")
     ap.add_argument("--json", action="store_true", help="print JSON instead of Markdown")
     ap.add_argument("--json-out", type=Path, default=None,
                     help="also write the JSON result to this file")
     args = ap.parse_args(argv)
+    from lgvtool.config import parse_set_options
     from lgvtool.errors import InputError
     from lgvtool.importers.mrclam import MrclamDataset
 
@@ -536,6 +552,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         available = MrclamDataset.open(dataset).robots
         extra = [parse_extra(e) for e in args.extra]
+        change = parse_set_options(args.change)
     except (InputError, ValueError) as exc:
         print(f"mrclam_halves: {exc}", file=sys.stderr)
         return 2
@@ -544,7 +561,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.prototypes:
         extra = list(PROTOTYPES) + extra
     try:
-        res = run(dataset, robots, args.cache, rule + extra, len(rule), args.seed)
+        res = run(dataset, robots, args.cache, with_change(rule + extra, change), len(rule),
+                  args.seed)
     except InputError as exc:
         print(f"mrclam_halves: {exc}", file=sys.stderr)
         return 2

@@ -14,6 +14,7 @@ Dataset 6, whose reference figures are published).
 Usage::
 
     python benchmarks/mrclam_transfer.py CHOICE_DIR [SCORING_DIR]   # SCORING_DIR: Dataset 6
+    python benchmarks/mrclam_transfer.py CHOICE_DIR --set ekf.update_iterations=10
 
 Dataset: K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, "The UTIAS multi-robot
 cooperative localization and mapping dataset", International Journal of Robotics Research
@@ -49,6 +50,7 @@ from mrclam_halves import (
     replay,
     rmse_between,
     span_of,
+    with_change,
 )
 from mrclam_halves import (
     run as run_halves,
@@ -62,12 +64,13 @@ CANDIDATES: tuple[Candidate, ...] = (
 """The rule's seven candidates, in the order that breaks ties (fixed before scoring)."""
 
 
-def whole_run_ratios(dataset: Path, robots: list[int], cache: Path, seed: int
+def whole_run_ratios(dataset: Path, robots: list[int], cache: Path, seed: int,
+                     cands: tuple[Candidate, ...] = CANDIDATES
                      ) -> tuple[np.ndarray, np.ndarray, dict[int, float]]:
     """Every candidate's RMSE (m) over each robot's whole span of ``dataset`` from the ground
     truth, the ratios to the plain EKF's there (candidates x robots), and the plain EKF's RMSE
     per robot (m)."""
-    rmse = np.full((len(CANDIDATES), len(robots)), np.nan)
+    rmse = np.full((len(cands), len(robots)), np.nan)
     plain: dict[int, float] = {}
     for k, robot in enumerate(robots):
         t0 = time.perf_counter()
@@ -77,12 +80,12 @@ def whole_run_ratios(dataset: Path, robots: list[int], cache: Path, seed: int
         shift = log.t0_s - stamped.t0_s
         plain[robot] = plain_scores(stamped, Span(span.start + shift, span.mid + shift,
                                                   span.end + shift), seed)["run"]
-        for c, cand in enumerate(CANDIDATES):
+        for c, cand in enumerate(cands):
             est = replay(log, cand.estimator, candidate_settings(log, cand), span.start,
                          span.end + 1.0, seed=seed)
             rmse[c, k] = rmse_between(est, log, span.start, span.end)
         print(f"robot {robot}: plain EKF {plain[robot]:.3f} m; " + ", ".join(
-            f"{cand.label} {rmse[c, k]:.3f}" for c, cand in enumerate(CANDIDATES))
+            f"{cand.label} {rmse[c, k]:.3f}" for c, cand in enumerate(cands))
             + f" m ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
     return rmse, rmse / np.array([plain[r] for r in robots])[None, :], plain
 
@@ -98,29 +101,35 @@ def main(argv: list[str] | None = None) -> int:
                     help="folder of the imported logs, reused between runs")
     ap.add_argument("--seed", type=int, default=0, help="seed of the estimators' draws")
     ap.add_argument("--json-out", type=Path, default=None, help="also write the JSON result")
+    ap.add_argument("--set", dest="change", action="append", default=[],
+                    help="EST.KEY=V: a setting over every candidate of EST (a change of the "
+                         "estimator under the rule, e.g. ekf.update_iterations=10; "
+                         "repeatable)")
     args = ap.parse_args(argv)
+    from lgvtool.config import parse_set_options
     from lgvtool.errors import InputError
     from lgvtool.importers.mrclam import MrclamDataset
 
     scoring = args.scoring or default_dataset()
     try:
+        cands = tuple(with_change(list(CANDIDATES), parse_set_options(args.change)))
         robots = list(MrclamDataset.open(args.choice).robots)
         MrclamDataset.open(scoring)
         if args.choice.resolve() == scoring.resolve():
             raise InputError("the choice and the scoring dataset are the same folder")
-    except InputError as exc:
+    except (InputError, ValueError) as exc:
         print(f"mrclam_transfer: {exc}", file=sys.stderr)
         return 2
     # a cache per dataset: the imported logs are named by robot
     rmse, ratio, plain = whole_run_ratios(args.choice, robots, args.cache / args.choice.name,
-                                          args.seed)
+                                          args.seed, cands)
     chosen = choose(ratio)
-    fits = [float(ratio[c].max() + 0.25 * ratio[c].mean()) for c in range(len(CANDIDATES))]
+    fits = [float(ratio[c].max() + 0.25 * ratio[c].mean()) for c in range(len(cands))]
     print(f"\nChoice on {args.choice.name} (ratio to the plain EKF over each whole run):\n")
     print("| candidate | " + " | ".join(f"Robot{r}" for r in robots)
           + " | fit (worst + 0.25 x mean) |")
     print("|---|" + "---:|" * (len(robots) + 1))
-    for c, cand in enumerate(CANDIDATES):
+    for c, cand in enumerate(cands):
         mark = " (chosen)" if c == chosen else ""
         print(f"| `{cand.label}`{mark} | " + " | ".join(
             f"{ratio[c, k]:.3f} ({rmse[c, k]:.3f} m)" for k in range(len(robots)))
@@ -128,13 +137,13 @@ def main(argv: list[str] | None = None) -> int:
     print("| plain EKF, m | " + " | ".join(f"{plain[r]:.3f}" for r in robots) + " | |")
     try:
         res = run_halves(scoring, [1, 2, 3, 4, 5], args.cache / scoring.name,
-                         [CANDIDATES[chosen]], 1, args.seed)
+                         [cands[chosen]], 1, args.seed)
     except InputError as exc:
         print(f"mrclam_transfer: {exc}", file=sys.stderr)
         return 2
     held = np.array(res["ratio"])[0]
     met = int((held <= TARGET_RATIO).sum())
-    print(f"\n`{CANDIDATES[chosen].label}` on {scoring.name}'s halves (ratio to the "
+    print(f"\n`{cands[chosen].label}` on {scoring.name}'s halves (ratio to the "
           "apportioned reference EKF, A / B):\n")
     print("| " + " | ".join(f"Robot{r}" for r in res["robots"]) + " |")
     print("|" + "---:|" * len(res["robots"]))
@@ -142,9 +151,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nAt or below {TARGET_RATIO}: {met} of {held.size} halves.")
     out: dict[str, Any] = {
         "choice_dataset": str(args.choice.name), "robots": robots, "seed": args.seed,
-        "candidates": [c.label for c in CANDIDATES], "rmse_m": rmse.tolist(),
+        "candidates": [c.label for c in cands], "change": parse_set_options(args.change),
+        "rmse_m": rmse.tolist(),
         "ratio_to_plain": ratio.tolist(), "plain_ekf_m": plain, "fit": fits,
-        "chosen": CANDIDATES[chosen].label, "scored": res, "met": met}
+        "chosen": cands[chosen].label, "scored": res, "met": met}
     if args.json_out is not None:
         args.json_out.write_text(json.dumps(out, indent=2))
     return 0

@@ -68,6 +68,9 @@ POSE = 3
 """Size of the pose part ``(x, y, theta)`` of the state."""
 SCALED = 5
 """Size of the state with the odometry scales, ``(x, y, theta, s_v, s_w)``."""
+ITERATION_STEP = 1e-6
+"""The iterated reflector update stops once an iteration moves the pose by less than this in
+every coordinate (m, m, rad)."""
 
 @dataclass(frozen=True)
 class GaussianInitParams:
@@ -126,6 +129,15 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams, PoseModelParams)
     init_max_sigma_xy_m: float = param(0.0, "weighted fix: start only from a scan whose fix has "
                                        "a position standard deviation (the larger axis) at "
                                        "most this, m; 0 takes the first fix", minimum=0.0)
+    update_iterations: int = param(1, "linearisations of each reflector update: 1 is the "
+                                   "EKF's single update at the prediction; more relinearise "
+                                   "the range and bearing at the last result until it moves "
+                                   "less than 1e-6 m and rad (the iterated EKF, Gauss-Newton "
+                                   "on the frame's posterior mode; the association stays the "
+                                   "prediction's), for measurements far from linear over the "
+                                   "prior, e.g. a camera after a long stretch without "
+                                   "landmarks, a count", unit="", minimum=1,
+                                   maximum=50)
     scan_recover_s: float = param(2.0, "recovery on reflector scans: once every scan of at "
                                   "least two reflectors has had none accepted (and no NAV pose "
                                   "was) for this long, "
@@ -382,7 +394,8 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         p = self.params
         return GaussianModel(p.noise_dist, p.noise_lat, p.noise_rot, p.noise_rot_per_m,
                              p.sigma_range_m, p.sigma_range_per_m, p.sigma_bearing_rad,
-                             self._gate2, p.use_ids, p.ambiguity_ratio, p.scan_recover_s)
+                             self._gate2, p.use_ids, p.ambiguity_ratio, p.scan_recover_s,
+                             p.update_iterations)
 
     def recover(self, obs: Observation) -> bool:
         """After scans have found nothing for ``scan_recover_s`` (:func:`lost_scan`): the pose
@@ -495,11 +508,13 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
             return self.recover(obs)
         return accepted
 
-    def _correct_scan(self, obs: ScanObservation) -> bool:
-        if len(obs) == 0 or len(self.map) == 0:
-            return False
-        p = self.params
-        x, y, th = (float(v) for v in self.mu[:POSE])  # type: ignore[index]
+    def _scan_geometry(self, pose: tuple[float, float, float], obs: ScanObservation
+                       ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray], list[np.ndarray]]:
+        """Every (measured reflector k, map reflector j) of ``obs`` seen from ``pose`` (x, y m,
+        heading rad): the range and bearing innovations (m, rad; K x J) and the Jacobians of
+        the predicted range and ray angle with respect to x, y and theta (three K x J arrays
+        each: 1, 1, m per rad for the range; 1/m, 1/m, 1 for the angle)."""
+        x, y, th = pose
         c, s = math.cos(th), math.sin(th)
         # map reflectors in the body frame h[j], and each sensor origin o[k] (body frame)
         ex, ey = self.map.x - x, self.map.y - y
@@ -517,10 +532,23 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
         # dv/dtheta = (hy, -hx)
         dvx: tuple[Any, ...] = (-c, -s, hy[None, :])
         dvy: tuple[Any, ...] = (s, -c, -hx[None, :])
-        Hr = [(vx * a + vy * b) / rng for a, b in zip(dvx, dvy, strict=True)]
-        Hb = [(vx * b - vy * a) / r2 for a, b in zip(dvx, dvy, strict=True)]
+        Hr = [np.broadcast_to((vx * a + vy * b) / rng, vx.shape)
+              for a, b in zip(dvx, dvy, strict=True)]
+        Hb = [np.broadcast_to((vx * b - vy * a) / r2, vx.shape)
+              for a, b in zip(dvx, dvy, strict=True)]
+        return nr, nb, Hr, Hb
+
+    def _correct_scan(self, obs: ScanObservation) -> bool:
+        if len(obs) == 0 or len(self.map) == 0:
+            return False
+        p = self.params
+        mu0 = self.mu
+        assert mu0 is not None
+        prior = (float(mu0[0]), float(mu0[1]), float(mu0[2]))
+        nr, nb, Hr, Hb = self._scan_geometry(prior, obs)
         P = self.P
-        sr2 = p.sigma_range_m ** 2 + (p.sigma_range_per_m * obs.ranges[:, None]) ** 2
+        sr2 = np.broadcast_to(p.sigma_range_m ** 2
+                              + (p.sigma_range_per_m * obs.ranges[:, None]) ** 2, nr.shape)
         sb2 = p.sigma_bearing_rad ** 2
 
         def quad(a: list[np.ndarray], b: list[np.ndarray]) -> np.ndarray:
@@ -546,22 +574,40 @@ class Ekf(GaussianPoseEstimator[EkfParams]):
             return False
         kk, jj = k_idx[ok], j[ok]
         n = len(kk)
-        # the measurements depend on the pose only: zero columns for the odometry scales
-        H = np.zeros((n, 2, len(P)))
-        for i in range(3):
-            H[:, 0, i] = np.broadcast_to(Hr[i], vx.shape)[kk, jj]
-            H[:, 1, i] = np.broadcast_to(Hb[i], vx.shape)[kk, jj]
-        nu = np.stack([nr[kk, jj], nb[kk, jj]], axis=1)
         # information form with R = diag(sr2, sb2): Y = sum H^T R^-1 H, yv = sum H^T R^-1 nu
         w = np.empty((n, 2))
-        w[:, 0] = 1.0 / np.broadcast_to(sr2, vx.shape)[kk, jj]
+        w[:, 0] = 1.0 / sr2[kk, jj]
         w[:, 1] = 1.0 / sb2
-        HtRi = H.transpose(0, 2, 1) * w[:, None, :]
-        Y = np.einsum("kia,kaj->ij", HtRi, H)
-        yv = np.einsum("kia,ka->i", HtRi, nu)
-        P_new = np.linalg.inv(np.linalg.inv(self.P) + Y)
-        self.mu = self.mu + P_new @ yv
-        self.mu[2] = wrap_scalar(float(self.mu[2]))
+        P_inv = np.linalg.inv(P)
+        mu = mu0
+        for it in range(p.update_iterations):
+            if it > 0:
+                # relinearised at the last result (the iterated EKF: Gauss-Newton on the
+                # frame's posterior mode, the association kept)
+                nr, nb, Hr, Hb = self._scan_geometry(
+                    (float(mu[0]), float(mu[1]), float(mu[2])), obs)
+            # the measurements depend on the pose only: zero columns for the odometry scales
+            H = np.zeros((n, 2, len(P)))
+            for i in range(3):
+                H[:, 0, i] = Hr[i][kk, jj]
+                H[:, 1, i] = Hb[i][kk, jj]
+            nu = np.stack([nr[kk, jj], nb[kk, jj]], axis=1)
+            if it > 0:
+                d = mu - mu0
+                d[2] = wrap_scalar(float(d[2]))
+                nu = nu + np.einsum("kai,i->ka", H, d)
+            HtRi = H.transpose(0, 2, 1) * w[:, None, :]
+            Y = np.einsum("kia,kaj->ij", HtRi, H)
+            yv = np.einsum("kia,ka->i", HtRi, nu)
+            P_new = np.linalg.inv(P_inv + Y)
+            new = mu0 + P_new @ yv
+            new[2] = wrap_scalar(float(new[2]))
+            step = new[:POSE] - mu[:POSE]
+            step[2] = wrap_scalar(float(step[2]))
+            mu = new
+            if float(np.abs(step).max()) < ITERATION_STEP:
+                break
+        self.mu = mu
         self.P = 0.5 * (P_new + P_new.T)
         self.accepted += n
         return True

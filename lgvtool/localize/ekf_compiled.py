@@ -43,13 +43,14 @@ def kernel_params(model: GaussianModel) -> FloatArray:
 class CompiledGaussian:
     """The replay of a Gaussian estimator in compiled chunks
     (:class:`lgvtool.localize.gaussian_backend.GaussianBackend`); the state with the odometry
-    scales runs step by step."""
+    scales, or an iterated reflector update (``update_iterations`` over 1), runs step by
+    step."""
 
     def run(self, est: GaussianPoseEstimator[GaussianParams], times: FloatArray,
             observations: Sequence[Observation | None], steps: Deltas | None, *,
             progress: Callable[[int], None] | None, cloud_period_s: float,
             cloud_size: int) -> EstimateRows:
-        if est.scaled:
+        if est.scaled or est.model().update_iterations > 1:
             return step_loop(est, times, observations, steps, progress=progress,
                              cloud_period_s=cloud_period_s, cloud_size=cloud_size)
         f64 = np.float64

@@ -32,8 +32,9 @@ class GaussianModel:
     ``noise_lat`` m/m, ``noise_rot`` rad/rad, ``noise_rot_per_m`` rad/m) and, for one that
     corrects with reflectors, the reflector noise (``sigma_range_m`` plus
     ``sigma_range_per_m`` times the range in quadrature, ``sigma_bearing_rad``), the
-    chi-square gate ``gate2`` (2 dof), whether ids associate, the ambiguity ratio and how long
-    scans may find nothing before a recovery is tried (``scan_recover_s``, s; 0: never)."""
+    chi-square gate ``gate2`` (2 dof), whether ids associate, the ambiguity ratio, how long
+    scans may find nothing before a recovery is tried (``scan_recover_s``, s; 0: never) and
+    how many times a reflector update may be relinearised (``update_iterations``)."""
 
     noise_dist: float
     noise_lat: float
@@ -46,6 +47,7 @@ class GaussianModel:
     use_ids: bool = False
     ambiguity_ratio: float = 1.0
     scan_recover_s: float = 0.0
+    update_iterations: int = 1
 
 
 class GaussianBackend(Protocol):

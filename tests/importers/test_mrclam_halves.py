@@ -87,3 +87,16 @@ def test_the_choice_is_the_least_fit_score_ties_to_the_earlier() -> None:
     assert h.choose(ratio) == 1
     assert h.choose(ratio[[0, 2, 1]]) == 1
     assert h.choose(ratio[[0]]) == 0
+
+
+def test_a_change_goes_under_every_candidate_of_its_estimator_only() -> None:
+    m = _halves()
+    changed = m.with_change(list(m.CANDIDATES), {"ekf.update_iterations": 10})
+    assert [c.label for c in changed] == [c.label for c in m.CANDIDATES]
+    for before, after in zip(m.CANDIDATES, changed, strict=True):
+        if before.estimator == "ekf":
+            assert after.settings == {**before.settings, "ekf.update_iterations": 10}
+        else:
+            assert after.settings == before.settings
+    # the plain EKF that apportions the reference is no candidate: it stays as it is
+    assert "ekf.update_iterations" not in m.PLAIN_EKF
