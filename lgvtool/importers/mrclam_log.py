@@ -15,7 +15,6 @@ time order.
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -36,6 +35,7 @@ from lgvtool.importers.mrclam_quirks import ImportSettings, PreparedRun, prepare
 from lgvtool.json_types import JSON, JSONObject
 from lgvtool.log import LogWriter, topics
 from lgvtool.log.messages import FRAME_ID
+from lgvtool.outputs import atomic_output
 from lgvtool.progress import Progress
 from lgvtool.timestamps import stamp
 
@@ -258,17 +258,15 @@ def write_run(run: PreparedRun, dataset: MrclamDataset, out: str | Path, *,
         raise InputError(f"{path}: is a folder, expected the output .mcap file")
     if not path.parent.is_dir():
         raise InputError(f"{path}: folder {path.parent} does not exist")
-    part = path.with_name(path.name + ".part")
-    try:
-        with LogWriter(part, chunk_seconds=None, compression=compression,
-                       source="import mrclam") as w:
-            w.add_metadata("importer", importer_record(run, dataset))
-            w.write_config(mrclam_config(run, dataset))
-            _write_messages(w, run, dataset, progress)
-            messages = w.message_count
-        os.replace(part, path)
-    finally:
-        part.unlink(missing_ok=True)
+    # a temporary file of its own beside the output (lgvtool.outputs.atomic_output), so that
+    # two imports to one output never write the same file
+    with atomic_output(path) as part, LogWriter(part, chunk_seconds=None,
+                                                compression=compression,
+                                                source="import mrclam") as w:
+        w.add_metadata("importer", importer_record(run, dataset))
+        w.write_config(mrclam_config(run, dataset))
+        _write_messages(w, run, dataset, progress)
+        messages = w.message_count
     return ImportSummary(
         robot=run.robot, path=path, counts=dict(run.counts),
         quirks=tuple({"kind": q.kind, "count": q.count, "level": q.level, "message": q.message}

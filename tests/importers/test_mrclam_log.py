@@ -131,6 +131,21 @@ def test_bad_output_paths_leave_no_file(synthetic: Any, tmp_path: Path) -> None:
     assert not list(tmp_path.glob("*.mcap*"))
 
 
+def test_the_import_writes_a_temporary_file_of_its_own(synthetic: Any, tmp_path: Path) -> None:
+    """Two imports to one output (two benchmarks sharing a cache) must not write one file: a
+    file named like a fixed temporary name beside the output is neither used nor removed, and
+    no temporary file is left."""
+    folder = tmp_path / "out"
+    folder.mkdir()
+    out = folder / "r1.mcap"
+    bystander = folder / "r1.mcap.part"
+    bystander.write_bytes(b"another import's bytes")
+    import_robot(synthetic.root, 1, out)
+    assert bystander.read_bytes() == b"another import's bytes"
+    assert sorted(p.name for p in folder.iterdir()) == ["r1.mcap", "r1.mcap.part"]
+    check_log(out)
+
+
 def test_import_all_writes_one_log_per_complete_robot(synthetic: Any, tmp_path: Path) -> None:
     summaries = import_all(synthetic.root, tmp_path / "logs")
     assert [s.robot for s in summaries] == [1]
