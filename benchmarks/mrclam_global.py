@@ -82,7 +82,7 @@ def global_run(log: Path, seed: int, window_s: float,
     est = ESTIMATORS["pf"](params, vehicle=vehicle, reflectors=data.reflectors,
                            area=config.area, rng=estimator_rng(seed, "pf"))
     times = np.array([o.t for o in obs], dtype=np.float64)
-    rows = est.run(times, obs, track.deltas(times[:-1], times[1:]), cloud_size=0)
+    rows = est.run(times, obs, track.deltas(times[:-1], times[1:]), cloud_size=0).poses
     truth = np.array([truth_pose_at(data, float(t)) for t in rows.t])
     err = np.hypot(rows.x - truth[:, 0], rows.y - truth[:, 1])
     cov = rows.covariance.reshape(-1, 3, 3)

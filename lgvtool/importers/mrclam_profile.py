@@ -107,9 +107,10 @@ with one landmark in view, which is common, the injected particles would be unif
 room and pull the mean. A uniform start (``init = uniform``, global localisation) weighs
 20 000 particles for its first 10 camera frames before it shrinks to 2000 (2000 over the arena
 leave about one particle per 0.25 m x 0.25 m x 1.5 rad, too few for a 0.0125 rad bearing), and a
-frame that the cloud's mean does not explain, whose landmark fix fits its own measurements but
-lies outside the 99 % region around the cloud (a confident cloud in the wrong place), re-draws
-half of the particles around the fix."""
+frame that the cloud's mean does not explain, in none of its landmarks (one it explains
+means a misread barcode), whose landmark fix fits its own measurements but lies outside the
+99 % region around the cloud (a confident cloud in the wrong place), re-draws half of the
+particles around the fix."""
 
 _PF_PAPER: dict[str, Any] = {
     "use_ids": True,

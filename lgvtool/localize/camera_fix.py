@@ -57,18 +57,31 @@ def _known(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,
             np.angle(obs.u[ok]), w)
 
 
+def residual_chi2_each(pose: tuple[float, float, float], obs: ScanObservation,
+                       rmap: ReflectorMap, sigma_range_m: float, sigma_range_per_m: float,
+                       sigma_bearing_rad: float) -> FloatArray:
+    """The squared range and bearing residual of each known landmark of ``obs`` seen from the
+    body pose ``pose`` (m, m, rad), each part divided by its variance (dimensionless, 2 degrees
+    of freedom each; in the scan's order, landmarks without a known id left out)."""
+    sub, mx, my, origin, ray, w = _known(obs, rmap, sigma_range_m, sigma_range_per_m,
+                                         sigma_bearing_rad)
+    if len(sub) == 0:
+        return np.zeros(0)
+    r = _residuals(np.asarray(pose, dtype=np.float64), sub, mx, my, origin, ray)
+    weighted = w * r * r
+    n = len(sub)
+    each: FloatArray = weighted[:n] + weighted[n:]
+    return each
+
+
 def residual_chi2(pose: tuple[float, float, float], obs: ScanObservation, rmap: ReflectorMap,
                   sigma_range_m: float, sigma_range_per_m: float, sigma_bearing_rad: float
                   ) -> float:
     """Sum of the squared range and bearing residuals of the known landmarks of ``obs`` seen
     from the body pose ``pose`` (m, m, rad), each divided by its variance (dimensionless; 0
-    with no known landmark)."""
-    sub, mx, my, origin, ray, w = _known(obs, rmap, sigma_range_m, sigma_range_per_m,
-                                         sigma_bearing_rad)
-    if len(sub) == 0:
-        return 0.0
-    r = _residuals(np.asarray(pose, dtype=np.float64), sub, mx, my, origin, ray)
-    return float(w @ (r * r))
+    with no known landmark): the sum of :func:`residual_chi2_each`."""
+    return float(residual_chi2_each(pose, obs, rmap, sigma_range_m, sigma_range_per_m,
+                                    sigma_bearing_rad).sum())
 
 
 def weighted_fix(obs: ScanObservation, rmap: ReflectorMap, sigma_range_m: float,

@@ -33,8 +33,9 @@ Each improvement is a switch (``--set pf.<name>=false`` turns it off):
 - ``start_particles`` (off by default): a uniform start with more particles, kept for the first
   ``start_updates`` updates, then resampled down to ``particles``.
 - ``fix_reset_probability`` (off by default): a frame that the cloud's mean does not explain,
-  whose landmark fix fits its own measurements and lies outside the cloud's region, re-draws
-  ``fix_reset_fraction`` of the particles around that fix (a confident cloud in the wrong place).
+  in none of its landmarks, whose landmark fix fits its own measurements and lies outside the
+  cloud's region, re-draws ``fix_reset_fraction`` of the particles around that fix (a confident
+  cloud in the wrong place; a misread id contradicts the cloud in its own landmark only).
 - ``proposal = ekf`` (off by default): the particles are moved by the noise-free odometry
   between frames and carry the accumulated motion noise as a Gaussian each; a frame's
   landmarks update every particle's Gaussian by one Kalman step, the particle is drawn from
@@ -69,7 +70,7 @@ from typing import TYPE_CHECKING, Unpack
 import numpy as np
 from numpy.typing import NDArray
 
-from lgvtool.localize.camera_fix import residual_chi2, start_fix
+from lgvtool.localize.camera_fix import residual_chi2, residual_chi2_each, start_fix
 from lgvtool.localize.estimator import (
     Estimate,
     EstimateRows,
@@ -214,8 +215,10 @@ class PfParams(MotionParams, SourceParams, ParticleInitParams, PoseModelParams):
                                          "this probability) and lies beyond that quantile "
                                          "from the cloud's mean (squared Mahalanobis distance "
                                          "in position, the fix's and the cloud's covariances "
-                                         "added) makes recovery re-draw fix_reset_fraction of "
-                                         "the particles around the fix; 0: off", minimum=0.0,
+                                         "added), at a scan none of whose landmarks the "
+                                         "cloud's mean explains on its own (2 degrees of "
+                                         "freedom), makes recovery re-draw fix_reset_fraction "
+                                         "of the particles around the fix; 0: off", minimum=0.0,
                                          maximum=0.999999)
     fix_reset_fraction: float = param(0.5, "fraction of the particles the fix disagreement "
                                       "reset re-draws around the fix", minimum=0.0,
@@ -585,18 +588,23 @@ class ParticleFilter(ParticleSet[PfParams]):
         covariance, 2 degrees of freedom) above, the chi-square quantile of
         ``fix_reset_probability``. A scan whose landmarks contradict each other (a misread id)
         fits no pose and so resets nothing; a scan the cloud's mean already explains (squared
-        residual within the quantile with ``2n`` degrees of freedom) contradicts nothing."""
+        residual within the quantile with ``2n`` degrees of freedom) contradicts nothing; nor
+        does a scan one of whose landmarks the cloud's mean explains on its own (2 degrees of
+        freedom): a cloud in the wrong place explains none of them but by chance, while a
+        misread id contradicts the cloud in its own landmark only, and with two landmarks the
+        fix's residual (one degree of freedom, ranges known to tens of percent) cannot tell."""
         p = self.params
         if not isinstance(obs, ScanObservation):
             return False
         known = int(np.count_nonzero(obs.map_index(self.map) >= 0))
         if known < 2:
             return False
-        # the cloud's mean explains the frame (2n degrees of freedom): nothing contradicts it
-        # (and no fix need be computed)
-        if residual_chi2(cloud[:3], obs, self.map, p.sigma_range_m, p.sigma_range_per_m,
-                         p.sigma_bearing_rad) <= chi2_quantile(p.fix_reset_probability,
-                                                               2 * known):
+        # the cloud's mean explains the frame (2n degrees of freedom), or one of its landmarks
+        # (2): nothing contradicts it (and no fix need be computed)
+        each = residual_chi2_each(cloud[:3], obs, self.map, p.sigma_range_m,
+                                  p.sigma_range_per_m, p.sigma_bearing_rad)
+        if float(each.sum()) <= chi2_quantile(p.fix_reset_probability, 2 * known) or \
+                bool((each <= chi2_quantile(p.fix_reset_probability, 2)).any()):
             return False
         fix = start_fix(obs, self.vehicle.nav_x, self.vehicle.nav_y, self.map, p)
         if fix is None:

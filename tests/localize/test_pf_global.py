@@ -138,3 +138,22 @@ def test_a_large_uniform_start_lands_nearer_the_truth() -> None:
                 pf.update(obs)
             errors.append(position_error(pf))
     assert float(np.mean(large)) < 0.5 * float(np.mean(plain))
+
+
+def test_a_misread_id_of_two_landmarks_resets_nothing() -> None:
+    """Two landmarks, the second's id misread as another's: their fix fits its own
+    measurements (one degree of freedom cannot tell) and lies metres from a cloud that is
+    right; the cloud explains the first landmark, so the frame contradicts nothing."""
+    rmap = ReflectorMap(small_config(nav_x=0.0).reflectors)
+    misread = scan_from(TRUE_POSE, [2, 3])
+    misread.ids[1] = 1
+    fix = weighted_fix(misread, rmap, *NOISE)
+    assert fix is not None
+    # the fix a reset would re-draw around: exact on its own measurements, 7 m off
+    assert residual_chi2(fix[0], misread, rmap, *NOISE) < 0.1
+    assert math.hypot(fix[0][0] - TRUE_POSE[0], fix[0][1] - TRUE_POSE[1]) > 5.0
+    pf = filter_at(TRUE_POSE, fix_reset_probability=0.99)
+    for _ in range(3):
+        pf.update(misread)
+    assert pf.injected == 0
+    assert position_error(pf) < 0.2
