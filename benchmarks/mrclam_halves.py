@@ -365,6 +365,20 @@ def plain_scores(log: RobotLog, span: Span, seed: int) -> dict[str, float]:
             "B": rmse_between(est, log, span.mid, span.end)}
 
 
+def robot_with_plain(dataset: Path, robot: int, cache: Path, seed: int
+                     ) -> tuple[RobotLog, Span, dict[str, float]]:
+    """One robot of ``dataset``: its log as imported (the odometry delay measured), its scored
+    span, and the plain EKF's RMSE (m) over the run and each half (:func:`plain_scores`), run on
+    the log imported with the odometry as stamped over the same halves in time."""
+    log = RobotLog.read(cached_log(dataset, robot, cache))
+    span = span_of(log.data)
+    stamped = RobotLog.read(cached_log(dataset, robot, cache, odometry_delay_s=0.0))
+    shift = log.t0_s - stamped.t0_s
+    plain = plain_scores(stamped, Span(span.start + shift, span.mid + shift, span.end + shift),
+                         seed)
+    return log, span, plain
+
+
 def choose(ratio: np.ndarray) -> int:
     """The rule's choice from a candidates x robots matrix of ratios on the choice halves:
     the least fit score (:func:`mrclam_cv.fit_score`), ties to the earlier candidate."""
@@ -391,13 +405,9 @@ def run(dataset: Path, robots: list[int], cache: Path, cands: list[Candidate], n
     spans: dict[int, Span] = {}
     for k, robot in enumerate(robots):
         t0 = time.perf_counter()
-        log = RobotLog.read(cached_log(dataset, robot, cache))
-        span = spans[robot] = span_of(log.data)
-        stamped = RobotLog.read(cached_log(dataset, robot, cache, odometry_delay_s=0.0))
-        # the same halves in time on the log with the odometry as stamped
-        shift = log.t0_s - stamped.t0_s
-        p = plain[robot] = plain_scores(stamped, Span(span.start + shift, span.mid + shift,
-                                                      span.end + shift), seed)
+        log, span, p = robot_with_plain(dataset, robot, cache, seed)
+        spans[robot] = span
+        plain[robot] = p
         refs[robot] = {h: ref_run[robot] * p[h] / p["run"] for h in HALVES}
         for c, cand in enumerate(cands):
             s = half_scores(log, span, cand, seed)

@@ -35,21 +35,17 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mrclam_accuracy import TARGET_RATIO, default_dataset
-from mrclam_cv import cached_log
 from mrclam_halves import (
     CANDIDATES as RULE_CANDIDATES,
 )
 from mrclam_halves import (
     PROTOTYPES,
     Candidate,
-    RobotLog,
-    Span,
     candidate_settings,
     choose,
-    plain_scores,
     replay,
     rmse_between,
-    span_of,
+    robot_with_plain,
     with_change,
 )
 from mrclam_halves import (
@@ -74,12 +70,8 @@ def whole_run_ratios(dataset: Path, robots: list[int], cache: Path, seed: int,
     plain: dict[int, float] = {}
     for k, robot in enumerate(robots):
         t0 = time.perf_counter()
-        log = RobotLog.read(cached_log(dataset, robot, cache))
-        span = span_of(log.data)
-        stamped = RobotLog.read(cached_log(dataset, robot, cache, odometry_delay_s=0.0))
-        shift = log.t0_s - stamped.t0_s
-        plain[robot] = plain_scores(stamped, Span(span.start + shift, span.mid + shift,
-                                                  span.end + shift), seed)["run"]
+        log, span, scores = robot_with_plain(dataset, robot, cache, seed)
+        plain[robot] = scores["run"]
         for c, cand in enumerate(cands):
             est = replay(log, cand.estimator, candidate_settings(log, cand), span.start,
                          span.end + 1.0, seed=seed)
