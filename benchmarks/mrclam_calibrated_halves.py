@@ -17,7 +17,8 @@ EKF; and the fit score (worst + 0.25 x mean) over the halves.
 
 Usage::
 
-    python benchmarks/mrclam_calibrated_halves.py DIR   # any MRCLAM dataset folder, ~2 min
+    python benchmarks/mrclam_calibrated_halves.py DIR   # any MRCLAM dataset folder, ~20 s
+    python benchmarks/mrclam_calibrated_halves.py MRCLAM_Dataset6 --calibrate-on MRCLAM_Dataset7
 
 Dataset: K. Y. K. Leung, Y. Halpern, T. D. Barfoot, H. H. T. Liu, "The UTIAS multi-robot
 cooperative localization and mapping dataset", International Journal of Robotics Research
@@ -40,7 +41,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mrclam_accuracy import TARGET_RATIO, references
-from mrclam_halves import RobotLog, Span, replay, rmse_between, robot_with_plain
+from mrclam_cv import cached_log
+from mrclam_halves import RobotLog, Span, replay, rmse_between, robot_with_plain, span_of
 
 ESTIMATED = ("odom_scale_v", "odom_scale_w", "odom_yaw_per_m")
 """What the calibration estimates: the odometry's two scales and its drift per metre."""
@@ -114,18 +116,32 @@ def half_rmse(log: RobotLog, span: Span, half: str, seed: int) -> float:
     return rmse_between(est, log, span.mid, span.end)
 
 
-def run(dataset: Path, robots: list[int], cache: Path, seed: int) -> dict[str, Any]:
-    """Every robot's halves with and without the other half's calibration."""
+def run(dataset: Path, robots: list[int], cache: Path, seed: int,
+        calibrate_on: Path | None = None) -> dict[str, Any]:
+    """Every robot's halves with and without the other half's calibration, or (given
+    ``calibrate_on``, another recording of the same robots) with the calibration from the
+    robot's whole scored span there."""
     ref_run = references(dataset)[0]
     rows: list[dict[str, Any]] = []
     for robot in robots:
         t0 = time.perf_counter()
         log, span, plain = robot_with_plain(dataset, robot, cache, seed)
         bounds = {"A": (span.start, span.mid), "B": (span.mid, span.end + 1.0)}
-        for half, other in (("A", "B"), ("B", "A")):
+        elsewhere = None
+        if calibrate_on is not None:
+            other_log = RobotLog.read(cached_log(calibrate_on, robot, cache))
+            other_span = span_of(other_log.data)
             with tempfile.TemporaryDirectory() as tmp:
-                config, estimates = calibrated_from(dataset, robot, log, *bounds[other],
-                                                    Path(tmp))
+                elsewhere = calibrated_from(calibrate_on, robot, other_log, other_span.start,
+                                            other_span.end + 1.0, Path(tmp))
+        for half, other in (("A", "B"), ("B", "A")):
+            if elsewhere is not None:
+                config, estimates = elsewhere
+                other = calibrate_on.name if calibrate_on is not None else other
+            else:
+                with tempfile.TemporaryDirectory() as tmp:
+                    config, estimates = calibrated_from(dataset, robot, log, *bounds[other],
+                                                        Path(tmp))
             row: dict[str, Any] = {
                 "robot": robot, "half": half, "calibrated_on": other,
                 "estimates": estimates,
@@ -138,7 +154,8 @@ def run(dataset: Path, robots: list[int], cache: Path, seed: int) -> dict[str, A
         print(f"robot {robot}: " + ", ".join(
             f"{r['half']} {r['profile_m']:.3f} -> {r['calibrated_m']:.3f} m"
             for r in rows[-2:]) + f" ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
-    return {"dataset": dataset.name, "seed": seed, "rows": rows}
+    return {"dataset": dataset.name, "seed": seed, "rows": rows,
+            "calibrated_on": None if calibrate_on is None else calibrate_on.name}
 
 
 def fit(ratios: list[float]) -> float:
@@ -169,13 +186,15 @@ def markdown(res: dict[str, Any]) -> str:
         lines.append("| " + " | ".join(cells) + " |")
     prof = [r["profile_m"] / r["plain_m"] for r in rows]
     cal = [r["calibrated_m"] / r["plain_m"] for r in rows]
+    where = ("the other half" if res.get("calibrated_on") is None
+             else f"{res['calibrated_on']}'s whole runs")
     lines += ["", f"Fit score over the {len(rows)} halves (ratio to the plain EKF): profile "
-              f"{fit(prof):.3f}, calibrated on the other half {fit(cal):.3f}."]
+              f"{fit(prof):.3f}, calibrated on {where} {fit(cal):.3f}."]
     if has_ref:
         met = [r["calibrated_m"] / r["reference_m"] <= TARGET_RATIO for r in rows]
         was = [r["profile_m"] / r["reference_m"] <= TARGET_RATIO for r in rows]
         lines.append(f"At or below {TARGET_RATIO} x the reference EKF: {sum(met)} of "
-                     f"{len(rows)} halves calibrated on the other half ({sum(was)} of "
+                     f"{len(rows)} halves calibrated on {where} ({sum(was)} of "
                      f"{len(rows)} without a calibration).")
     return "\n".join(lines)
 
@@ -188,6 +207,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "mrclam-logs",
                     help="folder of the imported logs, reused between runs")
     ap.add_argument("--seed", type=int, default=0, help="seed of the estimators' draws")
+    ap.add_argument("--calibrate-on", type=Path, default=None,
+                    help="another MRCLAM recording of the same robots: calibrate each robot "
+                         "on its whole run there instead of on the other half")
     ap.add_argument("--json-out", type=Path, default=None, help="also write the JSON result")
     args = ap.parse_args(argv)
     from lgvtool.errors import InputError
@@ -195,11 +217,15 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         available = MrclamDataset.open(args.dataset).robots
+        if args.calibrate_on is not None:
+            MrclamDataset.open(args.calibrate_on)
+            if args.calibrate_on.resolve() == args.dataset.resolve():
+                raise InputError("--calibrate-on is the scored dataset; give another recording")
         robots = [int(r) for r in args.robots.split(",") if r.strip()]
         if not robots or any(r not in available for r in robots):
             raise InputError(f"--robots {args.robots}: the dataset has robots "
                              f"{', '.join(map(str, available))}")
-        res = run(args.dataset, robots, args.cache, args.seed)
+        res = run(args.dataset, robots, args.cache, args.seed, args.calibrate_on)
     except (InputError, ValueError) as exc:
         print(f"mrclam_calibrated_halves: {exc}", file=sys.stderr)
         return 2
