@@ -11,19 +11,16 @@ cooperative localization and mapping dataset", IJRR 30(8):969-974, 2011.
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 import pandas as pd
 import pytest
+from benchmark_modules import benchmark
 
 from lgvtool.json_types import as_number, member
-
-REPO = Path(__file__).resolve().parents[2]
 
 ROBOT = 3
 """The robot of the regression test (Dataset 6)."""
@@ -49,14 +46,7 @@ def _metrics() -> ModuleType:
 
 def _benchmark(name: str) -> ModuleType:
     """The module ``benchmarks/<name>.py``."""
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    return benchmark(name)
 
 
 # ------------------------------------------------------------------ the metric, constructed cases

@@ -4,8 +4,6 @@ calibrated file, on the synthetic dataset of ``conftest.py`` (no real data neede
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
@@ -13,22 +11,12 @@ from typing import Any
 
 import numpy as np
 import pytest
-
-REPO = Path(__file__).resolve().parents[2]
+from benchmark_modules import benchmark
 
 
 def _module() -> ModuleType:
-    """``benchmarks/mrclam_calibrated_halves.py`` (it imports its sibling benchmarks)."""
-    sys.path.insert(0, str(REPO / "benchmarks"))
-    name = "mrclam_calibrated_halves"
-    if name in sys.modules:
-        return sys.modules[name]
-    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / f"{name}.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
+    """``benchmarks/mrclam_calibrated_halves.py``."""
+    return benchmark("mrclam_calibrated_halves")
 
 
 def _rows(path: Path) -> list[float]:
@@ -65,7 +53,7 @@ def test_a_calibrated_log_carries_the_corrected_odometry(synthetic: Any,
     from lgvtool.importers.mrclam_log import import_robot
 
     m = _module()
-    halves = sys.modules["mrclam_halves"]
+    halves = benchmark("mrclam_halves")
     out = tmp_path / "r1.mcap"
     import_robot(synthetic.root, 1, out)
     log = halves.RobotLog.read(out)

@@ -4,28 +4,17 @@ the wrong-lock flag and the error trace, and the table reads them (no real data 
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-REPO = Path(__file__).resolve().parents[2]
+from benchmark_modules import benchmark
 
 
 def _global() -> ModuleType:
-    """``benchmarks/mrclam_global.py`` (it imports its sibling benchmarks by name)."""
-    sys.path.insert(0, str(REPO / "benchmarks"))
-    if "mrclam_global" in sys.modules:
-        return sys.modules["mrclam_global"]
-    spec = importlib.util.spec_from_file_location("mrclam_global",
-                                                  REPO / "benchmarks" / "mrclam_global.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["mrclam_global"] = module
-    spec.loader.exec_module(module)
-    return module
+    """``benchmarks/mrclam_global.py``."""
+    return benchmark("mrclam_global")
 
 
 def test_a_global_run_and_its_table(synthetic: Any, tmp_path: Path) -> None:

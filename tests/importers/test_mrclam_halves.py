@@ -6,30 +6,18 @@ choice by the least fit score with ties to the earlier candidate. On the synthet
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import numpy as np
-
-REPO = Path(__file__).resolve().parents[2]
+from benchmark_modules import benchmark
 
 
 def _halves() -> ModuleType:
-    """``benchmarks/mrclam_halves.py`` (it imports its sibling benchmarks by name)."""
-    sys.path.insert(0, str(REPO / "benchmarks"))
-    if "mrclam_halves" in sys.modules:
-        return sys.modules["mrclam_halves"]
-    spec = importlib.util.spec_from_file_location("mrclam_halves",
-                                                  REPO / "benchmarks" / "mrclam_halves.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["mrclam_halves"] = module
-    spec.loader.exec_module(module)
-    return module
+    """``benchmarks/mrclam_halves.py``."""
+    return benchmark("mrclam_halves")
 
 
 def _log(synthetic: Any, tmp_path: Path) -> Any:
