@@ -135,9 +135,9 @@ def run(dataset: Path, robots: list[int], cache: Path, seed: int,
                 elsewhere = calibrated_from(calibrate_on, robot, other_log, other_span.start,
                                             other_span.end + 1.0, Path(tmp))
         for half, other in (("A", "B"), ("B", "A")):
-            if elsewhere is not None:
+            if elsewhere is not None and calibrate_on is not None:
                 config, estimates = elsewhere
-                other = calibrate_on.name if calibrate_on is not None else other
+                other = calibrate_on.name
             else:
                 with tempfile.TemporaryDirectory() as tmp:
                     config, estimates = calibrated_from(dataset, robot, log, *bounds[other],

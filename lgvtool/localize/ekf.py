@@ -136,8 +136,7 @@ class EkfParams(MotionParams, SourceParams, GaussianInitParams, PoseModelParams)
                                    "on the frame's posterior mode; the association stays the "
                                    "prediction's), for measurements far from linear over the "
                                    "prior, e.g. a camera after a long stretch without "
-                                   "landmarks, a count", unit="", minimum=1,
-                                   maximum=50)
+                                   "landmarks", unit="", minimum=1, maximum=50)
     scan_recover_s: float = param(2.0, "recovery on reflector scans: once every scan of at "
                                   "least two reflectors has had none accepted (and no NAV pose "
                                   "was) for this long, "
