@@ -99,11 +99,13 @@ def with_calibration(log: RobotLog, config: Any) -> RobotLog:
     from lgvtool.localize.installation import apply_installation
 
     v = config.vehicle
-    odometry = log.odometry.assign(v=log.odometry["v"] * v.odom_scale_v,
-                                   omega=(log.odometry["omega"] * v.odom_scale_w
-                                          + log.odometry["v"] * v.odom_yaw_per_m))
+    data = apply_installation(log.data, v)
+    assert data.twist is not None and len(data.twist["v"]) == len(log.odometry)
+    # the table holds the same odometry rows as the data, in the same order
+    odometry = log.odometry.assign(v=np.asarray(data.twist["v"]),
+                                   omega=np.asarray(data.twist["omega"]))
     return replace(log, config=replace(log.config, vehicle=v, estimators=config.estimators),
-                   data=apply_installation(log.data, v), odometry=odometry)
+                   data=data, odometry=odometry)
 
 
 def half_rmse(log: RobotLog, span: Span, half: str, seed: int) -> float:

@@ -104,7 +104,8 @@ def main(argv: list[str] | None = None) -> int:
 
     scoring = args.scoring or default_dataset()
     try:
-        cands = tuple(with_change(list(CANDIDATES), parse_set_options(args.change)))
+        change = parse_set_options(args.change)
+        cands = tuple(with_change(list(CANDIDATES), change))
         robots = list(MrclamDataset.open(args.choice).robots)
         MrclamDataset.open(scoring)
         if args.choice.resolve() == scoring.resolve():
@@ -143,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nAt or below {TARGET_RATIO}: {met} of {held.size} halves.")
     out: dict[str, Any] = {
         "choice_dataset": str(args.choice.name), "robots": robots, "seed": args.seed,
-        "candidates": [c.label for c in cands], "change": parse_set_options(args.change),
+        "candidates": [c.label for c in cands], "change": change,
         "rmse_m": rmse.tolist(),
         "ratio_to_plain": ratio.tolist(), "plain_ekf_m": plain, "fit": fits,
         "chosen": cands[chosen].label, "scored": res, "met": met}

@@ -5,6 +5,7 @@ update itself, the default, is checked against the compiled kernels in test_ekf_
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -64,9 +65,8 @@ def posterior_cost(ekf: Ekf, pose: np.ndarray, prior: np.ndarray, P0: np.ndarray
                  + (nb[k, j] ** 2 / SIGMA_BEARING_RAD ** 2).sum())
 
 
-def gradient(f: object, x: np.ndarray, h: float = 1e-6) -> np.ndarray:
+def gradient(f: Callable[[np.ndarray], float], x: np.ndarray, h: float = 1e-6) -> np.ndarray:
     """Central differences of ``f`` at ``x``."""
-    assert callable(f)
     out = np.empty(3)
     for i in range(3):
         e = np.zeros(3)
